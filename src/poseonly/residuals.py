@@ -1,0 +1,167 @@
+"""Per-correspondence residuals of Section 4 of the paper, vectorized over points and hypotheses.
+
+Every residual has the signature ``(R, t, f1, f2) -> v`` with ``R (..., 3, 3)``, ``t (..., 3)``,
+bearings ``f1, f2 (n, 3)`` (or ``(..., n, 3)``) and returns ``v (..., n)``: one call scores ``h``
+stacked hypotheses against all points. Bearings are unit vectors; ``t`` is normalized to unit length
+inside each residual, because v_LiGT, v_E and v_PPO are homogeneous in ``t`` and thresholds are only
+meaningful for a fixed scale (the paper does not say; notes section 3).
+
+Convention: ``X2 = R X1 + t``, ``E = [t]x R``, ``f2^T E f1 = 0``.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from .geometry import normalize, triangulate_midpoint
+
+__all__ = [
+    "v_E",
+    "v_BA",
+    "v_OpenGV",
+    "v_LiGT",
+    "v_PPO",
+    "v_sampson",
+    "RESIDUALS",
+    "get_residual",
+    "ligt_depths",
+]
+
+Residual = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+
+
+def _rot(R: np.ndarray, f1: np.ndarray) -> np.ndarray:
+    """``R f1`` for every point and hypothesis: ``(..., n, 3)``."""
+    return np.einsum("...ij,...nj->...ni", R, f1)
+
+
+def _unit_t(t: np.ndarray) -> np.ndarray:
+    return normalize(np.asarray(t, dtype=float))[..., None, :]
+
+
+def v_E(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """Coplanar residual ``|f2^T [t]x R f1|`` (Eq. 4 in bearing form), unit ``t``."""
+    Rf1 = _rot(R, f1)
+    return np.abs(np.sum(np.cross(_unit_t(t), Rf1) * f2, axis=-1))
+
+
+def v_sampson(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """Sampson distance on the unit sphere (first-order geometric epipolar error, radians).
+
+    ``|f2^T E f1| / sqrt(|P_f2 E f1|^2 + |P_f1 E^T f2|^2)`` with tangent projections ``P``; the
+    residual PoseLib and COLMAP threshold (after scaling by the focal length). Not one of the
+    paper's five residuals; used for pixel-calibrated inlier decisions.
+    """
+    tt = _unit_t(t)
+    Rf1 = _rot(R, f1)
+    Ef1 = np.cross(tt, Rf1)  # E f1
+    # E^T f2 = R^T [t]x^T f2 = -R^T (t x f2)
+    Etf2 = -np.einsum("...ji,...nj->...ni", R, np.cross(tt, f2))
+    num = np.sum(Ef1 * f2, axis=-1)
+    g1 = Ef1 - np.sum(Ef1 * f2, axis=-1, keepdims=True) * f2
+    g2 = Etf2 - np.sum(Etf2 * f1, axis=-1, keepdims=True) * f1
+    den = np.sqrt(np.sum(g1 * g1, axis=-1) + np.sum(g2 * g2, axis=-1))
+    return np.abs(num) / np.maximum(den, 1e-300)
+
+
+def ligt_depths(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pose-only depth numerators ``h_i^T t``, ``h'_i^T t`` and ``theta_i^2`` (the equation after Eq. 7).
+
+    ``h_i^T t = (R f1 x f2) . (f2 x t)`` and ``h'_i^T t = (R f1 x f2) . (R f1 x t)``; the depths are
+    ``z1 = h^T t / theta^2`` and ``z2 = h'^T t / theta^2`` with ``theta = ||f2 x R f1||``.
+    """
+    tt = _unit_t(t)
+    Rf1 = _rot(R, f1)
+    c = np.cross(Rf1, f2)
+    h = np.sum(c * np.cross(f2, tt), axis=-1)
+    hp = np.sum(c * np.cross(Rf1, tt), axis=-1)
+    return h, hp, np.sum(c * c, axis=-1)
+
+
+def v_LiGT(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """LiGT residual ``||L_i t||`` (Eq. 8 with unit bearings and unit ``t``).
+
+    ``L_i t = [f2]x R f1 (h_i^T t) + theta_i^2 [f2]x t`` (notes section 3: equals
+    ``theta^2 * f2 x (z1 R f1 + t)``, a parallax-weighted reprojection error).
+    """
+    tt = _unit_t(t)
+    Rf1 = _rot(R, f1)
+    c = np.cross(f2, Rf1)  # [f2]x R f1
+    f2xt = np.cross(f2, tt)
+    ht = -np.sum(c * f2xt, axis=-1)  # (R f1 x f2) . (f2 x t)
+    theta2 = np.sum(c * c, axis=-1)
+    Lt = c * ht[..., None] + theta2[..., None] * f2xt
+    return np.linalg.norm(Lt, axis=-1)
+
+
+def v_PPO(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """Pairwise pose-only residual ``||eps~_i - f2_i||`` (Eq. 7, Section 4).
+
+    ``eps_i = ||t x f2|| R f1 + ||f2 x R f1|| t``: the right-view bearing predicted by the pose-only
+    depths. Sign-blind in the depths (chirality is handled by :mod:`poseonly.identify`).
+    """
+    tt = _unit_t(t)
+    Rf1 = _rot(R, f1)
+    a = np.linalg.norm(np.cross(tt, f2), axis=-1)[..., None]
+    b = np.linalg.norm(np.cross(f2, Rf1), axis=-1)[..., None]
+    eps = a * Rf1 + b * tt
+    return np.linalg.norm(normalize(eps) - f2, axis=-1)
+
+
+def v_BA(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """Reprojection residual after midpoint triangulation (Section 4, v^BA).
+
+    The triangulated point is projected into view 2 and compared with the observation on the
+    tangent plane at ``f2``: ``|| eps / (f2 . eps) - f2 ||`` with ``eps = R X1 + t``. For a ray on
+    the optical axis this is exactly the paper's ``||eps / e3^T eps - x'||`` in normalized image
+    coordinates; the tangent-plane form stays defined for wide-angle bearings (decision: the paper
+    uses ``e3``, which is undefined for rays at 90 degrees). A point reconstructed behind camera 2
+    (``f2 . eps <= 0``) gets the residual 2 (a gross error).
+    """
+    tt = _unit_t(t)
+    X1, _, _ = triangulate_midpoint(R, tt[..., 0, :], f1, f2)
+    eps = _rot(R, X1) + tt
+    d = np.sum(eps * f2, axis=-1)
+    ok = d > 1e-12
+    proj = eps / np.where(ok, d, 1.0)[..., None]
+    r = np.linalg.norm(proj - f2, axis=-1)
+    return np.where(ok, r, 2.0)
+
+
+def v_OpenGV(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, symmetric: bool = False) -> np.ndarray:
+    """OpenGV residual ``1 - eps~^T f2`` with ``eps = R X1 + t`` of the midpoint-triangulated point.
+
+    ``symmetric=True`` gives OpenGV's actual SAC score ``(1 - f1 . r1) + (1 - f2 . r2)`` (both views,
+    ``CentralRelativePoseSacProblem::getSelectedDistancesToModel``).
+    """
+    tt = _unit_t(t)
+    X1, _, _ = triangulate_midpoint(R, tt[..., 0, :], f1, f2)
+    eps = _rot(R, X1) + tt
+    r = 1.0 - np.sum(normalize(eps) * f2, axis=-1)
+    if symmetric:
+        r = r + 1.0 - np.sum(normalize(X1) * f1, axis=-1)
+    return r
+
+
+RESIDUALS: dict[str, Residual] = {
+    "ligt": v_LiGT,
+    "ppo": v_PPO,
+    "coplanar": v_E,
+    "ba": v_BA,
+    "opengv": v_OpenGV,
+    "sampson": v_sampson,
+}
+_ALIASES = {"e": "coplanar", "v_e": "coplanar", "v_ligt": "ligt", "v_ppo": "ppo", "v_ba": "ba", "v_opengv": "opengv", "reprojection": "ba"}
+
+
+def get_residual(name: str | Residual) -> Residual:
+    """Residual function by name (``ligt``, ``ppo``, ``coplanar``, ``ba``, ``opengv``, ``sampson``) or callable."""
+    if callable(name):
+        return name
+    key = str(name).lower()
+    key = _ALIASES.get(key, key)
+    if key not in RESIDUALS:
+        raise ValueError(f"unknown residual {name!r}; choose one of {sorted(RESIDUALS)}")
+    return RESIDUALS[key]
