@@ -1,0 +1,106 @@
+"""Geometry core and the five residuals of Section 4."""
+
+import numpy as np
+import pytest
+
+from poseonly import residuals as res
+from poseonly.geometry import (
+    as_bearings,
+    bearings_from_pixels,
+    decompose_essential,
+    four_poses,
+    project_to_so3,
+    rotation_error_deg,
+    rotation_from_rotvec,
+    skew,
+    translation_error_deg,
+    triangulate_midpoint,
+)
+from poseonly.sim import make_scene
+
+ALL = [res.v_E, res.v_BA, res.v_OpenGV, res.v_LiGT, res.v_PPO, res.v_sampson]
+
+
+def test_skew():
+    a, b = np.array([1.0, 2, 3]), np.array([-1.0, 0.5, 2])
+    assert np.allclose(skew(a) @ b, np.cross(a, b))
+
+
+def test_rotation_error_stable_near_0_and_180():
+    for ang in [1e-9, 1e-5, 0.3, 90.0, 179.9, 180.0 - 1e-7]:
+        R = rotation_from_rotvec(np.radians(ang) * np.array([0.0, 0.6, 0.8]))
+        assert abs(rotation_error_deg(np.eye(3), R) - ang) < 1e-9 * max(1, ang) + 1e-12
+    assert translation_error_deg([1, 0, 0], [1, 1e-10, 0]) == pytest.approx(np.degrees(1e-10))
+    assert translation_error_deg([1, 0, 0], [-1, 0, 0]) == pytest.approx(180)
+    assert translation_error_deg([1, 0, 0], [-1, 0, 0], sign_invariant=True) == pytest.approx(0)
+
+
+def test_decompose_essential_contains_truth():
+    sc = make_scene(20, seed=2)
+    E = 3.7 * skew(sc.t) @ sc.R
+    Rs, ts = four_poses(-E)
+    ok = [(rotation_error_deg(sc.R, R) < 1e-9) and (translation_error_deg(sc.t, t) < 1e-7) for R, t in zip(Rs, ts)]
+    assert sum(ok) == 1
+    Ra, Rb, t = decompose_essential(E)
+    for R in (Ra, Rb):
+        assert np.allclose(R @ R.T, np.eye(3)) and np.linalg.det(R) == pytest.approx(1)
+
+
+def test_bearings_from_pixels_and_projection():
+    sc = make_scene(30, camera="pinhole", seed=4)
+    f1 = bearings_from_pixels(sc.u1, sc.K)
+    assert np.allclose(f1, sc.f1)
+    with pytest.raises(ValueError, match="singular"):
+        bearings_from_pixels(sc.u1, np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="3x3"):
+        as_bearings(sc.u1, np.eye(2))
+
+
+def test_triangulation_exact():
+    sc = make_scene(50, seed=5)
+    X1, z1, z2 = triangulate_midpoint(sc.R, sc.t * sc.baseline, sc.f1, sc.f2)
+    assert np.allclose(X1, sc.X, atol=1e-8)
+    assert np.all(z1 > 0) and np.all(z2 > 0)
+
+
+def test_project_to_so3():
+    R = rotation_from_rotvec([0.1, -0.2, 0.3])
+    Rn = project_to_so3(R + 1e-6 * np.random.default_rng(0).standard_normal((3, 3)))
+    assert np.allclose(Rn @ Rn.T, np.eye(3), atol=1e-12) and rotation_error_deg(R, Rn) < 1e-3
+
+
+@pytest.mark.parametrize("fn", ALL, ids=lambda f: f.__name__)
+def test_residuals_zero_on_exact_and_grow_on_outliers(fn):
+    sc = make_scene(200, outlier_fraction=0.3, seed=6)
+    v = fn(sc.R, sc.t, sc.f1, sc.f2)
+    assert v.shape == (200,)
+    assert np.all(v[sc.inliers] < 1e-9)
+    assert np.median(v[~sc.inliers]) > 1e-3
+    # translation scale does not matter (unit t inside)
+    assert np.allclose(fn(sc.R, 5 * sc.t, sc.f1, sc.f2), v)
+
+
+@pytest.mark.parametrize("fn", ALL, ids=lambda f: f.__name__)
+def test_residuals_batched(fn):
+    sc = make_scene(50, noise_px=1.0, seed=8)
+    Rs = np.stack([sc.R, rotation_from_rotvec([0.01, 0, 0]) @ sc.R, np.eye(3)])
+    ts = np.stack([sc.t, sc.t, [0.0, 0.0, 1.0]])
+    V = fn(Rs, ts, sc.f1, sc.f2)
+    assert V.shape == (3, 50)
+    for k in range(3):
+        assert np.allclose(V[k], fn(Rs[k], ts[k], sc.f1, sc.f2))
+
+
+def test_ligt_identity_and_depths():
+    sc = make_scene(40, seed=9)
+    h, hp, th2 = res.ligt_depths(sc.R, sc.t, sc.f1, sc.f2)
+    z1 = h / th2 * sc.baseline
+    assert np.allclose(z1[:, None] * sc.f1, sc.X, atol=1e-8)
+    assert np.all(h > 0) and np.all(hp > 0)
+
+
+def test_get_residual():
+    assert res.get_residual("LiGT") is res.v_LiGT
+    assert res.get_residual("v_E") is res.v_E
+    with pytest.raises(ValueError, match="unknown residual"):
+        res.get_residual("nope")

@@ -1,0 +1,125 @@
+"""LiRP (Alg. 1) exactness, planar twin, pure rotation, weights and bad input."""
+
+import numpy as np
+import pytest
+
+from poseonly import lirp, rotation_error_deg, translation_error_deg
+from poseonly.geometry import skew
+from poseonly.sim import make_scene
+
+
+@pytest.mark.parametrize("n", [6, 8, 30, 300])
+@pytest.mark.parametrize("camera", ["wide", "pinhole"])
+def test_exact_normal(n, camera):
+    for s in range(100):
+        sc = make_scene(n, "normal", camera, seed=s)
+        r = lirp(sc.f1, sc.f2)
+        assert r.status == "ok"
+        assert rotation_error_deg(sc.R, r.R) < 1e-6, s
+        assert translation_error_deg(sc.t, r.t) < 1e-4, s
+        assert r.candidates_E.shape == (18, 3, 3)
+
+
+def _twin_applies(r, sc, tol=1e-9):
+    """A wrong valid candidate explains the data as well as the exact one (the homography twin)."""
+    err = rotation_error_deg(sc.R, r.candidates_R)
+    exact = err < 1e-6
+    best_exact_cost = r.candidate_cost[exact].min()
+    wrong = (~exact) & r.candidate_valid & (err > 1e-3)
+    return bool(np.any(r.candidate_cost[wrong] <= best_exact_cost + tol))
+
+
+@pytest.mark.parametrize("camera", ["wide", "pinhole"])
+def test_planar_exact_or_twin(camera):
+    twins = 0
+    for s in range(100):
+        sc = make_scene(30, "planar", camera, seed=s)
+        r = lirp(sc.f1, sc.f2)
+        errs = rotation_error_deg(sc.R, r.candidates_R)
+        assert errs.min() < 1e-6, s  # one candidate is always exact
+        if _twin_applies(r, sc):
+            twins += 1
+        else:
+            assert rotation_error_deg(sc.R, r.R) < 1e-6, s
+            assert translation_error_deg(sc.t, r.t) < 1e-4, s
+    # the two-fold planar ambiguity applies in a minority of scenes (measured over 500 seeds, n = 30:
+    # wide 9.6 % (wrong pick 3.8 %), pinhole 30.4 % (wrong pick 9.4 %); the narrow view favours the twin)
+    assert twins < (20 if camera == "wide" else 45)
+
+
+@pytest.mark.parametrize("camera", ["wide", "pinhole"])
+def test_pure_rotation(camera):
+    for s in range(30):
+        sc = make_scene(30, "rotation", camera, seed=s)
+        r = lirp(sc.f1, sc.f2)
+        assert rotation_error_deg(sc.R, r.R) < 1e-6
+
+
+def test_normalized_coordinates_input():
+    sc = make_scene(30, "normal", "pinhole", seed=3)
+    x1 = sc.f1[:, :2] / sc.f1[:, 2:]
+    x2 = sc.f2[:, :2] / sc.f2[:, 2:]
+    r = lirp(x1, x2)
+    assert rotation_error_deg(sc.R, r.R) < 1e-6
+
+
+def test_zero_weight_on_outliers_is_exact():
+    for s in range(20):
+        sc = make_scene(60, "normal", outlier_fraction=0.3, seed=s)
+        w = sc.inliers.astype(float)
+        r = lirp(sc.f1, sc.f2, w)
+        assert rotation_error_deg(sc.R, r.R) < 1e-6
+        # unweighted LiRP is pulled away by the same outliers
+    r0 = lirp(sc.f1, sc.f2)
+    assert rotation_error_deg(sc.R, r0.R) > 1e-3
+
+
+def test_noise_accuracy():
+    errs = [rotation_error_deg(sc.R, lirp(sc.f1, sc.f2).R) for sc in (make_scene(30, noise_px=1.0, seed=s) for s in range(50))]
+    assert np.median(errs) < 0.5
+
+
+def test_permutation_invariance_and_swap():
+    sc = make_scene(40, noise_px=0.5, seed=7)
+    r = lirp(sc.f1, sc.f2)
+    p = np.random.default_rng(0).permutation(40)
+    rp = lirp(sc.f1[p], sc.f2[p])
+    assert rotation_error_deg(r.R, rp.R) < 1e-9
+    # swapping the views gives the inverse pose: X1 = R^T X2 - R^T t
+    rs = lirp(sc.f2, sc.f1)
+    assert rotation_error_deg(r.R.T, rs.R) < 1e-6
+    assert translation_error_deg(-r.R.T @ r.t, rs.t) < 1e-4
+
+
+def test_essential_consistency():
+    sc = make_scene(30, noise_px=0.0, seed=1)
+    r = lirp(sc.f1, sc.f2)
+    E = skew(r.t) @ r.R
+    assert np.abs(np.einsum("ni,ij,nj->n", sc.f2, E, sc.f1)).max() < 1e-10
+
+
+@pytest.mark.parametrize(
+    "f1,f2,w,msg",
+    [
+        (np.ones((5, 3)), np.ones((5, 3)), None, "at least 6"),
+        (np.ones((8, 3)), np.ones((7, 3)), None, "differ in length"),
+        (np.full((8, 3), np.nan), np.ones((8, 3)), None, "NaN"),
+        (np.ones((8, 3)), np.full((8, 3), np.inf), None, "NaN or inf"),
+        (np.zeros((8, 3)), np.ones((8, 3)), None, "zero-length"),
+        (np.ones((8, 4)), np.ones((8, 4)), None, "shape"),
+        (np.ones((8, 3)), np.ones((8, 3)), -np.ones(8), "non-negative"),
+        (np.ones((8, 3)), np.ones((8, 3)), np.ones(7), "weights must have shape"),
+        ("abc", np.ones((8, 3)), None, "numeric"),
+    ],
+)
+def test_bad_input(f1, f2, w, msg):
+    with pytest.raises(ValueError, match=msg):
+        lirp(f1, f2, w)
+
+
+def test_degenerate_identical_points():
+    f = np.tile([0.1, 0.2, 1.0], (10, 1))
+    r = lirp(f, f)
+    assert r.status == "degenerate"
+    assert np.all(np.isfinite(r.R))
+    assert r.notes
