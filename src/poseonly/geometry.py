@@ -17,6 +17,7 @@ import numpy as np
 __all__ = [
     "InputError",
     "skew",
+    "cross",
     "normalize",
     "bearings_from_pixels",
     "bearings_from_normalized",
@@ -57,6 +58,14 @@ def skew(v: np.ndarray) -> np.ndarray:
         ],
         axis=-2,
     )
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Broadcasting cross product over the last axis (several times faster than ``np.cross`` on
+    small stacked arrays, which pays for ``moveaxis`` on every call)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def normalize(v: np.ndarray, axis: int = -1) -> np.ndarray:

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import decompose_essential
+from .geometry import cross, decompose_essential
 from .residuals import v_PPO
 
 __all__ = ["identify_poses", "select_candidate"]
@@ -30,9 +30,9 @@ def _depth_signs(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -
     Rf1 = np.einsum("...kij,...nj->...kni", R, f1)
     f2b = f2[..., None, :, :]
     tt = t[..., None, :]
-    c = np.cross(Rf1, f2b)
-    h = np.sum(c * np.cross(f2b, tt), axis=-1)
-    hp = np.sum(c * np.cross(Rf1, tt), axis=-1)
+    c = cross(Rf1, f2b)
+    h = np.sum(c * cross(f2b, tt), axis=-1)
+    hp = np.sum(c * cross(Rf1, tt), axis=-1)
     return h, hp
 
 

@@ -15,7 +15,7 @@ from typing import Callable
 
 import numpy as np
 
-from .geometry import normalize, triangulate_midpoint
+from .geometry import cross, normalize, triangulate_midpoint
 
 __all__ = [
     "v_E",
@@ -44,7 +44,7 @@ def _unit_t(t: np.ndarray) -> np.ndarray:
 def v_E(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
     """Coplanar residual ``|f2^T [t]x R f1|`` (Eq. 4 in bearing form), unit ``t``."""
     Rf1 = _rot(R, f1)
-    return np.abs(np.sum(np.cross(_unit_t(t), Rf1) * f2, axis=-1))
+    return np.abs(np.sum(cross(_unit_t(t), Rf1) * f2, axis=-1))
 
 
 def v_sampson(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
@@ -56,9 +56,9 @@ def v_sampson(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> n
     """
     tt = _unit_t(t)
     Rf1 = _rot(R, f1)
-    Ef1 = np.cross(tt, Rf1)  # E f1
+    Ef1 = cross(tt, Rf1)  # E f1
     # E^T f2 = R^T [t]x^T f2 = -R^T (t x f2)
-    Etf2 = -np.einsum("...ji,...nj->...ni", R, np.cross(tt, f2))
+    Etf2 = -np.einsum("...ji,...nj->...ni", R, cross(tt, f2))
     num = np.sum(Ef1 * f2, axis=-1)
     g1 = Ef1 - np.sum(Ef1 * f2, axis=-1, keepdims=True) * f2
     g2 = Etf2 - np.sum(Etf2 * f1, axis=-1, keepdims=True) * f1
@@ -74,9 +74,9 @@ def ligt_depths(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) ->
     """
     tt = _unit_t(t)
     Rf1 = _rot(R, f1)
-    c = np.cross(Rf1, f2)
-    h = np.sum(c * np.cross(f2, tt), axis=-1)
-    hp = np.sum(c * np.cross(Rf1, tt), axis=-1)
+    c = cross(Rf1, f2)
+    h = np.sum(c * cross(f2, tt), axis=-1)
+    hp = np.sum(c * cross(Rf1, tt), axis=-1)
     return h, hp, np.sum(c * c, axis=-1)
 
 
@@ -88,8 +88,8 @@ def v_LiGT(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.n
     """
     tt = _unit_t(t)
     Rf1 = _rot(R, f1)
-    c = np.cross(f2, Rf1)  # [f2]x R f1
-    f2xt = np.cross(f2, tt)
+    c = cross(f2, Rf1)  # [f2]x R f1
+    f2xt = cross(f2, tt)
     ht = -np.sum(c * f2xt, axis=-1)  # (R f1 x f2) . (f2 x t)
     theta2 = np.sum(c * c, axis=-1)
     Lt = c * ht[..., None] + theta2[..., None] * f2xt
@@ -104,8 +104,8 @@ def v_PPO(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.nd
     """
     tt = _unit_t(t)
     Rf1 = _rot(R, f1)
-    a = np.linalg.norm(np.cross(tt, f2), axis=-1)[..., None]
-    b = np.linalg.norm(np.cross(f2, Rf1), axis=-1)[..., None]
+    a = np.linalg.norm(cross(tt, f2), axis=-1)[..., None]
+    b = np.linalg.norm(cross(f2, Rf1), axis=-1)[..., None]
     eps = a * Rf1 + b * tt
     return np.linalg.norm(normalize(eps) - f2, axis=-1)
 
