@@ -1,0 +1,474 @@
+"""Real images: SIFT features, ratio-test matching, a feature cache and a match-file format.
+
+OpenCV is an optional dependency (``pip install poseonly[opencv]``); it is imported inside the
+functions that need it, so ``import poseonly.features`` works without it.
+
+Pixel coordinates follow OpenCV: ``(x, y)`` = (column, row) with integer values at pixel centres.
+
+Match files (:func:`load_matches_npz` / :func:`save_matches_npz`) are ``.npz`` archives with keys
+
+* ``u1``, ``u2``: ``(k, 2)`` float pixel coordinates of the k matches in image 1 and image 2;
+* ``K1``, ``K2`` (optional): ``(3, 3)`` intrinsics of each camera;
+* ``K`` (optional): a ``(3, 3)`` intrinsic matrix shared by both cameras (used where ``K1``/``K2``
+  is absent).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .geometry import InputError, check_intrinsics, essential_from_pose
+
+__all__ = [
+    "Features",
+    "Matches",
+    "MatchData",
+    "read_image",
+    "extract_features",
+    "match_features",
+    "match_images",
+    "load_matches_npz",
+    "save_matches_npz",
+    "fundamental_from_pose",
+    "sampson_distance",
+    "sampson_error_px",
+]
+
+_CACHE_VERSION = 1
+
+
+def _cv2() -> Any:
+    try:
+        import cv2  # noqa: PLC0415
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            "OpenCV is required for image features and matching; install it with "
+            "`pip install poseonly[opencv]` (or `pip install opencv-python-headless`)"
+        ) from exc
+    return cv2
+
+
+# --------------------------------------------------------------------------------------------
+# data classes
+
+
+@dataclass(frozen=True)
+class Features:
+    """SIFT features of one image.
+
+    ``keypoints (m, 2)`` float64 pixel coordinates, ``descriptors (m, 128)`` float32,
+    ``image_size = (width, height)``.
+    """
+
+    keypoints: np.ndarray
+    descriptors: np.ndarray
+    image_size: tuple[int, int]
+
+    def __len__(self) -> int:
+        return len(self.keypoints)
+
+
+@dataclass(frozen=True)
+class Matches:
+    """Putative matches between two images.
+
+    ``u1, u2 (k, 2)`` pixel coordinates, ``idx (k, 2)`` indices into the two keypoint arrays,
+    ``image_size1, image_size2 = (width, height)``.
+    """
+
+    u1: np.ndarray
+    u2: np.ndarray
+    idx: np.ndarray
+    image_size1: tuple[int, int]
+    image_size2: tuple[int, int]
+
+    def __len__(self) -> int:
+        return len(self.u1)
+
+
+@dataclass(frozen=True)
+class MatchData:
+    """Contents of a match file: ``u1, u2 (k, 2)`` pixels and the intrinsics (``None`` if absent).
+
+    ``K1``/``K2`` are already resolved: a shared ``K`` in the file fills both.
+    """
+
+    u1: np.ndarray
+    u2: np.ndarray
+    K1: np.ndarray | None = None
+    K2: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return len(self.u1)
+
+
+# --------------------------------------------------------------------------------------------
+# images
+
+
+def read_image(path: str | os.PathLike, grayscale: bool = True) -> np.ndarray:
+    """Read an image file (grayscale ``(h, w)`` uint8 by default, else BGR ``(h, w, 3)``).
+
+    Raises :class:`InputError` if the file is missing, not a file, or cannot be decoded.
+    """
+    cv2 = _cv2()
+    p = Path(path)
+    if not p.exists():
+        raise InputError(f"image file not found: {p}")
+    if not p.is_file():
+        raise InputError(f"image path is not a file: {p}")
+    try:
+        buf = np.fromfile(p, dtype=np.uint8)  # works with non-ASCII paths, unlike cv2.imread
+    except OSError as exc:
+        raise InputError(f"cannot read image file {p}: {exc}") from None
+    img = None
+    if buf.size:
+        img = cv2.imdecode(buf, cv2.IMREAD_GRAYSCALE if grayscale else cv2.IMREAD_COLOR)
+    if img is None or img.size == 0:
+        raise InputError(f"cannot decode image file {p} (empty, corrupt or not an image format OpenCV reads)")
+    return img
+
+
+def _to_gray_u8(img: np.ndarray) -> np.ndarray:
+    cv2 = _cv2()
+    a = np.asarray(img)
+    if a.ndim == 3 and a.shape[2] == 1:
+        a = a[:, :, 0]
+    if a.ndim == 3 and a.shape[2] in (3, 4):
+        if a.dtype != np.uint8:
+            a = _to_u8(a)
+        a = cv2.cvtColor(a, cv2.COLOR_BGR2GRAY if a.shape[2] == 3 else cv2.COLOR_BGRA2GRAY)
+    if a.ndim != 2 or min(a.shape) < 1:
+        raise InputError(f"image must be a (h, w) grayscale or (h, w, 3) color array, got shape {a.shape}")
+    return np.ascontiguousarray(_to_u8(a))
+
+
+def _to_u8(a: np.ndarray) -> np.ndarray:
+    if a.dtype == np.uint8:
+        return a
+    if a.dtype == bool:
+        return a.astype(np.uint8) * 255
+    if not np.issubdtype(a.dtype, np.number):
+        raise InputError(f"image must be numeric, got dtype {a.dtype}")
+    f = a.astype(np.float64)
+    if not np.all(np.isfinite(f)):
+        raise InputError("image contains NaN or inf values")
+    if np.issubdtype(a.dtype, np.floating) and f.size and f.max() <= 1.0:
+        f = f * 255.0  # float images in [0, 1]
+    elif np.issubdtype(a.dtype, np.integer) and a.dtype.itemsize > 1:
+        f = f / (np.iinfo(a.dtype).max / 255.0)
+    return np.clip(np.rint(f), 0, 255).astype(np.uint8)
+
+
+# --------------------------------------------------------------------------------------------
+# features
+
+
+def _sift(gray: np.ndarray, max_features: int | None) -> tuple[np.ndarray, np.ndarray]:
+    cv2 = _cv2()
+    sift = cv2.SIFT_create(nfeatures=int(max_features or 0))
+    kps, desc = sift.detectAndCompute(gray, None)
+    if not kps or desc is None:
+        return np.zeros((0, 2)), np.zeros((0, 128), np.float32)
+    kp = np.array([k.pt for k in kps], dtype=np.float64).reshape(-1, 2)
+    return kp, np.ascontiguousarray(desc, dtype=np.float32)
+
+
+def _cache_file(path: Path, max_features: int | None, cache_dir: Path) -> Path:
+    st = path.stat()
+    key = json.dumps(
+        {
+            "v": _CACHE_VERSION,
+            "path": str(path.resolve()),
+            "size": st.st_size,
+            "mtime_ns": st.st_mtime_ns,
+            "max_features": int(max_features or 0),
+            "detector": "sift",
+        },
+        sort_keys=True,
+    )
+    h = hashlib.sha256(key.encode()).hexdigest()[:32]
+    return cache_dir / f"sift_{h}.npz"
+
+
+def _read_cache(f: Path) -> Features | None:
+    """Load a cached :class:`Features`; ``None`` if absent, truncated or inconsistent."""
+    if not f.is_file():
+        return None
+    try:
+        with np.load(f, allow_pickle=False) as z:
+            kp = np.asarray(z["keypoints"], dtype=np.float64)
+            desc = np.asarray(z["descriptors"])
+            size = tuple(int(s) for s in z["image_size"])
+    except Exception:  # noqa: BLE001 - any unreadable cache is simply recomputed
+        return None
+    if kp.ndim != 2 or kp.shape[1] != 2 or desc.shape != (len(kp), 128) or desc.dtype != np.float32 or len(size) != 2:
+        return None
+    return Features(kp, desc, (size[0], size[1]))
+
+
+def _atomic_savez(path: Path, **arrays: np.ndarray) -> None:
+    """``np.savez`` to a temp file in the target directory, then ``os.replace`` (atomic)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **arrays)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def extract_features(
+    image_or_path: str | os.PathLike | np.ndarray,
+    max_features: int | None = None,
+    cache_dir: str | os.PathLike | None = None,
+) -> Features:
+    """SIFT keypoints and descriptors of a full-resolution grayscale image.
+
+    ``image_or_path`` is an image file or an array (grayscale, or BGR color). ``max_features``
+    keeps the strongest ones (``None``: all). With ``cache_dir`` (file inputs only) the result is
+    cached in an ``.npz`` keyed by the absolute path, file size, mtime and parameters; the cache is
+    written atomically and an unreadable cache file is ignored and rewritten.
+    """
+    if max_features is not None and int(max_features) < 0:
+        raise InputError(f"max_features must be >= 0 or None, got {max_features}")
+    if isinstance(image_or_path, np.ndarray):
+        gray = _to_gray_u8(image_or_path)
+        kp, desc = _sift(gray, max_features)
+        return Features(kp, desc, (gray.shape[1], gray.shape[0]))
+
+    path = Path(image_or_path)
+    cache = None
+    if cache_dir is not None:
+        if not path.is_file():
+            raise InputError(f"image file not found: {path}")
+        cache = _cache_file(path, max_features, Path(cache_dir))
+        hit = _read_cache(cache)
+        if hit is not None:
+            return hit
+    gray = read_image(path)
+    kp, desc = _sift(gray, max_features)
+    feats = Features(kp, desc, (gray.shape[1], gray.shape[0]))
+    if cache is not None:
+        _atomic_savez(cache, keypoints=kp, descriptors=desc, image_size=np.array(feats.image_size, dtype=np.int64))
+    return feats
+
+
+# --------------------------------------------------------------------------------------------
+# matching
+
+
+def _check_desc(d: np.ndarray, name: str) -> np.ndarray:
+    try:
+        d = np.asarray(d, dtype=np.float32)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a numeric (m, D) descriptor array") from None
+    if d.ndim != 2:
+        raise InputError(f"{name} must have shape (m, D), got {d.shape}")
+    if not np.all(np.isfinite(d)):
+        raise InputError(f"{name} contains NaN or inf values")
+    return np.ascontiguousarray(d)
+
+
+def match_features(d1: np.ndarray, d2: np.ndarray, ratio: float = 0.8, mutual: bool = False) -> np.ndarray:
+    """Match descriptors with Lowe's ratio test; returns ``(k, 2)`` int index pairs ``(i1, i2)``.
+
+    Brute-force L2 two-nearest-neighbour search (``cv2.batchDistance``, the kernel of
+    ``cv2.BFMatcher``, returning arrays); a match is kept when ``dist1 < ratio * dist2``. With
+    ``mutual`` the match must also be the nearest neighbour in the reverse direction.
+    """
+    if not (0.0 < float(ratio) <= 1.0):
+        raise InputError(f"ratio must be in (0, 1], got {ratio}")
+    d1 = _check_desc(d1, "d1")
+    d2 = _check_desc(d2, "d2")
+    if d1.shape[1] != d2.shape[1]:
+        raise InputError(f"descriptor lengths differ: {d1.shape[1]} vs {d2.shape[1]}")
+    empty = np.zeros((0, 2), dtype=np.int64)
+    if len(d1) == 0 or len(d2) < 2:
+        return empty  # the ratio test needs a second neighbour
+    cv2 = _cv2()
+    dist, nn = cv2.batchDistance(d1, d2, cv2.CV_32F, normType=cv2.NORM_L2, K=2)
+    keep = dist[:, 0] < float(ratio) * dist[:, 1]
+    i1 = np.flatnonzero(keep)
+    i2 = nn[keep, 0].astype(np.int64)
+    if mutual and len(i1):
+        _, back = cv2.batchDistance(d2, d1, cv2.CV_32F, normType=cv2.NORM_L2, K=1)
+        ok = back[i2, 0] == i1
+        i1, i2 = i1[ok], i2[ok]
+    return np.stack([i1, i2], axis=1).astype(np.int64) if len(i1) else empty
+
+
+def match_images(
+    img1: str | os.PathLike | np.ndarray,
+    img2: str | os.PathLike | np.ndarray,
+    ratio: float = 0.8,
+    mutual: bool = False,
+    cache_dir: str | os.PathLike | None = None,
+    max_features: int | None = None,
+) -> Matches:
+    """SIFT-match two images (files or arrays): :func:`extract_features` + :func:`match_features`."""
+    f1 = extract_features(img1, max_features=max_features, cache_dir=cache_dir)
+    f2 = extract_features(img2, max_features=max_features, cache_dir=cache_dir)
+    idx = match_features(f1.descriptors, f2.descriptors, ratio=ratio, mutual=mutual)
+    return Matches(f1.keypoints[idx[:, 0]], f2.keypoints[idx[:, 1]], idx, f1.image_size, f2.image_size)
+
+
+# --------------------------------------------------------------------------------------------
+# match files
+
+
+def _check_pixels(a: Any, name: str, src: str) -> np.ndarray:
+    try:
+        a = np.asarray(a, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{src}: '{name}' must be a numeric (k, 2) array of pixel coordinates") from None
+    if a.ndim != 2 or a.shape[1] != 2:
+        raise InputError(f"{src}: '{name}' must have shape (k, 2) (pixel coordinates), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        bad = int(np.count_nonzero(~np.all(np.isfinite(a), axis=1)))
+        raise InputError(f"{src}: '{name}' contains NaN or inf values ({bad} rows)")
+    return a
+
+
+def _check_match_arrays(u1: Any, u2: Any, K1: Any, K2: Any, K: Any, src: str) -> MatchData:
+    u1 = _check_pixels(u1, "u1", src)
+    u2 = _check_pixels(u2, "u2", src)
+    if len(u1) != len(u2):
+        raise InputError(f"{src}: 'u1' and 'u2' differ in length: {len(u1)} vs {len(u2)}")
+    if len(u1) == 0:
+        raise InputError(f"{src}: contains no matches (u1, u2 have 0 rows)")
+    Ks = {}
+    for name, val in (("K", K), ("K1", K1), ("K2", K2)):
+        if val is not None:
+            try:
+                Ks[name] = check_intrinsics(val, name)
+            except InputError as exc:
+                raise InputError(f"{src}: {exc}") from None
+    k1 = Ks.get("K1", Ks.get("K"))
+    k2 = Ks.get("K2", Ks.get("K"))
+    if (k1 is None) != (k2 is None):
+        have, miss = ("K1", "K2") if k1 is not None else ("K2", "K1")
+        raise InputError(f"{src}: '{have}' is given but '{miss}' is missing (give both, or a shared 'K')")
+    return MatchData(u1, u2, k1, k2)
+
+
+def load_matches_npz(path: str | os.PathLike) -> MatchData:
+    """Load a match file (keys ``u1``, ``u2``; optional ``K1``, ``K2`` or shared ``K``).
+
+    Raises :class:`InputError` with a clear message if the file is missing, not an ``.npz``
+    archive, truncated, lacks a required key, or holds arrays of the wrong shape or with NaN/inf.
+    """
+    p = Path(path)
+    src = f"match file {p}"
+    if not p.is_file():
+        raise InputError(f"{src} not found")
+    try:
+        with open(p, "rb") as fh:
+            magic = fh.read(6)
+    except OSError as exc:
+        raise InputError(f"cannot read {src}: {exc}") from None
+    if magic.startswith(b"\x93NUMPY"):
+        raise InputError(f"{src} is a single .npy array, not an .npz archive with keys 'u1', 'u2'")
+    if not magic.startswith(b"PK"):
+        raise InputError(f"{src} is not a readable .npz archive (no zip header; write it with numpy.savez)")
+    try:
+        z = np.load(p, allow_pickle=False)
+    except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
+        raise InputError(f"{src} is not a readable .npz archive ({type(exc).__name__}: {exc})") from None
+    if not isinstance(z, np.lib.npyio.NpzFile):
+        raise InputError(f"{src} is a single .npy array, not an .npz archive with keys 'u1', 'u2'")
+    with z:
+        keys = set(z.files)
+        missing = [k for k in ("u1", "u2") if k not in keys]
+        if missing:
+            raise InputError(
+                f"{src} lacks required key(s) {missing}; expected 'u1', 'u2' ((k, 2) pixels) and optionally "
+                f"'K1', 'K2' or 'K' (3x3); found {sorted(keys) or 'no keys'}"
+            )
+        arrays: dict[str, np.ndarray | None] = {}
+        for k in ("u1", "u2", "K1", "K2", "K"):
+            if k not in keys:
+                arrays[k] = None
+                continue
+            try:
+                arrays[k] = z[k]
+            except (ValueError, OSError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+                raise InputError(f"{src}: cannot read key '{k}' ({type(exc).__name__}: {exc})") from None
+    return _check_match_arrays(arrays["u1"], arrays["u2"], arrays["K1"], arrays["K2"], arrays["K"], src)
+
+
+def save_matches_npz(
+    path: str | os.PathLike,
+    u1: np.ndarray,
+    u2: np.ndarray,
+    K1: np.ndarray | None = None,
+    K2: np.ndarray | None = None,
+    K: np.ndarray | None = None,
+) -> Path:
+    """Validate and write a match file atomically (see the module docstring for the keys).
+
+    Returns the path written (``.npz`` is not appended: the given name is used as is).
+    """
+    p = Path(path)
+    data = _check_match_arrays(u1, u2, K1, K2, K, "matches to save")
+    arrays = {"u1": data.u1, "u2": data.u2}
+    if K is not None:
+        arrays["K"] = np.asarray(K, dtype=np.float64)
+    if K1 is not None:
+        arrays["K1"] = np.asarray(K1, dtype=np.float64)
+    if K2 is not None:
+        arrays["K2"] = np.asarray(K2, dtype=np.float64)
+    _atomic_savez(p, **arrays)
+    return p
+
+
+# --------------------------------------------------------------------------------------------
+# epipolar errors in pixels
+
+
+def fundamental_from_pose(K1: np.ndarray, K2: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """``F = K2^-T [t]x R K1^-1`` so that ``u2^T F u1 = 0`` (homogeneous pixels)."""
+    K1 = check_intrinsics(K1, "K1")
+    K2 = check_intrinsics(K2, "K2")
+    E = essential_from_pose(np.asarray(R, float), np.asarray(t, float))
+    return np.linalg.inv(K2).T @ E @ np.linalg.inv(K1)
+
+
+def sampson_distance(u1: np.ndarray, u2: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """First-order geometric (Sampson) distance in pixels of pixel matches ``(k, 2)`` under ``F``.
+
+    ``|u2^T F u1| / sqrt((F u1)_x^2 + (F u1)_y^2 + (F^T u2)_x^2 + (F^T u2)_y^2)``.
+    """
+    u1 = np.asarray(u1, dtype=float)
+    u2 = np.asarray(u2, dtype=float)
+    h1 = np.concatenate([u1, np.ones((len(u1), 1))], axis=1)
+    h2 = np.concatenate([u2, np.ones((len(u2), 1))], axis=1)
+    Fx1 = h1 @ np.asarray(F, float).T
+    Ftx2 = h2 @ np.asarray(F, float)
+    num = np.abs(np.sum(h2 * Fx1, axis=1))
+    den = np.sqrt(Fx1[:, 0] ** 2 + Fx1[:, 1] ** 2 + Ftx2[:, 0] ** 2 + Ftx2[:, 1] ** 2)
+    return num / np.where(den > 0, den, np.finfo(float).tiny)
+
+
+def sampson_error_px(
+    u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, R: np.ndarray, t: np.ndarray
+) -> np.ndarray:
+    """Sampson distance (pixels) of pixel matches under the pose ``(R, t)`` (``X2 = R X1 + t``)."""
+    return sampson_distance(u1, u2, fundamental_from_pose(K1, K2, R, t))
+

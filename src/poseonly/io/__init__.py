@@ -1,0 +1,1 @@
+"""Loaders for external datasets (e.g. :mod:`poseonly.io.strecha`)."""

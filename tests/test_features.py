@@ -1,0 +1,262 @@
+"""Features, matching, match files, feature cache and the embedded demo pair."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("cv2")
+
+import poseonly.features as feat  # noqa: E402
+from poseonly.demo_data import load_demo_pair  # noqa: E402
+from poseonly.features import (  # noqa: E402
+    extract_features,
+    load_matches_npz,
+    match_features,
+    match_images,
+    read_image,
+    sampson_distance,
+    sampson_error_px,
+    save_matches_npz,
+)
+from poseonly.geometry import InputError, rotation_from_rotvec  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def demo():
+    return load_demo_pair()
+
+
+@pytest.fixture(scope="module")
+def demo_matches(demo):
+    return match_images(demo.image1, demo.image2)
+
+
+# --------------------------------------------------------------------------------------------
+# demo pair
+
+
+def test_demo_pair_loads(demo) -> None:
+    assert demo.image1.is_file() and demo.image2.is_file()
+    assert demo.K1.shape == (3, 3) and demo.K2.shape == (3, 3)
+    np.testing.assert_allclose(demo.R_gt @ demo.R_gt.T, np.eye(3), atol=1e-10)
+    assert np.linalg.det(demo.R_gt) == pytest.approx(1.0, abs=1e-10)
+    assert np.linalg.norm(demo.t_gt) == pytest.approx(1.0)
+    img = read_image(demo.image1)
+    assert img.ndim == 2 and (img.shape[1], img.shape[0]) == demo.image_size
+    assert "Strecha" in demo.meta["provenance"] and "openMVG" in demo.meta["provenance"]
+    total = demo.image1.stat().st_size + demo.image2.stat().st_size
+    assert total < 600 * 1024
+
+
+def test_demo_pair_matches_agree_with_gt(demo, demo_matches) -> None:
+    m = demo_matches
+    assert len(m) > 300
+    assert m.u1.shape == m.u2.shape == (len(m), 2) and m.idx.shape == (len(m), 2)
+    assert m.image_size1 == demo.image_size
+    e = sampson_error_px(m.u1, m.u2, demo.K1, demo.K2, demo.R_gt, demo.t_gt)
+    assert np.mean(e < 2.0) > 0.3
+    assert np.median(np.sort(e)[: len(e) // 2]) < 1.0
+    # swapping the roles of the images breaks the epipolar constraint
+    e_swap = sampson_error_px(m.u2, m.u1, demo.K1, demo.K2, demo.R_gt, demo.t_gt)
+    assert np.mean(e_swap < 2.0) < 0.3
+
+
+def test_match_features_ratio_and_mutual(demo) -> None:
+    f1 = extract_features(demo.image1, max_features=500)
+    f2 = extract_features(demo.image2, max_features=500)
+    assert f1.keypoints.dtype == np.float64 and f1.descriptors.dtype == np.float32
+    assert f1.descriptors.shape == (len(f1), 128) and len(f1) <= 520  # ties may exceed nfeatures a bit
+    idx = match_features(f1.descriptors, f2.descriptors, ratio=0.8)
+    idx_m = match_features(f1.descriptors, f2.descriptors, ratio=0.8, mutual=True)
+    idx_s = match_features(f1.descriptors, f2.descriptors, ratio=0.6)
+    assert idx.dtype.kind == "i" and idx.shape[1] == 2
+    assert len(idx_s) <= len(idx) and len(idx_m) <= len(idx)
+    assert set(map(tuple, idx_m)) <= set(map(tuple, idx))
+    assert len(np.unique(idx_m[:, 1])) == len(idx_m)  # mutual: one-to-one
+    # reference: brute force in numpy
+    D = np.linalg.norm(f1.descriptors[:, None, :] - f2.descriptors[None, :, :], axis=2)
+    o = np.argsort(D, axis=1)
+    d0, d1 = D[np.arange(len(D)), o[:, 0]], D[np.arange(len(D)), o[:, 1]]
+    ref = np.flatnonzero(d0 < 0.8 * d1)
+    assert abs(len(ref) - len(idx)) <= 2  # float32 vs float64 rounding at the threshold
+    common = np.intersect1d(ref, idx[:, 0])
+    np.testing.assert_array_equal(o[common, 0], idx[np.searchsorted(idx[:, 0], common), 1])
+
+
+def test_match_features_edge_cases() -> None:
+    d = np.random.default_rng(0).random((5, 128)).astype(np.float32)
+    assert match_features(d, d[:1]).shape == (0, 2)
+    assert match_features(d[:0], d).shape == (0, 2)
+    with pytest.raises(ValueError, match="descriptor lengths"):
+        match_features(d, d[:, :64])
+    with pytest.raises(ValueError, match="ratio"):
+        match_features(d, d, ratio=1.5)
+
+
+def test_extract_features_from_array(demo) -> None:
+    gray = read_image(demo.image1)
+    color = read_image(demo.image1, grayscale=False)
+    fa = extract_features(gray, max_features=200)
+    fc = extract_features(color, max_features=200)
+    assert fa.image_size == demo.image_size == fc.image_size
+    assert len(fa) > 100 and len(fc) > 100
+
+
+# --------------------------------------------------------------------------------------------
+# cache
+
+
+def test_feature_cache(tmp_path: Path, demo, monkeypatch) -> None:
+    img = tmp_path / "img.jpg"
+    img.write_bytes(demo.image1.read_bytes())
+    cache = tmp_path / "cache"
+    calls = []
+    real_sift = feat._sift
+
+    def counting_sift(*a, **k):
+        calls.append(1)
+        return real_sift(*a, **k)
+
+    monkeypatch.setattr(feat, "_sift", counting_sift)
+    f1 = extract_features(img, max_features=300, cache_dir=cache)
+    assert len(calls) == 1
+    files = list(cache.glob("*.npz"))
+    assert len(files) == 1 and not list(cache.glob("*.tmp"))
+    f2 = extract_features(img, max_features=300, cache_dir=cache)
+    assert len(calls) == 1  # served from the cache
+    np.testing.assert_array_equal(f1.keypoints, f2.keypoints)
+    np.testing.assert_array_equal(f1.descriptors, f2.descriptors)
+    assert f1.image_size == f2.image_size and f2.descriptors.dtype == np.float32
+
+    # other parameters get another entry
+    extract_features(img, max_features=100, cache_dir=cache)
+    assert len(calls) == 2 and len(list(cache.glob("*.npz"))) == 2
+
+    # a truncated cache file is ignored and rewritten
+    data = files[0].read_bytes()
+    files[0].write_bytes(data[: len(data) // 2])
+    f3 = extract_features(img, max_features=300, cache_dir=cache)
+    assert len(calls) == 3
+    np.testing.assert_array_equal(f1.descriptors, f3.descriptors)
+    assert files[0].stat().st_size == len(data)
+    extract_features(img, max_features=300, cache_dir=cache)
+    assert len(calls) == 3
+
+    # garbage is ignored too
+    files[0].write_bytes(b"not an npz")
+    extract_features(img, max_features=300, cache_dir=cache)
+    assert len(calls) == 4
+
+
+# --------------------------------------------------------------------------------------------
+# match files
+
+
+def test_matches_npz_roundtrip(tmp_path: Path) -> None:
+    rng = np.random.default_rng(1)
+    u1, u2 = rng.random((50, 2)) * 900, rng.random((50, 2)) * 900
+    K = np.array([[800.0, 0, 480], [0, 800, 320], [0, 0, 1]])
+    p = save_matches_npz(tmp_path / "m.npz", u1, u2, K=K)
+    d = load_matches_npz(p)
+    np.testing.assert_array_equal(d.u1, u1)
+    np.testing.assert_array_equal(d.u2, u2)
+    np.testing.assert_array_equal(d.K1, K)
+    np.testing.assert_array_equal(d.K2, K)
+    K2 = K * np.array([[1.1], [1.1], [1]])
+    d = load_matches_npz(save_matches_npz(tmp_path / "m2.npz", u1, u2, K1=K, K2=K2))
+    np.testing.assert_array_equal(d.K2, K2)
+    d = load_matches_npz(save_matches_npz(tmp_path / "m3.npz", u1, u2))
+    assert d.K1 is None and d.K2 is None and len(d) == 50
+    assert not list(tmp_path.glob("*.tmp"))
+
+
+# --------------------------------------------------------------------------------------------
+# bad inputs
+
+
+def _expect(match: str, fn, *a, **k) -> None:
+    with pytest.raises(ValueError, match=match) as ei:
+        fn(*a, **k)
+    assert isinstance(ei.value, InputError)
+
+
+def test_bad_image_paths(tmp_path: Path) -> None:
+    _expect("not found", read_image, tmp_path / "missing.jpg")
+    _expect("not a file", read_image, tmp_path)
+    bad = tmp_path / "bad.jpg"
+    bad.write_bytes(b"\xff\xd8 this is not really a jpeg")
+    _expect("cannot decode", read_image, bad)
+    empty = tmp_path / "empty.png"
+    empty.write_bytes(b"")
+    _expect("cannot decode", read_image, empty)
+    _expect("not found", extract_features, tmp_path / "missing.jpg")
+    _expect("not found", extract_features, tmp_path / "missing.jpg", cache_dir=tmp_path / "c")
+    _expect("not found", match_images, tmp_path / "missing.jpg", bad)
+
+
+def test_bad_match_files(tmp_path: Path) -> None:
+    good = np.zeros((10, 2))
+    _expect("not found", load_matches_npz, tmp_path / "missing.npz")
+
+    txt = tmp_path / "text.npz"
+    txt.write_text("u1,u2\n1,2\n")
+    _expect("not a readable .npz", load_matches_npz, txt)
+
+    p = save_matches_npz(tmp_path / "ok.npz", good, good)
+    raw = p.read_bytes()
+    trunc = tmp_path / "trunc.npz"
+    trunc.write_bytes(raw[: len(raw) // 2])
+    _expect("npz|cannot read", load_matches_npz, trunc)
+
+    npy = tmp_path / "single.npy"
+    np.save(npy, good)
+    _expect("single .npy", load_matches_npz, npy)
+
+    def write(name: str, **arrays) -> Path:
+        f = tmp_path / name
+        with open(f, "wb") as fh:
+            np.savez(fh, **arrays)
+        return f
+
+    _expect(r"lacks required key\(s\) \['u2'\]", load_matches_npz, write("a.npz", u1=good))
+    _expect("lacks required key", load_matches_npz, write("b.npz", x1=good, x2=good))
+    _expect(r"'u1' must have shape \(k, 2\)", load_matches_npz, write("c.npz", u1=np.zeros((10, 3)), u2=good))
+    _expect("differ in length", load_matches_npz, write("d.npz", u1=good, u2=good[:5]))
+    nan = good.copy()
+    nan[3, 1] = np.nan
+    _expect("NaN", load_matches_npz, write("e.npz", u1=good, u2=nan))
+    _expect("no matches", load_matches_npz, write("f.npz", u1=good[:0], u2=good[:0]))
+    _expect("3x3", load_matches_npz, write("g.npz", u1=good, u2=good, K=np.eye(2)))
+    _expect("'K2' is missing", load_matches_npz, write("h.npz", u1=good, u2=good, K1=np.eye(3)))
+    _expect("numeric", load_matches_npz, write("i.npz", u1=np.array([["a", "b"]] * 10), u2=good))
+    _expect("cannot read key|pickle", load_matches_npz, write("j.npz", u1=np.array([object()] * 2), u2=good))
+
+    _expect("shape", save_matches_npz, tmp_path / "x.npz", good, np.zeros(10))
+    assert not (tmp_path / "x.npz").exists()
+
+
+# --------------------------------------------------------------------------------------------
+# Sampson distance
+
+
+def test_sampson_distance_synthetic() -> None:
+    rng = np.random.default_rng(3)
+    K = np.array([[700.0, 0, 320], [0, 710, 240], [0, 0, 1]])
+    R = rotation_from_rotvec(np.array([0.02, -0.1, 0.03]))
+    t = np.array([1.0, 0.1, 0.05])
+    t /= np.linalg.norm(t)
+    X = rng.uniform(-2, 2, (100, 3)) + [0, 0, 8]
+    x1 = X @ K.T
+    u1 = x1[:, :2] / x1[:, 2:]
+    x2 = (X @ R.T + t) @ K.T
+    u2 = x2[:, :2] / x2[:, 2:]
+    assert np.max(sampson_error_px(u1, u2, K, K, R, t)) < 1e-8
+    # a small shift perpendicular to the epipolar line gives about that many pixels
+    F = feat.fundamental_from_pose(K, K, R, t)
+    l2 = np.c_[u1, np.ones(len(u1))] @ F.T
+    n = l2[:, :2] / np.linalg.norm(l2[:, :2], axis=1, keepdims=True)
+    e = sampson_distance(u1, u2 + 0.7 * n, F)
+    np.testing.assert_allclose(e, 0.7 / np.sqrt(2), rtol=0.05)  # shared between both images
