@@ -1,0 +1,431 @@
+"""The public entry point: :func:`estimate_relative_pose`.
+
+Input: ``x1, x2`` as pixels ``(n, 2)`` with ``K1``/``K2``, normalized image coordinates ``(n, 2)``
+without ``K``, or unit bearing vectors ``(n, 3)``. Output: :class:`RelativePoseResult` with
+``X2 = R X1 + t`` (unit ``t``), the inlier mask computed against the returned model, weights, an
+honest ``status`` and diagnostics.
+
+Methods
+-------
+``"poseonly"`` (default)
+    LO-RANSAC built from the paper's parts and measured to beat them (docs/RESULTS.md):
+    minimal-sample hypotheses (LiRP on 6 points, or the 5-point solver when ``solver="5pt"``),
+    MSAC scoring of the Sampson error in pixels, adaptive stopping, local optimisation of every new
+    best model by GNC-IRLS (LiRP + v_LiGT, MS-TLS weights) started from the model's inliers with the
+    noise bound derived from the pixel threshold, and LiGTopt on the final inliers.
+``"gnc-ransac"``
+    The paper's Algorithm 3 as written: samples of ``n_s = 30``, GNC-IRLS with the adaptive
+    ``c = 5.54 * 1.4826 * median(v)``, 50 iterations, inliers ``v_LiGT < theta``.
+``"gnc-irls"``
+    Algorithm 2 on all points. Default noise bound from the pixel threshold (measured far more
+    robust than the paper's adaptive median rule, which ``scale="median"`` selects).
+``"lirp"``
+    Algorithm 1 on all points (no robustness).
+
+Threshold conversion: ``threshold_px`` pixels at focal ``f`` is the angle ``tau = threshold_px / f``
+(``f`` = mean of the focal lengths of ``K1`` and ``K2``, or ``focal_px``). The Sampson residual on
+the sphere is compared with ``tau`` directly. For ``v_LiGT`` (unit baseline) the identity
+``v_LiGT = theta^2 ||f2 x (z1 R f1 + t)|| = sin(parallax) sin(alpha) * d2 * |angle error| / d2``
+bounds ``v_LiGT <= sin(parallax) * |angle error| <= |angle error|`` (law of sines in the epipolar
+triangle; ``alpha`` = angle between ray 1 and the baseline), so ``theta = tau`` never rejects a point
+whose error is within ``threshold_px`` (it is loose for low-parallax points).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .estimator import get_estimator, lirp_estimator
+from .geometry import InputError, as_bearings, check_intrinsics, essential_from_pose, rotation_error_deg
+from .residuals import v_LiGT, v_sampson
+from .robust.gnc import GNCOptions, gnc_irls_batch
+from .robust.ransac import gnc_ransac as _gnc_ransac
+from .robust.ransac import ransac
+from .solvers.lirp import lirp_batch
+
+__all__ = ["estimate_relative_pose", "RelativePoseResult", "gnc_irls", "gnc_ransac", "METHODS", "DEFAULT_METHOD"]
+
+DEFAULT_METHOD = "poseonly"
+METHODS = ("poseonly", "gnc-ransac", "gnc-irls", "lirp")
+
+# allowed options per method: name -> (type(s), validator or None, default)
+_COMMON = {
+    "threshold_px": ((int, float), lambda v: v > 0, 2.0),
+    "focal_px": ((int, float), lambda v: v > 0, None),
+    "seed": ((int, np.integer, np.random.Generator), None, 0),
+    "refine": ((bool,), None, True),
+}
+_OPTS: dict[str, dict[str, tuple]] = {
+    "poseonly": {
+        "max_iterations": ((int, np.integer), lambda v: v >= 1, 20000),
+        "min_iterations": ((int, np.integer), lambda v: v >= 0, 50),
+        "confidence": ((float,), lambda v: 0 < v < 1, 0.999),
+        "solver": ((str,), None, "lirp"),
+        "batch": ((int, np.integer), lambda v: v >= 1, 128),
+        "max_lo": ((int, np.integer), lambda v: v >= 0, 8),
+    },
+    "gnc-ransac": {
+        "max_iterations": ((int, np.integer), lambda v: v >= 1, 50),
+        "sample_size": ((int, np.integer), lambda v: v >= 6, 30),
+        "adaptive": ((bool,), None, False),
+        "confidence": ((float,), lambda v: 0 < v < 1, 0.99),
+        "residual": ((str,), None, "ligt"),
+        "schedule": ((str,), None, "ms-tls"),
+        "scale": ((str, int, float), None, "median"),
+    },
+    "gnc-irls": {
+        "residual": ((str,), None, "ligt"),
+        "schedule": ((str,), None, "ms-tls"),
+        "scale": ((str, int, float), None, None),
+        "max_iterations": ((int, np.integer), lambda v: v >= 1, 100),
+    },
+    "lirp": {},
+}
+
+
+@dataclass
+class RelativePoseResult:
+    """Relative pose ``X2 = R X1 + t`` (unit ``t``) with inliers and an honest status.
+
+    ``status`` is one of
+
+    * ``"ok"`` -- a confident calibrated pose;
+    * ``"planar_ambiguous"`` -- the inliers are (near) planar and the homography twin (``R_twin``,
+      ``t_twin``) explains them about as well; the caller must decide (e.g. with a third view);
+    * ``"pure_rotation"`` -- rotation-only motion explains the inliers: ``R`` is reliable, the
+      translation direction is not (``parallax_deg`` says how much parallax there is);
+    * ``"too_few_inliers"`` -- fewer than 6 inliers (or fewer than ``min_inliers``); ``R, t`` are the
+      best guess and should not be trusted;
+    * ``"degenerate"`` -- the correspondences do not determine a pose (e.g. all points identical).
+    """
+
+    R: np.ndarray
+    t: np.ndarray
+    E: np.ndarray
+    inliers: np.ndarray
+    weights: np.ndarray
+    residuals_px: np.ndarray
+    num_inliers: int
+    num_iterations: int
+    status: str
+    message: str
+    method: str
+    threshold_px: float
+    focal_px: float
+    parallax_deg: float = float("nan")
+    R_twin: np.ndarray | None = None
+    t_twin: np.ndarray | None = None
+    twin_inliers: int = 0
+    time_s: float = 0.0
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    @property
+    def inlier_ratio(self) -> float:
+        return self.num_inliers / max(len(self.inliers), 1)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly summary."""
+        d = {
+            "R": self.R.tolist(),
+            "t": self.t.tolist(),
+            "num_inliers": self.num_inliers,
+            "num_points": int(len(self.inliers)),
+            "inlier_ratio": self.inlier_ratio,
+            "num_iterations": self.num_iterations,
+            "status": self.status,
+            "message": self.message,
+            "method": self.method,
+            "threshold_px": self.threshold_px,
+            "focal_px": self.focal_px,
+            "parallax_deg": self.parallax_deg,
+            "time_s": self.time_s,
+        }
+        if self.R_twin is not None:
+            d["R_twin"] = self.R_twin.tolist()
+            d["t_twin"] = self.t_twin.tolist()
+            d["twin_inliers"] = self.twin_inliers
+        return d
+
+
+# ------------------------------------------------------------------------------------------------
+# option handling
+
+
+def _validate_options(method: str, opts: dict[str, Any]) -> dict[str, Any]:
+    if method not in _OPTS:
+        raise InputError(f"unknown method {method!r}; choose one of {list(METHODS)}")
+    allowed = {**_COMMON, **_OPTS[method]}
+    out = {}
+    for k, v in opts.items():
+        if k not in allowed:
+            raise InputError(f"unknown option {k!r} for method {method!r}; valid options: {sorted(allowed)}")
+        types, check, _ = allowed[k]
+        if v is None:
+            continue
+        if isinstance(v, bool) and bool not in types:
+            raise InputError(f"option {k!r} must be of type {'/'.join(t.__name__ for t in types)}, got bool")
+        if not isinstance(v, types):
+            raise InputError(f"option {k!r} must be of type {'/'.join(t.__name__ for t in types)}, got {type(v).__name__}")
+        if check is not None and not check(v):
+            raise InputError(f"option {k!r} has an invalid value {v!r}")
+        out[k] = v
+    for k, (_, _, default) in allowed.items():
+        out.setdefault(k, default)
+    return out
+
+
+def _rng(seed) -> np.random.Generator:
+    return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(int(seed))
+
+
+def _focal(K1, K2, focal_px):
+    if focal_px is not None:
+        return float(focal_px)
+    fs = [0.5 * (K[0, 0] + K[1, 1]) for K in (K1, K2) if K is not None]
+    return float(np.mean(fs)) if fs else 800.0
+
+
+# ------------------------------------------------------------------------------------------------
+# analysis of the final model: planar twin, pure rotation
+
+
+def _parallax_deg(R, f1, f2, inl):
+    if not np.any(inl):
+        return float("nan")
+    Rf1 = f1[inl] @ R.T
+    c = np.clip(np.sum(Rf1 * f2[inl], axis=1), -1.0, 1.0)
+    return float(np.degrees(np.median(np.arccos(c))))
+
+
+def _analyse(R, t, f1, f2, w, tau, inl):
+    """Homography twin among the LiRP candidates on the inliers, and the pure-rotation test."""
+    info: dict[str, Any] = {}
+    twin = None
+    sel = np.nonzero(inl)[0]
+    if len(sel) >= 6:
+        o = lirp_batch(f1[sel][None], f2[sel][None], None if w is None else w[sel][None])
+        cR, ct, valid = o["cand_R"][0], o["cand_t"][0], o["cand_valid"][0]
+        far = valid & (rotation_error_deg(R, cR) > 0.5)
+        if np.any(far):
+            v = v_sampson(cR[far], ct[far], f1[sel], f2[sel])
+            cnt = np.count_nonzero(v < tau, axis=1)
+            k = int(np.argmax(cnt))
+            info["twin_candidate_inliers"] = int(cnt[k])
+            if cnt[k] >= 0.9 * len(sel):
+                idx = np.nonzero(far)[0][k]
+                twin = (cR[idx], ct[idx], int(cnt[k]))
+    # pure rotation: the inliers fit X2 ~ R X1 within the threshold (angle between R f1 and f2)
+    par = _parallax_deg(R, f1, f2, inl)
+    if np.any(inl):
+        ang = np.arccos(np.clip(np.sum((f1[inl] @ R.T) * f2[inl], axis=1), -1, 1))
+        info["rotation_only_fraction"] = float(np.mean(ang < 2.0 * tau))
+    return twin, par, info
+
+
+def _finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inliers=6) -> RelativePoseResult:
+    v = v_sampson(R, t, f1, f2)
+    inl = v < tau
+    n_in = int(inl.sum())
+    weights = inl.astype(float) if w is None else w
+    twin, par, info = (None, float("nan"), {})
+    if n_in >= 6:
+        twin, par, info = _analyse(R, t, f1, f2, None, tau, inl)
+    diag.update(info)
+    R_twin = t_twin = None
+    twin_n = 0
+    if n_in < max(6, min_inliers):
+        status, msg = "too_few_inliers", f"only {n_in} inliers within {thr_px:g} px: the pose is not reliable"
+    elif info.get("rotation_only_fraction", 0.0) > 0.9:
+        status = "pure_rotation"
+        msg = (f"{100 * info['rotation_only_fraction']:.0f}% of the inliers fit a pure rotation within "
+               f"{2 * thr_px:g} px (median parallax {par:.3f} deg): R is reliable, the translation direction is not")
+    elif twin is not None:
+        status = "planar_ambiguous"
+        R_twin, t_twin, twin_n = twin
+        msg = (f"the inliers are explained by two poses {rotation_error_deg(R, R_twin):.2f} deg apart "
+               f"(planar scene, homography twin with {twin_n} of {n_in} inliers); see R_twin, t_twin")
+    else:
+        status, msg = "ok", f"{n_in} inliers within {thr_px:g} px"
+    return RelativePoseResult(
+        R=R, t=t, E=essential_from_pose(R, t), inliers=inl, weights=np.asarray(weights, float), residuals_px=v * focal,
+        num_inliers=n_in, num_iterations=int(iters), status=status, message=msg, method=method, threshold_px=float(thr_px),
+        focal_px=focal, parallax_deg=par, R_twin=R_twin, t_twin=t_twin, twin_inliers=twin_n,
+        time_s=time.perf_counter() - t0, diagnostics=diag,
+    )
+
+
+# ------------------------------------------------------------------------------------------------
+# methods
+
+
+def _refine(R, t, f1, f2, inl, tau):
+    """LiGTopt on the inliers (robust Cauchy loss at the threshold scale)."""
+    try:
+        from .refine import ligt_refine
+    except ImportError:  # pragma: no cover - refine is part of the package
+        return R, t
+    if inl.sum() < 6:
+        return R, t
+    r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau)
+    if np.all(np.isfinite(r.R)) and np.all(np.isfinite(r.t)):
+        return r.R, r.t
+    return R, t
+
+
+def _run_poseonly(f1, f2, o, tau):
+    rng = _rng(o["seed"])
+    est = get_estimator(o["solver"], "sampson")
+    lirp_ligt = lirp_estimator("ligt")
+    gopts = GNCOptions(noise_bound=tau, max_iterations=30)
+
+    def lo(R, t, inl):
+        if inl.sum() < 6:
+            return R, t
+        g = gnc_irls_batch(f1[None], f2[None], lirp_ligt, gopts, w0=inl[None].astype(float))
+        return g.R[0], g.t[0]
+
+    r = ransac(
+        f1, f2, est, tau, rng, max_iterations=o["max_iterations"], min_iterations=o["min_iterations"],
+        confidence=o["confidence"], batch=o["batch"], scoring="msac", local_optimization=lo, max_lo=o["max_lo"],
+    )
+    R, t = r.R, r.t
+    if o["refine"]:
+        inl = v_sampson(R, t, f1, f2) < tau
+        R, t = _refine(R, t, f1, f2, inl, tau)
+    return R, t, None, r.num_iterations, {"num_lo": r.num_lo, "ransac_score": r.score}
+
+
+def _run_gnc_ransac(f1, f2, o, tau):
+    rng = _rng(o["seed"])
+    if o["sample_size"] > len(f1):
+        raise InputError(f"sample_size n_s = {o['sample_size']} is larger than the number of points {len(f1)}")
+    est = lirp_estimator(o["residual"])
+    gopts = GNCOptions(schedule=o["schedule"], scale=o["scale"])
+    r = _gnc_ransac(f1, f2, tau, rng, estimator=est, sample_size=o["sample_size"], max_iterations=o["max_iterations"],
+                    gnc_options=gopts, adaptive=o["adaptive"], confidence=o["confidence"])
+    R, t = r.R, r.t
+    if o["refine"]:
+        R, t = _refine(R, t, f1, f2, r.inliers, tau)
+    return R, t, r.weights, r.num_iterations, {"best_sample_inliers": int(r.score)}
+
+
+def _run_gnc_irls(f1, f2, o, tau):
+    est = lirp_estimator(o["residual"])
+    if o["scale"] is None:
+        gopts = GNCOptions(schedule=o["schedule"], noise_bound=tau, max_iterations=o["max_iterations"])
+    else:
+        gopts = GNCOptions(schedule=o["schedule"], scale=o["scale"], max_iterations=o["max_iterations"])
+    g = gnc_irls_batch(f1[None], f2[None], est, gopts)
+    R, t, w = g.R[0], g.t[0], g.weights[0]
+    if o["refine"]:
+        R, t = _refine(R, t, f1, f2, w > 0.5, tau)
+    return R, t, w, int(g.num_iterations[0]), {"converged": bool(g.converged[0]), "noise_bound": float(g.c[0])}
+
+
+def _run_lirp(f1, f2, o, tau):
+    out = lirp_batch(f1[None], f2[None])
+    return out["R"][0], out["t"][0], np.ones(len(f1)), 1, {"d_min": float(out["d_min"][0])}
+
+
+_RUN = {"poseonly": _run_poseonly, "gnc-ransac": _run_gnc_ransac, "gnc-irls": _run_gnc_irls, "lirp": _run_lirp}
+
+
+def estimate_relative_pose(
+    x1: np.ndarray,
+    x2: np.ndarray,
+    K1: np.ndarray | None = None,
+    K2: np.ndarray | None = None,
+    *,
+    method: str = DEFAULT_METHOD,
+    **options: Any,
+) -> RelativePoseResult:
+    """Estimate the relative pose ``X2 = R X1 + t`` from point matches.
+
+    ``x1, x2``: ``(n, 2)`` pixels (with ``K1``/``K2``; ``K2`` defaults to ``K1``), ``(n, 2)``
+    normalized coordinates (no ``K``) or ``(n, 3)`` bearing vectors. ``method``: one of
+    :data:`METHODS` (see the module docstring). Common options: ``threshold_px`` (default 2.0),
+    ``focal_px`` (focal for the pixel conversion when no ``K`` is given; default 800), ``seed``
+    (int or ``numpy.random.Generator``; default 0), ``refine`` (LiGTopt on the inliers; default
+    True). Method options are listed in the error raised for an unknown one. Raises
+    :class:`ValueError` (:class:`poseonly.InputError`) for invalid input or options; degenerate
+    input returns a result whose ``status`` says so.
+    """
+    t0 = time.perf_counter()
+    if not isinstance(method, str):
+        raise InputError(f"method must be a string, got {type(method).__name__}")
+    o = _validate_options(method, options)
+    if K1 is not None:
+        K1 = check_intrinsics(K1, "K1")
+        K2 = K1 if K2 is None else check_intrinsics(K2, "K2")
+    elif K2 is not None:
+        raise InputError("K2 given without K1")
+    f1 = as_bearings(x1, K1, "x1")
+    f2 = as_bearings(x2, K2, "x2")
+    if f1.shape != f2.shape:
+        raise InputError(f"x1 and x2 differ in length: {len(f1)} vs {len(f2)}")
+    n = len(f1)
+    if n < 6:
+        raise InputError(f"at least 6 correspondences are needed, got {n}")
+    focal = _focal(K1, K2, o["focal_px"])
+    thr_px = float(o["threshold_px"])
+    tau = thr_px / focal
+    # degenerate-but-valid input: the epipolar matrix has rank < 6
+    A = (f1[:, :, None] * f2[:, None, :]).reshape(n, 9)
+    s = np.linalg.svd(A, compute_uv=False)
+    rank = int(np.count_nonzero(s > 1e-9 * s[0]))
+    if rank < 6:
+        R, t = np.eye(3), np.zeros(3)
+        return RelativePoseResult(
+            R=R, t=t, E=np.zeros((3, 3)), inliers=np.zeros(n, bool), weights=np.zeros(n), residuals_px=np.full(n, np.nan),
+            num_inliers=0, num_iterations=0, status="degenerate",
+            message=f"the correspondences span a rank-{rank} epipolar system (< 6): the pose is not determined",
+            method=method, threshold_px=thr_px, focal_px=focal, time_s=time.perf_counter() - t0, diagnostics={"rank": rank},
+        )
+    R, t, w, iters, diag = _RUN[method](f1, f2, o, tau)
+    diag["rank"] = rank
+    return _finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag)
+
+
+def gnc_irls(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, noise_bound: float | None = None,
+             residual: str = "ligt", schedule: str = "ms-tls", scale: str | float = "median", max_iterations: int = 100,
+             eps0: float = 1e-9):
+    """GNC-IRLS (Alg. 2) with LiRP on bearing vectors; returns :class:`poseonly.robust.GNCBatchResult`
+    for the single problem (``R (3, 3)``, ``t (3,)``, ``weights (n,)``...).
+
+    ``noise_bound=None`` uses the paper's adaptive ``c = 5.54 * 1.4826 * median(v)`` (``scale``);
+    a number fixes ``c`` (recommended: ``threshold_px / focal``, see :mod:`poseonly.api`).
+    ``weights`` are the initial weights (default ones).
+    """
+    from .geometry import check_correspondences
+
+    f1, f2, w = check_correspondences(f1, f2, weights)
+    opts = GNCOptions(schedule=schedule, scale=scale, noise_bound=noise_bound, max_iterations=max_iterations, eps0=eps0)
+    g = gnc_irls_batch(f1[None], f2[None], lirp_estimator(residual), opts, None if w is None else w[None])
+    g.R, g.t, g.weights, g.residuals = g.R[0], g.t[0], g.weights[0], g.residuals[0]
+    g.c, g.num_iterations, g.converged = float(g.c[0]), int(g.num_iterations[0]), bool(g.converged[0])
+    return g
+
+
+def gnc_ransac(f1: np.ndarray, f2: np.ndarray, *, theta: float, seed: int | np.random.Generator = 0, sample_size: int = 30,
+               max_iterations: int = 50, adaptive: bool = False, residual: str = "ligt", schedule: str = "ms-tls",
+               scale: str | float = "median"):
+    """The paper's GNC-RANSAC (Alg. 3) on bearing vectors with inlier threshold ``theta`` on
+    ``v_LiGT`` (e.g. ``threshold_px / focal``). Returns :class:`poseonly.robust.RansacResult`."""
+    from .geometry import check_correspondences
+
+    f1, f2, _ = check_correspondences(f1, f2)
+    if not theta > 0:
+        raise InputError(f"theta must be > 0, got {theta}")
+    if sample_size > len(f1):
+        raise InputError(f"sample_size n_s = {sample_size} is larger than the number of points {len(f1)}")
+    return _gnc_ransac(f1, f2, theta, _rng(seed), estimator=lirp_estimator(residual), sample_size=sample_size,
+                       max_iterations=max_iterations, gnc_options=GNCOptions(schedule=schedule, scale=scale),
+                       adaptive=adaptive)
