@@ -1,0 +1,201 @@
+"""Shared helpers of the baseline essential-matrix solvers (8pt, 7pt, 5pt, linear 6pt).
+
+Conventions (as everywhere in :mod:`poseonly`): ``X2 = R X1 + t``, ``E = [t]x R``,
+``f2^T E f1 = 0``; ``vec`` is column-major, so the epipolar row of a correspondence is
+``kron(f1, f2)`` and ``row @ vec(E) = f2^T E f1`` (same as :mod:`poseonly.solvers.lirp`).
+
+Every solver has a batched core ``*_batch(f1 (h, n, 3), f2 (h, n, 3), w (h, n) | None)`` that
+returns a fixed number of candidate slots per problem plus a boolean ``mask`` of the slots that
+hold a candidate (e.g. real roots); the public single-problem functions validate their input with
+:func:`poseonly.geometry.check_correspondences` and return only the masked candidates.
+
+:func:`pose_from_essentials` reduces candidates to one pose exactly the way LiRP does (pose-only
+depth conditions of :func:`poseonly.identify.identify_poses`, then the weighted mean PPO residual of
+:func:`poseonly.identify.select_candidate`), so that all solvers are compared on an equal footing.
+"""
+
+from __future__ import annotations
+
+from itertools import product
+
+import numpy as np
+
+from ..geometry import check_correspondences
+from ..identify import identify_poses, select_candidate
+from .lirp import _mat, _pairwise_min_gap
+
+__all__ = [
+    "epipolar_rows",
+    "right_singular",
+    "vec_to_mat",
+    "mat_to_vec",
+    "project_essential",
+    "normalize_frobenius",
+    "det_cubic_tensor",
+    "demazure_cubic_tensor",
+    "monomial_tensor",
+    "pairwise_min_gap",
+    "pose_from_essentials",
+    "prepare",
+]
+
+vec_to_mat = _mat
+pairwise_min_gap = _pairwise_min_gap
+
+
+def mat_to_vec(M: np.ndarray) -> np.ndarray:
+    """Matrix -> column-major ``vec``: ``(..., 3, 3) -> (..., 9)`` (inverse of :func:`vec_to_mat`)."""
+    M = np.asarray(M)
+    return np.swapaxes(M, -1, -2).reshape(M.shape[:-2] + (9,))
+
+
+def prepare(f1, f2, w, min_points: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Validate one correspondence set and add the batch axis: ``(1, n, 3), (1, n, 3), (1, n) | None``.
+
+    Raises :class:`poseonly.geometry.InputError` (a ``ValueError``) for bad shapes, NaN/inf, zero
+    vectors, negative weights or fewer than ``min_points`` (positively weighted) correspondences.
+    """
+    b1, b2, ww = check_correspondences(f1, f2, w, min_points=min_points)
+    return b1[None], b2[None], None if ww is None else ww[None]
+
+
+def epipolar_rows(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
+    """Rows ``w_i kron(f1_i, f2_i)`` of the epipolar system ``A vec(E) = 0``: ``(..., n, 3) -> (..., n, 9)``.
+
+    Rows are scaled by ``w_i`` (not ``sqrt(w_i)``), the convention of the paper's Alg. 1 and of
+    :mod:`poseonly.solvers.lirp`, so weighted baselines and weighted LiRP solve the same LS problem.
+    """
+    A = (f1[..., :, None] * f2[..., None, :]).reshape(f1.shape[:-1] + (9,))
+    if w is not None:
+        A = A * w[..., None]
+    return A
+
+
+def right_singular(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values ``(h, 9)`` (descending) and right singular vectors as rows ``Vt (h, 9, 9)``.
+
+    ``A (h, n, 9)``: for ``n < 9`` zero rows are appended (right singular vectors unchanged, the
+    missing singular values are 0); for ``n > 9`` the SVD is taken of the 9x9 ``R`` factor of a QR
+    of ``A`` (same singular values and right singular vectors without forming ``A^T A``), as
+    :func:`poseonly.solvers.lirp._null_space3` does. ``Vt[:, 9 - k:]`` is the ``k``-dimensional
+    (least-squares) null space, the last row belonging to the smallest singular value.
+    """
+    h, n, _ = A.shape
+    if n < 9:
+        A = np.concatenate([A, np.zeros((h, 9 - n, 9))], axis=1)
+    elif n > 9:
+        A = np.linalg.qr(A, mode="r")
+    _, s, Vt = np.linalg.svd(A)
+    return s, Vt
+
+
+def normalize_frobenius(E: np.ndarray) -> np.ndarray:
+    """Scale ``(..., 3, 3)`` matrices to unit Frobenius norm (zero matrices stay zero)."""
+    nrm = np.linalg.norm(E, axis=(-2, -1), keepdims=True)
+    return E / np.where(nrm > 0, nrm, 1.0)
+
+
+def project_essential(E: np.ndarray) -> np.ndarray:
+    """Nearest essential matrix in Frobenius norm, scaled to unit norm: ``U diag(1, 1, 0) V^T / sqrt(2)``.
+
+    Hartley & Zisserman, Result 11.1 / Sec. 11.7.3 ("enforce the internal constraint": replace the
+    singular values by ``((s1 + s2) / 2, (s1 + s2) / 2, 0)``; the common scale is irrelevant).
+    """
+    U, _, Vt = np.linalg.svd(np.asarray(E, dtype=float))
+    return (U * np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)) @ Vt
+
+
+def monomial_tensor(nvar: int, monomials: list[tuple[int, ...]]) -> np.ndarray:
+    """Map ordered index triples ``(i, j, k)`` of ``nvar`` coefficients to cubic monomials.
+
+    With ``E(c) = sum_i c_i E_i`` every cubic matrix expression is ``sum_{ijk} c_i c_j c_k T_ijk``;
+    the returned ``G (nvar, nvar, nvar, m)`` has ``G[i, j, k, m] = 1`` when ``c_i c_j c_k`` is
+    monomial ``m``. ``monomials`` lists exponent tuples of length ``nvar`` (summing to 3).
+    """
+    index = {tuple(e): m for m, e in enumerate(monomials)}
+    G = np.zeros((nvar, nvar, nvar, len(monomials)))
+    for i, j, k in product(range(nvar), repeat=3):
+        e = [0] * nvar
+        for v in (i, j, k):
+            e[v] += 1
+        G[i, j, k, index[tuple(e)]] += 1.0
+    return G
+
+
+def det_cubic_tensor(B: np.ndarray) -> np.ndarray:
+    """Polarised determinant ``D[..., i, j, k] = B_i[0] . (B_j[1] x B_k[2])`` for ``B (..., m, 3, 3)``.
+
+    ``det(sum_i c_i B_i) = sum_{ijk} c_i c_j c_k D_ijk`` (the determinant is linear in each row).
+    """
+    cr = np.cross(B[..., :, None, 1, :], B[..., None, :, 2, :])  # (..., m, m, 3): B_j[1] x B_k[2]
+    return np.einsum("...ia,...jka->...ijk", B[..., 0, :], cr)
+
+
+def demazure_cubic_tensor(B: np.ndarray) -> np.ndarray:
+    """Polarised Demazure cubics ``T[..., i, j, k] = 2 B_i B_j^T B_k - tr(B_i B_j^T) B_k`` ``(..., m, m, m, 3, 3)``.
+
+    ``2 E E^T E - tr(E E^T) E = sum_{ijk} c_i c_j c_k T_ijk`` for ``E = sum_i c_i B_i``; the nine
+    entries vanish exactly on the essential matrices (Demazure 1988; Faugeras & Maybank 1990).
+    """
+    P = np.einsum("...iab,...jcb->...ijac", B, B)
+    tr = np.einsum("...ijaa->...ij", P)
+    return 2.0 * np.einsum("...ijac,...kcd->...ijkad", P, B) - tr[..., :, :, None, None, None] * B[..., None, None, :, :, :]
+
+
+def pose_from_essentials(
+    E_cands: np.ndarray,
+    f1: np.ndarray,
+    f2: np.ndarray,
+    w: np.ndarray | None = None,
+    mask: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Choose one pose among candidate essential matrices, exactly as LiRP does.
+
+    Each candidate is reduced to one ``(R, t)`` with the pose-only depth conditions (``M1 > 0``,
+    ``M2 > 0``; :func:`poseonly.identify.identify_poses`) and ranked by the weighted mean PPO
+    residual (:func:`poseonly.identify.select_candidate`; candidates failing the depth conditions
+    rank after all valid ones). ``f1, f2, w`` are the correspondences used for this choice: they
+    may be a superset of the points the candidates were computed from (e.g. OpenGV's 5 + 3 scheme).
+
+    Shapes: ``E_cands (k, 3, 3)`` with ``f (n, 3)``, or stacked ``E_cands (h, k, 3, 3)`` with
+    ``f (h, n, 3)``; ``mask (k,)`` / ``(h, k)`` marks the slots that hold a candidate (default all).
+    Returns ``R (3, 3)``, unit ``t (3,)`` (or stacked) and ``info`` with ``best`` (index into the
+    slots, ``-1`` when there is no candidate, in which case ``R, t`` are NaN), ``E`` (the chosen
+    candidate), ``cand_R``, ``cand_t``, ``cand_valid``, ``cand_cost`` (``inf`` for masked slots).
+    """
+    E = np.asarray(E_cands, dtype=float)
+    f1 = np.asarray(f1, dtype=float)
+    f2 = np.asarray(f2, dtype=float)
+    single = E.ndim == 3
+    if single:
+        E, f1, f2 = E[None], f1[None], f2[None]
+        w = None if w is None else np.asarray(w, dtype=float)[None]
+        mask = None if mask is None else np.asarray(mask, bool)[None]
+    h, k = E.shape[:2]
+    if mask is None:
+        mask = np.ones((h, k), bool)
+    if k == 0:
+        R = np.full((h, 3, 3), np.nan)
+        t = np.full((h, 3), np.nan)
+        info = dict(best=np.full(h, -1), E=np.full((h, 3, 3), np.nan), cand_R=np.zeros((h, 0, 3, 3)),
+                    cand_t=np.zeros((h, 0, 3)), cand_valid=np.zeros((h, 0), bool), cand_cost=np.zeros((h, 0)))
+    else:
+        Es = np.where(mask[..., None, None], E, np.eye(3))  # harmless filler for empty slots
+        Es = np.where(np.isfinite(Es), Es, 0.0)
+        R, t, valid, _ = identify_poses(Es, f1, f2, w)
+        cost, _ = select_candidate(R, t, valid, f1, f2, w)
+        cost = np.where(mask, cost, np.inf)
+        key = np.where(valid, cost, cost + 10.0)  # same ranking rule as select_candidate
+        best = np.argmin(key, axis=-1)
+        none = ~np.any(mask, axis=-1)
+        idx = np.arange(h)
+        Rb = np.where(none[:, None, None], np.nan, R[idx, best])
+        tb = np.where(none[:, None], np.nan, t[idx, best])
+        info = dict(best=np.where(none, -1, best), E=np.where(none[:, None, None], np.nan, E[idx, best]),
+                    cand_R=R, cand_t=t, cand_valid=valid & mask, cand_cost=cost)
+        R, t = Rb, tb
+    if single:
+        info = {key: (val[0] if isinstance(val, np.ndarray) else val) for key, val in info.items()}
+        info["best"] = int(info["best"])
+        return R[0], t[0], info
+    return R, t, info
