@@ -1,0 +1,196 @@
+"""Command-line interface (thin: parses, calls the library, prints).
+
+    poseonly demo [--draw out.png] [--json]
+    poseonly relpose IMG1 IMG2 (--K K.txt | --K1 A --K2 B | --focal F [--pp CX CY]) [--json] [--draw out.png]
+    poseonly relpose --matches matches.npz [--K ...]
+    poseonly experiment NAME [--trials N] [--quick] [--out DIR] [...]
+    poseonly bench NAME [...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from . import __version__
+
+
+class CLIError(Exception):
+    pass
+
+
+def _load_K(path: str) -> np.ndarray:
+    p = Path(path)
+    if not p.is_file():
+        raise CLIError(f"calibration file not found: {path}")
+    try:
+        K = np.loadtxt(p, dtype=float)
+    except ValueError as exc:
+        raise CLIError(f"could not read a 3x3 matrix from {path}: {exc}") from None
+    if K.shape != (3, 3):
+        raise CLIError(f"{path} must contain a 3x3 matrix, found shape {K.shape}")
+    return K
+
+
+def _intrinsics(args, image_size=None):
+    if args.K:
+        K = _load_K(args.K)
+        return K, K
+    if args.K1 or args.K2:
+        if not (args.K1 and args.K2):
+            raise CLIError("give both --K1 and --K2 (or --K for a shared calibration)")
+        return _load_K(args.K1), _load_K(args.K2)
+    if args.focal:
+        if args.pp:
+            cx, cy = args.pp
+        elif image_size is not None:
+            cx, cy = (image_size[0] - 1) / 2.0, (image_size[1] - 1) / 2.0
+        else:
+            raise CLIError("--focal needs --pp CX CY when the image size is unknown")
+        K = np.array([[args.focal, 0, cx], [0, args.focal, cy], [0, 0, 1.0]])
+        return K, K
+    return None, None
+
+
+def _fmt_pose(R, t) -> str:
+    rows = "\n".join("  [" + ", ".join(f"{v: .6f}" for v in r) + "]" for r in R)
+    return f"R =\n{rows}\nt = [" + ", ".join(f"{v: .6f}" for v in t) + "]"
+
+
+def cmd_demo(args) -> int:
+    from .pipeline import run_demo
+
+    d = run_demo(draw=None if args.no_draw else args.draw, method=args.method, seed=args.seed)
+    if args.json:
+        print(json.dumps({k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in d.items()}, indent=2))
+        return 0
+    print(f"poseonly {__version__} demo: {d['pair']} (embedded, 960x640)")
+    print(f"matches: {d['num_matches']}, inliers: {d['num_inliers']} ({100 * d['inlier_ratio']:.1f}%), status: {d['status']}")
+    print("estimated pose (X2 = R X1 + t):")
+    print(_fmt_pose(d["R"], d["t"]))
+    print("ground truth:")
+    print(_fmt_pose(d["R_gt"], d["t_gt"]))
+    print(f"rotation error: {d['rotation_error_deg']:.4f} deg, translation direction error: {d['translation_error_deg']:.3f} deg")
+    print(f"time: features+matching {d['time_features_s']:.2f} s, robust estimation {d['time_estimate_s'] * 1e3:.1f} ms")
+    if "drawing" in d:
+        print(f"match drawing: {d['drawing']} (green inliers, red outliers)")
+    return 0
+
+
+def cmd_relpose(args) -> int:
+    from .pipeline import draw_matches, relpose_images, relpose_matches
+
+    opts = {"method": args.method, "threshold_px": args.threshold, "seed": args.seed}
+    if args.matches:
+        from .features import load_matches_npz
+
+        md = load_matches_npz(args.matches)
+        K1, K2 = _intrinsics(args)
+        if K1 is None:
+            K1, K2 = md.K1, md.K2
+        if K1 is None:
+            raise CLIError("no calibration: pass --K, --K1/--K2 or --focal/--pp, or store K in the npz")
+        pr = relpose_matches(md.u1, md.u2, K1, K2, **opts)
+        imgs = None
+    else:
+        if not (args.image1 and args.image2):
+            raise CLIError("give two images (IMG1 IMG2) or --matches FILE")
+        from .features import read_image
+
+        im = read_image(args.image1)
+        read_image(args.image2)
+        K1, K2 = _intrinsics(args, (im.shape[1], im.shape[0]))
+        if K1 is None:
+            raise CLIError("no calibration: pass --K K.txt, --K1/--K2, or --focal F [--pp CX CY]")
+        pr = relpose_images(args.image1, args.image2, K1, K2, ratio=args.ratio, cache_dir=args.cache, **opts)
+        imgs = (args.image1, args.image2)
+    r = pr.result
+    if args.draw and imgs:
+        draw_matches(imgs[0], imgs[1], pr.u1, pr.u2, r.inliers, args.draw)
+    if args.json:
+        d = r.to_dict()
+        d.update(num_matches=int(len(pr.u1)), time_features_s=pr.time_features_s, time_estimate_s=pr.time_estimate_s)
+        print(json.dumps(d, indent=2))
+    else:
+        print(_fmt_pose(r.R, r.t))
+        print(f"inliers: {r.num_inliers} / {len(pr.u1)} matches ({100 * r.inlier_ratio:.1f}%)")
+        print(f"status: {r.status}: {r.message}")
+        print(f"time: features+matching {pr.time_features_s:.2f} s, estimation {pr.time_estimate_s * 1e3:.1f} ms")
+    return 0 if r.status != "degenerate" else 2
+
+
+def cmd_experiment(args) -> int:
+    from . import experiments
+
+    mod = experiments.load(args.name)
+    return int(mod.run(args) or 0)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="poseonly", description="Robust two-view relative pose founded on pose-only imaging geometry")
+    p.add_argument("--version", action="version", version=f"poseonly {__version__}")
+    sub = p.add_subparsers(dest="cmd", required=True)
+
+    d = sub.add_parser("demo", help="run the whole pipeline on the embedded real image pair")
+    d.add_argument("--draw", default="poseonly_demo_matches.png", help="where to write the match drawing")
+    d.add_argument("--no-draw", action="store_true")
+    d.add_argument("--json", action="store_true")
+    d.add_argument("--method", default="poseonly")
+    d.add_argument("--seed", type=int, default=0)
+    d.set_defaults(func=cmd_demo)
+
+    r = sub.add_parser("relpose", help="relative pose of two images (or of a matches file)")
+    r.add_argument("image1", nargs="?")
+    r.add_argument("image2", nargs="?")
+    r.add_argument("--matches", help="npz with u1, u2 (and optionally K or K1, K2)")
+    r.add_argument("--K", help="text file with the shared 3x3 calibration matrix")
+    r.add_argument("--K1")
+    r.add_argument("--K2")
+    r.add_argument("--focal", type=float)
+    r.add_argument("--pp", type=float, nargs=2, metavar=("CX", "CY"))
+    r.add_argument("--method", default="poseonly")
+    r.add_argument("--threshold", type=float, default=2.0, help="inlier threshold in pixels")
+    r.add_argument("--ratio", type=float, default=0.8, help="Lowe ratio")
+    r.add_argument("--cache", help="feature cache directory")
+    r.add_argument("--seed", type=int, default=0)
+    r.add_argument("--json", action="store_true")
+    r.add_argument("--draw", help="write a match drawing (PNG)")
+    r.set_defaults(func=cmd_relpose)
+
+    e = sub.add_parser("experiment", help="reproduce one of the paper's experiments")
+    esub = e.add_subparsers(dest="name", required=True)
+    from . import experiments
+
+    for name in experiments.EXPERIMENTS:
+        ep = esub.add_parser(name)
+        ep.add_argument("--trials", type=int, default=None, help="Monte Carlo trials (default: the paper's)")
+        ep.add_argument("--quick", action="store_true", help="a few trials (smoke test)")
+        ep.add_argument("--out", default="docs/results", help="output directory for tables and figures")
+        ep.add_argument("--seed", type=int, default=0)
+        try:
+            experiments.load(name).add_arguments(ep)
+        except ImportError:
+            pass
+        ep.set_defaults(func=cmd_experiment)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except (CLIError, ValueError, ImportError, OSError) as exc:
+        print(f"poseonly: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("poseonly: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
