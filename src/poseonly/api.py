@@ -41,7 +41,7 @@ import numpy as np
 
 from .estimator import get_estimator, lirp_estimator
 from .geometry import InputError, as_bearings, check_intrinsics, essential_from_pose, rotation_error_deg
-from .residuals import v_LiGT, v_sampson
+from .residuals import ligt_depths, v_LiGT, v_sampson
 from .robust.gnc import GNCOptions, gnc_irls_batch
 from .robust.ransac import gnc_ransac as _gnc_ransac
 from .robust.ransac import ransac
@@ -67,6 +67,7 @@ _OPTS: dict[str, dict[str, tuple]] = {
         "solver": ((str,), None, "lirp"),
         "batch": ((int, np.integer), lambda v: v >= 1, 128),
         "max_lo": ((int, np.integer), lambda v: v >= 0, 8),
+        "preemptive": ((int, np.integer), lambda v: v >= 0, 32),
     },
     "gnc-ransac": {
         "max_iterations": ((int, np.integer), lambda v: v >= 1, 50),
@@ -216,7 +217,9 @@ def _analyse(R, t, f1, f2, w, tau, inl):
         far = valid & (rotation_error_deg(R, cR) > 0.5)
         if np.any(far):
             v = v_sampson(cR[far], ct[far], f1[sel], f2[sel])
-            cnt = np.count_nonzero(v < tau, axis=1)
+            h, hp, _ = ligt_depths(cR[far], ct[far], f1[sel], f2[sel])
+            # a twin must explain the inliers (Sampson) with them in front of both cameras
+            cnt = np.count_nonzero((v < tau) & (h > 0) & (hp > 0), axis=1)
             k = int(np.argmax(cnt))
             info["twin_candidate_inliers"] = int(cnt[k])
             if cnt[k] >= 0.9 * len(sel):
@@ -266,15 +269,19 @@ def _finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_in
 # methods
 
 
-def _refine(R, t, f1, f2, inl, tau):
-    """LiGTopt on the inliers (robust Cauchy loss at the threshold scale)."""
-    try:
-        from .refine import ligt_refine
-    except ImportError:  # pragma: no cover - refine is part of the package
-        return R, t
+def _refine(R, t, f1, f2, inl, tau, normalization="none"):
+    """LiGTopt on the inliers with a robust Cauchy loss at the threshold scale.
+
+    ``normalization="none"`` is the paper's LiGTopt (Eq. 9 residual ``||L~_i t||``);
+    ``"angular"`` divides each residual by ``theta_i^2 ||z_i R f1_i + t||`` (the sine of the view-2
+    reprojection angle), which measured as accurate as Sampson/ML refinement while the paper's
+    weighting is not better than LiRP itself (docs/RESULTS.md).
+    """
+    from .refine.ligt import ligt_refine
+
     if inl.sum() < 6:
         return R, t
-    r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau)
+    r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization=normalization)
     if np.all(np.isfinite(r.R)) and np.all(np.isfinite(r.t)):
         return r.R, r.t
     return R, t
@@ -295,12 +302,14 @@ def _run_poseonly(f1, f2, o, tau):
     r = ransac(
         f1, f2, est, tau, rng, max_iterations=o["max_iterations"], min_iterations=o["min_iterations"],
         confidence=o["confidence"], batch=o["batch"], scoring="msac", local_optimization=lo, max_lo=o["max_lo"],
+        preemptive=o["preemptive"],
     )
-    R, t = r.R, r.t
+    # final stage: GNC-IRLS from the consensus set identifies the pose with the pose-only depth
+    # conditions on all inliers (hypotheses were only checked on their own sample), then LiGTopt
+    R, t = lo(r.R, r.t, v_sampson(r.R, r.t, f1, f2) < tau)
     if o["refine"]:
-        inl = v_sampson(R, t, f1, f2) < tau
-        R, t = _refine(R, t, f1, f2, inl, tau)
-    return R, t, None, r.num_iterations, {"num_lo": r.num_lo, "ransac_score": r.score}
+        R, t = _refine(R, t, f1, f2, v_sampson(R, t, f1, f2) < tau, tau, normalization="angular")
+    return R, t, None, r.num_iterations, {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored}
 
 
 def _run_gnc_ransac(f1, f2, o, tau):

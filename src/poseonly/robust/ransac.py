@@ -32,6 +32,7 @@ class RansacResult:
     score: float
     num_iterations: int
     num_lo: int = 0
+    num_scored: int = 0
     weights: np.ndarray | None = None
 
 
@@ -79,20 +80,27 @@ def ransac(
     score_residual: Callable | None = None,
     local_optimization: Callable | None = None,
     max_lo: int = 10,
+    preemptive: int = 0,
 ) -> RansacResult:
     """Generic batched RANSAC / MSAC with optional LO (see the module docstring).
 
     ``score_residual`` (default ``estimator.residual``) and ``threshold`` define inliers.
     ``local_optimization(R, t, inliers) -> (R, t)`` is called on every new best model (at most
     ``max_lo`` times); its result replaces the best model when it scores at least as well.
+    ``preemptive > 0`` first scores each hypothesis on that many random points and fully scores only
+    those reaching half the inlier count the current best model implies (saves most of the scoring
+    at high outlier ratios; a good hypothesis is rejected with probability ``P(Bin(d, w) < d w / 2)``).
     """
     res = score_residual or estimator.residual
     n = len(f1)
     m = estimator.sample_size
     best = (-np.inf, np.eye(3), np.zeros(3))
+    best_ratio = 0.0
     it = 0
     num_lo = 0
+    num_scored = 0
     needed = float(max_iterations)
+    pre = min(int(preemptive), n) if preemptive else 0
     while it < max_iterations and (it < needed or it < min_iterations):
         b = int(min(batch, max_iterations - it))
         idx = sample_indices(rng, n, m, b)
@@ -104,6 +112,16 @@ def ransac(
         it += b
         if len(R) == 0:
             continue
+        if pre and pre < n and best_ratio > 0:
+            # preemptive test (in the spirit of the T(d,d) test): score a random subset first and keep
+            # hypotheses whose subset inlier count reaches half of what the best model would give
+            sub = rng.choice(n, size=pre, replace=False)
+            cnt = np.count_nonzero(res(R, t, f1[sub], f2[sub]) < threshold, axis=1)
+            keep = cnt >= max(1.0, 0.5 * best_ratio * pre)
+            R, t = R[keep], t[keep]
+            if len(R) == 0:
+                continue
+        num_scored += len(R)
         v = res(R, t, f1, f2)
         s, _ = _score(v, threshold, scoring)
         k = int(np.argmax(s))
@@ -116,12 +134,12 @@ def ransac(
                 s_lo, _ = _score(res(R_lo, t_lo, f1, f2), threshold, scoring)
                 if s_lo >= best[0]:
                     best = (float(s_lo), R_lo, t_lo)
+            best_ratio = np.count_nonzero(res(best[1], best[2], f1, f2) < threshold) / n
             if adaptive:
-                w = np.count_nonzero(res(best[1], best[2], f1, f2) < threshold) / n
-                needed = adaptive_iterations(w, m, confidence)
+                needed = adaptive_iterations(best_ratio, m, confidence)
     _, R, t = best
     v = res(R, t, f1, f2)
-    return RansacResult(R=R, t=t, inliers=v < threshold, residuals=v, score=best[0], num_iterations=it, num_lo=num_lo)
+    return RansacResult(R=R, t=t, inliers=v < threshold, residuals=v, score=best[0], num_iterations=it, num_lo=num_lo, num_scored=num_scored)
 
 
 def gnc_ransac(
