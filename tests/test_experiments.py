@@ -1,0 +1,88 @@
+"""Experiments end-to-end (``--quick``) and the OpenGV-default RANSAC + 5pt baseline."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from poseonly.cli import main
+from poseonly.geometry import normalize, rotation_error_deg
+from poseonly.residuals import v_E
+from poseonly.sim import make_scene
+
+pytest.importorskip("matplotlib")
+
+EXPERIMENTS = ["table2", "noise", "residuals", "gnc-ransac", "chirality"]
+
+
+@pytest.mark.parametrize("name", EXPERIMENTS)
+def test_experiment_quick_end_to_end(name, tmp_path, capsys):
+    assert main(["experiment", name, "--quick", "--out", str(tmp_path)]) == 0
+    for ext in ("md", "json", "png"):
+        f = tmp_path / f"{name}.{ext}"
+        assert f.is_file() and f.stat().st_size > 0, f
+    data = json.loads((tmp_path / f"{name}.json").read_text())
+    assert data["trials"] >= 1
+    md = (tmp_path / f"{name}.md").read_text()
+    assert "|" in md
+    assert md.splitlines()[0] in capsys.readouterr().out  # the table is printed too
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_opengv_ransac_5pt_exact_with_outliers(seed):
+    from poseonly.experiments.opengv_ransac import opengv_ransac_5pt
+
+    sc = make_scene(100, "normal", "wide", 0.0, 0.3, seed=seed)
+    r = opengv_ransac_5pt(sc.f1, sc.f2, np.random.default_rng(seed), max_iterations=1000)
+    assert rotation_error_deg(sc.R, r.R) < 1e-6
+    assert np.degrees(np.arccos(np.clip(r.t @ sc.t, -1, 1))) < 1e-6
+    assert np.array_equal(r.inliers, sc.inliers)
+    assert r.num_inliers == 70
+    # adaptive stop: w = 0.7, sample size 8 -> k = log(0.01) / log(1 - 0.7^8) ~ 78 samples
+    assert r.num_iterations <= 100
+
+
+def test_opengv_ransac_5pt_iteration_cap_and_input():
+    from poseonly.experiments.opengv_ransac import OPENGV_THRESHOLD, opengv_ransac_5pt
+
+    assert OPENGV_THRESHOLD == pytest.approx(7.8125e-7, rel=1e-4)
+    sc = make_scene(60, "normal", "wide", 1.0, 0.8, seed=3)
+    r = opengv_ransac_5pt(sc.f1, sc.f2, 0, max_iterations=50)
+    assert r.num_iterations <= 51  # OpenGV stops once iterations > max_iterations
+    with pytest.raises(ValueError):
+        opengv_ransac_5pt(sc.f1[:7], sc.f2[:7], 0)
+
+
+def test_no_chirality_generator_keeps_points_behind_the_cameras():
+    from poseonly.experiments.chirality import make_scene_no_chirality
+
+    sc = make_scene_no_chirality(200, 0.0, 0.0, seed=4)
+    X2 = sc.X @ sc.R.T + sc.baseline * sc.t
+    behind = (sc.X[:, 2] <= 0) | (X2[:, 2] <= 0)
+    assert 0.2 < behind.mean() < 0.9
+    assert np.max(v_E(sc.R, sc.t, sc.f1, sc.f2)) < 1e-12  # still exact two-view geometry
+    assert np.allclose(sc.f1, normalize(sc.X))
+
+
+def test_planar_twin_is_another_exact_pose_or_none():
+    """Wide-angle planar scenes rarely have an exact twin (its reconstruction usually puts points
+    behind a camera, which the PPO residual sees); when one exists it is a distinct exact pose."""
+    from poseonly.experiments.gnc_ransac import planar_twin
+    from poseonly.solvers.lirp import lirp
+
+    found = 0
+    for seed in range(30):
+        sc = make_scene(300, "planar", "wide", 0.0, 0.0, seed=seed)
+        tw = planar_twin(sc)
+        if tw is None:
+            continue
+        found += 1
+        assert rotation_error_deg(sc.R, tw) > 0.5
+        b1, b2 = normalize(sc.X), normalize(sc.X @ sc.R.T + sc.baseline * sc.t)
+        o = lirp(b1, b2)
+        k = int(np.argmin(rotation_error_deg(tw, o.candidates_R)))
+        assert np.max(v_E(o.candidates_R[k], o.candidates_t[k], b1, b2)) < 1e-8
+    assert found >= 1
+    assert planar_twin(make_scene(300, "planar", "wide", 0.0, 0.0, seed=0)) is None
