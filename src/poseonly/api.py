@@ -46,6 +46,7 @@ from .robust.gnc import GNCOptions, gnc_irls_batch
 from .robust.ransac import gnc_ransac as _gnc_ransac
 from .robust.ransac import ransac
 from .solvers.lirp import lirp_batch
+from .twin import homography_twin
 
 __all__ = ["estimate_relative_pose", "RelativePoseResult", "gnc_irls", "gnc_ransac", "METHODS", "DEFAULT_METHOD"]
 
@@ -68,6 +69,7 @@ _OPTS: dict[str, dict[str, tuple]] = {
         "batch": ((int, np.integer), lambda v: v >= 1, 128),
         "max_lo": ((int, np.integer), lambda v: v >= 0, 8),
         "preemptive": ((int, np.integer), lambda v: v >= 0, 32),
+        "lo_residual": ((str,), None, "sampson"),
     },
     "gnc-ransac": {
         "max_iterations": ((int, np.integer), lambda v: v >= 1, 50),
@@ -206,31 +208,38 @@ def _parallax_deg(R, f1, f2, inl):
     return float(np.degrees(np.median(np.arccos(c))))
 
 
-def _analyse(R, t, f1, f2, w, tau, inl):
-    """Homography twin among the LiRP candidates on the inliers, and the pure-rotation test."""
+def _analyse(R, t, f1, f2, tau, inl):
+    """Planar homography twin (:mod:`poseonly.twin`) and the pure-rotation test on the inliers."""
     info: dict[str, Any] = {}
     twin = None
     sel = np.nonzero(inl)[0]
-    if len(sel) >= 6:
-        o = lirp_batch(f1[sel][None], f2[sel][None], None if w is None else w[sel][None])
-        cR, ct, valid = o["cand_R"][0], o["cand_t"][0], o["cand_valid"][0]
-        far = valid & (rotation_error_deg(R, cR) > 0.5)
-        if np.any(far):
-            v = v_sampson(cR[far], ct[far], f1[sel], f2[sel])
-            h, hp, _ = ligt_depths(cR[far], ct[far], f1[sel], f2[sel])
-            # a twin must explain the inliers (Sampson) with them in front of both cameras
-            cnt = np.count_nonzero((v < tau) & (h > 0) & (hp > 0), axis=1)
-            k = int(np.argmax(cnt))
-            info["twin_candidate_inliers"] = int(cnt[k])
-            if cnt[k] >= 0.9 * len(sel):
-                idx = np.nonzero(far)[0][k]
-                twin = (cR[idx], ct[idx], int(cnt[k]))
-    # pure rotation: the inliers fit X2 ~ R X1 within the threshold (angle between R f1 and f2)
+    tw = homography_twin(R, t, f1[sel], f2[sel]) if len(sel) >= 6 else None
+    if tw is not None:
+        info["planarity"] = tw[2]
+        sup = _support(np.stack([R, tw[0]]), np.stack([t, tw[1]]), f1, f2, tau).sum(axis=1)
+        info["support"], info["twin_support"] = int(sup[0]), int(sup[1])
+        if sup[1] >= 0.9 * sup[0] and rotation_error_deg(R, tw[0]) > 0.1:
+            twin = (tw[0], tw[1], int(sup[1]))
     par = _parallax_deg(R, f1, f2, inl)
-    if np.any(inl):
-        ang = np.arccos(np.clip(np.sum((f1[inl] @ R.T) * f2[inl], axis=1), -1, 1))
+    if len(sel) >= 3:
+        # pure-rotation model X2 ~ R_rot X1 fitted to the inliers (Kabsch, one re-selection)
+        Rr = _kabsch(f1[sel], f2[sel])
+        ang = np.arccos(np.clip(np.sum((f1[sel] @ Rr.T) * f2[sel], axis=1), -1, 1))
+        if np.count_nonzero(ang < 2.0 * tau) >= 3:
+            keep = sel[ang < 2.0 * tau]
+            Rr = _kabsch(f1[keep], f2[keep])
+            ang = np.arccos(np.clip(np.sum((f1[sel] @ Rr.T) * f2[sel], axis=1), -1, 1))
         info["rotation_only_fraction"] = float(np.mean(ang < 2.0 * tau))
+        info["R_rotation_only"] = Rr
+        par = float(np.degrees(np.median(ang)))
     return twin, par, info
+
+
+def _kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Rotation ``R`` minimising ``sum ||b_i - R a_i||^2`` (unit bearings)."""
+    U, _, Vt = np.linalg.svd(b.T @ a)
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
+    return U @ D @ Vt
 
 
 def _finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inliers=6) -> RelativePoseResult:
@@ -240,23 +249,25 @@ def _finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_in
     weights = inl.astype(float) if w is None else w
     twin, par, info = (None, float("nan"), {})
     if n_in >= 6:
-        twin, par, info = _analyse(R, t, f1, f2, None, tau, inl)
-    diag.update(info)
+        twin, par, info = _analyse(R, t, f1, f2, tau, inl)
     R_twin = t_twin = None
     twin_n = 0
     if n_in < max(6, min_inliers):
         status, msg = "too_few_inliers", f"only {n_in} inliers within {thr_px:g} px: the pose is not reliable"
     elif info.get("rotation_only_fraction", 0.0) > 0.9:
         status = "pure_rotation"
+        R = info.pop("R_rotation_only")  # the rotation-only fit is the better estimate of R here
         msg = (f"{100 * info['rotation_only_fraction']:.0f}% of the inliers fit a pure rotation within "
                f"{2 * thr_px:g} px (median parallax {par:.3f} deg): R is reliable, the translation direction is not")
     elif twin is not None:
         status = "planar_ambiguous"
         R_twin, t_twin, twin_n = twin
         msg = (f"the inliers are explained by two poses {rotation_error_deg(R, R_twin):.2f} deg apart "
-               f"(planar scene, homography twin with {twin_n} of {n_in} inliers); see R_twin, t_twin")
+               f"(planar scene: the homography twin keeps {twin_n} inliers in front of both cameras); see R_twin, t_twin")
     else:
         status, msg = "ok", f"{n_in} inliers within {thr_px:g} px"
+    info.pop("R_rotation_only", None)
+    diag.update(info)
     return RelativePoseResult(
         R=R, t=t, E=essential_from_pose(R, t), inliers=inl, weights=np.asarray(weights, float), residuals_px=v * focal,
         num_inliers=n_in, num_iterations=int(iters), status=status, message=msg, method=method, threshold_px=float(thr_px),
@@ -267,6 +278,32 @@ def _finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_in
 
 # ------------------------------------------------------------------------------------------------
 # methods
+
+
+def _support(R, t, f1, f2, tau):
+    """Inliers of stacked poses ``(h,3,3), (h,3)``: Sampson error below ``tau`` and positive depths."""
+    v = v_sampson(R, t, f1, f2)
+    h, hp, _ = ligt_depths(R, t, f1, f2)
+    return (v < tau) & (h > 0) & (hp > 0)
+
+
+def _select_by_support(R, t, f1, f2, tau):
+    """Best of ``(R, t)`` and the LiRP candidates on its consensus set, by cheirality-consistent support."""
+    inl = _support(R[None], t[None], f1, f2, tau)[0]
+    sel = np.nonzero(v_sampson(R, t, f1, f2) < tau)[0]
+    if len(sel) < 6:
+        return R, t
+    o = lirp_batch(f1[sel][None], f2[sel][None])
+    cR = [R[None], o["cand_R"][0]]
+    ct = [t[None], o["cand_t"][0]]
+    tw = homography_twin(R, t, f1[sel], f2[sel])
+    if tw is not None:
+        cR.append(tw[0][None])
+        ct.append(tw[1][None])
+    cR, ct = np.concatenate(cR), np.concatenate(ct)
+    sup = _support(cR, ct, f1, f2, tau).sum(axis=1)
+    k = int(np.argmax(sup))
+    return (cR[k], ct[k]) if sup[k] > inl.sum() else (R, t)
 
 
 def _refine(R, t, f1, f2, inl, tau, normalization="none"):
@@ -290,7 +327,7 @@ def _refine(R, t, f1, f2, inl, tau, normalization="none"):
 def _run_poseonly(f1, f2, o, tau):
     rng = _rng(o["seed"])
     est = get_estimator(o["solver"], "sampson")
-    lirp_ligt = lirp_estimator("ligt")
+    lirp_ligt = lirp_estimator(o["lo_residual"])
     gopts = GNCOptions(noise_bound=tau, max_iterations=30)
 
     def lo(R, t, inl):
@@ -304,9 +341,12 @@ def _run_poseonly(f1, f2, o, tau):
         confidence=o["confidence"], batch=o["batch"], scoring="msac", local_optimization=lo, max_lo=o["max_lo"],
         preemptive=o["preemptive"],
     )
-    # final stage: GNC-IRLS from the consensus set identifies the pose with the pose-only depth
-    # conditions on all inliers (hypotheses were only checked on their own sample), then LiGTopt
+    # final stage: GNC-IRLS from the consensus set, then the pose-only choice among that fit and the
+    # LiRP candidates of the consensus set by cheirality-consistent support (the Sampson score of
+    # RANSAC cannot tell a planar scene's homography twin from the truth; depth signs can)
     R, t = lo(r.R, r.t, v_sampson(r.R, r.t, f1, f2) < tau)
+    R, t = _select_by_support(R, t, f1, f2, tau)
+    R, t = lo(R, t, _support(R[None], t[None], f1, f2, tau)[0])
     if o["refine"]:
         R, t = _refine(R, t, f1, f2, v_sampson(R, t, f1, f2) < tau, tau, normalization="angular")
     return R, t, None, r.num_iterations, {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored}

@@ -1,0 +1,90 @@
+"""The planar two-fold ambiguity: the homography twin of a pose (notes section 5).
+
+Points on a plane ``n^T X1 = d`` satisfy ``X2 = (R + t n^T / d) X1 = H X1``. A homography has (up
+to sign) two decompositions ``(R, t, n)`` with all points in front of both cameras; both explain the
+plane's correspondences exactly, so no two-view residual can tell them apart. Given a pose and its
+inliers, :func:`homography_twin` fits the dominant plane to the triangulated inliers, forms ``H``
+and returns the other decomposition. Decomposition: Ma, Soatto, Kosecka, Sastry, *An Invitation to
+3-D Vision*, Sec. 5.3.3 (the SVD method of Faugeras & Lustman 1988).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .geometry import normalize, rotation_error_deg, triangulate_midpoint
+
+__all__ = ["decompose_homography", "homography_twin", "fit_plane"]
+
+
+def decompose_homography(H: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The four ``(R, t/d, n)`` of a calibrated homography ``H ~ R + t n^T / d``.
+
+    Returns ``R (4, 3, 3)``, ``T (4, 3)`` (``t / d``) and unit normals ``N (4, 3)``; the sign of
+    ``H`` is fixed so that the middle singular value is ``+1``.
+    """
+    H = np.asarray(H, float)
+    s = np.linalg.svd(H, compute_uv=False)
+    H = H / s[1]
+    _, S2, Vt = np.linalg.svd(H.T @ H)
+    V = Vt.T
+    if np.linalg.det(V) < 0:
+        V = -V
+    s1, s3 = S2[0], S2[2]
+    v1, v2, v3 = V[:, 0], V[:, 1], V[:, 2]
+    den = np.sqrt(max(s1 - s3, 1e-300))
+    a = np.sqrt(max(1.0 - s3, 0.0))
+    b = np.sqrt(max(s1 - 1.0, 0.0))
+    Rs, Ts, Ns = [], [], []
+    for u in ((a * v1 + b * v3) / den, (a * v1 - b * v3) / den):
+        U = np.column_stack([v2, u, np.cross(v2, u)])
+        W = np.column_stack([H @ v2, H @ u, np.cross(H @ v2, H @ u)])
+        R = W @ U.T
+        N = np.cross(v2, u)
+        T = (H - R) @ N
+        Rs += [R, R]
+        Ts += [T, -T]
+        Ns += [N, -N]
+    return np.array(Rs), np.array(Ts), np.array(Ns)
+
+
+def fit_plane(X: np.ndarray) -> tuple[np.ndarray, float, float]:
+    """Least-squares plane ``n^T X = d`` through points ``X (m, 3)``; returns ``n, d, rms / spread``."""
+    c = X.mean(axis=0)
+    _, s, Vt = np.linalg.svd(X - c, full_matrices=False)
+    n = Vt[2]
+    d = float(n @ c)
+    if d < 0:
+        n, d = -n, -d
+    return n, d, float(s[2] / max(s[1], 1e-300))
+
+
+def homography_twin(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> tuple[np.ndarray, np.ndarray, float] | None:
+    """The other physically valid decomposition of the homography induced by the dominant plane.
+
+    ``f1, f2`` are the inlier bearings of ``(R, t)``. Returns ``(R_twin, t_twin (unit), planarity)``
+    where planarity is the ratio of the smallest to the middle singular value of the centred points
+    (0 for an exact plane), or ``None`` when fewer than 4 points triangulate in front of the cameras.
+    """
+    t = normalize(np.asarray(t, float))
+    X1, z1, z2 = triangulate_midpoint(R, t, f1, f2)
+    ok = (z1 > 0) & (z2 > 0)
+    if ok.sum() < 4:
+        return None
+    n, d, planarity = fit_plane(X1[ok])
+    if d <= 0:
+        return None
+    H = R + np.outer(t, n) / d
+    Rs, Ts, Ns = decompose_homography(H)
+    # physically valid: the inliers lie in front of camera 1 on the plane side (n . f1 > 0)
+    front = np.array([np.mean(f1 @ N > 0) for N in Ns])
+    cand = [k for k in range(4) if front[k] > 0.5 and np.linalg.norm(Ts[k]) > 1e-12]
+    if not cand:
+        return None
+    errs = np.array([rotation_error_deg(R, Rs[k]) + np.degrees(np.arccos(np.clip(normalize(Ts[k]) @ t, -1, 1))) for k in cand])
+    # the decomposition closest to (R, t) is the pose itself; the other valid one is the twin
+    order = np.argsort(errs)
+    if len(order) < 2:
+        return None
+    k = cand[order[1]]
+    return Rs[k], normalize(Ts[k]), planarity
