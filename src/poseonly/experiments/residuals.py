@@ -16,9 +16,10 @@ Reference (dashed in the figure): RANSAC + Stewenius 5pt with OpenGV's test defa
 ``2 (1 - cos(atan(sqrt(2) 0.5 / 800)))``).
 
 Scores: mean and median rotation error (deg) and the success rate (error < 1 deg). Planar scenes
-additionally report the success rate against the nearer of the truth and its homography twin (see
-:func:`poseonly.experiments.gnc_ransac.planar_twin`), because no method can tell the two apart from
-the data. Scenes: ``make_scene(n, kind, "wide", 1.0, outlier_fraction, seed + trial)``.
+additionally report the success rate against the nearer of the truth and its homography twin
+(chirality-valid LiRP twin, :func:`poseonly.experiments.gnc_ransac.planar_twin`, and the homography
+twin ignoring chirality, :func:`poseonly.experiments.gnc_ransac.homography_twin`), because no
+method can tell a pose from an exact twin from the data. Scenes: ``make_scene(n, kind, "wide", 1.0, outlier_fraction, seed + trial)``.
 """
 
 from __future__ import annotations
@@ -57,16 +58,18 @@ def pixel_bound(residual: str, bound_px: float = 2.0, focal: float = 800.0) -> f
     return 1.0 - math.cos(a) if residual == "opengv" else a
 
 
-def _summary(e: np.ndarray, e_twin: np.ndarray | None = None) -> dict:
+def _summary(e: np.ndarray, e_twin: np.ndarray | None = None, e_htwin: np.ndarray | None = None) -> dict:
     d = {"mean": float(np.mean(e)), "median": float(np.median(e)), "success": float(np.mean(e < 1.0))}
     if e_twin is not None:
         d["success_twin"] = float(np.mean(np.minimum(e, e_twin) < 1.0))
         d["mean_twin"] = float(np.mean(np.minimum(e, e_twin)))
+    if e_htwin is not None:
+        d["success_htwin"] = float(np.mean(np.minimum(e, e_htwin) < 1.0))
     return d
 
 
 def compute(trials: int, n: int = 30, outliers=OUTLIERS, noise: float = 1.0, seed: int = 0, bound_px: float = 2.0) -> dict:
-    from .gnc_ransac import planar_twin
+    from .gnc_ransac import homography_twin, planar_twin
 
     variants = {"paper": None, "pixel": bound_px}
     methods = [f"{LABELS[r]} ({v})" for v in variants for r in RESIDUALS] + [REF]
@@ -86,6 +89,8 @@ def compute(trials: int, n: int = 30, outliers=OUTLIERS, noise: float = 1.0, see
             if kind == "planar":
                 tw = [planar_twin(s) for s in scenes]
                 Rtw = np.stack([t if t is not None else np.full((3, 3), np.nan) for t in tw])
+                htw = [homography_twin(s) for s in scenes]
+                Rhtw = np.stack([t if t is not None else np.full((3, 3), np.nan) for t in htw])
             for var, b in variants.items():
                 for r in RESIDUALS:
                     opts = GNCOptions() if b is None else GNCOptions(noise_bound=pixel_bound(r, b))
@@ -94,20 +99,24 @@ def compute(trials: int, n: int = 30, outliers=OUTLIERS, noise: float = 1.0, see
                     m = f"{LABELS[r]} ({var})"
                     tsum[m] += time.perf_counter() - t0
                     e = rotation_error_deg(Rt, g.R)
-                    et = None
+                    et = eh = None
                     if kind == "planar":
                         et = np.where(np.isnan(Rtw[:, 0, 0]), np.inf, rotation_error_deg(np.nan_to_num(Rtw), g.R))
-                    per[m].append(_summary(e, et))
+                        eh = np.where(np.isnan(Rhtw[:, 0, 0]), np.inf, rotation_error_deg(np.nan_to_num(Rhtw), g.R))
+                    per[m].append(_summary(e, et, eh))
             e = np.empty(trials)
             et = np.full(trials, np.inf)
+            eh = np.full(trials, np.inf)
             t0 = time.perf_counter()
             for s, sc in enumerate(scenes):
                 o = opengv_ransac_5pt(sc.f1, sc.f2, np.random.default_rng(seed + s))
                 e[s] = rotation_error_deg(sc.R, o.R)
                 if kind == "planar" and tw[s] is not None:
                     et[s] = rotation_error_deg(tw[s], o.R)
+                if kind == "planar" and htw[s] is not None:
+                    eh[s] = rotation_error_deg(htw[s], o.R)
             tsum[REF] += time.perf_counter() - t0
-            per[REF].append(_summary(e, et if kind == "planar" else None))
+            per[REF].append(_summary(e, et if kind == "planar" else None, eh if kind == "planar" else None))
             next(it, None)
         res["results"][kind] = per
     for _ in it:
@@ -128,10 +137,11 @@ def to_markdown(res: dict) -> str:
             rows = [[m] + [per[m][i][key] for i in range(len(res["outliers"]))] for m in res["methods"]]
             out.append(markdown_table(header, rows))
         if kind == "planar":
-            out.append("**planar scene: success rate against the nearer of truth and homography twin**\n")
-            header = ["method"] + [f"{100 * f:.0f}%" for f in res["outliers"]]
-            rows = [[m] + [per[m][i].get("success_twin", float("nan")) for i in range(len(res["outliers"]))] for m in res["methods"]]
-            out.append(markdown_table(header, rows))
+            for key, what in (("success_twin", "chirality-valid LiRP twin"), ("success_htwin", "homography twin, chirality ignored")):
+                out.append(f"**planar scene: success rate against the nearer of truth and twin ({what})**\n")
+                header = ["method"] + [f"{100 * f:.0f}%" for f in res["outliers"]]
+                rows = [[m] + [per[m][i].get(key, float("nan")) for i in range(len(res["outliers"]))] for m in res["methods"]]
+                out.append(markdown_table(header, rows))
     # best residual per setting
     lines = ["Best reweighting residual (lowest mean error) per outlier fraction:\n"]
     for kind in res["kinds"]:
