@@ -331,9 +331,12 @@ def _run_poseonly(f1, f2, o, tau):
     gopts = GNCOptions(noise_bound=tau, max_iterations=30)
 
     def lo(R, t, inl):
-        if inl.sum() < 6:
+        # GNC-IRLS on the points within 4 thresholds of the model (the rest would get weight 0 in
+        # the first iterations anyway), started from the model's inliers
+        cand = np.nonzero(v_sampson(R, t, f1, f2) < 4.0 * tau)[0]
+        if inl.sum() < 6 or len(cand) < 6:
             return R, t
-        g = gnc_irls_batch(f1[None], f2[None], lirp_ligt, gopts, w0=inl[None].astype(float))
+        g = gnc_irls_batch(f1[cand][None], f2[cand][None], lirp_ligt, gopts, w0=inl[cand][None].astype(float))
         return g.R[0], g.t[0]
 
     r = ransac(
