@@ -26,6 +26,7 @@ __all__ = [
     "check_intrinsics",
     "essential_from_pose",
     "decompose_essential",
+    "essential_frames",
     "triangulate_midpoint",
     "rotation_angle_deg",
     "rotation_error_deg",
@@ -218,6 +219,38 @@ def decompose_essential(E: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarr
     Ra = U @ _W @ Vt
     Rb = U @ _W.T @ Vt
     return Ra, Rb, U[..., :, 2]
+
+
+def essential_frames(E: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """SVD-free decomposition of ``E (..., 3, 3)``: ``u3, v3 (..., 3)`` and ``F, E' (..., 3, 3)``.
+
+    ``v3`` is the right singular vector of the smallest singular value (eigenvector of ``E^T E``),
+    ``u3 = cof(E) v3 / |cof(E) v3|`` the left one oriented so that ``E = U diag(s1, s2, s3') V^T``
+    with ``det U = det V = 1`` (``|cof(E) v3| = s1 s2``), ``E' = U diag(1, 1, 0) V^T`` and
+    ``F = [u3]x U V^T``. The two rotations of :func:`decompose_essential` are ``u3 v3^T + F`` and
+    ``u3 v3^T - F`` (``U W V^T`` and ``U W^T V^T``; which one is which depends on the sign of ``u3``)
+    and its ``t`` is ``+-u3``. Derivation: ``E - [u3]x E [v3]x = U diag(s1 + s2, s1 + s2, s3') V^T``;
+    ``U W U^T = u3 u3^T + [u3]x``. Matches the SVD route to ~1e-14 for any ``E`` of rank >= 2 (one
+    batched 3x3 ``eigh`` instead of one 3x3 SVD per matrix plus sign fixes).
+    """
+    E = np.asarray(E, dtype=float)
+    _, V = np.linalg.eigh(np.matmul(np.swapaxes(E, -1, -2), E))
+    v3 = V[..., :, 0]
+    c0, c1, c2 = E[..., :, 0], E[..., :, 1], E[..., :, 2]
+    cof = np.stack([cross(c1, c2), cross(c2, c0), cross(c0, c1)], axis=-1)  # columns: cofactors
+    u = np.matmul(cof, v3[..., None])[..., 0]
+    s12 = np.sqrt(np.sum(u * u, axis=-1))  # s1 s2
+    ok = s12 > 0
+    u3 = np.where(ok[..., None], u / np.where(ok, s12, 1.0)[..., None], v3)  # rank < 2: any unit vector
+    Ev3 = np.matmul(E, v3[..., None])[..., 0]
+    s3 = np.sum(u3 * Ev3, axis=-1)
+    sp = np.sqrt(np.maximum(np.sum(E * E, axis=(-2, -1)) - s3 * s3 + 2.0 * s12, 0.0))  # s1 + s2
+    sp = np.where(sp > 0, sp, 1.0)
+    Su, Sv = skew(u3), skew(v3)
+    uv = u3[..., :, None] * v3[..., None, :]
+    Ep = (E - np.matmul(np.matmul(Su, E), Sv) - s3[..., None, None] * uv) / sp[..., None, None]
+    F = np.matmul(Su, Ep)
+    return u3, v3, F, Ep
 
 
 def four_poses(E: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -36,7 +36,8 @@ from itertools import product
 import numpy as np
 
 from ..geometry import check_correspondences
-from ..identify import identify_poses, select_candidate
+from .. import _kernels
+from ..identify import identify_and_rank
 
 __all__ = ["lirp", "lirp_batch", "LiRPResult", "lirp_candidates"]
 
@@ -90,78 +91,131 @@ def _cubic_roots(c3: np.ndarray, c2: np.ndarray, c1: np.ndarray, c0: np.ndarray)
     return np.linalg.eigvals(C)
 
 
-def lirp_candidates(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """The 18 candidate essential matrices of Alg. 1 for stacked problems.
+_G27 = _G.reshape(27, 10)
 
-    ``f1, f2 (h, n, 3)`` unit bearings, ``w (h, n)`` or ``None``. Returns a dict with ``E (h, 18, 3,
-    3)`` (unit Frobenius norm), ``singular_values (h, 9)``, ``d_min`` and ``d_min_C2 (h,)``.
+
+def _demazure_rows(Q: np.ndarray) -> np.ndarray:
+    """``B (h, 9, 10)``: the nine Demazure cubics of ``a Q1 + b Q2 + c Q3`` over the monomials ``y``.
+
+    ``T_ijk = 2 Q_i Q_j^T Q_k - tr(Q_i Q_j^T) Q_k`` (27 small products as two broadcast matmuls),
+    summed into the monomials with one ``(9 x 27) @ (27 x 10)`` product per problem.
     """
-    h, n, _ = f1.shape
-    A = (f1[..., :, None] * f2[..., None, :]).reshape(h, n, 9)
-    if w is not None:
-        A = A * w[..., None]
-    s, q = _null_space3(A)
-    Q = _mat(q)  # (h, 3, 3, 3): Q1, Q2, Q3
-    # Demazure: T[i,j,k] = 2 Qi Qj^T Qk - tr(Qi Qj^T) Qk, summed into the 10 monomials
-    P = np.einsum("hiab,hjcb->hijac", Q, Q)
-    tr = np.einsum("hijaa->hij", P)
-    T = 2.0 * np.einsum("hijac,hkcd->hijkad", P, Q) - tr[:, :, :, None, None, None] * Q[:, None, None, :, :, :]
-    B = np.einsum("hijkad,ijkm->hadm", T, _G).reshape(h, 9, 10)
-    M = np.linalg.pinv(B[:, :, :4]) @ B[:, :, 4:]  # (h, 4, 6)
-    C1 = np.concatenate([-M[:, 0:3], np.broadcast_to(_C1_UNIT, (h, 3, 6))], axis=1)
-    C2 = np.concatenate([-M[:, 1:4], np.broadcast_to(_C2_UNIT, (h, 3, 6))], axis=1)
-    lam, G = np.linalg.eig(np.stack([C1, C2], axis=1))  # (h, 2, 6), (h, 2, 6, 6)
-    g = np.swapaxes(G, -1, -2).reshape(h, 12, 6)  # eigenvectors as rows
-    g6c = np.conj(g[..., 5])
-    ca = np.real(g[..., 3] * g6c)
-    cb = np.real(g[..., 4] * g6c)
-    cc = np.abs(g[..., 5]) ** 2
-    qs = ca[..., None] * q[:, None, 0] + cb[..., None] * q[:, None, 1] + cc[..., None] * q[:, None, 2]
-    # case 2: det(a Q1 + Q2) = d3 a^3 + d2 a^2 + d1 a + d0
-    d3 = np.linalg.det(Q[:, 0])
-    d0 = np.linalg.det(Q[:, 1])
-    sp = np.linalg.det(Q[:, 0] + Q[:, 1])
-    sm = np.linalg.det(Q[:, 1] - Q[:, 0])
+    h = Q.shape[0]
+    P = np.matmul(Q[:, :, None], np.swapaxes(Q, -1, -2)[:, None])  # (h, 3, 3, 3, 3): Q_i Q_j^T
+    qf = Q.reshape(h, 3, 9)
+    tr = np.matmul(qf, np.swapaxes(qf, -1, -2))  # tr(Q_i Q_j^T)
+    T = 2.0 * np.matmul(P[:, :, :, None], Q[:, None, None]) - tr[:, :, :, None, None, None] * Q[:, None, None]
+    return np.matmul(np.swapaxes(T.reshape(h, 27, 9), -1, -2), _G27)
+
+
+def _action_matrices(q: np.ndarray) -> np.ndarray:
+    """The two 6x6 action matrices ``C (h, 2, 6, 6)`` of the Demazure system (``q (h, 3, 9)``)."""
+    h = q.shape[0]
+    B = _demazure_rows(_mat(q))
+    # M = B1^+ B2 through the 4x4 normal equations (B1 has full column rank in every non-degenerate case)
+    BtB = np.matmul(np.swapaxes(B[:, :, :4], -1, -2), B)  # (h, 4, 10)
+    try:
+        M = np.linalg.solve(BtB[:, :, :4], BtB[:, :, 4:])  # (h, 4, 6)
+    except np.linalg.LinAlgError:  # an exactly singular block somewhere in the batch
+        M = np.linalg.pinv(B[:, :, :4]) @ B[:, :, 4:]
+    C = np.zeros((h, 2, 6, 6))
+    C[:, 0, :3] = -M[:, 0:3]
+    C[:, 0, 3:] = _C1_UNIT
+    C[:, 1, :3] = -M[:, 1:4]
+    C[:, 1, 3:] = _C2_UNIT
+    return C
+
+
+def _case2_roots(Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Case 2 (``c = 0``): real parts ``(h, 3)`` of the roots of ``det(a Q1 + Q2)`` (in ``a`` when
+    ``use_a``, else in ``1 / a``). Kept in numpy in both code paths: for noise-free planar scenes
+    the cubic vanishes identically and its roots are rounding noise, reproduced only by the same
+    LAPACK calls."""
+    dets = np.linalg.det(np.stack([Q[:, 0], Q[:, 1], Q[:, 0] + Q[:, 1], Q[:, 1] - Q[:, 0]], axis=1))
+    d3, d0, sp, sm = dets[:, 0], dets[:, 1], dets[:, 2], dets[:, 3]
     d2 = 0.5 * (sp + sm) - d0
     d1 = 0.5 * (sp - sm) - d3
     use_a = np.abs(d3) >= np.abs(d0)
     roots = _cubic_roots(np.where(use_a, d3, d0), np.where(use_a, d2, d1), np.where(use_a, d1, d2), np.where(use_a, d0, d3))
-    r = np.real(roots)  # (h, 3)
+    return np.real(roots), use_a
+
+
+def _candidates_numpy(q: np.ndarray, lam: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The 18 unit candidate vecs ``(h, 18, 9)`` and ``d_min (h, 2)`` (twin of the compiled ``lirp_post``)."""
+    h = q.shape[0]
+    Q = _mat(q)
+    g = np.swapaxes(G, -1, -2).reshape(h, 12, 6)  # eigenvectors as rows
+    g6c = np.conj(g[..., 5])
+    coef = np.empty((h, 15, 3))
+    coef[:, :12, 0] = np.real(g[..., 3] * g6c)
+    coef[:, :12, 1] = np.real(g[..., 4] * g6c)
+    coef[:, :12, 2] = np.abs(g[..., 5]) ** 2
+    r, use_a = _case2_roots(Q)
     ua = use_a[:, None]
-    ca2 = np.where(ua, r, 1.0)
-    cb2 = np.where(ua, 1.0, r)
-    qd = ca2[..., None] * q[:, None, 0] + cb2[..., None] * q[:, None, 1]
-    cand = np.concatenate([qs, qd, q], axis=1)  # (h, 18, 9)
-    nrm = np.linalg.norm(cand, axis=-1, keepdims=True)
+    coef[:, 12:, 0] = np.where(ua, r, 1.0)
+    coef[:, 12:, 1] = np.where(ua, 1.0, r)
+    coef[:, 12:, 2] = 0.0
+    cand = np.concatenate([np.matmul(coef, q), q], axis=1)  # (h, 18, 9)
+    nrm = np.sqrt(np.sum(cand * cand, axis=-1, keepdims=True))
     cand = np.where(nrm > 0, cand / np.where(nrm > 0, nrm, 1.0), q[:, None, 2])
+    return cand, _pairwise_min_gap(lam)
+
+
+def lirp_candidates(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None, A: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """The 18 candidate essential matrices of Alg. 1 for stacked problems.
+
+    ``f1, f2 (h, n, 3)`` unit bearings, ``w (h, n)`` or ``None``; ``A (h, n, 9)`` optional
+    precomputed unweighted rows ``kron(f1_i, f2_i)``. Returns a dict with ``E (h, 18, 3, 3)`` (unit
+    Frobenius norm), ``singular_values (h, 9)``, ``d_min`` and ``d_min_C2 (h,)``.
+    """
+    h, n, _ = f1.shape
+    if A is None:
+        A = (f1[..., :, None] * f2[..., None, :]).reshape(h, n, 9)
+    if w is not None:
+        A = A * w[..., None]
+    s, q = _null_space3(A)
+    if _kernels.enabled():
+        C, ok = _kernels.lirp_action(q)
+        if not np.all(ok):  # an exactly rank-deficient block: numpy's pinv for those problems
+            C[~ok] = _action_matrices(q[~ok])
+        lam, G = np.linalg.eig(C)  # (h, 2, 6), (h, 2, 6, 6)
+        cand, dm, need = _kernels.lirp_post(q, lam, G)
+        if need.any():  # case-2 cubic identically ~0 (noise-free planar): its roots are noise, use LAPACK's
+            cand[need] = _candidates_numpy(q[need], lam[need], G[need])[0]
+    else:
+        lam, G = np.linalg.eig(_action_matrices(q))
+        cand, dm = _candidates_numpy(q, lam, G)
     return {
         "E": _mat(cand),
         "singular_values": s,
-        "d_min": _pairwise_min_gap(lam[:, 0]),
-        "d_min_C2": _pairwise_min_gap(lam[:, 1]),
+        "d_min": dm[:, 0],
+        "d_min_C2": dm[:, 1],
     }
 
 
-def lirp_batch(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -> dict[str, np.ndarray]:
+def lirp_batch(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None, *, A: np.ndarray | None = None,
+               D: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Weighted LiRP on ``h`` stacked problems (no validation; the hot path of the robust loops).
 
-    Returns a dict with ``R (h, 3, 3)``, ``t (h, 3)``, ``E (h, 3, 3)``, ``best (h,)`` and the
-    per-candidate arrays ``cand_E``, ``cand_R``, ``cand_t``, ``cand_valid``, ``cand_cost`` plus the
-    diagnostics of :func:`lirp_candidates`.
+    ``A (h, n, 9)`` (rows ``kron(f1_i, f2_i)``) and ``D (h, 15, n)``
+    (:func:`poseonly.identify.point_data`) are optional precomputations that IRLS reuses across
+    iterations. Returns a dict with ``R (h, 3, 3)``, ``t (h, 3)``, ``E (h, 3, 3)``, ``best (h,)``
+    and the per-candidate arrays ``cand_E``, ``cand_R``, ``cand_t``, ``cand_valid``, ``cand_cost``
+    plus the diagnostics of :func:`lirp_candidates`.
     """
-    out = lirp_candidates(f1, f2, w)
-    R, t, valid, _ = identify_poses(out["E"], f1, f2, w)
-    cost, best = select_candidate(R, t, valid, f1, f2, w)
+    out = lirp_candidates(f1, f2, w, A)
+    o = identify_and_rank(out["E"], f1, f2, w, D)
+    best = o["best"]
     idx = np.arange(len(best))
     out.update(
         cand_E=out.pop("E"),
-        cand_R=R,
-        cand_t=t,
-        cand_valid=valid,
-        cand_cost=cost,
+        cand_R=o["R"],
+        cand_t=o["t"],
+        cand_valid=o["valid"],
+        cand_cost=o["cost"],
         best=best,
-        R=R[idx, best],
-        t=t[idx, best],
+        R=o["R"][idx, best],
+        t=o["t"][idx, best],
     )
     out["E"] = out["cand_E"][idx, best]
     return out

@@ -1,0 +1,484 @@
+"""numba implementations behind :mod:`poseonly._kernels` (imported only when numba is present).
+
+No ``fastmath``: IEEE semantics, the numpy twins give the same numbers to rounding.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+# ------------------------------------------------------------------------------------------------
+# pose identification + PPO ranking (twin: poseonly.identify._rank_numpy)
+
+
+@njit(cache=True)
+def _jacobi3(M, V):
+    """Eigen-decomposition of the symmetric 3x3 ``M`` (overwritten by its diagonal form) by cyclic
+    Jacobi rotations; eigenvectors in the columns of ``V`` (a proper rotation)."""
+    for i in range(3):
+        for j in range(3):
+            V[i, j] = 1.0 if i == j else 0.0
+    for _sweep in range(30):
+        off = M[0, 1] * M[0, 1] + M[0, 2] * M[0, 2] + M[1, 2] * M[1, 2]
+        dia = M[0, 0] * M[0, 0] + M[1, 1] * M[1, 1] + M[2, 2] * M[2, 2]
+        if off <= 1e-40 * dia or off == 0.0:
+            break
+        for pq in range(3):
+            p = 0 if pq < 2 else 1
+            q = 1 if pq == 0 else 2
+            apq = M[p, q]
+            if apq == 0.0:
+                continue
+            theta = (M[q, q] - M[p, p]) / (2.0 * apq)
+            if abs(theta) > 1e150:
+                tt = 0.5 / theta
+            else:
+                tt = 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
+                if theta < 0.0:
+                    tt = -tt
+            c = 1.0 / math.sqrt(tt * tt + 1.0)
+            s = tt * c
+            # M <- J^T M J with J the rotation in the (p, q) plane
+            for r in range(3):
+                mrp = M[r, p]
+                mrq = M[r, q]
+                M[r, p] = c * mrp - s * mrq
+                M[r, q] = s * mrp + c * mrq
+            for r in range(3):
+                mpr = M[p, r]
+                mqr = M[q, r]
+                M[p, r] = c * mpr - s * mqr
+                M[q, r] = s * mpr + c * mqr
+            M[p, q] = 0.0
+            M[q, p] = 0.0
+            for r in range(3):
+                vrp = V[r, p]
+                vrq = V[r, q]
+                V[r, p] = c * vrp - s * vrq
+                V[r, q] = s * vrp + c * vrq
+
+
+@njit(cache=True)
+def _frames(E, u3, v3, F, Ep, M, V):
+    """Twin of :func:`poseonly.geometry.essential_frames` for one 3x3 ``E`` (outputs in place)."""
+    for i in range(3):
+        for j in range(3):
+            s = 0.0
+            for r in range(3):
+                s += E[r, i] * E[r, j]
+            M[i, j] = s
+    _jacobi3(M, V)
+    i0 = 0
+    if M[1, 1] < M[i0, i0]:
+        i0 = 1
+    if M[2, 2] < M[i0, i0]:
+        i0 = 2
+    ia = (i0 + 1) % 3
+    ib = (i0 + 2) % 3
+    a0, a1, a2 = V[0, ia], V[1, ia], V[2, ia]
+    b0, b1, b2 = V[0, ib], V[1, ib], V[2, ib]
+    v3[0] = a1 * b2 - a2 * b1
+    v3[1] = a2 * b0 - a0 * b2
+    v3[2] = a0 * b1 - a1 * b0
+    x0 = E[0, 0] * a0 + E[0, 1] * a1 + E[0, 2] * a2
+    x1 = E[1, 0] * a0 + E[1, 1] * a1 + E[1, 2] * a2
+    x2 = E[2, 0] * a0 + E[2, 1] * a1 + E[2, 2] * a2
+    y0 = E[0, 0] * b0 + E[0, 1] * b1 + E[0, 2] * b2
+    y1 = E[1, 0] * b0 + E[1, 1] * b1 + E[1, 2] * b2
+    y2 = E[2, 0] * b0 + E[2, 1] * b1 + E[2, 2] * b2
+    u0 = x1 * y2 - x2 * y1
+    u1 = x2 * y0 - x0 * y2
+    u2 = x0 * y1 - x1 * y0
+    s12 = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+    if s12 > 0.0:
+        u3[0], u3[1], u3[2] = u0 / s12, u1 / s12, u2 / s12
+    else:
+        u3[0], u3[1], u3[2] = v3[0], v3[1], v3[2]
+    s3 = 0.0
+    fro2 = 0.0
+    for i in range(3):
+        s3 += u3[i] * (E[i, 0] * v3[0] + E[i, 1] * v3[1] + E[i, 2] * v3[2])
+        for j in range(3):
+            fro2 += E[i, j] * E[i, j]
+    sp = math.sqrt(max(fro2 - s3 * s3 + 2.0 * s12, 0.0))
+    if not sp > 0.0:
+        sp = 1.0
+    # rows of E [v3]x are E_i x v3 (stored in M), then [u3]x applied to its columns
+    for i in range(3):
+        M[i, 0] = E[i, 1] * v3[2] - E[i, 2] * v3[1]
+        M[i, 1] = E[i, 2] * v3[0] - E[i, 0] * v3[2]
+        M[i, 2] = E[i, 0] * v3[1] - E[i, 1] * v3[0]
+    for j in range(3):
+        c0 = u3[1] * M[2, j] - u3[2] * M[1, j]
+        c1 = u3[2] * M[0, j] - u3[0] * M[2, j]
+        c2 = u3[0] * M[1, j] - u3[1] * M[0, j]
+        Ep[0, j] = (E[0, j] - c0 - s3 * u3[0] * v3[j]) / sp
+        Ep[1, j] = (E[1, j] - c1 - s3 * u3[1] * v3[j]) / sp
+        Ep[2, j] = (E[2, j] - c2 - s3 * u3[2] * v3[j]) / sp
+    for j in range(3):
+        F[0, j] = u3[1] * Ep[2, j] - u3[2] * Ep[1, j]
+        F[1, j] = u3[2] * Ep[0, j] - u3[0] * Ep[2, j]
+        F[2, j] = u3[0] * Ep[1, j] - u3[1] * Ep[0, j]
+
+
+@njit(cache=True)
+def _ppo(ab, bt, h, ea):
+    """Twin of :func:`poseonly.identify.ppo_from_forms` for one point."""
+    alpha = math.sqrt(max((1.0 - bt) * (1.0 + bt), 0.0))
+    beta = math.sqrt(max((1.0 - ab) * (1.0 + ab), 0.0))
+    p = alpha * ab + beta * bt
+    rho = math.sqrt(h * h + ea * ea)
+    q = 0.0
+    if rho > 0.0:
+        if h > 0.0:
+            omc = ea * ea / (rho * (rho + h))
+        else:
+            omc = (rho - h) / rho
+        q = alpha * beta * math.sqrt(2.0 * omc)
+    r = math.sqrt(p * p + q * q)
+    if not r > 0.0:
+        return 1.0
+    if p > 0.0:
+        omc2 = q * q / (r * (r + p))
+    else:
+        omc2 = (r - p) / r
+    return math.sqrt(2.0 * omc2)
+
+
+@njit(cache=True)
+def _sgn(x):
+    if x > 0.0:
+        return 1.0
+    if x < 0.0:
+        return -1.0
+    return 0.0
+
+
+@njit(cache=True)
+def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost):
+    H, k = E.shape[0], E.shape[1]
+    n = f1.shape[1]
+    u3 = np.empty(3)
+    v3 = np.empty(3)
+    F = np.empty((3, 3))
+    Ep = np.empty((3, 3))
+    M = np.empty((3, 3))
+    V = np.empty((3, 3))
+    for hh in range(H):
+        wsum = 0.0
+        if weighted:
+            for i in range(n):
+                wsum += w[hh, i]
+            wsum = max(wsum, 1e-300)
+        else:
+            wsum = float(n)
+        for c in range(k):
+            _frames(E[hh, c], u3, v3, F, Ep, M, V)
+            sa = 0.0
+            sb = 0.0
+            ra = 0.0
+            rb = 0.0
+            ma = 0.0
+            mb = 0.0
+            for i in range(n):
+                p0, p1, p2 = f1[hh, i, 0], f1[hh, i, 1], f1[hh, i, 2]
+                g0, g1, g2 = f2[hh, i, 0], f2[hh, i, 1], f2[hh, i, 2]
+                fx0 = F[0, 0] * p0 + F[0, 1] * p1 + F[0, 2] * p2
+                fx1 = F[1, 0] * p0 + F[1, 1] * p1 + F[1, 2] * p2
+                fx2 = F[2, 0] * p0 + F[2, 1] * p1 + F[2, 2] * p2
+                x = g0 * fx0 + g1 * fx1 + g2 * fx2
+                at = v3[0] * p0 + v3[1] * p1 + v3[2] * p2
+                bt = u3[0] * g0 + u3[1] * g1 + u3[2] * g2
+                base = bt * at
+                aba = base + x
+                abb = base - x
+                ha = aba * bt - at
+                hb = abb * bt - at
+                pa = ha * (bt - at * aba)
+                pb = hb * (bt - at * abb)
+                wi = w[hh, i] if weighted else 1.0
+                sa += wi * _sgn(pa)
+                sb += wi * _sgn(pb)
+                ra += wi * pa
+                rb += wi * pb
+                ma += wi * _sgn(ha)
+                mb += wi * _sgn(hb)
+            m1a = sa / wsum
+            m1b = sb / wsum
+            pick_b = (m1b > m1a) or (m1b == m1a and rb / wsum > ra / wsum)
+            m1 = m1b if pick_b else m1a
+            m2 = (mb if pick_b else ma) / wsum
+            sg = -1.0 if m2 < 0.0 else 1.0
+            sf = -1.0 if pick_b else 1.0
+            M1[hh, c] = m1
+            valid[hh, c] = (m1 > 0.0) and (abs(m2) > 0.0)
+            for i in range(3):
+                t[hh, c, i] = sg * u3[i]
+                for j in range(3):
+                    R[hh, c, i, j] = u3[i] * v3[j] + sf * F[i, j]
+            if with_cost:
+                acc = 0.0
+                for i in range(n):
+                    p0, p1, p2 = f1[hh, i, 0], f1[hh, i, 1], f1[hh, i, 2]
+                    g0, g1, g2 = f2[hh, i, 0], f2[hh, i, 1], f2[hh, i, 2]
+                    fx0 = F[0, 0] * p0 + F[0, 1] * p1 + F[0, 2] * p2
+                    fx1 = F[1, 0] * p0 + F[1, 1] * p1 + F[1, 2] * p2
+                    fx2 = F[2, 0] * p0 + F[2, 1] * p1 + F[2, 2] * p2
+                    ex0 = Ep[0, 0] * p0 + Ep[0, 1] * p1 + Ep[0, 2] * p2
+                    ex1 = Ep[1, 0] * p0 + Ep[1, 1] * p1 + Ep[1, 2] * p2
+                    ex2 = Ep[2, 0] * p0 + Ep[2, 1] * p1 + Ep[2, 2] * p2
+                    x = g0 * fx0 + g1 * fx1 + g2 * fx2
+                    e = g0 * ex0 + g1 * ex1 + g2 * ex2
+                    at = v3[0] * p0 + v3[1] * p1 + v3[2] * p2
+                    bt = u3[0] * g0 + u3[1] * g1 + u3[2] * g2
+                    ab = bt * at + sf * x
+                    hv = ab * bt - at
+                    v = _ppo(ab, sg * bt, sg * hv, abs(e))
+                    wi = w[hh, i] if weighted else 1.0
+                    acc += wi * v
+                cost[hh, c] = acc / wsum
+
+
+# ------------------------------------------------------------------------------------------------
+# LiRP around LAPACK's eig (twins: poseonly.solvers.lirp._demazure_rows / lirp_candidates)
+
+
+@njit(cache=True)
+def _householder_ls(A, Bm, X, m, p, r):
+    """Least squares ``A (m x p) X = Bm (m x r)`` by Householder QR (``A``, ``Bm`` overwritten).
+    Returns False when ``A`` is (numerically exactly) rank deficient."""
+    for j in range(p):
+        nrm = 0.0
+        for i in range(j, m):
+            nrm += A[i, j] * A[i, j]
+        nrm = math.sqrt(nrm)
+        if nrm == 0.0:
+            return False
+        alpha = -nrm if A[j, j] > 0 else nrm
+        v0 = A[j, j] - alpha
+        # v = (v0, A[j+1:, j]); H = I - 2 v v^T / (v^T v)
+        vtv = v0 * v0
+        for i in range(j + 1, m):
+            vtv += A[i, j] * A[i, j]
+        if vtv == 0.0:
+            A[j, j] = alpha
+            continue
+        for c in range(j + 1, p):
+            s = v0 * A[j, c]
+            for i in range(j + 1, m):
+                s += A[i, j] * A[i, c]
+            f = 2.0 * s / vtv
+            A[j, c] -= f * v0
+            for i in range(j + 1, m):
+                A[i, c] -= f * A[i, j]
+        for c in range(r):
+            s = v0 * Bm[j, c]
+            for i in range(j + 1, m):
+                s += A[i, j] * Bm[i, c]
+            f = 2.0 * s / vtv
+            Bm[j, c] -= f * v0
+            for i in range(j + 1, m):
+                Bm[i, c] -= f * A[i, j]
+        A[j, j] = alpha
+    for c in range(r):
+        for j in range(p - 1, -1, -1):
+            s = Bm[j, c]
+            for l in range(j + 1, p):
+                s -= A[j, l] * X[l, c]
+            X[j, c] = s / A[j, j]
+    return True
+
+
+@njit(cache=True)
+def lirp_action_nb(q, mono, C, ok):
+    """Action matrices ``C (h, 2, 6, 6)`` of the Demazure system of ``a Q1 + b Q2 + Q3`` (``q (h, 3, 9)``
+    column-major vecs; ``mono (27,)`` monomial index of ``Q_i Q_j Q_k``); ``ok[h] = False`` when the
+    4-column block is rank deficient (the caller falls back to numpy's pinv)."""
+    h = q.shape[0]
+    Q = np.empty((3, 3, 3))
+    P = np.empty((3, 3, 3, 3))
+    tr = np.empty((3, 3))
+    B = np.empty((9, 10))
+    B4 = np.empty((9, 4))
+    B6 = np.empty((9, 6))
+    X = np.empty((4, 6))
+    for hh in range(h):
+        for i in range(3):
+            for a in range(3):
+                for b in range(3):
+                    Q[i, a, b] = q[hh, i, 3 * b + a]
+        for i in range(3):
+            for j in range(3):
+                s = 0.0
+                for a in range(3):
+                    for c in range(3):
+                        acc = 0.0
+                        for b in range(3):
+                            acc += Q[i, a, b] * Q[j, c, b]
+                        P[i, j, a, c] = acc
+                    s += P[i, j, a, a]
+                tr[i, j] = s
+        for r in range(9):
+            for m in range(10):
+                B[r, m] = 0.0
+        for i in range(3):
+            for j in range(3):
+                for k in range(3):
+                    m = mono[9 * i + 3 * j + k]
+                    for a in range(3):
+                        for d in range(3):
+                            acc = 0.0
+                            for c in range(3):
+                                acc += P[i, j, a, c] * Q[k, c, d]
+                            B[3 * a + d, m] += 2.0 * acc - tr[i, j] * Q[k, a, d]
+        for r in range(9):
+            for m in range(4):
+                B4[r, m] = B[r, m]
+            for m in range(6):
+                B6[r, m] = B[r, 4 + m]
+        ok[hh] = _householder_ls(B4, B6, X, 9, 4, 6)
+        for c in range(2):
+            for r in range(6):
+                for m in range(6):
+                    C[hh, c, r, m] = 0.0
+        for r in range(3):
+            for m in range(6):
+                C[hh, 0, r, m] = -X[r, m]
+                C[hh, 1, r, m] = -X[r + 1, m]
+        C[hh, 0, 3, 0] = 1.0
+        C[hh, 0, 4, 1] = 1.0
+        C[hh, 0, 5, 3] = 1.0
+        C[hh, 1, 3, 1] = 1.0
+        C[hh, 1, 4, 2] = 1.0
+        C[hh, 1, 5, 4] = 1.0
+
+
+@njit(cache=True)
+def _det3(M):
+    return (M[0, 0] * (M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1]) - M[0, 1] * (M[1, 0] * M[2, 2] - M[1, 2] * M[2, 0])
+            + M[0, 2] * (M[1, 0] * M[2, 1] - M[1, 1] * M[2, 0]))
+
+
+@njit(cache=True)
+def _cubic_real_parts(c3, c2, c1, c0, out):
+    """Real parts of the three roots of ``c3 x^3 + c2 x^2 + c1 x + c0`` (closed form, Numerical
+    Recipes 5.6), polished by two Newton steps on the real roots."""
+    inv = 1.0 / (c3 if c3 != 0.0 else 1e-300)
+    a = c2 * inv
+    b = c1 * inv
+    c = c0 * inv
+    Qc = (a * a - 3.0 * b) / 9.0
+    Rc = (2.0 * a * a * a - 9.0 * a * b + 27.0 * c) / 54.0
+    nreal = 3
+    if Rc * Rc < Qc * Qc * Qc:
+        th = math.acos(Rc / math.sqrt(Qc * Qc * Qc))
+        sq = -2.0 * math.sqrt(Qc)
+        out[0] = sq * math.cos(th / 3.0) - a / 3.0
+        out[1] = sq * math.cos((th + 2.0 * math.pi) / 3.0) - a / 3.0
+        out[2] = sq * math.cos((th - 2.0 * math.pi) / 3.0) - a / 3.0
+    else:
+        A = -math.copysign(1.0, Rc) * (abs(Rc) + math.sqrt(Rc * Rc - Qc * Qc * Qc)) ** (1.0 / 3.0)
+        Bc = Qc / A if A != 0.0 else 0.0
+        out[0] = (A + Bc) - a / 3.0
+        out[1] = -0.5 * (A + Bc) - a / 3.0
+        out[2] = out[1]
+        nreal = 1
+    for i in range(nreal):
+        x = out[i]
+        for _ in range(2):
+            f = ((x + a) * x + b) * x + c
+            d = (3.0 * x + 2.0 * a) * x + b
+            if d != 0.0 and math.isfinite(f / d):
+                x -= f / d
+        out[i] = x
+    for i in range(3):
+        if not math.isfinite(out[i]):
+            out[i] = 0.0
+
+
+@njit(cache=True)
+def lirp_post_nb(q, lam, G, cand, dmin, need_numpy):
+    """The 18 unit candidates ``cand (h, 18, 9)`` and ``dmin (h, 2)`` from ``q (h, 3, 9)`` and the
+    eigen-decompositions ``lam (h, 2, 6)``, ``G (h, 2, 6, 6)`` (eigenvectors in columns).
+    ``need_numpy[h]`` is set when the case-2 cubic is nearly identically zero (noise-free planar
+    scenes): its roots are then rounding noise and the caller recomputes them with numpy's LAPACK
+    calls (bitwise the old results)."""
+    h = q.shape[0]
+    coef = np.empty((18, 3))
+    M = np.empty((3, 3))
+    r = np.empty(3)
+    dets = np.empty(4)
+    for hh in range(h):
+        for c in range(2):
+            for j in range(6):
+                g3 = G[hh, c, 3, j]
+                g4 = G[hh, c, 4, j]
+                g5 = G[hh, c, 5, j]
+                row = 6 * c + j
+                coef[row, 0] = g3.real * g5.real + g3.imag * g5.imag
+                coef[row, 1] = g4.real * g5.real + g4.imag * g5.imag
+                coef[row, 2] = g5.real * g5.real + g5.imag * g5.imag
+            best = np.inf
+            for i in range(6):
+                for j in range(6):
+                    if i != j:
+                        d = abs(lam[hh, c, i] - lam[hh, c, j])
+                        if d < best:
+                            best = d
+            dmin[hh, c] = best
+        for sd in range(4):
+            for a in range(3):
+                for b in range(3):
+                    x0 = q[hh, 0, 3 * b + a]
+                    x1 = q[hh, 1, 3 * b + a]
+                    if sd == 0:
+                        M[a, b] = x0
+                    elif sd == 1:
+                        M[a, b] = x1
+                    elif sd == 2:
+                        M[a, b] = x0 + x1
+                    else:
+                        M[a, b] = x1 - x0
+            dets[sd] = _det3(M)
+        d3, d0, sp, sm = dets[0], dets[1], dets[2], dets[3]
+        d2 = 0.5 * (sp + sm) - d0
+        d1 = 0.5 * (sp - sm) - d3
+        need_numpy[hh] = max(max(abs(d0), abs(d1)), max(abs(d2), abs(d3))) < 1e-6
+        use_a = abs(d3) >= abs(d0)
+        if use_a:
+            _cubic_real_parts(d3, d2, d1, d0, r)
+        else:
+            _cubic_real_parts(d0, d1, d2, d3, r)
+        for i in range(3):
+            coef[12 + i, 0] = r[i] if use_a else 1.0
+            coef[12 + i, 1] = 1.0 if use_a else r[i]
+            coef[12 + i, 2] = 0.0
+        for i in range(3):
+            coef[15 + i, 0] = 1.0 if i == 0 else 0.0
+            coef[15 + i, 1] = 1.0 if i == 1 else 0.0
+            coef[15 + i, 2] = 1.0 if i == 2 else 0.0
+        for k in range(18):
+            nrm = 0.0
+            for m in range(9):
+                v = coef[k, 0] * q[hh, 0, m] + coef[k, 1] * q[hh, 1, m] + coef[k, 2] * q[hh, 2, m]
+                cand[hh, k, m] = v
+                nrm += v * v
+            nrm = math.sqrt(nrm)
+            if nrm > 0.0:
+                for m in range(9):
+                    cand[hh, k, m] /= nrm
+            else:
+                for m in range(9):
+                    cand[hh, k, m] = q[hh, 2, m]
+
+
+# ------------------------------------------------------------------------------------------------
+# five-point solver, real solutions (twin: poseonly.solvers.fivept.fivept_batch + is_real filter)
+
+
+@njit(cache=True)
+def fivept_real_nb(q):
+    raise NotImplementedError
