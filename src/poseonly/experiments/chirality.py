@@ -229,5 +229,6 @@ def _figure(res: dict, path: Path) -> None:
         ax.set_title(f"{key}: solid = chirality filter, dashed = none")
     axes[0, 0].legend(fontsize=7)
     fig.suptitle(f"Appendix B (n = {res['n']}, {res['noise_px']:g} px, {res['trials']} trials)")
+    fig.tight_layout(rect=(0, 0, 1, 0.96))
     savefig(fig, path)
     plt.close(fig)

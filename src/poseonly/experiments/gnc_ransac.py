@@ -346,5 +346,6 @@ def _figure(res: dict, path: Path) -> None:
         ax.grid(True, which="both", alpha=0.3)
     axes[0, 0].legend(fontsize=7)
     fig.suptitle(f"Robust estimators (n = {res['n']}, {res['noise_px']:g} px, {res['trials']} trials; dashed: initial, solid: optimised)")
+    fig.tight_layout(rect=(0, 0, 1, 0.96))
     savefig(fig, path)
     plt.close(fig)

@@ -251,5 +251,6 @@ def _figure(res: dict, path: Path) -> None:
             ax.grid(True, which="both", alpha=0.3)
             ax.legend(fontsize=7)
     fig.suptitle(f"Rotation error vs noise (n = {res['n']}, {res['trials']} trials)")
+    fig.tight_layout(rect=(0, 0, 1, 0.96))
     savefig(fig, path)
     plt.close(fig)

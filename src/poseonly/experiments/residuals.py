@@ -206,5 +206,6 @@ def _figure(res: dict, path: Path) -> None:
             ax.grid(True, which="both", alpha=0.3)
             ax.legend(fontsize=7)
     fig.suptitle(f"GNC-IRLS residual selection (n = {res['n']}, {res['noise_px']:g} px, {res['trials']} trials; solid mean, dotted median)")
+    fig.tight_layout(rect=(0, 0, 1, 0.96))
     savefig(fig, path)
     plt.close(fig)
