@@ -115,6 +115,24 @@ def lirp_post(q, lam, G):
     return cand, dmin, need
 
 
-def fivept_real(q):
-    """Real five-point solutions from the null-space bases ``q (h, 4, 9)`` (rows ``X, Y, Z, W``, column-major vec)."""
-    return _compiled()["fivept"](np.ascontiguousarray(q, dtype=np.float64))
+_FIVEPT_TABLES = None
+
+
+def fivept_real(f1, f2):
+    """Real five-point solutions of minimal samples ``f1, f2 (h, 5, 3)``: ``E (h, 10, 3, 3)`` (unit
+    Frobenius norm, filled from slot 0), ``mask (h, 10)`` and ``fail (h,)`` (redo with numpy)."""
+    global _FIVEPT_TABLES
+    if _FIVEPT_TABLES is None:
+        from .solvers import fivept as F5
+
+        mono = np.argmax(F5._G20.reshape(64, 20), axis=1).astype(np.int64)
+        unit_cols = np.argmax(F5._UNIT, axis=1).astype(np.int64)
+        _FIVEPT_TABLES = (mono, unit_cols, np.asarray(F5._ACTION_ROWS, dtype=np.int64), float(F5.REAL_TOL))
+    mono, unit_cols, rows, tol = _FIVEPT_TABLES
+    h = f1.shape[0]
+    E = np.empty((h, 10, 3, 3))
+    mask = np.empty((h, 10), np.bool_)
+    fail = np.empty(h, np.bool_)
+    _compiled()["fivept"](np.ascontiguousarray(f1, dtype=np.float64), np.ascontiguousarray(f2, dtype=np.float64),
+                          mono, unit_cols, rows, tol, E, mask, fail)
+    return E, mask, fail

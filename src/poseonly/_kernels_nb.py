@@ -480,5 +480,454 @@ def lirp_post_nb(q, lam, G, cand, dmin, need_numpy):
 
 
 @njit(cache=True)
-def fivept_real_nb(q):
-    raise NotImplementedError
+def _lu(A, piv, n):
+    """In-place LU with partial pivoting of ``A[:n, :n]``; returns False on an exactly zero pivot."""
+    for k in range(n):
+        p = k
+        big = abs(A[k, k])
+        for i in range(k + 1, n):
+            if abs(A[i, k]) > big:
+                big = abs(A[i, k])
+                p = i
+        piv[k] = p
+        if big == 0.0:
+            return False
+        if p != k:
+            for j in range(n):
+                tmp = A[k, j]
+                A[k, j] = A[p, j]
+                A[p, j] = tmp
+        inv = 1.0 / A[k, k]
+        for i in range(k + 1, n):
+            A[i, k] *= inv
+            f = A[i, k]
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    A[i, j] -= f * A[k, j]
+    return True
+
+
+@njit(cache=True)
+def _lu_solve(LU, piv, b, n):
+    for k in range(n):
+        p = piv[k]
+        if p != k:
+            tmp = b[k]
+            b[k] = b[p]
+            b[p] = tmp
+    for i in range(n):
+        s = b[i]
+        for j in range(i):
+            s -= LU[i, j] * b[j]
+        b[i] = s
+    for i in range(n - 1, -1, -1):
+        s = b[i]
+        for j in range(i + 1, n):
+            s -= LU[i, j] * b[j]
+        b[i] = s / LU[i, i]
+
+
+@njit(cache=True)
+def _balance(a, n):
+    """Parlett-Reinsch balancing of ``a[:n, :n]`` in place (Numerical Recipes ``balanc``)."""
+    radix = 2.0
+    sqrdx = radix * radix
+    done = False
+    while not done:
+        done = True
+        for i in range(n):
+            r = 0.0
+            c = 0.0
+            for j in range(n):
+                if j != i:
+                    c += abs(a[j, i])
+                    r += abs(a[i, j])
+            if c != 0.0 and r != 0.0:
+                g = r / radix
+                f = 1.0
+                s = c + r
+                while c < g:
+                    f *= radix
+                    c *= sqrdx
+                while c > r * radix:
+                    f /= radix
+                    c /= sqrdx
+                if (c + r) / f < 0.95 * s:
+                    done = False
+                    g = 1.0 / f
+                    for j in range(n):
+                        a[i, j] *= g
+                    for j in range(n):
+                        a[j, i] *= f
+
+
+@njit(cache=True)
+def _hessenberg(a, n):
+    """Reduction of ``a[:n, :n]`` to upper Hessenberg form by stabilised elementary similarity
+    transformations (Numerical Recipes ``elmhes``); entries below the subdiagonal are zeroed."""
+    for m in range(1, n - 1):
+        x = 0.0
+        i = m
+        for j in range(m, n):
+            if abs(a[j, m - 1]) > abs(x):
+                x = a[j, m - 1]
+                i = j
+        if i != m:
+            for j in range(m - 1, n):
+                tmp = a[i, j]
+                a[i, j] = a[m, j]
+                a[m, j] = tmp
+            for j in range(n):
+                tmp = a[j, i]
+                a[j, i] = a[j, m]
+                a[j, m] = tmp
+        if x != 0.0:
+            for i2 in range(m + 1, n):
+                y = a[i2, m - 1]
+                if y != 0.0:
+                    y /= x
+                    a[i2, m - 1] = y
+                    for j in range(m, n):
+                        a[i2, j] -= y * a[m, j]
+                    for j in range(n):
+                        a[j, m] += y * a[j, i2]
+    for i in range(2, n):
+        for j in range(i - 1):
+            a[i, j] = 0.0
+
+
+@njit(cache=True)
+def _hqr(h, n, wr, wi):
+    """Eigenvalues of the upper Hessenberg ``h[1:n+1, 1:n+1]`` (1-based, destroyed) by the Francis
+    double-shift QR algorithm (EISPACK ``hqr`` as in Numerical Recipes). False if it did not converge."""
+    anorm = 0.0
+    for i in range(1, n + 1):
+        for j in range(max(i - 1, 1), n + 1):
+            anorm += abs(h[i, j])
+    nn = n
+    t = 0.0
+    x = y = z = w = p = q = r = s = 0.0
+    while nn >= 1:
+        its = 0
+        while True:
+            l = 1
+            for ll in range(nn, 1, -1):
+                s = abs(h[ll - 1, ll - 1]) + abs(h[ll, ll])
+                if s == 0.0:
+                    s = anorm
+                if abs(h[ll, ll - 1]) + s == s:
+                    h[ll, ll - 1] = 0.0
+                    l = ll
+                    break
+            x = h[nn, nn]
+            if l == nn:
+                wr[nn] = x + t
+                wi[nn] = 0.0
+                nn -= 1
+            else:
+                y = h[nn - 1, nn - 1]
+                w = h[nn, nn - 1] * h[nn - 1, nn]
+                if l == nn - 1:
+                    p = 0.5 * (y - x)
+                    q = p * p + w
+                    z = math.sqrt(abs(q))
+                    x += t
+                    if q >= 0.0:
+                        z = p + (z if p >= 0.0 else -z)
+                        wr[nn - 1] = x + z
+                        wr[nn] = x + z
+                        if z != 0.0:
+                            wr[nn] = x - w / z
+                        wi[nn - 1] = 0.0
+                        wi[nn] = 0.0
+                    else:
+                        wr[nn - 1] = x + p
+                        wr[nn] = x + p
+                        wi[nn - 1] = -z
+                        wi[nn] = z
+                    nn -= 2
+                else:
+                    if its == 60:
+                        return False
+                    if its == 10 or its == 20 or its == 40:
+                        t += x
+                        for i in range(1, nn + 1):
+                            h[i, i] -= x
+                        s = abs(h[nn, nn - 1]) + abs(h[nn - 1, nn - 2])
+                        x = 0.75 * s
+                        y = x
+                        w = -0.4375 * s * s
+                    its += 1
+                    m = nn - 2
+                    while m >= l:
+                        z = h[m, m]
+                        r = x - z
+                        s = y - z
+                        p = (r * s - w) / h[m + 1, m] + h[m, m + 1]
+                        q = h[m + 1, m + 1] - z - r - s
+                        r = h[m + 2, m + 1]
+                        s = abs(p) + abs(q) + abs(r)
+                        p /= s
+                        q /= s
+                        r /= s
+                        if m == l:
+                            break
+                        u = abs(h[m, m - 1]) * (abs(q) + abs(r))
+                        v = abs(p) * (abs(h[m - 1, m - 1]) + abs(z) + abs(h[m + 1, m + 1]))
+                        if u + v == v:
+                            break
+                        m -= 1
+                    for i in range(m + 2, nn + 1):
+                        h[i, i - 2] = 0.0
+                        if i != m + 2:
+                            h[i, i - 3] = 0.0
+                    for k in range(m, nn):
+                        if k != m:
+                            p = h[k, k - 1]
+                            q = h[k + 1, k - 1]
+                            r = 0.0
+                            if k != nn - 1:
+                                r = h[k + 2, k - 1]
+                            x = abs(p) + abs(q) + abs(r)
+                            if x != 0.0:
+                                p /= x
+                                q /= x
+                                r /= x
+                        s = math.sqrt(p * p + q * q + r * r)
+                        if p < 0.0:
+                            s = -s
+                        if s != 0.0:
+                            if k == m:
+                                if l != m:
+                                    h[k, k - 1] = -h[k, k - 1]
+                            else:
+                                h[k, k - 1] = -s * x
+                            p += s
+                            x = p / s
+                            y = q / s
+                            z = r / s
+                            q /= p
+                            r /= p
+                            for j in range(k, nn + 1):
+                                p = h[k, j] + q * h[k + 1, j]
+                                if k != nn - 1:
+                                    p += r * h[k + 2, j]
+                                    h[k + 2, j] -= p * z
+                                h[k + 1, j] -= p * y
+                                h[k, j] -= p * x
+                            mmin = nn if nn < k + 3 else k + 3
+                            for i in range(l, mmin + 1):
+                                p = x * h[i, k] + y * h[i, k + 1]
+                                if k != nn - 1:
+                                    p += z * h[i, k + 2]
+                                    h[i, k + 2] -= p * r
+                                h[i, k + 1] -= p * q
+                                h[i, k] -= p
+            if l >= nn - 1:
+                break
+    return True
+
+
+@njit(cache=True)
+def fivept_real_nb(f1, f2, mono, unit_cols, action_rows, real_tol, E, mask, fail):
+    """Stewenius five-point on minimal samples ``f (h, 5, 3)``: the real solutions in ``E (h, 10,
+    3, 3)`` (unit Frobenius norm), ``mask (h, 10)``; ``fail[h]`` when a step broke down (the caller
+    redoes those samples with numpy/LAPACK). ``mono (64,)``: monomial of ``c_i c_j c_k`` in the
+    template's column order; ``action_rows``/``unit_cols``: the action matrix layout of
+    :mod:`poseonly.solvers.fivept`."""
+    h = f1.shape[0]
+    At = np.empty((9, 5))
+    Qn = np.empty((9, 9))
+    hv = np.empty(9)
+    basis = np.empty((4, 3, 3))
+    P = np.empty((4, 4, 3, 3))
+    tr = np.empty((4, 4))
+    T = np.empty((10, 20))
+    A1 = np.empty((10, 10))
+    piv = np.empty(10, np.int64)
+    b = np.empty(10)
+    Mact = np.empty((10, 10))
+    Hs = np.empty((11, 11))
+    wr = np.empty(11)
+    wi = np.empty(11)
+    L = np.empty((10, 10))
+    cr = np.empty(3)
+    for hh in range(h):
+        fail[hh] = False
+        for s in range(10):
+            mask[hh, s] = False
+        # --- null space of the 5 x 9 epipolar rows: Householder QR of A^T (9 x 5), last 4 columns of Q
+        for i in range(5):
+            for c in range(3):
+                for r in range(3):
+                    At[3 * c + r, i] = f1[hh, i, c] * f2[hh, i, r]
+        for i in range(9):
+            for j in range(9):
+                Qn[i, j] = 1.0 if i == j else 0.0
+        ok = True
+        for j in range(5):
+            nrm = 0.0
+            for i in range(j, 9):
+                nrm += At[i, j] * At[i, j]
+            nrm = math.sqrt(nrm)
+            if nrm == 0.0:
+                ok = False
+                break
+            alpha = -nrm if At[j, j] > 0 else nrm
+            for i in range(9):
+                hv[i] = 0.0
+            hv[j] = At[j, j] - alpha
+            for i in range(j + 1, 9):
+                hv[i] = At[i, j]
+            vtv = 0.0
+            for i in range(j, 9):
+                vtv += hv[i] * hv[i]
+            if vtv == 0.0:
+                continue
+            for c in range(j, 5):
+                sacc = 0.0
+                for i in range(j, 9):
+                    sacc += hv[i] * At[i, c]
+                f = 2.0 * sacc / vtv
+                for i in range(j, 9):
+                    At[i, c] -= f * hv[i]
+            # Q <- Q H (accumulate the reflectors)
+            for r in range(9):
+                sacc = 0.0
+                for i in range(j, 9):
+                    sacc += Qn[r, i] * hv[i]
+                f = 2.0 * sacc / vtv
+                for i in range(j, 9):
+                    Qn[r, i] -= f * hv[i]
+        if not ok:
+            fail[hh] = True
+            continue
+        for k in range(4):
+            for a in range(3):
+                for c in range(3):
+                    basis[k, a, c] = Qn[3 * c + a, 5 + k]
+        # --- template: 9 Demazure cubics and det over the 20 monomials
+        for i in range(4):
+            for j in range(4):
+                sacc = 0.0
+                for a in range(3):
+                    for c in range(3):
+                        acc = 0.0
+                        for d in range(3):
+                            acc += basis[i, a, d] * basis[j, c, d]
+                        P[i, j, a, c] = acc
+                    sacc += P[i, j, a, a]
+                tr[i, j] = sacc
+        for r in range(10):
+            for m in range(20):
+                T[r, m] = 0.0
+        for i in range(4):
+            for j in range(4):
+                for k in range(4):
+                    m = mono[16 * i + 4 * j + k]
+                    for a in range(3):
+                        for d in range(3):
+                            acc = 0.0
+                            for c in range(3):
+                                acc += P[i, j, a, c] * basis[k, c, d]
+                            T[3 * d + a, m] += 2.0 * acc - tr[i, j] * basis[k, a, d]
+                    cr[0] = basis[j, 1, 1] * basis[k, 2, 2] - basis[j, 1, 2] * basis[k, 2, 1]
+                    cr[1] = basis[j, 1, 2] * basis[k, 2, 0] - basis[j, 1, 0] * basis[k, 2, 2]
+                    cr[2] = basis[j, 1, 0] * basis[k, 2, 1] - basis[j, 1, 1] * basis[k, 2, 0]
+                    T[9, m] += basis[i, 0, 0] * cr[0] + basis[i, 0, 1] * cr[1] + basis[i, 0, 2] * cr[2]
+        # --- G = A1^{-1} A2 and the action matrix of multiplication by x
+        for r in range(10):
+            for c in range(10):
+                A1[r, c] = T[r, c]
+        if not _lu(A1, piv, 10):
+            fail[hh] = True
+            continue
+        for r in range(10):
+            for c in range(10):
+                Mact[r, c] = 0.0
+        for c in range(10):
+            for r in range(10):
+                b[r] = T[r, 10 + c]
+            _lu_solve(A1, piv, b, 10)
+            for rr in range(6):
+                Mact[rr, c] = -b[action_rows[rr]]
+        for rr in range(4):
+            Mact[6 + rr, unit_cols[rr]] = 1.0
+        # --- eigenvalues: balance, Hessenberg, Francis QR
+        for r in range(10):
+            for c in range(10):
+                L[r, c] = Mact[r, c]
+        _balance(L, 10)
+        _hessenberg(L, 10)
+        for r in range(10):
+            for c in range(10):
+                Hs[r + 1, c + 1] = L[r, c]
+        if not _hqr(Hs, 10, wr, wi):
+            fail[hh] = True
+            continue
+        mnorm = 0.0
+        for r in range(10):
+            for c in range(10):
+                mnorm = max(mnorm, abs(Mact[r, c]))
+        slot = 0
+        for e in range(1, 11):
+            lam = wr[e]
+            if not abs(wi[e]) <= real_tol * (1.0 + math.sqrt(lam * lam + wi[e] * wi[e])):
+                continue
+            # eigenvector: two steps of inverse iteration with M - lam I
+            for r in range(10):
+                for c in range(10):
+                    L[r, c] = Mact[r, c]
+                L[r, r] -= lam
+            for k in range(10):
+                pk = k
+                big = abs(L[k, k])
+                for i in range(k + 1, 10):
+                    if abs(L[i, k]) > big:
+                        big = abs(L[i, k])
+                        pk = i
+                piv[k] = pk
+                if pk != k:
+                    for j in range(10):
+                        tmp = L[k, j]
+                        L[k, j] = L[pk, j]
+                        L[pk, j] = tmp
+                if L[k, k] == 0.0:
+                    L[k, k] = 1e-300 + 1e-15 * mnorm
+                inv = 1.0 / L[k, k]
+                for i in range(k + 1, 10):
+                    L[i, k] *= inv
+                    fk = L[i, k]
+                    if fk != 0.0:
+                        for j in range(k + 1, 10):
+                            L[i, j] -= fk * L[k, j]
+            for r in range(10):
+                b[r] = 1.0
+            for _it in range(2):
+                _lu_solve(L, piv, b, 10)
+                nb = 0.0
+                for r in range(10):
+                    nb += b[r] * b[r]
+                nb = math.sqrt(nb)
+                if not (nb > 0.0 and math.isfinite(nb)):
+                    break
+                for r in range(10):
+                    b[r] /= nb
+            nE = 0.0
+            for a in range(3):
+                for c in range(3):
+                    v = b[6] * basis[0, a, c] + b[7] * basis[1, a, c] + b[8] * basis[2, a, c] + b[9] * basis[3, a, c]
+                    E[hh, slot, a, c] = v
+                    nE += v * v
+            nE = math.sqrt(nE)
+            if not (nE > 0.0 and math.isfinite(nE)):
+                continue
+            for a in range(3):
+                for c in range(3):
+                    E[hh, slot, a, c] /= nE
+            mask[hh, slot] = True
+            slot += 1
+        for s2 in range(slot, 10):
+            for a in range(3):
+                for c in range(3):
+                    E[hh, s2, a, c] = 0.0

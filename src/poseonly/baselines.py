@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _kernels
 from .estimator import register_solver
 from .identify import identify_poses
 from .solvers.eightpt import eightpt_batch
@@ -41,7 +42,23 @@ def wrap_essential_solver(batch_fn, real_key: str | None = None):
     return solve
 
 
-register_solver("5pt", wrap_essential_solver(fivept_batch, "is_real"), 5)
+def _fivept_real(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -> dict:
+    """Real five-point solutions: the compiled minimal solver (:func:`poseonly._kernels.fivept_real`,
+    ~10 us per sample instead of ~45 us) on unweighted minimal samples, :func:`fivept_batch` otherwise
+    and for the samples where the compiled solver broke down. Same solutions to rounding (the
+    equivalence test compares them with the previous code)."""
+    if w is None and f1.ndim == 3 and f1.shape[1] == 5 and _kernels.enabled():
+        E, mask, fail = _kernels.fivept_real(f1, f2)
+        if fail.any():
+            o = fivept_batch(f1[fail], f2[fail])
+            E[fail] = o["E"]
+            mask[fail] = o["is_real"]
+        return {"E": E, "mask": mask}
+    o = fivept_batch(f1, f2, w)
+    return {"E": o["E"], "mask": o["is_real"]}
+
+
+register_solver("5pt", wrap_essential_solver(_fivept_real), 5)
 register_solver("7pt", wrap_essential_solver(sevenpt_batch), 7)
 register_solver("8pt", wrap_essential_solver(eightpt_batch), 8)
 register_solver("6pt-philip", wrap_essential_solver(sixpt_philip_batch), 6)

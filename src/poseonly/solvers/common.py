@@ -33,6 +33,7 @@ __all__ = [
     "normalize_frobenius",
     "det_cubic_tensor",
     "demazure_cubic_tensor",
+    "cubic_template",
     "monomial_tensor",
     "pairwise_min_gap",
     "pose_from_essentials",
@@ -126,9 +127,17 @@ def det_cubic_tensor(B: np.ndarray) -> np.ndarray:
     """Polarised determinant ``D[..., i, j, k] = B_i[0] . (B_j[1] x B_k[2])`` for ``B (..., m, 3, 3)``.
 
     ``det(sum_i c_i B_i) = sum_{ijk} c_i c_j c_k D_ijk`` (the determinant is linear in each row).
+    Written as one cross product and one matrix product (no einsum: docs/speed_notes.md).
     """
-    cr = np.cross(B[..., :, None, 1, :], B[..., None, :, 2, :])  # (..., m, m, 3): B_j[1] x B_k[2]
-    return np.einsum("...ia,...jka->...ijk", B[..., 0, :], cr)
+    B = np.asarray(B, dtype=float)
+    m = B.shape[-3]
+    b1 = B[..., :, None, 1, :]
+    b2 = B[..., None, :, 2, :]
+    cr = np.stack([b1[..., 1] * b2[..., 2] - b1[..., 2] * b2[..., 1],
+                   b1[..., 2] * b2[..., 0] - b1[..., 0] * b2[..., 2],
+                   b1[..., 0] * b2[..., 1] - b1[..., 1] * b2[..., 0]], axis=-1)  # (..., m, m, 3): B_j[1] x B_k[2]
+    D = np.matmul(B[..., :, 0, :], np.swapaxes(cr.reshape(cr.shape[:-3] + (m * m, 3)), -1, -2))
+    return D.reshape(D.shape[:-2] + (m, m, m))
 
 
 def demazure_cubic_tensor(B: np.ndarray) -> np.ndarray:
@@ -136,10 +145,26 @@ def demazure_cubic_tensor(B: np.ndarray) -> np.ndarray:
 
     ``2 E E^T E - tr(E E^T) E = sum_{ijk} c_i c_j c_k T_ijk`` for ``E = sum_i c_i B_i``; the nine
     entries vanish exactly on the essential matrices (Demazure 1988; Faugeras & Maybank 1990).
+    Two broadcast matrix products (einsum with three operands was the hot spot of the 5-point
+    solver, docs/speed_notes.md).
     """
-    P = np.einsum("...iab,...jcb->...ijac", B, B)
-    tr = np.einsum("...ijaa->...ij", P)
-    return 2.0 * np.einsum("...ijac,...kcd->...ijkad", P, B) - tr[..., :, :, None, None, None] * B[..., None, None, :, :, :]
+    B = np.asarray(B, dtype=float)
+    m = B.shape[-3]
+    P = np.matmul(B[..., :, None, :, :], np.swapaxes(B, -1, -2)[..., None, :, :, :])  # (..., m, m, 3, 3)
+    Bf = B.reshape(B.shape[:-2] + (9,))
+    tr = np.matmul(Bf, np.swapaxes(Bf, -1, -2))  # (..., m, m): tr(B_i B_j^T)
+    Bk = B[..., None, None, :, :, :]
+    return 2.0 * np.matmul(P[..., :, :, None, :, :], Bk) - tr[..., :, :, None, None, None] * Bk
+
+
+def cubic_template(B: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """The nine Demazure cubics of ``E = sum_i c_i B_i`` over the monomials of ``G (m, m, m, M)``:
+    ``(..., 9, M)``, row ``3 b + a`` for the entry ``(a, b)`` (:func:`monomial_tensor`)."""
+    T = demazure_cubic_tensor(B)
+    m = B.shape[-3]
+    lead = T.shape[:-5]
+    Tt = np.swapaxes(T, -1, -2).reshape(lead + (m ** 3, 9))  # index 3 b + a
+    return np.matmul(np.swapaxes(Tt, -1, -2), G.reshape(m ** 3, -1))
 
 
 def pose_from_essentials(

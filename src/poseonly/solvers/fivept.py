@@ -26,7 +26,8 @@ and vectorized over stacked problems:
    of the ten solutions; eigenvectors ``v ~ b`` give ``(x, y, z) = v[6:9] / v[9]``.
 5. ``E ~ v6 X + v7 Y + v8 Z + v9 W`` (homogeneous, no division by ``v9``), normalised by the complex
    ``sqrt(sum E_ij^2)`` as OpenGV does; candidates are the real parts (OpenGV's SAC problem takes the
-   real part of all ten), rescaled to unit Frobenius norm.
+   real part of all ten), rescaled to unit Frobenius norm, with the sign that makes the largest
+   entry positive (the complex square root's branch otherwise decides it).
 
 ``d_min = min_{i != j} |lambda_i - lambda_j|`` over the ten action-matrix eigenvalues is the
 paper's Table 2 indicator (same definition as LiRP's). For noise-free planar scenes and ``n > 5`` the
@@ -40,7 +41,7 @@ from __future__ import annotations
 import numpy as np
 
 from .common import (
-    demazure_cubic_tensor,
+    cubic_template,
     det_cubic_tensor,
     epipolar_rows,
     monomial_tensor,
@@ -73,10 +74,10 @@ def template(basis: np.ndarray) -> np.ndarray:
     Rows 0-8: the Demazure cubics (entry ``(a, b)`` -> row ``3 b + a``), row 9: ``det E``.
     """
     h = basis.shape[0]
-    T = demazure_cubic_tensor(basis)  # (h, 4, 4, 4, 3, 3)
-    dem = np.einsum("hijkab,ijkm->hbam", T, _G20).reshape(h, 9, 20)
-    det = np.einsum("hijk,ijkm->hm", det_cubic_tensor(basis), _G20)
-    return np.concatenate([dem, det[:, None]], axis=1)
+    out = np.empty((h, 10, 20))
+    out[:, :9] = cubic_template(basis, _G20)
+    out[:, 9] = np.matmul(det_cubic_tensor(basis).reshape(h, 1, 64), _G20.reshape(64, 20))[:, 0]  # stacked: same rounding for any h
+    return out
 
 
 def fivept_batch(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -> dict:
@@ -104,6 +105,11 @@ def fivept_batch(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) ->
     nrm = np.sqrt(np.sum(Ec * Ec, axis=-1, keepdims=True))  # OpenGV's complex normalisation
     nrm = np.where(np.abs(nrm) > 1e-300, nrm, 1.0)
     E = normalize_frobenius(vec_to_mat(np.real(Ec / nrm)))
+    # canonical sign (largest entry positive): OpenGV's complex normalisation leaves the sign of a
+    # real solution to the branch of a complex square root, which rounding can flip
+    Ef = E.reshape(h, 10, 9)
+    big = np.take_along_axis(Ef, np.argmax(np.abs(Ef), axis=-1)[..., None], axis=-1)
+    E = E * np.where(big < 0, -1.0, 1.0)[..., None]
     with np.errstate(divide="ignore", invalid="ignore"):
         xyz = v[..., 6:9] / v[..., 9:10]
     xyz = np.where(np.isfinite(xyz), xyz, np.nan)
