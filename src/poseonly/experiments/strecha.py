@@ -570,7 +570,8 @@ def run(args: argparse.Namespace) -> int:
                   opengv_thr=args.opengv_threshold_px, max_pairs=max_pairs,
                   max_features=max_features, min_matches=args.min_matches, gt_px=args.gt_px, gt_min=args.gt_min,
                   min_conf_inliers=args.min_confident_inliers, wrong_deg=args.wrong_deg, seed=args.seed)
-    cmd = "poseonly " + " ".join(sys.argv[1:]) if Path(sys.argv[0]).name in ("poseonly", "poseonly.exe") else None
+    prog = Path(sys.argv[0]).name if sys.argv else ""
+    cmd = "poseonly " + " ".join(sys.argv[1:]) if prog in ("poseonly", "poseonly.exe", "cli.py", "__main__.py") else None
     res["command"] = cmd
     md = to_markdown(res, cmd)
     atomic_write_text(out / "strecha.md", md)
