@@ -1,6 +1,8 @@
 """numba implementations behind :mod:`poseonly._kernels` (imported only when numba is present).
 
-No ``fastmath``: IEEE semantics, the numpy twins give the same numbers to rounding.
+IEEE semantics (``error_model="numpy"``: a division by zero gives inf/nan instead of raising, which
+also lets LLVM vectorise the point loops); ``fastmath`` is limited to ``reassoc`` in the point
+loops (sums may be reordered). The numpy twins give the same numbers to rounding.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from numba import njit
 # pose identification + PPO ranking (twin: poseonly.identify._rank_numpy)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _jacobi3(M, V):
     """Eigen-decomposition of the symmetric 3x3 ``M`` (overwritten by its diagonal form) by cyclic
     Jacobi rotations; eigenvectors in the columns of ``V`` (a proper rotation)."""
@@ -61,7 +63,58 @@ def _jacobi3(M, V):
                 V[r, q] = s * vrp + c * vrq
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
+def _smallest_eigvec3(M, v):
+    """Unit eigenvector ``v`` of the smallest eigenvalue of the symmetric PSD 3x3 ``M``.
+
+    The smallest root of the characteristic polynomial by Newton's method from 0 (monotone: all
+    roots are real and >= 0), then the largest cross product of two rows of ``M - lambda I``
+    (error ~ eps |M| / (lambda_2 - lambda_3), like an SVD of ``E`` for the gaps that occur)."""
+    m00, m01, m02 = M[0, 0], M[0, 1], M[0, 2]
+    m11, m12, m22 = M[1, 1], M[1, 2], M[2, 2]
+    c2 = m00 + m11 + m22
+    c1 = m00 * m11 - m01 * m01 + m00 * m22 - m02 * m02 + m11 * m22 - m12 * m12
+    c0 = m00 * (m11 * m22 - m12 * m12) - m01 * (m01 * m22 - m12 * m02) + m02 * (m01 * m12 - m11 * m02)
+    lam = 0.0
+    for _ in range(60):
+        pv = ((lam - c2) * lam + c1) * lam - c0
+        dp = (3.0 * lam - 2.0 * c2) * lam + c1
+        if dp == 0.0:
+            break
+        step = pv / dp
+        lam -= step
+        if abs(step) <= 1e-17 * c2:
+            break
+    a00, a11, a22 = m00 - lam, m11 - lam, m22 - lam
+    # cross products of the rows (a00 m01 m02), (m01 a11 m12), (m02 m12 a22)
+    x0 = m01 * m12 - m02 * a11
+    x1 = m02 * m01 - a00 * m12
+    x2 = a00 * a11 - m01 * m01
+    y0 = m01 * a22 - m02 * m12
+    y1 = m02 * m02 - a00 * a22
+    y2 = a00 * m12 - m01 * m02
+    z0 = a11 * a22 - m12 * m12
+    z1 = m12 * m02 - m01 * a22
+    z2 = m01 * m12 - a11 * m02
+    nx = x0 * x0 + x1 * x1 + x2 * x2
+    ny = y0 * y0 + y1 * y1 + y2 * y2
+    nz = z0 * z0 + z1 * z1 + z2 * z2
+    if nx >= ny and nx >= nz:
+        v[0], v[1], v[2], nn = x0, x1, x2, nx
+    elif ny >= nz:
+        v[0], v[1], v[2], nn = y0, y1, y2, ny
+    else:
+        v[0], v[1], v[2], nn = z0, z1, z2, nz
+    if nn > 0.0:
+        nn = math.sqrt(nn)
+        v[0] /= nn
+        v[1] /= nn
+        v[2] /= nn
+        return True
+    return False
+
+
+@njit(cache=True, error_model="numpy")
 def _frames(E, u3, v3, F, Ep, M, V):
     """Twin of :func:`poseonly.geometry.essential_frames` for one 3x3 ``E`` (outputs in place)."""
     for i in range(3):
@@ -70,28 +123,22 @@ def _frames(E, u3, v3, F, Ep, M, V):
             for r in range(3):
                 s += E[r, i] * E[r, j]
             M[i, j] = s
-    _jacobi3(M, V)
-    i0 = 0
-    if M[1, 1] < M[i0, i0]:
-        i0 = 1
-    if M[2, 2] < M[i0, i0]:
-        i0 = 2
-    ia = (i0 + 1) % 3
-    ib = (i0 + 2) % 3
-    a0, a1, a2 = V[0, ia], V[1, ia], V[2, ia]
-    b0, b1, b2 = V[0, ib], V[1, ib], V[2, ib]
-    v3[0] = a1 * b2 - a2 * b1
-    v3[1] = a2 * b0 - a0 * b2
-    v3[2] = a0 * b1 - a1 * b0
-    x0 = E[0, 0] * a0 + E[0, 1] * a1 + E[0, 2] * a2
-    x1 = E[1, 0] * a0 + E[1, 1] * a1 + E[1, 2] * a2
-    x2 = E[2, 0] * a0 + E[2, 1] * a1 + E[2, 2] * a2
-    y0 = E[0, 0] * b0 + E[0, 1] * b1 + E[0, 2] * b2
-    y1 = E[1, 0] * b0 + E[1, 1] * b1 + E[1, 2] * b2
-    y2 = E[2, 0] * b0 + E[2, 1] * b1 + E[2, 2] * b2
-    u0 = x1 * y2 - x2 * y1
-    u1 = x2 * y0 - x0 * y2
-    u2 = x0 * y1 - x1 * y0
+    if not _smallest_eigvec3(M, v3):  # a multiple smallest eigenvalue (e.g. E ~ identity): Jacobi
+        _jacobi3(M, V)
+        i0 = 0
+        if M[1, 1] < M[i0, i0]:
+            i0 = 1
+        if M[2, 2] < M[i0, i0]:
+            i0 = 2
+        for i in range(3):
+            v3[i] = V[i, i0]
+    # u = cof(E) v3: columns of cof(E) are the cross products of the columns of E
+    e00, e01, e02 = E[0, 0], E[0, 1], E[0, 2]
+    e10, e11, e12 = E[1, 0], E[1, 1], E[1, 2]
+    e20, e21, e22 = E[2, 0], E[2, 1], E[2, 2]
+    u0 = v3[0] * (e11 * e22 - e21 * e12) + v3[1] * (e12 * e20 - e22 * e10) + v3[2] * (e10 * e21 - e20 * e11)
+    u1 = v3[0] * (e21 * e02 - e01 * e22) + v3[1] * (e22 * e00 - e02 * e20) + v3[2] * (e20 * e01 - e00 * e21)
+    u2 = v3[0] * (e01 * e12 - e11 * e02) + v3[1] * (e02 * e10 - e12 * e00) + v3[2] * (e00 * e11 - e10 * e01)
     s12 = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
     if s12 > 0.0:
         u3[0], u3[1], u3[2] = u0 / s12, u1 / s12, u2 / s12
@@ -124,31 +171,7 @@ def _frames(E, u3, v3, F, Ep, M, V):
         F[2, j] = u3[0] * Ep[1, j] - u3[1] * Ep[0, j]
 
 
-@njit(cache=True)
-def _ppo(ab, bt, h, ea):
-    """Twin of :func:`poseonly.identify.ppo_from_forms` for one point."""
-    alpha = math.sqrt(max((1.0 - bt) * (1.0 + bt), 0.0))
-    beta = math.sqrt(max((1.0 - ab) * (1.0 + ab), 0.0))
-    p = alpha * ab + beta * bt
-    rho = math.sqrt(h * h + ea * ea)
-    q = 0.0
-    if rho > 0.0:
-        if h > 0.0:
-            omc = ea * ea / (rho * (rho + h))
-        else:
-            omc = (rho - h) / rho
-        q = alpha * beta * math.sqrt(2.0 * omc)
-    r = math.sqrt(p * p + q * q)
-    if not r > 0.0:
-        return 1.0
-    if p > 0.0:
-        omc2 = q * q / (r * (r + p))
-    else:
-        omc2 = (r - p) / r
-    return math.sqrt(2.0 * omc2)
-
-
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _sgn(x):
     if x > 0.0:
         return 1.0
@@ -157,7 +180,93 @@ def _sgn(x):
     return 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath={"reassoc"}, error_model="numpy")
+def _sign_pass(P, G, Fm, u3, v3, wv, n, out):
+    """Weighted sums over the points of sign(h h'), h h' and sign(h) for both rotations ``u3 v3^T +- F``.
+
+    Written as a flat loop over contiguous coordinate rows so that LLVM vectorises it
+    (``reassoc`` only lets the sums be reordered)."""
+    sa = 0.0
+    sb = 0.0
+    ra = 0.0
+    rb = 0.0
+    ma = 0.0
+    mb = 0.0
+    f00, f01, f02, f10, f11, f12, f20, f21, f22 = Fm[0, 0], Fm[0, 1], Fm[0, 2], Fm[1, 0], Fm[1, 1], Fm[1, 2], Fm[2, 0], Fm[2, 1], Fm[2, 2]
+    for i in range(n):
+        p0 = P[0, i]
+        p1 = P[1, i]
+        p2 = P[2, i]
+        g0 = G[0, i]
+        g1 = G[1, i]
+        g2 = G[2, i]
+        x = g0 * (f00 * p0 + f01 * p1 + f02 * p2) + g1 * (f10 * p0 + f11 * p1 + f12 * p2) + g2 * (f20 * p0 + f21 * p1 + f22 * p2)
+        at = v3[0] * p0 + v3[1] * p1 + v3[2] * p2
+        bt = u3[0] * g0 + u3[1] * g1 + u3[2] * g2
+        base = bt * at
+        aba = base + x
+        abb = base - x
+        ha = aba * bt - at
+        hb = abb * bt - at
+        pa = ha * (bt - at * aba)
+        pb = hb * (bt - at * abb)
+        wi = wv[i]
+        sa += wi * ((1.0 if pa > 0.0 else 0.0) - (1.0 if pa < 0.0 else 0.0))
+        sb += wi * ((1.0 if pb > 0.0 else 0.0) - (1.0 if pb < 0.0 else 0.0))
+        ra += wi * pa
+        rb += wi * pb
+        ma += wi * ((1.0 if ha > 0.0 else 0.0) - (1.0 if ha < 0.0 else 0.0))
+        mb += wi * ((1.0 if hb > 0.0 else 0.0) - (1.0 if hb < 0.0 else 0.0))
+    out[0] = sa
+    out[1] = sb
+    out[2] = ra
+    out[3] = rb
+    out[4] = ma
+    out[5] = mb
+
+
+@njit(cache=True, fastmath={"reassoc"}, error_model="numpy")
+def _ppo_pass(P, G, Fm, Em, u3, v3, sf, sg, wv, n):
+    """Weighted sum of v_PPO over the points for the pose ``(u3 v3^T + sf F, sg u3)``
+    (vectorisable twin of :func:`poseonly.identify.ppo_from_forms`)."""
+    acc = 0.0
+    f00, f01, f02, f10, f11, f12, f20, f21, f22 = Fm[0, 0], Fm[0, 1], Fm[0, 2], Fm[1, 0], Fm[1, 1], Fm[1, 2], Fm[2, 0], Fm[2, 1], Fm[2, 2]
+    e00, e01, e02, e10, e11, e12, e20, e21, e22 = Em[0, 0], Em[0, 1], Em[0, 2], Em[1, 0], Em[1, 1], Em[1, 2], Em[2, 0], Em[2, 1], Em[2, 2]
+    for i in range(n):
+        p0 = P[0, i]
+        p1 = P[1, i]
+        p2 = P[2, i]
+        g0 = G[0, i]
+        g1 = G[1, i]
+        g2 = G[2, i]
+        x = g0 * (f00 * p0 + f01 * p1 + f02 * p2) + g1 * (f10 * p0 + f11 * p1 + f12 * p2) + g2 * (f20 * p0 + f21 * p1 + f22 * p2)
+        e = g0 * (e00 * p0 + e01 * p1 + e02 * p2) + g1 * (e10 * p0 + e11 * p1 + e12 * p2) + g2 * (e20 * p0 + e21 * p1 + e22 * p2)
+        at = v3[0] * p0 + v3[1] * p1 + v3[2] * p2
+        bt0 = u3[0] * g0 + u3[1] * g1 + u3[2] * g2
+        ab = bt0 * at + sf * x
+        h = sg * (ab * bt0 - at)
+        bt = sg * bt0
+        e2 = e * e
+        a2 = (1.0 - bt) * (1.0 + bt)
+        b2 = (1.0 - ab) * (1.0 + ab)
+        alpha = math.sqrt(a2 if a2 > 0.0 else 0.0)
+        beta = math.sqrt(b2 if b2 > 0.0 else 0.0)
+        p = alpha * ab + beta * bt
+        rho = alpha * beta
+        rho1 = rho if rho > 0.0 else 1.0
+        pos = h > 0.0
+        omc = (e2 if pos else rho1 - h) / (rho1 * (rho1 + h) if pos else rho1)
+        q2 = 2.0 * rho * rho * (omc if rho > 0.0 else 0.0)
+        r = math.sqrt(p * p + q2)
+        r1 = r if r > 0.0 else 1.0
+        ppos = p > 0.0
+        omc2 = (q2 if ppos else r1 - p) / (r1 * (r1 + p) if ppos else r1)
+        v = math.sqrt(2.0 * omc2) if r > 0.0 else 1.0
+        acc += wv[i] * v
+    return acc
+
+
+@njit(cache=True, error_model="numpy")
 def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost):
     H, k = E.shape[0], E.shape[1]
     n = f1.shape[1]
@@ -167,50 +276,50 @@ def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost)
     Ep = np.empty((3, 3))
     M = np.empty((3, 3))
     V = np.empty((3, 3))
+    P = np.empty((3, n))
+    G = np.empty((3, n))
+    wv = np.empty(n)
+    sums = np.empty(6)
     for hh in range(H):
+        for i in range(n):
+            for c in range(3):
+                P[c, i] = f1[hh, i, c]
+                G[c, i] = f2[hh, i, c]
+            wv[i] = w[hh, i] if weighted else 1.0
         wsum = 0.0
         if weighted:
             for i in range(n):
-                wsum += w[hh, i]
+                wsum += wv[i]
             wsum = max(wsum, 1e-300)
         else:
             wsum = float(n)
         for c in range(k):
+            dup = -1
+            for c2 in range(c):  # exact duplicates (complex-conjugate eigenvectors give identical candidates)
+                same = True
+                for i in range(3):
+                    for j in range(3):
+                        if E[hh, c, i, j] != E[hh, c2, i, j]:
+                            same = False
+                if same:
+                    dup = c2
+                    break
+            if dup >= 0:
+                M1[hh, c] = M1[hh, dup]
+                valid[hh, c] = valid[hh, dup]
+                cost[hh, c] = cost[hh, dup]
+                for i in range(3):
+                    t[hh, c, i] = t[hh, dup, i]
+                    for j in range(3):
+                        R[hh, c, i, j] = R[hh, dup, i, j]
+                continue
             _frames(E[hh, c], u3, v3, F, Ep, M, V)
-            sa = 0.0
-            sb = 0.0
-            ra = 0.0
-            rb = 0.0
-            ma = 0.0
-            mb = 0.0
-            for i in range(n):
-                p0, p1, p2 = f1[hh, i, 0], f1[hh, i, 1], f1[hh, i, 2]
-                g0, g1, g2 = f2[hh, i, 0], f2[hh, i, 1], f2[hh, i, 2]
-                fx0 = F[0, 0] * p0 + F[0, 1] * p1 + F[0, 2] * p2
-                fx1 = F[1, 0] * p0 + F[1, 1] * p1 + F[1, 2] * p2
-                fx2 = F[2, 0] * p0 + F[2, 1] * p1 + F[2, 2] * p2
-                x = g0 * fx0 + g1 * fx1 + g2 * fx2
-                at = v3[0] * p0 + v3[1] * p1 + v3[2] * p2
-                bt = u3[0] * g0 + u3[1] * g1 + u3[2] * g2
-                base = bt * at
-                aba = base + x
-                abb = base - x
-                ha = aba * bt - at
-                hb = abb * bt - at
-                pa = ha * (bt - at * aba)
-                pb = hb * (bt - at * abb)
-                wi = w[hh, i] if weighted else 1.0
-                sa += wi * _sgn(pa)
-                sb += wi * _sgn(pb)
-                ra += wi * pa
-                rb += wi * pb
-                ma += wi * _sgn(ha)
-                mb += wi * _sgn(hb)
-            m1a = sa / wsum
-            m1b = sb / wsum
-            pick_b = (m1b > m1a) or (m1b == m1a and rb / wsum > ra / wsum)
+            _sign_pass(P, G, F, u3, v3, wv, n, sums)
+            m1a = sums[0] / wsum
+            m1b = sums[1] / wsum
+            pick_b = (m1b > m1a) or (m1b == m1a and sums[3] / wsum > sums[2] / wsum)
             m1 = m1b if pick_b else m1a
-            m2 = (mb if pick_b else ma) / wsum
+            m2 = (sums[5] if pick_b else sums[4]) / wsum
             sg = -1.0 if m2 < 0.0 else 1.0
             sf = -1.0 if pick_b else 1.0
             M1[hh, c] = m1
@@ -220,33 +329,16 @@ def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost)
                 for j in range(3):
                     R[hh, c, i, j] = u3[i] * v3[j] + sf * F[i, j]
             if with_cost:
-                acc = 0.0
-                for i in range(n):
-                    p0, p1, p2 = f1[hh, i, 0], f1[hh, i, 1], f1[hh, i, 2]
-                    g0, g1, g2 = f2[hh, i, 0], f2[hh, i, 1], f2[hh, i, 2]
-                    fx0 = F[0, 0] * p0 + F[0, 1] * p1 + F[0, 2] * p2
-                    fx1 = F[1, 0] * p0 + F[1, 1] * p1 + F[1, 2] * p2
-                    fx2 = F[2, 0] * p0 + F[2, 1] * p1 + F[2, 2] * p2
-                    ex0 = Ep[0, 0] * p0 + Ep[0, 1] * p1 + Ep[0, 2] * p2
-                    ex1 = Ep[1, 0] * p0 + Ep[1, 1] * p1 + Ep[1, 2] * p2
-                    ex2 = Ep[2, 0] * p0 + Ep[2, 1] * p1 + Ep[2, 2] * p2
-                    x = g0 * fx0 + g1 * fx1 + g2 * fx2
-                    e = g0 * ex0 + g1 * ex1 + g2 * ex2
-                    at = v3[0] * p0 + v3[1] * p1 + v3[2] * p2
-                    bt = u3[0] * g0 + u3[1] * g1 + u3[2] * g2
-                    ab = bt * at + sf * x
-                    hv = ab * bt - at
-                    v = _ppo(ab, sg * bt, sg * hv, abs(e))
-                    wi = w[hh, i] if weighted else 1.0
-                    acc += wi * v
-                cost[hh, c] = acc / wsum
+                cost[hh, c] = _ppo_pass(P, G, F, Ep, u3, v3, sf, sg, wv, n) / wsum
+            else:
+                cost[hh, c] = 0.0
 
 
 # ------------------------------------------------------------------------------------------------
 # LiRP around LAPACK's eig (twins: poseonly.solvers.lirp._demazure_rows / lirp_candidates)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _householder_ls(A, Bm, X, m, p, r):
     """Least squares ``A (m x p) X = Bm (m x r)`` by Householder QR (``A``, ``Bm`` overwritten).
     Returns False when ``A`` is (numerically exactly) rank deficient."""
@@ -292,7 +384,7 @@ def _householder_ls(A, Bm, X, m, p, r):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def lirp_action_nb(q, mono, C, ok):
     """Action matrices ``C (h, 2, 6, 6)`` of the Demazure system of ``a Q1 + b Q2 + Q3`` (``q (h, 3, 9)``
     column-major vecs; ``mono (27,)`` monomial index of ``Q_i Q_j Q_k``); ``ok[h] = False`` when the
@@ -356,13 +448,13 @@ def lirp_action_nb(q, mono, C, ok):
         C[hh, 1, 5, 4] = 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _det3(M):
     return (M[0, 0] * (M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1]) - M[0, 1] * (M[1, 0] * M[2, 2] - M[1, 2] * M[2, 0])
             + M[0, 2] * (M[1, 0] * M[2, 1] - M[1, 1] * M[2, 0]))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _cubic_real_parts(c3, c2, c1, c0, out):
     """Real parts of the three roots of ``c3 x^3 + c2 x^2 + c1 x + c0`` (closed form, Numerical
     Recipes 5.6), polished by two Newton steps on the real roots."""
@@ -399,7 +491,7 @@ def _cubic_real_parts(c3, c2, c1, c0, out):
             out[i] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def lirp_post_nb(q, lam, G, cand, dmin, need_numpy):
     """The 18 unit candidates ``cand (h, 18, 9)`` and ``dmin (h, 2)`` from ``q (h, 3, 9)`` and the
     eigen-decompositions ``lam (h, 2, 6)``, ``G (h, 2, 6, 6)`` (eigenvectors in columns).
@@ -479,7 +571,7 @@ def lirp_post_nb(q, lam, G, cand, dmin, need_numpy):
 # five-point solver, real solutions (twin: poseonly.solvers.fivept.fivept_batch + is_real filter)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _lu(A, piv, n):
     """In-place LU with partial pivoting of ``A[:n, :n]``; returns False on an exactly zero pivot."""
     for k in range(n):
@@ -507,7 +599,7 @@ def _lu(A, piv, n):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _lu_solve(LU, piv, b, n):
     for k in range(n):
         p = piv[k]
@@ -527,7 +619,7 @@ def _lu_solve(LU, piv, b, n):
         b[i] = s / LU[i, i]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _balance(a, n):
     """Parlett-Reinsch balancing of ``a[:n, :n]`` in place (Numerical Recipes ``balanc``)."""
     radix = 2.0
@@ -561,7 +653,7 @@ def _balance(a, n):
                         a[j, i] *= f
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _hessenberg(a, n):
     """Reduction of ``a[:n, :n]`` to upper Hessenberg form by stabilised elementary similarity
     transformations (Numerical Recipes ``elmhes``); entries below the subdiagonal are zeroed."""
@@ -596,7 +688,7 @@ def _hessenberg(a, n):
             a[i, j] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _hqr(h, n, wr, wi):
     """Eigenvalues of the upper Hessenberg ``h[1:n+1, 1:n+1]`` (1-based, destroyed) by the Francis
     double-shift QR algorithm (EISPACK ``hqr`` as in Numerical Recipes). False if it did not converge."""
@@ -728,7 +820,7 @@ def _hqr(h, n, wr, wi):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def fivept_real_nb(f1, f2, mono, unit_cols, action_rows, real_tol, E, mask, fail):
     """Stewenius five-point on minimal samples ``f (h, 5, 3)``: the real solutions in ``E (h, 10,
     3, 3)`` (unit Frobenius norm), ``mask (h, 10)``; ``fail[h]`` when a step broke down (the caller

@@ -30,8 +30,9 @@ so one small matrix product per problem replaces the per-point cross products:
   ``h^T t = ab bt - at`` and ``h'^T t = bt - at ab`` (Lagrange identity);
 * ``v_PPO = 2 sin(phi / 2)`` with ``phi`` the angle between ``eps = |t x b| a + |b x a| t`` and ``b``:
   ``eps.b = alpha ab + beta bt`` and ``|eps x b| = 2 alpha beta sin(gamma / 2)`` with
-  ``gamma = atan2(|e|, h)`` (``alpha = |t x b|``, ``beta = |b x a|``), evaluated with half-angle
-  formulas that keep full accuracy near zero (the residual of an exact fit stays ~1e-16).
+  ``gamma = atan2(|e|, h)`` (``alpha = |t x b|``, ``beta = |b x a|``, ``h^2 + e^2 = alpha^2 beta^2``),
+  evaluated with half-angle formulas that keep full accuracy near zero (the residual of an exact
+  fit stays ~1e-16).
 
 All four forms of every candidate come from one ``(4k x 15) @ (15 x n)`` product with the per-point
 data ``[f2 f1^T (9), f1, f2]`` (:func:`point_data`, reusable across IRLS iterations). An optional
@@ -63,21 +64,27 @@ def point_data(f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
 def ppo_from_forms(ab: np.ndarray, bt: np.ndarray, h: np.ndarray, e_abs: np.ndarray) -> np.ndarray:
     """``v_PPO`` from ``ab = f2.R f1``, ``bt = t.f2``, ``h = h^T t`` and ``|e| = |f2^T [t]x R f1|`` (unit ``t``).
 
-    Equal to :func:`poseonly.residuals.v_PPO` to ~1e-15 absolute (module docstring).
+    With ``alpha = |t x f2|``, ``beta = |f2 x R f1|`` (so ``h^2 + e^2 = alpha^2 beta^2``):
+    ``|eps x f2|^2 = 2 alpha^2 beta^2 (1 - cos gamma)``, ``eps . f2 = alpha ab + beta bt`` and
+    ``v = sqrt(2 (1 - cos phi))``, both ``1 - cos`` by the half-angle forms that avoid cancellation.
+    Four square roots and two divisions per point. Equal to :func:`poseonly.residuals.v_PPO` to
+    ~1e-15 absolute (module docstring).
     """
     alpha = np.sqrt(np.maximum((1.0 - bt) * (1.0 + bt), 0.0))  # |t x f2|
     beta = np.sqrt(np.maximum((1.0 - ab) * (1.0 + ab), 0.0))  # |f2 x R f1|
     p = alpha * ab + beta * bt  # eps . f2
-    rho = np.sqrt(h * h + e_abs * e_abs)
+    rho = alpha * beta
+    pos = h > 0.0
     rho_ok = rho > 0.0
     rho1 = np.where(rho_ok, rho, 1.0)
     # 1 - cos(gamma), gamma = atan2(|e|, h), without cancellation
-    omc = np.where(h > 0.0, e_abs * e_abs / (rho1 * (rho1 + np.maximum(h, 0.0))), (rho1 - h) / rho1)
-    q = alpha * beta * np.sqrt(2.0 * np.where(rho_ok, omc, 0.0))  # |eps x f2|
-    r = np.sqrt(p * p + q * q)  # |eps|
+    omc = np.where(pos, e_abs * e_abs, rho1 - h) / np.where(pos, rho1 * (rho1 + h), rho1)
+    q2 = 2.0 * rho * rho * np.where(rho_ok, omc, 0.0)  # |eps x f2|^2
+    r = np.sqrt(p * p + q2)  # |eps|
     r_ok = r > 0.0
     r1 = np.where(r_ok, r, 1.0)
-    omc2 = np.where(p > 0.0, q * q / (r1 * (r1 + np.maximum(p, 0.0))), (r1 - p) / r1)
+    ppos = p > 0.0
+    omc2 = np.where(ppos, q2, r1 - p) / np.where(ppos, r1 * (r1 + p), r1)
     return np.where(r_ok, np.sqrt(2.0 * omc2), 1.0)  # eps = 0: normalize(eps) = 0, |0 - f2| = 1
 
 
