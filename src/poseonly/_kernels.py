@@ -13,6 +13,10 @@ Kernels (docs/speed_notes.md has the profiles that motivated each one):
   matrices against ``n`` points (:func:`poseonly.identify.identify_and_rank`): a 3x3 Jacobi
   eigen-decomposition per candidate instead of LAPACK calls, then two passes over the points with
   everything in registers (numpy materialises ~40 temporaries of shape ``(2, k, n)``);
+* :func:`lirp_action`, :func:`lirp_post` -- LiRP before and after LAPACK's ``eig`` (Demazure
+  template and least squares; candidate assembly, case-2 cubic, ``d_min``): ~40 small numpy calls
+  per problem become two calls;
+* :func:`residual` -- ``v_LiGT`` and ``v_sampson`` of ``k`` poses on ``n`` points in one pass;
 * :func:`fivept_real` -- the Stewenius five-point solver on minimal samples returning the real
   solutions only (:mod:`poseonly.solvers.fivept`): 10x10 action matrix reduced to Hessenberg form
   and its real eigenvalues found by the Francis double-shift QR, eigenvectors by a 9x9 solve,
@@ -26,7 +30,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
-__all__ = ["available", "enabled", "use", "rank_candidates", "lirp_action", "lirp_post", "fivept_real"]
+__all__ = ["available", "enabled", "use", "rank_candidates", "lirp_action", "lirp_post", "fivept_real", "residual"]
 
 _state = {"checked": False, "available": False, "enabled": os.environ.get("POSEONLY_NUMBA", "1") not in ("0", "false", "no", "off")}
 _impl: dict = {}
@@ -68,11 +72,18 @@ def _compiled():
         _impl["fivept"] = _kernels_nb.fivept_real_nb
         _impl["lirp_action"] = _kernels_nb.lirp_action_nb
         _impl["lirp_post"] = _kernels_nb.lirp_post_nb
+        _impl["residual"] = _kernels_nb.residual_nb
     return _impl
 
 
+_EMPTY2 = np.zeros((0, 0))
+
+
 def rank_candidates(E, f1, f2, w, with_cost=True):
-    """Compiled :func:`poseonly.identify._rank_numpy` on flat ``E (H,k,3,3)``, ``f (H,n,3)``, ``w (H,n) | None``."""
+    """Compiled :func:`poseonly.identify._rank_numpy` on flat ``E (H,k,3,3)``, ``f (H,n,3)``, ``w (H,n) | None``.
+
+    Returns ``R, t, valid, M1, cost`` (``inf`` where not finite; ``None`` without ``with_cost``)
+    and ``best (H,)`` (the argmin of ``cost``, invalid candidates ``+10``)."""
     H, k = E.shape[:2]
     n = f1.shape[1]
     R = np.empty((H, k, 3, 3))
@@ -80,10 +91,11 @@ def rank_candidates(E, f1, f2, w, with_cost=True):
     valid = np.empty((H, k), np.bool_)
     M1 = np.empty((H, k))
     cost = np.empty((H, k))
-    ww = np.empty((H, n)) if w is None else np.ascontiguousarray(w, dtype=np.float64)
+    best = np.empty(H, np.int64)
+    ww = _EMPTY2 if w is None else np.ascontiguousarray(w, dtype=np.float64)
     _compiled()["rank"](np.ascontiguousarray(E, dtype=np.float64), np.ascontiguousarray(f1, dtype=np.float64),
-                        np.ascontiguousarray(f2, dtype=np.float64), ww, w is not None, bool(with_cost), R, t, valid, M1, cost)
-    return R, t, valid, M1, (cost if with_cost else None)
+                        np.ascontiguousarray(f2, dtype=np.float64), ww, w is not None, bool(with_cost), R, t, valid, M1, cost, best)
+    return R, t, valid, M1, (cost if with_cost else None), best
 
 
 _MONO27 = None
@@ -113,6 +125,34 @@ def lirp_post(q, lam, G):
     _compiled()["lirp_post"](np.ascontiguousarray(q, dtype=np.float64), np.ascontiguousarray(lam, dtype=np.complex128),
                              np.ascontiguousarray(G, dtype=np.complex128), cand, dmin, need)
     return cand, dmin, need
+
+
+_RESIDUAL_KIND = {"ligt": 0, "sampson": 1}
+
+
+def residual(kind, R, t, f1, f2):
+    """Compiled ``v_LiGT`` / ``v_sampson`` for ``R (k, 3, 3)`` or ``(3, 3)``, ``t`` to match, and
+    points ``(n, 3)`` shared by all poses or ``(k, n, 3)``; ``None`` for other shapes (use numpy)."""
+    R = np.asarray(R, dtype=np.float64)
+    t = np.asarray(t, dtype=np.float64)
+    f1 = np.asarray(f1, dtype=np.float64)
+    f2 = np.asarray(f2, dtype=np.float64)
+    single = R.ndim == 2
+    if single:
+        R, t = R[None], t[None]
+    if R.ndim != 3 or t.shape != (len(R), 3) or f1.shape != f2.shape or f1.shape[-1] != 3:
+        return None
+    k = len(R)
+    if f1.ndim == 2:
+        F1, F2 = f1[None], f2[None]
+    elif f1.ndim == 3 and len(f1) == k and not single:
+        F1, F2 = f1, f2
+    else:
+        return None
+    out = np.empty((k, F1.shape[1]))
+    _compiled()["residual"](np.ascontiguousarray(R), np.ascontiguousarray(t), np.ascontiguousarray(F1),
+                            np.ascontiguousarray(F2), _RESIDUAL_KIND[kind], out)
+    return out[0] if single else out
 
 
 _FIVEPT_TABLES = None

@@ -267,7 +267,7 @@ def _ppo_pass(P, G, Fm, Em, u3, v3, sf, sg, wv, n):
 
 
 @njit(cache=True, error_model="numpy")
-def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost):
+def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost, best):
     H, k = E.shape[0], E.shape[1]
     n = f1.shape[1]
     u3 = np.empty(3)
@@ -329,9 +329,19 @@ def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost)
                 for j in range(3):
                     R[hh, c, i, j] = u3[i] * v3[j] + sf * F[i, j]
             if with_cost:
-                cost[hh, c] = _ppo_pass(P, G, F, Ep, u3, v3, sf, sg, wv, n) / wsum
+                cv = _ppo_pass(P, G, F, Ep, u3, v3, sf, sg, wv, n) / wsum
+                cost[hh, c] = cv if math.isfinite(cv) else np.inf
             else:
                 cost[hh, c] = 0.0
+        # best: the first minimum of cost (+10 for invalid candidates: PPO residuals are <= 2)
+        bk = 0
+        bkey = np.inf
+        for c in range(k):
+            key = cost[hh, c] if valid[hh, c] else cost[hh, c] + 10.0
+            if key < bkey:
+                bkey = key
+                bk = c
+        best[hh] = bk
 
 
 # ------------------------------------------------------------------------------------------------
@@ -1023,3 +1033,88 @@ def fivept_real_nb(f1, f2, mono, unit_cols, action_rows, real_tol, E, mask, fail
             for a in range(3):
                 for c in range(3):
                     E[hh, s2, a, c] = 0.0
+
+
+# ------------------------------------------------------------------------------------------------
+# residuals (twins: poseonly.residuals.v_LiGT, v_sampson)
+
+
+@njit(cache=True, error_model="numpy")
+def residual_nb(R, t, f1, f2, kind, out):
+    """``out (k, n)``: residual ``kind`` (0 = v_LiGT, 1 = v_sampson) of the poses ``R (k, 3, 3)``,
+    ``t (k, 3)`` (normalised here) on ``f (m, n, 3)`` with ``m = 1`` (shared points) or ``m = k``."""
+    k = R.shape[0]
+    m = f1.shape[0]
+    n = f1.shape[1]
+    P = np.empty((3, n))
+    G = np.empty((3, n))
+    for c in range(k):
+        if c == 0 or m > 1:
+            j = c if m > 1 else 0
+            for i in range(n):
+                for d in range(3):
+                    P[d, i] = f1[j, i, d]
+                    G[d, i] = f2[j, i, d]
+        tn = math.sqrt(t[c, 0] * t[c, 0] + t[c, 1] * t[c, 1] + t[c, 2] * t[c, 2])
+        if not tn > 0.0:
+            tn = 1.0
+        t0 = t[c, 0] / tn
+        t1 = t[c, 1] / tn
+        t2 = t[c, 2] / tn
+        r00, r01, r02 = R[c, 0, 0], R[c, 0, 1], R[c, 0, 2]
+        r10, r11, r12 = R[c, 1, 0], R[c, 1, 1], R[c, 1, 2]
+        r20, r21, r22 = R[c, 2, 0], R[c, 2, 1], R[c, 2, 2]
+        if kind == 0:
+            _ligt_row(P, G, r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2, out[c], n)
+        else:
+            # E = [t]x R
+            e00 = t1 * r20 - t2 * r10
+            e01 = t1 * r21 - t2 * r11
+            e02 = t1 * r22 - t2 * r12
+            e10 = t2 * r00 - t0 * r20
+            e11 = t2 * r01 - t0 * r21
+            e12 = t2 * r02 - t0 * r22
+            e20 = t0 * r10 - t1 * r00
+            e21 = t0 * r11 - t1 * r01
+            e22 = t0 * r12 - t1 * r02
+            _sampson_row(P, G, e00, e01, e02, e10, e11, e12, e20, e21, e22, out[c], n)
+
+
+@njit(cache=True, error_model="numpy")
+def _ligt_row(P, G, r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2, o, n):
+    # ||L t|| = |c| |c . t| with c = f2 x R f1 (Lagrange identity, residuals.v_LiGT)
+    for i in range(n):
+        p0 = P[0, i]
+        p1 = P[1, i]
+        p2 = P[2, i]
+        a0 = r00 * p0 + r01 * p1 + r02 * p2
+        a1 = r10 * p0 + r11 * p1 + r12 * p2
+        a2 = r20 * p0 + r21 * p1 + r22 * p2
+        g0 = G[0, i]
+        g1 = G[1, i]
+        g2 = G[2, i]
+        c0 = g1 * a2 - g2 * a1
+        c1 = g2 * a0 - g0 * a2
+        c2 = g0 * a1 - g1 * a0
+        ct = c0 * t0 + c1 * t1 + c2 * t2
+        o[i] = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2) * abs(ct)
+
+
+@njit(cache=True, error_model="numpy")
+def _sampson_row(P, G, e00, e01, e02, e10, e11, e12, e20, e21, e22, o, n):
+    for i in range(n):
+        p0 = P[0, i]
+        p1 = P[1, i]
+        p2 = P[2, i]
+        g0 = G[0, i]
+        g1 = G[1, i]
+        g2 = G[2, i]
+        x0 = e00 * p0 + e01 * p1 + e02 * p2
+        x1 = e10 * p0 + e11 * p1 + e12 * p2
+        x2 = e20 * p0 + e21 * p1 + e22 * p2
+        y0 = e00 * g0 + e10 * g1 + e20 * g2
+        y1 = e01 * g0 + e11 * g1 + e21 * g2
+        y2 = e02 * g0 + e12 * g1 + e22 * g2
+        num = g0 * x0 + g1 * x1 + g2 * x2
+        den = x0 * x0 + x1 * x1 + x2 * x2 + (y0 * y0 + y1 * y1 + y2 * y2) - 2.0 * (num * num)
+        o[i] = abs(num) / math.sqrt(den if den > 1e-300 else 1e-300)

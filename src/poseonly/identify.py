@@ -173,11 +173,17 @@ def identify_and_rank(
     3, 3)``, ``t (..., k, 3)``, ``valid``, ``M1``, ``cost`` (weighted mean PPO, ``inf`` if not
     finite) ``(..., k)`` and ``best (...)`` (invalid candidates ranked after valid ones).
     """
+    kern = _kernel()
+    if kern is not None and E.ndim == 4 and f1.ndim == 3 and len(E) == len(f1) and (w is None or w.ndim == 2):
+        R, t, valid, M1, cost, best = kern(E, f1, f2, w, with_cost)  # the hot path: already flat
+        out = {"R": R, "t": t, "valid": valid, "M1": M1}
+        if with_cost:
+            out["cost"], out["best"] = cost, best
+        return out
     lead, E, f1, f2, w = _flatten_batch(E, f1, f2, w)
     H, k = E.shape[:2]
-    kern = _kernel()
     if kern is not None:
-        R, t, valid, M1, cost = kern(E, f1, f2, w, with_cost)
+        R, t, valid, M1, cost, _ = kern(E, f1, f2, w, with_cost)
     else:
         if D is None:
             D = point_data(f1, f2)

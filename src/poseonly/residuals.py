@@ -15,6 +15,7 @@ from typing import Callable
 
 import numpy as np
 
+from . import _kernels
 from .geometry import cross, normalize, skew, triangulate_midpoint
 
 __all__ = [
@@ -55,6 +56,10 @@ def v_sampson(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> n
     length). Not one of the paper's five residuals; used for pixel-calibrated inlier decisions.
     Written as two matrix products per hypothesis (the hot path of RANSAC scoring).
     """
+    if _kernels.enabled():
+        out = _kernels.residual("sampson", R, t, f1, f2)
+        if out is not None:
+            return out
     E = np.einsum("...ij,...jk->...ik", skew(normalize(np.asarray(t, dtype=float))), R)
     f1 = np.asarray(f1, dtype=float)
     f2 = np.asarray(f2, dtype=float)
@@ -84,16 +89,26 @@ def v_LiGT(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.n
     """LiGT residual ``||L_i t||`` (Eq. 8 with unit bearings and unit ``t``).
 
     ``L_i t = [f2]x R f1 (h_i^T t) + theta_i^2 [f2]x t`` (notes section 3: equals
-    ``theta^2 * f2 x (z1 R f1 + t)``, a parallax-weighted reprojection error).
+    ``theta^2 * f2 x (z1 R f1 + t)``, a parallax-weighted reprojection error). Evaluated as
+    ``theta_i |f2^T [t]x R f1|`` (Lagrange identity; equal to the vector form to rounding): the
+    sine of the parallax times the algebraic epipolar error.
     """
+    if _kernels.enabled():
+        out = _kernels.residual("ligt", R, t, f1, f2)
+        if out is not None:
+            return out
+    # ||L t|| = |c| |c . t| with c = [f2]x R f1: |c|^2 = theta^2 and the Lagrange identity
+    # |c|^2 |f2 x t|^2 - (c . (f2 x t))^2 = (c . t)^2 (c is orthogonal to f2)
     tt = _unit_t(t)
-    Rf1 = _rot(R, f1)
-    c = cross(f2, Rf1)  # [f2]x R f1
-    f2xt = cross(f2, tt)
-    ht = -np.sum(c * f2xt, axis=-1)  # (R f1 x f2) . (f2 x t)
-    theta2 = np.sum(c * c, axis=-1)
-    Lt = c * ht[..., None] + theta2[..., None] * f2xt
-    return np.linalg.norm(Lt, axis=-1)
+    a = _rot(R, f1)
+    f2 = np.asarray(f2, dtype=float)
+    g0, g1, g2 = f2[..., 0], f2[..., 1], f2[..., 2]
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    c0 = g1 * a2 - g2 * a1
+    c1 = g2 * a0 - g0 * a2
+    c2 = g0 * a1 - g1 * a0
+    ct = c0 * tt[..., 0] + c1 * tt[..., 1] + c2 * tt[..., 2]
+    return np.sqrt(c0 * c0 + c1 * c1 + c2 * c2) * np.abs(ct)
 
 
 def v_PPO(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:

@@ -22,7 +22,10 @@ because ``v_LiGT`` has no fixed unit); ``n_iter = 100`` (Peng); ``sigma`` is flo
 weighted solve (as in Alg. 2).
 
 Everything runs in lockstep over ``h`` stacked problems (GNC-RANSAC fits all its samples at once);
-problems that converge drop out of the active set.
+problems that converge drop out of the active set. Speed (docs/speed_notes.md): the Kronecker rows
+of LiRP are built once and reweighted per iteration, no gathers while every problem is active, the
+median by partition, residuals and identification by the compiled kernels when numba is present;
+the iterates are those of the straightforward loop (tests/test_speed_equivalence.py).
 """
 
 from __future__ import annotations
@@ -31,7 +34,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..estimator import Estimator, lirp_estimator
+from ..estimator import Estimator, lirp_estimator, lirp_solver
+from ..solvers.lirp import lirp_batch
 
 __all__ = ["GNCOptions", "gnc_irls_batch", "GNCBatchResult", "tls_weights"]
 
@@ -72,18 +76,27 @@ def tls_weights(v: np.ndarray, c: np.ndarray, mu: np.ndarray, schedule: str = "m
     c = c[:, None]
     mu = mu[:, None]
     v = np.abs(v)
+    # (the divisors are >= 1e-300, so no errstate context is needed: it cost more than the weights)
     if schedule == "ms-tls":
         ub = (mu + 1.0) / mu * c
-        with np.errstate(divide="ignore"):
-            mid = (mu + 1.0) * c / np.maximum(v, 1e-300) - mu
+        mid = (mu + 1.0) * c / np.maximum(v, 1e-300) - mu
         return np.where(v <= c, 1.0, np.where(v >= ub, 0.0, mid))
     v2 = v * v
     c2 = c * c
     lb = mu / (mu + 1.0) * c2
     ub = (mu + 1.0) / mu * c2
-    with np.errstate(divide="ignore"):
-        mid = np.sqrt(c2 * mu * (mu + 1.0) / np.maximum(v2, 1e-300)) - mu
+    mid = np.sqrt(c2 * mu * (mu + 1.0) / np.maximum(v2, 1e-300)) - mu
     return np.where(v2 <= lb, 1.0, np.where(v2 >= ub, 0.0, mid))
+
+
+def _median_rows(a: np.ndarray) -> np.ndarray:
+    """``np.median(a, axis=1)`` bit for bit (finite input), without its generic machinery."""
+    n = a.shape[1]
+    k = n // 2
+    if n % 2:
+        return np.partition(a, k, axis=1)[:, k]
+    p = np.partition(a, (k - 1, k), axis=1)
+    return (p[:, k - 1] + p[:, k]) / 2.0
 
 
 def _scale(v: np.ndarray, opts: GNCOptions) -> np.ndarray:
@@ -92,9 +105,9 @@ def _scale(v: np.ndarray, opts: GNCOptions) -> np.ndarray:
     if isinstance(opts.scale, str):
         a = np.abs(v)
         if opts.scale == "median":
-            s = MAD_TO_SIGMA * np.median(a, axis=1)
+            s = MAD_TO_SIGMA * _median_rows(a)
         else:
-            s = MAD_TO_SIGMA * np.median(np.abs(a - np.median(a, axis=1, keepdims=True)), axis=1)
+            s = MAD_TO_SIGMA * _median_rows(np.abs(a - _median_rows(a)[:, None]))
     else:
         s = np.full(len(v), float(opts.scale))
     return opts.c_factor * np.maximum(s, opts.sigma_floor)
@@ -158,27 +171,59 @@ def gnc_irls_batch(
     iters = np.zeros(h, int)
     converged = np.zeros(h, bool)
     active = np.arange(h)
+    # per-point precomputation reused by every iteration: the Kronecker rows of LiRP (the weighted
+    # system is A * w); while no problem has dropped out, whole arrays are used without gathers
+    fast_lirp = est.solve is lirp_solver
+    A_all = (f1[..., :, None] * f2[..., None, :]).reshape(h, n, 9) if fast_lirp else None
+    full = True
     for k in range(opts.max_iterations):
         if active.size == 0:
             break
-        a1, a2, aw = f1[active], f2[active], w[active]
-        Rk, tk = est.solve(a1, a2, aw)
-        Rk, tk = Rk[:, 0], tk[:, 0]
+        if full:
+            a1, a2, aw = f1, f2, w
+        else:
+            a1, a2, aw = f1[active], f2[active], w[active]
+        if fast_lirp:
+            o = lirp_batch(a1, a2, aw, A=A_all if full else A_all[active])
+            Rk, tk = o["R"], o["t"]
+        else:
+            Rk, tk = est.solve(a1, a2, aw)
+            Rk, tk = Rk[:, 0], tk[:, 0]
         v = est.residual(Rk, tk, a1, a2)
-        v = np.where(np.isfinite(v), v, np.inf)
-        c = _scale(np.where(np.isfinite(v), v, 0.0), opts)
+        fin = np.isfinite(v)
+        if fin.all():
+            vf = v
+        else:
+            vf = np.where(fin, v, 0.0)
+            v = np.where(fin, v, np.inf)
+        c = _scale(vf, opts)
+        mu_a = mu if full else mu[active]
         if k == 0:
-            mu[active] = _initial_mu(np.where(np.isfinite(v), v, 0.0), c, opts.schedule)
-        wn = tls_weights(v, c, mu[active], opts.schedule)
-        R[active], t[active], v_all[active], c_all[active] = Rk, tk, v, c
-        iters[active] = k + 1
-        eps = np.sum(wn * np.where(np.isfinite(v), v, 0.0), axis=1)
-        done = np.abs(eps - eps_prev[active]) <= opts.eps0 * np.maximum(np.abs(eps), 1e-300)
+            mu_a = _initial_mu(vf, c, opts.schedule)
+        wn = tls_weights(v, c, mu_a, opts.schedule)
+        eps = np.sum(wn * vf, axis=1)
+        done = np.abs(eps - (eps_prev if full else eps_prev[active])) <= opts.eps0 * np.maximum(np.abs(eps), 1e-300)
         # a problem whose weights leave fewer than the minimal sample cannot be solved further
         starving = np.count_nonzero(wn > 0, axis=1) < est.sample_size
-        w[active] = np.where(starving[:, None], aw, wn)
-        eps_prev[active] = eps
-        converged[active[done]] = True
-        mu[active] = _update_mu(mu[active], opts)
-        active = active[~(done | starving)]
+        wnew = np.where(starving[:, None], aw, wn)
+        if full:
+            R, t, v_all, c_all = Rk, tk, v, c
+            iters[:] = k + 1
+            w = wnew
+            eps_prev = eps
+            converged |= done
+            mu = _update_mu(mu_a, opts)
+        else:
+            R[active], t[active], v_all[active], c_all[active] = Rk, tk, v, c
+            iters[active] = k + 1
+            w[active] = wnew
+            eps_prev[active] = eps
+            converged[active[done]] = True
+            mu[active] = _update_mu(mu_a, opts)
+        stop = done | starving
+        if stop.any():
+            if full:  # from now on the arrays are written through the active indices
+                R, t, v_all, c_all = R.copy(), t.copy(), np.array(v_all, dtype=float), np.array(c_all, dtype=float)
+                full = False
+            active = active[~stop]
     return GNCBatchResult(R=R, t=t, weights=w, residuals=v_all, c=c_all, num_iterations=iters, converged=converged)

@@ -204,20 +204,12 @@ def lirp_batch(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None, *, A
     plus the diagnostics of :func:`lirp_candidates`.
     """
     out = lirp_candidates(f1, f2, w, A)
-    o = identify_and_rank(out["E"], f1, f2, w, D)
+    cE = out["E"]
+    o = identify_and_rank(cE, f1, f2, w, D)
     best = o["best"]
     idx = np.arange(len(best))
-    out.update(
-        cand_E=out.pop("E"),
-        cand_R=o["R"],
-        cand_t=o["t"],
-        cand_valid=o["valid"],
-        cand_cost=o["cost"],
-        best=best,
-        R=o["R"][idx, best],
-        t=o["t"][idx, best],
-    )
-    out["E"] = out["cand_E"][idx, best]
+    out.update(cand_E=cE, cand_R=o["R"], cand_t=o["t"], cand_valid=o["valid"], cand_cost=o["cost"], best=best,
+               R=o["R"][idx, best], t=o["t"][idx, best], E=cE[idx, best])
     return out
 
 
