@@ -73,6 +73,7 @@ def _compiled():
         _impl["lirp_action"] = _kernels_nb.lirp_action_nb
         _impl["lirp_post"] = _kernels_nb.lirp_post_nb
         _impl["residual"] = _kernels_nb.residual_nb
+        _impl["eig6"] = _kernels_nb.eig6_nb
     return _impl
 
 
@@ -125,6 +126,22 @@ def lirp_post(q, lam, G):
     _compiled()["lirp_post"](np.ascontiguousarray(q, dtype=np.float64), np.ascontiguousarray(lam, dtype=np.complex128),
                              np.ascontiguousarray(G, dtype=np.complex128), cand, dmin, need)
     return cand, dmin, need
+
+
+def eig6(C, sep_tol=1e-6):
+    """Eigenvalues and unit eigenvectors of stacked 6x6 matrices ``C (h, m, 6, 6)`` (Francis QR and
+    inverse iteration); problems where it fails or eigenvalues nearly coincide are redone with
+    ``numpy.linalg.eig`` (LAPACK). Returns ``lam (h, m, 6)``, ``G (h, m, 6, 6)`` complex."""
+    h, m = C.shape[:2]
+    lam = np.empty((h, m, 6), np.complex128)
+    G = np.empty((h, m, 6, 6), np.complex128)
+    fail = np.empty(h, np.bool_)
+    _compiled()["eig6"](np.ascontiguousarray(C, dtype=np.float64), lam, G, fail, float(sep_tol))
+    if fail.any():
+        lf, Gf = np.linalg.eig(C[fail])
+        lam[fail] = lf
+        G[fail] = Gf
+    return lam, G
 
 
 _RESIDUAL_KIND = {"ligt": 0, "sampson": 1}

@@ -1118,3 +1118,127 @@ def _sampson_row(P, G, e00, e01, e02, e10, e11, e12, e20, e21, e22, o, n):
         num = g0 * x0 + g1 * x1 + g2 * x2
         den = x0 * x0 + x1 * x1 + x2 * x2 + (y0 * y0 + y1 * y1 + y2 * y2) - 2.0 * (num * num)
         o[i] = abs(num) / math.sqrt(den if den > 1e-300 else 1e-300)
+
+
+# ------------------------------------------------------------------------------------------------
+# small nonsymmetric eigenproblems (twin: numpy.linalg.eig on LiRP's 6x6 action matrices)
+
+
+@njit(cache=True, error_model="numpy")
+def _eigvec_inverse_iteration(A, n, lam, L, piv, b, anorm):
+    """Eigenvector of ``A[:n, :n]`` for the eigenvalue ``lam`` (complex) by two steps of inverse
+    iteration with ``A - lam I`` (complex LU with partial pivoting), unit 2-norm, in ``b``."""
+    for r in range(n):
+        for c in range(n):
+            L[r, c] = A[r, c]
+        L[r, r] -= lam
+    tiny = 1e-15 * anorm + 1e-300
+    for k in range(n):
+        pk = k
+        big = abs(L[k, k])
+        for i in range(k + 1, n):
+            if abs(L[i, k]) > big:
+                big = abs(L[i, k])
+                pk = i
+        piv[k] = pk
+        if pk != k:
+            for j in range(n):
+                tmp = L[k, j]
+                L[k, j] = L[pk, j]
+                L[pk, j] = tmp
+        if abs(L[k, k]) < tiny:
+            L[k, k] = tiny
+        inv = 1.0 / L[k, k]
+        for i in range(k + 1, n):
+            L[i, k] *= inv
+            f = L[i, k]
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    L[i, j] -= f * L[k, j]
+    for r in range(n):
+        b[r] = 1.0 + 0.0j
+    for _it in range(2):
+        for k in range(n):
+            p = piv[k]
+            if p != k:
+                tmp = b[k]
+                b[k] = b[p]
+                b[p] = tmp
+        for i in range(n):
+            s = b[i]
+            for j in range(i):
+                s -= L[i, j] * b[j]
+            b[i] = s
+        for i in range(n - 1, -1, -1):
+            s = b[i]
+            for j in range(i + 1, n):
+                s -= L[i, j] * b[j]
+            b[i] = s / L[i, i]
+        nb = 0.0
+        for r in range(n):
+            nb += b[r].real * b[r].real + b[r].imag * b[r].imag
+        nb = math.sqrt(nb)
+        if not (nb > 0.0 and math.isfinite(nb)):
+            return False
+        for r in range(n):
+            b[r] /= nb
+    return True
+
+
+@njit(cache=True, error_model="numpy")
+def eig6_nb(C, lam, G, fail, sep_tol):
+    """Eigen-decompositions of ``C (h, m, 6, 6)``: ``lam (h, m, 6)``, ``G (h, m, 6, 6)`` (unit
+    eigenvectors in columns, exact conjugates for conjugate pairs). ``fail[h]`` when the Francis QR
+    did not converge or two eigenvalues are closer than ``sep_tol (1 + |lambda|)`` (eigenvectors
+    ill-determined: the caller uses LAPACK for those problems)."""
+    h, m = C.shape[0], C.shape[1]
+    n = 6
+    Hs = np.empty((n + 1, n + 1))
+    Lr = np.empty((n, n))
+    wr = np.empty(n + 1)
+    wi = np.empty(n + 1)
+    Lc = np.empty((n, n), np.complex128)
+    Ac = np.empty((n, n), np.complex128)
+    piv = np.empty(n, np.int64)
+    b = np.empty(n, np.complex128)
+    for hh in range(h):
+        fail[hh] = False
+        for mm in range(m):
+            anorm = 0.0
+            for r in range(n):
+                for c in range(n):
+                    Lr[r, c] = C[hh, mm, r, c]
+                    Ac[r, c] = C[hh, mm, r, c]
+                    anorm = max(anorm, abs(C[hh, mm, r, c]))
+            _balance(Lr, n)
+            _hessenberg(Lr, n)
+            for r in range(n):
+                for c in range(n):
+                    Hs[r + 1, c + 1] = Lr[r, c]
+            if not _hqr(Hs, n, wr, wi):
+                fail[hh] = True
+                break
+            for e in range(n):
+                lam[hh, mm, e] = complex(wr[e + 1], wi[e + 1])
+            for e in range(n):
+                for e2 in range(e + 1, n):
+                    if abs(lam[hh, mm, e] - lam[hh, mm, e2]) <= sep_tol * (1.0 + abs(lam[hh, mm, e])):
+                        fail[hh] = True
+            if fail[hh]:
+                break
+            e = 0
+            while e < n:
+                lv = lam[hh, mm, e]
+                if not _eigvec_inverse_iteration(Ac, n, lv, Lc, piv, b, anorm):
+                    fail[hh] = True
+                    break
+                for r in range(n):
+                    G[hh, mm, r, e] = b[r]
+                if lv.imag != 0.0 and e + 1 < n and lam[hh, mm, e + 1] == lv.conjugate():
+                    for r in range(n):
+                        G[hh, mm, r, e + 1] = b[r].conjugate()
+                    e += 2
+                else:
+                    e += 1
+            if fail[hh]:
+                break

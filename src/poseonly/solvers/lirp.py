@@ -178,7 +178,7 @@ def lirp_candidates(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None,
         C, ok = _kernels.lirp_action(q)
         if not np.all(ok):  # an exactly rank-deficient block: numpy's pinv for those problems
             C[~ok] = _action_matrices(q[~ok])
-        lam, G = np.linalg.eig(C)  # (h, 2, 6), (h, 2, 6, 6)
+        lam, G = _kernels.eig6(C)  # (h, 2, 6), (h, 2, 6, 6); LAPACK where eigenvalues nearly coincide
         cand, dm, need = _kernels.lirp_post(q, lam, G)
         if need.any():  # case-2 cubic identically ~0 (noise-free planar): its roots are noise, use LAPACK's
             cand[need] = _candidates_numpy(q[need], lam[need], G[need])[0]
