@@ -1242,3 +1242,15 @@ def eig6_nb(C, lam, G, fail, sep_tol):
                     e += 1
             if fail[hh]:
                 break
+
+
+@njit(cache=True)
+def kron_rows_nb(f1, f2, A):
+    """``A[h, i, 3 j + k] = f1[h, i, j] f2[h, i, k]`` (column-major vec; same products as numpy)."""
+    H, n = f1.shape[0], f1.shape[1]
+    for hh in range(H):
+        for i in range(n):
+            for j in range(3):
+                a = f1[hh, i, j]
+                for k in range(3):
+                    A[hh, i, 3 * j + k] = a * f2[hh, i, k]

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..estimator import Estimator, lirp_estimator, lirp_solver
-from ..solvers.lirp import lirp_batch
+from ..solvers.lirp import _kron_rows, lirp_batch
 
 __all__ = ["GNCOptions", "gnc_irls_batch", "GNCBatchResult", "tls_weights"]
 
@@ -54,6 +54,8 @@ class GNCOptions:
     eps0: float = 1e-9
     sigma_floor: float = 1e-12
     mu_factor: float = 1.4
+    mu0: float | None = None  # initial mu; None = Peng's rule. A large value (e.g. 1e3) starts at
+    # (near) hard TLS: a warm start for local optimisation from a good model's inliers
 
     def __post_init__(self) -> None:
         if self.schedule not in ("ms-tls", "gnc-tls"):
@@ -67,6 +69,8 @@ class GNCOptions:
             raise ValueError(f"noise_bound must be > 0, got {self.noise_bound}")
         if not (isinstance(self.max_iterations, (int, np.integer)) and self.max_iterations >= 1):
             raise ValueError(f"max_iterations must be a positive integer, got {self.max_iterations!r}")
+        if self.mu0 is not None and not self.mu0 > 0:
+            raise ValueError(f"mu0 must be > 0, got {self.mu0}")
         if not self.c_factor > 0 or not self.eps0 >= 0 or not self.mu_factor > 1:
             raise ValueError("c_factor > 0, eps0 >= 0 and mu_factor > 1 are required")
 
@@ -174,7 +178,7 @@ def gnc_irls_batch(
     # per-point precomputation reused by every iteration: the Kronecker rows of LiRP (the weighted
     # system is A * w); while no problem has dropped out, whole arrays are used without gathers
     fast_lirp = est.solve is lirp_solver
-    A_all = (f1[..., :, None] * f2[..., None, :]).reshape(h, n, 9) if fast_lirp else None
+    A_all = _kron_rows(f1, f2) if fast_lirp else None
     full = True
     for k in range(opts.max_iterations):
         if active.size == 0:
@@ -199,7 +203,7 @@ def gnc_irls_batch(
         c = _scale(vf, opts)
         mu_a = mu if full else mu[active]
         if k == 0:
-            mu_a = _initial_mu(vf, c, opts.schedule)
+            mu_a = _initial_mu(vf, c, opts.schedule) if opts.mu0 is None else np.full(len(vf), float(opts.mu0))
         wn = tls_weights(v, c, mu_a, opts.schedule)
         eps = np.sum(wn * vf, axis=1)
         done = np.abs(eps - (eps_prev if full else eps_prev[active])) <= opts.eps0 * np.maximum(np.abs(eps), 1e-300)

@@ -55,6 +55,14 @@ _C2_UNIT = np.zeros((3, 6))
 _C2_UNIT[[0, 1, 2], [1, 2, 4]] = 1.0  # rows ab, b^2, b of b*g are g1, g2, g4
 
 
+def _kron_rows(f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """Unweighted epipolar rows ``kron(f1_i, f2_i)`` ``(h, n, 9)`` (column-major ``vec``)."""
+    if _kernels.enabled() and f1.shape[-2] > 64:
+        return _kernels.kron_rows(f1, f2)
+    h, n, _ = f1.shape
+    return (f1[..., :, None] * f2[..., None, :]).reshape(h, n, 9)
+
+
 def _null_space3(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Singular values ``(h, 9)`` and ``q1, q2, q3`` as rows ``(h, 3, 9)`` of stacked ``A (h, n, 9)``."""
     h, n, _ = A.shape
@@ -170,7 +178,7 @@ def lirp_candidates(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None,
     """
     h, n, _ = f1.shape
     if A is None:
-        A = (f1[..., :, None] * f2[..., None, :]).reshape(h, n, 9)
+        A = _kron_rows(f1, f2)
     if w is not None:
         A = A * w[..., None]
     s, q = _null_space3(A)
