@@ -40,8 +40,9 @@ from typing import Any
 import numpy as np
 
 from .estimator import get_estimator, lirp_estimator
+from .identify import identify_poses
 from .geometry import InputError, as_bearings, check_intrinsics, essential_from_pose, rotation_error_deg
-from .residuals import ligt_depths, v_LiGT, v_sampson
+from .residuals import ligt_depths, v_LiGT, v_sampson, v_sampson_chiral
 from .robust.gnc import GNCOptions, gnc_irls_batch
 from .robust.ransac import gnc_ransac as _gnc_ransac
 from .robust.ransac import ransac
@@ -65,11 +66,13 @@ _OPTS: dict[str, dict[str, tuple]] = {
         "max_iterations": ((int, np.integer), lambda v: v >= 1, 20000),
         "min_iterations": ((int, np.integer), lambda v: v >= 0, 50),
         "confidence": ((float,), lambda v: 0 < v < 1, 0.999),
-        "solver": ((str,), None, "lirp"),
+        "solver": ((str,), None, "5pt"),
         "batch": ((int, np.integer), lambda v: v >= 1, 128),
         "max_lo": ((int, np.integer), lambda v: v >= 0, 8),
         "preemptive": ((int, np.integer), lambda v: v >= 0, 32),
-        "lo_residual": ((str,), None, "sampson"),
+        "lo_residual": ((str,), None, "sampson-chiral"),
+        "lo_mu0": ((int, float), lambda v: v > 0, 1e3),
+        "lo_iterations": ((int, np.integer), lambda v: v >= 1, 10),
     },
     "gnc-ransac": {
         "max_iterations": ((int, np.integer), lambda v: v >= 1, 50),
@@ -216,10 +219,12 @@ def _analyse(R, t, f1, f2, tau, inl):
     tw = homography_twin(R, t, f1[sel], f2[sel]) if len(sel) >= 6 else None
     if tw is not None:
         info["planarity"] = tw[2]
-        sup = _support(np.stack([R, tw[0]]), np.stack([t, tw[1]]), f1, f2, tau).sum(axis=1)
+    if tw is not None and _plausible_twin(R, t, tw, f1, f2, tau):
+        Rt, tt = _polish(tw[0], tw[1], f1, f2, tau)
+        sup = _support(np.stack([R, Rt]), np.stack([t, tt]), f1, f2, tau).sum(axis=1)
         info["support"], info["twin_support"] = int(sup[0]), int(sup[1])
-        if sup[1] >= 0.9 * sup[0] and rotation_error_deg(R, tw[0]) > 0.1:
-            twin = (tw[0], tw[1], int(sup[1]))
+        if sup[1] >= 0.9 * sup[0] and rotation_error_deg(R, Rt) > 0.1:
+            twin = (Rt, tt, int(sup[1]))
     par = _parallax_deg(R, f1, f2, inl)
     if len(sel) >= 3:
         # pure-rotation model X2 ~ R_rot X1 fitted to the inliers (Kabsch, one re-selection)
@@ -287,19 +292,57 @@ def _support(R, t, f1, f2, tau):
     return (v < tau) & (h > 0) & (hp > 0)
 
 
+def _plausible_twin(R, t, tw, f1, f2, tau) -> bool:
+    """Cheap screen before polishing a twin: its raw support reaches 30 % of the pose's (the twin of
+    a non-planar scene keeps a few per cent; an unpolished planar twin measured 40-65 %)."""
+    sup = _support(np.stack([R, tw[0]]), np.stack([t, tw[1]]), f1, f2, tau * 1.5).sum(axis=1)
+    return bool(sup[1] >= 0.3 * max(sup[0], 1))
+
+
+def _polish(R, t, f1, f2, tau):
+    """Angular LiGTopt of a candidate on its cheirality-consistent inliers (twin comparison)."""
+    from .refine.ligt import ligt_refine
+
+    inl = _support(R[None], t[None], f1, f2, tau * 1.5)[0]
+    if inl.sum() < 6:
+        inl = v_sampson(R, t, f1, f2) < tau * 1.5
+        if inl.sum() < 6:
+            return R, t
+    r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization="angular", max_iter=20)
+    if np.all(np.isfinite(r.R)) and np.all(np.isfinite(r.t)):
+        return r.R, r.t
+    return R, t
+
+
+def _msac_chiral(R, t, f1, f2, tau) -> float:
+    v = v_sampson_chiral(R, t, f1, f2)
+    return float(np.sum(tau * tau - np.minimum(v * v, tau * tau)))
+
+
+def _keep_better(a, b, f1, f2, tau, tol=1.0):
+    """``b`` if its cheirality-aware MSAC score reaches ``tol`` times ``a``'s, else ``a``."""
+    if not (np.all(np.isfinite(b[0])) and np.all(np.isfinite(b[1]))):
+        return a
+    return b if _msac_chiral(*b, f1, f2, tau) >= tol * _msac_chiral(*a, f1, f2, tau) else a
+
+
 def _select_by_support(R, t, f1, f2, tau):
-    """Best of ``(R, t)`` and the LiRP candidates on its consensus set, by cheirality-consistent support."""
-    inl = _support(R[None], t[None], f1, f2, tau)[0]
+    """Best of ``(R, t)`` (re-identified on its Sampson inliers), its homography twin and the LiRP
+    candidates of its consensus set, by cheirality-consistent support."""
     sel = np.nonzero(v_sampson(R, t, f1, f2) < tau)[0]
     if len(sel) < 6:
         return R, t
+    Ri, ti, _, _ = identify_poses(essential_from_pose(R, t)[None], f1[sel], f2[sel])
+    R, t = Ri[0], ti[0]
+    inl = _support(R[None], t[None], f1, f2, tau)[0]
     o = lirp_batch(f1[sel][None], f2[sel][None])
     cR = [R[None], o["cand_R"][0]]
     ct = [t[None], o["cand_t"][0]]
     tw = homography_twin(R, t, f1[sel], f2[sel])
-    if tw is not None:
-        cR.append(tw[0][None])
-        ct.append(tw[1][None])
+    if tw is not None and _plausible_twin(R, t, tw, f1, f2, tau):
+        Rt, tt = _polish(tw[0], tw[1], f1, f2, tau)
+        cR.append(Rt[None])
+        ct.append(tt[None])
     cR, ct = np.concatenate(cR), np.concatenate(ct)
     sup = _support(cR, ct, f1, f2, tau).sum(axis=1)
     k = int(np.argmax(sup))
@@ -327,8 +370,8 @@ def _refine(R, t, f1, f2, inl, tau, normalization="none"):
 def _run_poseonly(f1, f2, o, tau):
     rng = _rng(o["seed"])
     est = get_estimator(o["solver"], "sampson")
-    lirp_ligt = lirp_estimator(o["lo_residual"])
-    gopts = GNCOptions(noise_bound=tau, max_iterations=30)
+    lirp_ligt = get_estimator("lirp-all", o["lo_residual"])
+    gopts = GNCOptions(noise_bound=tau, max_iterations=o["lo_iterations"], mu0=o["lo_mu0"])
 
     def lo(R, t, inl):
         # GNC-IRLS on the points within 4 thresholds of the model (the rest would get weight 0 in
@@ -336,6 +379,9 @@ def _run_poseonly(f1, f2, o, tau):
         cand = np.nonzero(v_sampson(R, t, f1, f2) < 4.0 * tau)[0]
         if inl.sum() < 6 or len(cand) < 6:
             return R, t
+        # re-identify the hypothesis on its inliers (minimal samples only checked their own points)
+        Ri, ti, _, _ = identify_poses(essential_from_pose(R, t)[None], f1[inl], f2[inl])
+        R, t = Ri[0], ti[0]
         g = gnc_irls_batch(f1[cand][None], f2[cand][None], lirp_ligt, gopts, w0=inl[cand][None].astype(float))
         return g.R[0], g.t[0]
 
@@ -344,14 +390,16 @@ def _run_poseonly(f1, f2, o, tau):
         confidence=o["confidence"], batch=o["batch"], scoring="msac", local_optimization=lo, max_lo=o["max_lo"],
         preemptive=o["preemptive"],
     )
-    # final stage: GNC-IRLS from the consensus set, then the pose-only choice among that fit and the
-    # LiRP candidates of the consensus set by cheirality-consistent support (the Sampson score of
-    # RANSAC cannot tell a planar scene's homography twin from the truth; depth signs can)
-    R, t = lo(r.R, r.t, v_sampson(r.R, r.t, f1, f2) < tau)
-    R, t = _select_by_support(R, t, f1, f2, tau)
-    R, t = lo(R, t, _support(R[None], t[None], f1, f2, tau)[0])
+    # final stage: the pose-only choice among the RANSAC model (re-identified on its inliers), its
+    # homography twin and the LiRP candidates of its consensus set, by cheirality-consistent
+    # support (the Sampson score of RANSAC cannot tell a planar scene's twin from the truth; depth
+    # signs can); then GNC-IRLS from that model's support and LiGTopt, each kept only if the
+    # cheirality-aware MSAC score does not drop
+    R, t = _select_by_support(r.R, r.t, f1, f2, tau)
+    R, t = _keep_better((R, t), lo(R, t, _support(R[None], t[None], f1, f2, tau)[0]), f1, f2, tau)
     if o["refine"]:
-        R, t = _refine(R, t, f1, f2, v_sampson(R, t, f1, f2) < tau, tau, normalization="angular")
+        ref = _refine(R, t, f1, f2, _support(R[None], t[None], f1, f2, tau)[0], tau, normalization="angular")
+        R, t = _keep_better((R, t), ref, f1, f2, tau, tol=0.98)
     return R, t, None, r.num_iterations, {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored}
 
 

@@ -22,7 +22,7 @@ import numpy as np
 from .residuals import Residual, get_residual
 from .solvers.lirp import lirp_batch
 
-__all__ = ["Estimator", "Solver", "lirp_solver", "lirp_estimator", "get_estimator", "register_solver", "SOLVERS"]
+__all__ = ["Estimator", "Solver", "lirp_solver", "lirp_all_solver", "lirp_estimator", "get_estimator", "register_solver", "SOLVERS"]
 
 Solver = Callable[[np.ndarray, np.ndarray, "np.ndarray | None"], tuple[np.ndarray, np.ndarray]]
 
@@ -31,6 +31,16 @@ def lirp_solver(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -> 
     """Weighted LiRP (Alg. 1) as a batched solver: one identified pose per problem."""
     o = lirp_batch(f1, f2, w)
     return o["R"][:, None], o["t"][:, None]
+
+
+def lirp_all_solver(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted LiRP returning all 18 identified candidates (NaN where the pose-only depth
+    conditions fail), so a robust loop can choose the one minimising its own objective."""
+    o = lirp_batch(f1, f2, w)
+    ok = o["cand_valid"]
+    none = ~np.any(ok, axis=1)
+    ok = ok | none[:, None]  # no valid candidate: keep all rather than none
+    return np.where(ok[..., None, None], o["cand_R"], np.nan), np.where(ok[..., None], o["cand_t"], np.nan)
 
 
 @dataclass(frozen=True)
@@ -46,7 +56,7 @@ class Estimator:
         return Estimator(self.name, self.solve, self.sample_size, get_residual(residual))
 
 
-SOLVERS: dict[str, tuple[Solver, int]] = {"lirp": (lirp_solver, 6)}
+SOLVERS: dict[str, tuple[Solver, int]] = {"lirp": (lirp_solver, 6), "lirp-all": (lirp_all_solver, 6)}
 
 
 def register_solver(name: str, solver: Solver, sample_size: int) -> None:

@@ -160,6 +160,17 @@ def v_OpenGV(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, symme
     return r
 
 
+def v_sampson_chiral(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """Sampson distance where the pose-only depths are positive, ``1`` (a gross error) elsewhere.
+
+    Sampson's distance only sees ``E`` and so cannot tell a pose from its twisted pair, its
+    ``-t`` or a planar scene's homography twin; the depth signs ``h^T t > 0`` and ``h'^T t > 0``
+    (:func:`ligt_depths`) can. Used as the local-optimisation objective of the default method.
+    """
+    h, hp, _ = ligt_depths(R, t, f1, f2)
+    return np.where((h > 0) & (hp > 0), v_sampson(R, t, f1, f2), 1.0)
+
+
 RESIDUALS: dict[str, Residual] = {
     "ligt": v_LiGT,
     "ppo": v_PPO,
@@ -167,6 +178,7 @@ RESIDUALS: dict[str, Residual] = {
     "ba": v_BA,
     "opengv": v_OpenGV,
     "sampson": v_sampson,
+    "sampson-chiral": v_sampson_chiral,
 }
 _ALIASES = {"e": "coplanar", "v_e": "coplanar", "v_ligt": "ligt", "v_ppo": "ppo", "v_ba": "ba", "v_opengv": "opengv", "reprojection": "ba"}
 

@@ -192,7 +192,16 @@ def gnc_irls_batch(
             Rk, tk = o["R"], o["t"]
         else:
             Rk, tk = est.solve(a1, a2, aw)
-            Rk, tk = Rk[:, 0], tk[:, 0]
+            if Rk.shape[1] > 1:
+                # several candidates per problem: keep the one minimising the weighted objective
+                # sum_i w_i v_i being optimised (candidates that failed their own checks are NaN)
+                vk = est.residual(Rk, tk, a1[:, None], a2[:, None])
+                cost = np.sum(aw[:, None, :] * vk, axis=-1)
+                cost = np.where(np.isfinite(cost), cost, np.inf)
+                pick = np.argmin(cost, axis=1)
+                Rk, tk = Rk[np.arange(len(pick)), pick], tk[np.arange(len(pick)), pick]
+            else:
+                Rk, tk = Rk[:, 0], tk[:, 0]
         v = est.residual(Rk, tk, a1, a2)
         fin = np.isfinite(v)
         if fin.all():
