@@ -312,3 +312,25 @@ if __name__ == "__main__":
         print("writing with", poseonly.__file__)
         os.makedirs(os.path.dirname(DATA), exist_ok=True)
         np.savez_compressed(DATA, **compute(sensitivity=True))
+
+
+def test_residual_kernels_match_numpy():
+    """The compiled v_LiGT / v_sampson equal the numpy formulas (shared and per-pose points)."""
+    from poseonly import _kernels
+    from poseonly.residuals import v_LiGT, v_sampson
+
+    if not _kernels.available():
+        pytest.skip("numba not installed")
+    sc = make_scene(200, "normal", "pinhole", noise_px=0.5, outlier_fraction=0.3, seed=4)
+    rng = np.random.default_rng(4)
+    R = np.stack([sc.R] + [np.linalg.qr(rng.normal(size=(3, 3)))[0] for _ in range(7)])
+    R *= np.linalg.det(R)[:, None, None]
+    t = np.concatenate([sc.t[None] * 3.0, rng.normal(size=(7, 3))])
+    idx = np.argpartition(rng.random((8, 200)), 29, axis=1)[:, :30]
+    for f in (v_LiGT, v_sampson):
+        for args in ((R, t, sc.f1, sc.f2), (R[0], t[0], sc.f1, sc.f2), (R, t, sc.f1[idx], sc.f2[idx])):
+            with _kernels.use(True):
+                a = f(*args)
+            with _kernels.use(False):
+                b = f(*args)
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
