@@ -130,6 +130,15 @@ def cmd_experiment(args) -> int:
     return int(mod.run(args) or 0)
 
 
+BENCHES = {"speed": "poseonly.bench_speed", "robust": "poseonly.bench_robust"}
+
+
+def cmd_bench(args) -> int:
+    import importlib
+
+    return int(importlib.import_module(BENCHES[args.name]).main(args.rest) or 0)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="poseonly", description="Robust two-view relative pose founded on pose-only imaging geometry")
     p.add_argument("--version", action="version", version=f"poseonly {__version__}")
@@ -160,6 +169,11 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--json", action="store_true")
     r.add_argument("--draw", help="write a match drawing (PNG)")
     r.set_defaults(func=cmd_relpose)
+
+    b = sub.add_parser("bench", help="benchmarks: speed (issue 6) or robust (issue 3)")
+    b.add_argument("name", choices=sorted(BENCHES))
+    b.add_argument("rest", nargs=argparse.REMAINDER, help="options of the benchmark (see poseonly bench NAME --help)")
+    b.set_defaults(func=cmd_bench)
 
     e = sub.add_parser("experiment", help="reproduce one of the paper's experiments")
     esub = e.add_subparsers(dest="name", required=True)
