@@ -86,3 +86,35 @@ def test_planar_twin_is_another_exact_pose_or_none():
         assert np.max(v_E(o.candidates_R[k], o.candidates_t[k], b1, b2)) < 1e-8
     assert found >= 1
     assert planar_twin(make_scene(300, "planar", "wide", 0.0, 0.0, seed=0)) is None
+
+
+def test_robust_npt_keeps_the_last_estimate_when_a_later_solve_fails():
+    from poseonly.experiments.chirality import _solver_errors, robust_npt
+
+    assert all(isinstance(e, type) and issubclass(e, BaseException) for e in _solver_errors())
+    sc = make_scene(40, "normal", "wide", 1.0, 0.2, seed=5)  # outliers: the weights change after the first solve
+    calls = []
+
+    def fake_npt(f1, f2, w):
+        calls.append(1)
+        if len(calls) > 1:
+            raise ValueError("solver failed")
+        from poseonly.geometry import essential_from_pose
+
+        return sc.R, sc.t, {"E": essential_from_pose(sc.R, sc.t)}
+
+    R, t, w, it = robust_npt(sc.f1, sc.f2, fake_npt)
+    assert np.allclose(R, sc.R) and len(calls) == 2
+    with pytest.raises(ValueError):
+        robust_npt(sc.f1, sc.f2, lambda *a: (_ for _ in ()).throw(ValueError("first solve fails")))
+
+
+def test_chirality_compute_counts_failed_methods(monkeypatch):
+    from poseonly.experiments import chirality
+
+    def boom(sc, s):
+        raise ValueError("no solution")
+
+    monkeypatch.setattr(chirality, "_methods", lambda c: ({"boom": boom}, {}))
+    res = chirality.compute(1, n=20, outliers=(0.0,))
+    assert res["results"]["chirality"]["boom"]["fail"] == [1]

@@ -80,13 +80,34 @@ def _scene(gen: str, n: int, noise: float, frac: float, seed: int) -> sim.Scene:
     return make_scene_no_chirality(n, noise, frac, seed)
 
 
+def _solver_errors() -> tuple:
+    """Exceptions a failed SDP solve raises (cvxpy's ``SolverError`` when cvxpy is installed)."""
+    errs = [ValueError, np.linalg.LinAlgError, ArithmeticError]
+    try:
+        from cvxpy.error import SolverError
+
+        errs.append(SolverError)
+    except ImportError:
+        pass
+    return tuple(errs)
+
+
 def robust_npt(f1: np.ndarray, f2: np.ndarray, npt_fn, c: float = 2.0 / 800.0, max_iterations: int = 20, tol: float = 1e-4):
-    """IRLS N-point with Cauchy weights (module docstring). Returns ``R, t, weights, iterations``."""
+    """IRLS N-point with Cauchy weights (module docstring). Returns ``R, t, weights, iterations``.
+
+    A failed SDP solve in a later reweighting keeps the previous estimate; a failed first solve raises.
+    """
     w = np.ones(len(f1))
     R = t = None
     it = 0
+    errs = _solver_errors()
     for it in range(1, max_iterations + 1):
-        R, t, info = npt_fn(f1, f2, w)
+        try:
+            R, t, info = npt_fn(f1, f2, w)
+        except errs:
+            if R is None:
+                raise
+            break
         E = np.asarray(info["E"], float)
         E = E * (np.sqrt(2.0) / max(np.linalg.norm(E), 1e-300))
         r = np.abs(np.einsum("ni,ij,nj->n", f2, E, f1))
@@ -123,6 +144,7 @@ def compute(trials: int, n: int = 300, outliers=OUTLIERS, noise: float = 1.0, se
     res = {"trials": trials, "n": n, "noise_px": noise, "outliers": list(outliers), "generators": list(GENERATORS), "seed": seed,
            "cauchy_px": cauchy_px, "methods": names, "skipped": skipped, "results": {}, "time_s": {}}
     tsum = {m: 0.0 for m in names}
+    solver_errs = _solver_errors()
     ncall = 0
     behind = []
     total = len(GENERATORS) * len(outliers) * trials
@@ -142,7 +164,7 @@ def compute(trials: int, n: int = 300, outliers=OUTLIERS, noise: float = 1.0, se
                     try:
                         R = fn(sc, seed + s)
                         e = float(rotation_error_deg(sc.R, R)) if R is not None and np.all(np.isfinite(R)) else float("nan")
-                    except (ValueError, np.linalg.LinAlgError, ArithmeticError):
+                    except solver_errs:
                         e = float("nan")
                     tsum[m] += time.perf_counter() - t0
                     errs[m].append(e)
