@@ -350,10 +350,23 @@ def compute(root: str | Path, *, scenes: list[str] | None = None, cache: str | P
         "time_features_matching_s": t_feat,
         "time_total_s": time.perf_counter() - t_start,
         "machine": machine(),
+        "code_version": _code_version(),
         "pairs": records,
     }
     out["summary"] = summarize(out)
     return out
+
+
+def _code_version() -> str | None:
+    """``git describe --always --dirty`` of the source tree, if it is a git checkout."""
+    import subprocess
+
+    try:
+        r = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=Path(__file__).parent, capture_output=True,
+                           text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return r.stdout.strip() or None if r.returncode == 0 else None
 
 
 # ------------------------------------------------------------------------------------------------
@@ -433,7 +446,7 @@ def to_markdown(res: dict, command: str | None = None) -> str:
         f"inlier set. Time = estimation only, mean per pair (features + matching: "
         f"{res['time_features_matching_s']:.0f} s in total, cached ones excluded).",
         "",
-        f"Machine: {res['machine']}.",
+        f"Machine: {res['machine']}" + (f"; code `{res['code_version']}`" if res.get("code_version") else "") + ".",
         "",
     ]
     for n in res["notes"]:
@@ -507,6 +520,11 @@ def to_markdown(res: dict, command: str | None = None) -> str:
                 rows.append([r["scene"], f"{r['i']}-{r['j']}", r["matches"], r["gt_matches"], a["rot_err_deg"], a["inliers"],
                              a["status"], b["rot_err_deg"], b["inliers"]])
             lines.append(markdown_table(header, rows))
+    errs = [(r, m, d["error"]) for r in res["pairs"] if r["processed"] for m, d in r["methods"].items() if "error" in d]
+    if errs:
+        lines += ["", "## Exceptions raised (counted as failed pairs)", ""]
+        lines.append(markdown_table(["scene", "pair", "matches", "GT-consistent", "method", "error"],
+                                    [[r["scene"], f"{r['i']}-{r['j']}", r["matches"], r["gt_matches"], m, e] for r, m, e in errs]))
     lines += ["", f"Total run time {res['time_total_s']:.0f} s."]
     return "\n".join(lines) + "\n"
 
@@ -536,10 +554,16 @@ def figure(res: dict, path: Path) -> Path | None:
             a.bar(x + k * w, [v if np.isfinite(v) else 0 for v in vals], w, label=m)
         if log:
             a.set_yscale("log")
+            for k, sc in enumerate(scenes):
+                pk = _paper_key(sc)
+                if pk:
+                    a.hlines(PAPER_TABLE3[pk]["gnc-ransac"][1], x[k] - w / 2, x[k] + 0.8 - w / 2, colors="k",
+                             linestyles="--", label="paper's GNC-RANSAC (Table 3)" if k == 0 else None)
         a.set_xticks(x + 0.4 - w / 2, scenes)
         a.set_title(title, fontsize=9)
-    ax[0].legend(fontsize=7)
-    fig.tight_layout()
+    handles, labels = ax[1].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 8), fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
     savefig(fig, path)
     plt.close(fig)
     return path
