@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import normalize, rotation_error_deg, triangulate_midpoint
+from .geometry import normalize, project_to_so3, rotation_error_deg, triangulate_midpoint
 
 __all__ = ["decompose_homography", "homography_twin", "fit_plane"]
 
@@ -39,7 +39,7 @@ def decompose_homography(H: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     for u in ((a * v1 + b * v3) / den, (a * v1 - b * v3) / den):
         U = np.column_stack([v2, u, np.cross(v2, u)])
         W = np.column_stack([H @ v2, H @ u, np.cross(H @ v2, H @ u)])
-        R = W @ U.T
+        R = project_to_so3(W @ U.T)  # exact for an exact homography; noise leaves it slightly off SO(3)
         N = np.cross(v2, u)
         T = (H - R) @ N
         Rs += [R, R]
