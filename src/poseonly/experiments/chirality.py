@@ -39,7 +39,7 @@ import numpy as np
 from .. import sim
 from ..geometry import normalize, rotation_error_deg
 from ._common import atomic_write_text, fmt, machine, markdown_table, progress, write_json
-from .opengv_ransac import get_refiner, opengv_ransac_5pt
+from .opengv_ransac import code_version, get_refiner, opengv_ransac_5pt
 
 OUTLIERS = tuple(round(0.1 * k, 1) for k in range(10))
 QUICK_OUTLIERS = (0.0, 0.5, 0.9)
@@ -215,9 +215,11 @@ def run(args: argparse.Namespace) -> int:
     res = compute(trials, args.n, outliers, args.noise, args.seed, args.cauchy_px)
     res["wall_s"] = time.perf_counter() - t0
     res["machine"] = machine()
+    res["code_version"] = code_version()
     md = (f"Appendix B: chirality filter in the generator (n = {args.n}, {args.noise:g} px Gaussian, OpenGV-style geometry, "
           f"{trials} trials per setting, seed {args.seed}; 'chirality' = points in front of both cameras, 'none' = OpenGV's "
           f"points as generated; {res['wall_s']:.0f} s)\n\n" + to_markdown(res))
+    md += f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
     out = Path(args.out)
     atomic_write_text(out / "chirality.md", md)
     write_json(out / "chirality.json", res)

@@ -50,6 +50,7 @@ import numpy as np
 from ..geometry import normalize, rotation_error_deg
 from ..sim import make_scene
 from ._common import atomic_write_text, fmt, machine, markdown_table, progress, single_thread, write_json
+from .opengv_ransac import code_version
 
 OUTLIERS = (0.0, 0.2, 0.4, 0.5, 0.6, 0.7, 0.8)
 QUICK_OUTLIERS = (0.0, 0.5, 0.8)
@@ -304,9 +305,11 @@ def run(args: argparse.Namespace) -> int:
     res["wall_s"] = time.perf_counter() - t0
     res["jobs"] = args.jobs
     res["machine"] = machine()
+    res["code_version"] = code_version()
     md = (f"GNC-RANSAC experiment (n = {args.n}, {args.noise:g} px, wide OpenGV-style scenes, {trials} trials per setting, "
           f"seed {args.seed}; OpenCV/PoseLib on pixel coordinates with a {args.threshold_px:g} px threshold; "
           f"{args.jobs} worker(s), {res['wall_s']:.0f} s)\n\n" + to_markdown(res))
+    md += f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
     out = Path(args.out)
     atomic_write_text(out / "gnc-ransac.md", md)
     write_json(out / "gnc-ransac.json", res)

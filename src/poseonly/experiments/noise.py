@@ -36,7 +36,7 @@ from ..solvers.lirp import lirp_batch
 from ..solvers.sevenpt import sevenpt_batch
 from ..solvers.sixpt import sixpt_philip_batch, sixpt_pizarro_batch
 from ._common import atomic_write_text, fmt, machine, markdown_table, progress, write_json
-from .opengv_ransac import get_refiner
+from .opengv_ransac import code_version, get_refiner
 
 KINDS = ("normal", "planar")
 LEVELS = tuple(float(x) for x in range(11))
@@ -221,8 +221,10 @@ def run(args: argparse.Namespace) -> int:
     res = compute(trials, args.n, levels, args.seed, args.noise_model, use_npt)
     res["wall_s"] = time.perf_counter() - t0
     res["machine"] = machine()
+    res["code_version"] = code_version()
     md = (f"Noise test (n = {args.n}, wide OpenGV-style scenes, {args.noise_model} noise, {trials} trials per level, "
           f"seed {args.seed}; optimisation methods start from LiRP; {res['wall_s']:.0f} s)\n\n" + to_markdown(res))
+    md += f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
     out = Path(args.out)
     atomic_write_text(out / "noise.md", md)
     write_json(out / "noise.json", res)

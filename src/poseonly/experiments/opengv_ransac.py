@@ -42,7 +42,7 @@ from ..residuals import v_OpenGV
 from ..robust.ransac import sample_indices
 from ..solvers.fivept import fivept_batch
 
-__all__ = ["OPENGV_THRESHOLD", "OpenGVRansacResult", "opengv_ransac_5pt", "opengv_ransac_nonlinear", "get_refiner"]
+__all__ = ["OPENGV_THRESHOLD", "OpenGVRansacResult", "opengv_ransac_5pt", "opengv_ransac_nonlinear", "get_refiner", "code_version"]
 
 OPENGV_THRESHOLD = 2.0 * (1.0 - math.cos(math.atan(math.sqrt(2.0) * 0.5 / 800.0)))
 SAMPLE_SIZE = 8  # 5 for the minimal solver + 3 to choose among its solutions
@@ -55,6 +55,19 @@ _REFINE_MODULES = {
     "npt": "npt",
     "robust_npt": "npt",
 }
+
+
+def code_version() -> str | None:
+    """``git describe --always --dirty`` of the source tree (``None`` outside a git checkout)."""
+    import subprocess
+    from pathlib import Path
+
+    try:
+        r = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=Path(__file__).parent, capture_output=True,
+                           text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return (r.stdout.strip() or None) if r.returncode == 0 else None
 
 
 def get_refiner(name: str) -> Callable | None:

@@ -36,7 +36,7 @@ from ..geometry import rotation_error_deg
 from ..robust.gnc import GNCOptions, gnc_irls_batch
 from ..sim import make_scene
 from ._common import atomic_write_text, fmt, machine, markdown_table, progress, write_json
-from .opengv_ransac import opengv_ransac_5pt
+from .opengv_ransac import code_version, opengv_ransac_5pt
 
 RESIDUALS = ("coplanar", "ba", "opengv", "ppo", "ligt")
 LABELS = {"coplanar": "v_E", "ba": "v_BA", "opengv": "v_OpenGV", "ppo": "v_PPO", "ligt": "v_LiGT"}
@@ -163,9 +163,11 @@ def run(args: argparse.Namespace) -> int:
     res = compute(trials, args.n, outliers, args.noise, args.seed, args.bound_px)
     res["wall_s"] = time.perf_counter() - t0
     res["machine"] = machine()
+    res["code_version"] = code_version()
     md = (f"Residual selection for MS-TLS GNC-IRLS + LiRP (n = {args.n}, {args.noise:g} px, wide OpenGV-style scenes, "
           f"{trials} trials per setting, seed {args.seed}; 'paper' = adaptive c = 5.54 * 1.4826 * median(v), "
           f"'pixel' = fixed bound {args.bound_px:g} px / 800; reference {REF}; {res['wall_s']:.0f} s)\n\n" + to_markdown(res))
+    md += f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
     out = Path(args.out)
     atomic_write_text(out / "residuals.md", md)
     write_json(out / "residuals.json", res)
