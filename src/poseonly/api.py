@@ -76,6 +76,7 @@ _OPTS: dict[str, dict[str, tuple]] = {
         "batch": ((int, np.integer), lambda v: v >= 1, 128),
         "max_lo": ((int, np.integer), lambda v: v >= 0, 8),
         "preemptive": ((int, np.integer), lambda v: v >= 0, 32),
+        "scoring": ((str,), lambda v: v in ("msac", "msac-multi", "count"), "msac-multi"),
         "lo_residual": ((str,), None, "sampson-chiral"),
         "lo_mu0": ((int, float), lambda v: v > 0, 1e3),
         "lo_iterations": ((int, np.integer), lambda v: v >= 1, 10),
@@ -414,18 +415,24 @@ def _refine(R, t, f1, f2, inl, tau, normalization="none"):
 
 
 def _noise_threshold(R, t, f1, f2, tau, o) -> float:
-    """Inlier threshold matched to the measured noise: ``min(tau, max(k sigma, floor))`` with
-    ``sigma = 1.4826 median |v|`` over the consensus set (Sampson errors, radians), ``k =
-    noise_factor`` (2.5 keeps ~99 % of Gaussian inliers). The user's threshold stays the ceiling; a
-    data set far cleaner than it (real images, ~0.3 px) gets a tighter one."""
+    """Inlier threshold matched to the measured noise, for the final stages and the returned mask.
+
+    Fixed-point iteration ``thr <- clip(k sigma(thr), tau / 4, 3 tau)`` (3 steps from ``thr = tau``)
+    with ``sigma(thr) = 1.4826 median |v|`` over the Sampson errors below ``thr`` and ``k =
+    noise_factor`` (2.5 keeps ~99 % of Gaussian inliers; the truncation at ``thr`` biases sigma low,
+    which the iteration undoes). Real images (~0.3 px) get a tighter threshold than the 1 px default,
+    1 px synthetic noise a wider one. ``adaptive_threshold=False`` keeps ``tau``.
+    """
     if not o["adaptive_threshold"]:
         return tau
-    v = v_sampson(R, t, f1, f2)
-    v = v[v < tau]
-    if len(v) < 15:
-        return tau
-    sigma = 1.4826 * float(np.median(v))
-    return float(min(tau, max(o["noise_factor"] * sigma, 0.25 * tau)))
+    v_all = v_sampson(R, t, f1, f2)
+    thr = tau
+    for _ in range(3):
+        v = v_all[v_all < thr]
+        if len(v) < 15:
+            return tau
+        thr = float(np.clip(o["noise_factor"] * 1.4826 * float(np.median(v)), 0.25 * tau, 3.0 * tau))
+    return thr
 
 
 def _run_poseonly(f1, f2, o, tau):
@@ -449,7 +456,7 @@ def _run_poseonly(f1, f2, o, tau):
 
     r = ransac(
         f1, f2, est, tau, rng, max_iterations=o["max_iterations"], min_iterations=o["min_iterations"],
-        confidence=o["confidence"], batch=o["batch"], scoring="msac", local_optimization=make_lo(tau),
+        confidence=o["confidence"], batch=o["batch"], scoring=o["scoring"], local_optimization=make_lo(tau),
         max_lo=o["max_lo"], preemptive=o["preemptive"],
     )
     # final stage: the pose-only choice among the RANSAC model (re-identified on its inliers), its

@@ -60,6 +60,16 @@ def _score(v: np.ndarray, thr: float, scoring: str) -> tuple[np.ndarray, np.ndar
     inl = v < thr
     if scoring == "count":
         return inl.sum(axis=-1).astype(float), inl
+    if scoring == "msac-multi":
+        # MSAC averaged over the thresholds thr, thr/2, thr/4 (a coarse marginalisation over the noise
+        # scale in the spirit of MAGSAC): a model whose inliers fit tightly beats one that collects
+        # more points near the threshold
+        v2 = v * v
+        s = np.zeros(v.shape[:-1])
+        for k in (1.0, 0.5, 0.25):
+            tk2 = (k * thr) ** 2
+            s = s + np.sum(1.0 - np.minimum(v2, tk2) / tk2, axis=-1)
+        return s, inl
     # MSAC: maximise sum(thr^2 - min(v^2, thr^2)) (higher is better)
     return np.sum(thr * thr - np.minimum(v * v, thr * thr), axis=-1), inl
 
