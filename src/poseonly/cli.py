@@ -130,7 +130,7 @@ def cmd_experiment(args) -> int:
     return int(mod.run(args) or 0)
 
 
-BENCHES = {"speed": "poseonly.bench_speed", "robust": "poseonly.bench_robust"}
+BENCHES = {"speed": "poseonly.bench_speed", "robust": "poseonly.bench_robust"}  # modules with main(argv)
 
 
 def cmd_bench(args) -> int:

@@ -1,0 +1,8 @@
+"""Robust benchmark (issue 3): ``python benchmarks/robust.py [...]`` == ``poseonly bench robust [...]``."""
+
+import sys
+
+from poseonly.bench_robust import main
+
+if __name__ == "__main__":
+    sys.exit(main())
