@@ -87,7 +87,6 @@ def rank_candidates(E, f1, f2, w, with_cost=True):
     Returns ``R, t, valid, M1, cost`` (``inf`` where not finite; ``None`` without ``with_cost``)
     and ``best (H,)`` (the argmin of ``cost``, invalid candidates ``+10``)."""
     H, k = E.shape[:2]
-    n = f1.shape[1]
     R = np.empty((H, k, 3, 3))
     t = np.empty((H, k, 3))
     valid = np.empty((H, k), np.bool_)

@@ -47,7 +47,7 @@ import numpy as np
 from .estimator import get_estimator, lirp_estimator
 from .identify import identify_poses
 from .geometry import InputError, as_bearings, check_intrinsics, essential_from_pose, rotation_error_deg
-from .residuals import ligt_depths, v_LiGT, v_sampson, v_sampson_chiral
+from .residuals import ligt_depths, v_sampson, v_sampson_chiral
 from .robust.gnc import GNCOptions, gnc_irls_batch
 from .robust.ransac import gnc_ransac as _gnc_ransac
 from .robust.ransac import ransac

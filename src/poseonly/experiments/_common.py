@@ -98,3 +98,26 @@ def single_thread() -> None:
         cv2.setNumThreads(1)
     except ImportError:
         pass
+
+
+def pyplot():
+    """``matplotlib.pyplot`` on the Agg backend, or ``None`` when matplotlib is not installed."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:  # pragma: no cover
+        return None
+    return plt
+
+
+def write_outputs(out: str | Path, name: str, md: str, res: Any, figure=None) -> None:
+    """Write ``<name>.md``, ``<name>.json`` and (with ``figure(res, path)``) ``<name>.png``
+    atomically into ``out`` and print the table."""
+    out = Path(out)
+    atomic_write_text(out / f"{name}.md", md)
+    write_json(out / f"{name}.json", res)
+    if figure is not None:
+        figure(res, out / f"{name}.png")
+    print(md)

@@ -38,7 +38,7 @@ import numpy as np
 
 from .. import sim
 from ..geometry import normalize, rotation_error_deg
-from ._common import atomic_write_text, fmt, machine, markdown_table, progress, write_json
+from ._common import pyplot, write_outputs, fmt, machine, markdown_table, progress
 from .opengv_ransac import code_version, get_refiner, opengv_ransac_5pt
 
 OUTLIERS = tuple(round(0.1 * k, 1) for k in range(10))
@@ -221,20 +221,13 @@ def run(args: argparse.Namespace) -> int:
           f"points as generated; {res['wall_s']:.0f} s)\n\n" + to_markdown(res))
     md += f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
     out = Path(args.out)
-    atomic_write_text(out / "chirality.md", md)
-    write_json(out / "chirality.json", res)
-    _figure(res, out / "chirality.png")
-    print(md)
+    write_outputs(out, "chirality", md, res, _figure)
     return 0
 
 
 def _figure(res: dict, path: Path) -> None:
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:  # pragma: no cover
+    plt = pyplot()
+    if plt is None:  # pragma: no cover
         return
     from ._common import savefig
 

@@ -49,7 +49,7 @@ import numpy as np
 
 from ..geometry import normalize, rotation_error_deg
 from ..sim import make_scene
-from ._common import atomic_write_text, fmt, machine, markdown_table, progress, single_thread, write_json
+from ._common import pyplot, write_outputs, fmt, machine, markdown_table, progress, single_thread
 from .opengv_ransac import code_version
 
 OUTLIERS = (0.0, 0.2, 0.4, 0.5, 0.6, 0.7, 0.8)
@@ -311,20 +311,13 @@ def run(args: argparse.Namespace) -> int:
           f"{args.jobs} worker(s), {res['wall_s']:.0f} s)\n\n" + to_markdown(res))
     md += f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
     out = Path(args.out)
-    atomic_write_text(out / "gnc-ransac.md", md)
-    write_json(out / "gnc-ransac.json", res)
-    _figure(res, out / "gnc-ransac.png")
-    print(md)
+    write_outputs(out, "gnc-ransac", md, res, _figure)
     return 0
 
 
 def _figure(res: dict, path: Path) -> None:
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:  # pragma: no cover
+    plt = pyplot()
+    if plt is None:  # pragma: no cover
         return
     from ._common import savefig
 

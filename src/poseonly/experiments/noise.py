@@ -35,7 +35,7 @@ from ..solvers.fivept import fivept_batch
 from ..solvers.lirp import lirp_batch
 from ..solvers.sevenpt import sevenpt_batch
 from ..solvers.sixpt import sixpt_philip_batch, sixpt_pizarro_batch
-from ._common import atomic_write_text, fmt, machine, markdown_table, progress, write_json
+from ._common import pyplot, write_outputs, fmt, machine, markdown_table, progress
 from .opengv_ransac import code_version, get_refiner
 
 KINDS = ("normal", "planar")
@@ -226,20 +226,13 @@ def run(args: argparse.Namespace) -> int:
           f"seed {args.seed}; optimisation methods start from LiRP; {res['wall_s']:.0f} s)\n\n" + to_markdown(res))
     md += f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
     out = Path(args.out)
-    atomic_write_text(out / "noise.md", md)
-    write_json(out / "noise.json", res)
-    _figure(res, out / "noise.png")
-    print(md)
+    write_outputs(out, "noise", md, res, _figure)
     return 0
 
 
 def _figure(res: dict, path: Path) -> None:
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:  # pragma: no cover
+    plt = pyplot()
+    if plt is None:  # pragma: no cover
         return
     from ._common import savefig
 

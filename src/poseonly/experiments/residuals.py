@@ -35,7 +35,7 @@ from ..estimator import lirp_estimator
 from ..geometry import rotation_error_deg
 from ..robust.gnc import GNCOptions, gnc_irls_batch
 from ..sim import make_scene
-from ._common import atomic_write_text, fmt, machine, markdown_table, progress, write_json
+from ._common import pyplot, write_outputs, machine, markdown_table, progress
 from .opengv_ransac import code_version, opengv_ransac_5pt
 
 RESIDUALS = ("coplanar", "ba", "opengv", "ppo", "ligt")
@@ -169,20 +169,13 @@ def run(args: argparse.Namespace) -> int:
           f"'pixel' = fixed bound {args.bound_px:g} px / 800; reference {REF}; {res['wall_s']:.0f} s)\n\n" + to_markdown(res))
     md += f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
     out = Path(args.out)
-    atomic_write_text(out / "residuals.md", md)
-    write_json(out / "residuals.json", res)
-    _figure(res, out / "residuals.png")
-    print(md)
+    write_outputs(out, "residuals", md, res, _figure)
     return 0
 
 
 def _figure(res: dict, path: Path) -> None:
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:  # pragma: no cover
+    plt = pyplot()
+    if plt is None:  # pragma: no cover
         return
     from ._common import savefig
 

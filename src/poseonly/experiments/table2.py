@@ -18,7 +18,7 @@ import numpy as np
 from ..geometry import rotation_error_deg
 from ..sim import make_scene
 from ..solvers.lirp import lirp_batch
-from ._common import atomic_write_text, markdown_table, progress, write_json
+from ._common import pyplot, write_outputs, markdown_table, progress
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -109,20 +109,13 @@ def run(args: argparse.Namespace) -> int:
     res = compute(trials, args.n, args.camera, args.seed, args.npt)
     md = f"Table 2 (n = {args.n}, {args.camera} camera, {trials} trials; seed {args.seed})\n\n" + to_markdown(res)
     out = Path(args.out)
-    atomic_write_text(out / "table2.md", md)
-    write_json(out / "table2.json", res)
-    _figure(res, out / "table2.png")
-    print(md)
+    write_outputs(out, "table2", md, res, _figure)
     return 0
 
 
 def _figure(res: dict, path: Path) -> None:
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:  # pragma: no cover
+    plt = pyplot()
+    if plt is None:  # pragma: no cover
         return
     from ._common import savefig
 

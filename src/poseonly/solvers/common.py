@@ -149,7 +149,6 @@ def demazure_cubic_tensor(B: np.ndarray) -> np.ndarray:
     solver, docs/speed_notes.md).
     """
     B = np.asarray(B, dtype=float)
-    m = B.shape[-3]
     P = np.matmul(B[..., :, None, :, :], np.swapaxes(B, -1, -2)[..., None, :, :, :])  # (..., m, m, 3, 3)
     Bf = B.reshape(B.shape[:-2] + (9,))
     tr = np.matmul(Bf, np.swapaxes(Bf, -1, -2))  # (..., m, m): tr(B_i B_j^T)
