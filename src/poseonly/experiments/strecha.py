@@ -39,7 +39,6 @@ import inspect
 import json
 import os
 import sys
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -95,19 +94,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 # matches (cached)
 
 
-def _atomic_savez(path: Path, **arrays: np.ndarray) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
 def _match_cache_file(cache: Path, p1: Path, p2: Path, ratio: float, max_features: int | None) -> Path:
     key = {"v": 1, "ratio": float(ratio), "max_features": int(max_features or 0), "detector": "sift"}
     for k, p in (("a", p1), ("b", p2)):
@@ -119,7 +105,7 @@ def _match_cache_file(cache: Path, p1: Path, p2: Path, ratio: float, max_feature
 
 def _pair_matches(scene, i: int, j: int, feats: dict, cache: Path, ratio: float, max_features: int | None):
     """Putative matches ``(u1, u2)`` of views ``i, j`` (cached in ``cache/matches``)."""
-    from ..features import extract_features, match_features
+    from ..features import _atomic_savez, extract_features, match_features
 
     p1, p2 = scene.image_paths[i], scene.image_paths[j]
     f = _match_cache_file(cache, p1, p2, ratio, max_features)

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..geometry import check_correspondences
 from ..identify import identify_poses, select_candidate
-from .lirp import _mat, _pairwise_min_gap
+from .lirp import _mat, _pairwise_min_gap, right_singular
 
 __all__ = [
     "epipolar_rows",
@@ -72,22 +72,6 @@ def epipolar_rows(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -
     return A
 
 
-def right_singular(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Singular values ``(h, 9)`` (descending) and right singular vectors as rows ``Vt (h, 9, 9)``.
-
-    ``A (h, n, 9)``: for ``n < 9`` zero rows are appended (right singular vectors unchanged, the
-    missing singular values are 0); for ``n > 9`` the SVD is taken of the 9x9 ``R`` factor of a QR
-    of ``A`` (same singular values and right singular vectors without forming ``A^T A``), as
-    :func:`poseonly.solvers.lirp._null_space3` does. ``Vt[:, 9 - k:]`` is the ``k``-dimensional
-    (least-squares) null space, the last row belonging to the smallest singular value.
-    """
-    h, n, _ = A.shape
-    if n < 9:
-        A = np.concatenate([A, np.zeros((h, 9 - n, 9))], axis=1)
-    elif n > 9:
-        A = np.linalg.qr(A, mode="r")
-    _, s, Vt = np.linalg.svd(A)
-    return s, Vt
 
 
 def normalize_frobenius(E: np.ndarray) -> np.ndarray:

@@ -63,14 +63,27 @@ def _kron_rows(f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
     return (f1[..., :, None] * f2[..., None, :]).reshape(h, n, 9)
 
 
-def _null_space3(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Singular values ``(h, 9)`` and ``q1, q2, q3`` as rows ``(h, 3, 9)`` of stacked ``A (h, n, 9)``."""
+def right_singular(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values ``(h, 9)`` (descending) and right singular vectors as rows ``Vt (h, 9, 9)``.
+
+    ``A (h, n, 9)``: for ``n < 9`` zero rows are appended (right singular vectors unchanged, the
+    missing singular values are 0); for ``n > 9`` the SVD is taken of the 9x9 ``R`` factor of a QR
+    of ``A`` (same singular values and right singular vectors without forming ``A^T A``).
+    ``Vt[:, 9 - k:]`` is the ``k``-dimensional (least-squares) null space, the last row belonging to
+    the smallest singular value.
+    """
     h, n, _ = A.shape
     if n < 9:
         A = np.concatenate([A, np.zeros((h, 9 - n, 9))], axis=1)
     elif n > 9:
         A = np.linalg.qr(A, mode="r")
     _, s, Vt = np.linalg.svd(A)
+    return s, Vt
+
+
+def _null_space3(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values ``(h, 9)`` and ``q1, q2, q3`` as rows ``(h, 3, 9)`` of stacked ``A (h, n, 9)``."""
+    s, Vt = right_singular(A)
     return s, Vt[:, 6:9, :]
 
 
