@@ -523,7 +523,10 @@ def estimate_relative_pose(
 
     ``x1, x2``: ``(n, 2)`` pixels (with ``K1``/``K2``; ``K2`` defaults to ``K1``), ``(n, 2)``
     normalized coordinates (no ``K``) or ``(n, 3)`` bearing vectors. ``method``: one of
-    :data:`METHODS` (see the module docstring). Common options: ``threshold_px`` (default 2.0),
+    :data:`METHODS` (see the module docstring). Common options: ``threshold_px`` (default 2.0; the
+    RANSAC threshold. The default method then matches its final threshold to the measured noise
+    within ``threshold_px / 4 .. 3 threshold_px`` -- ``adaptive_threshold=False`` disables it -- and
+    reports it as ``result.threshold_px``), ``min_inliers`` (15, for status ``ok``),
     ``focal_px`` (focal for the pixel conversion when no ``K`` is given; default 800), ``seed``
     (int or ``numpy.random.Generator``; default 0), ``refine`` (LiGTopt on the inliers; default
     True). Method options are listed in the error raised for an unknown one. Raises
