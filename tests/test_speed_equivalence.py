@@ -334,3 +334,32 @@ def test_residual_kernels_match_numpy():
             with _kernels.use(False):
                 b = f(*args)
             np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
+
+
+@pytest.mark.parametrize("schedule", ["ms-tls", "gnc-tls"])
+@pytest.mark.parametrize("outl", [0.3, 0.7])
+def test_gnc_cycle_exit_is_exact(schedule, outl):
+    """Ending GNC-IRLS at a detected limit cycle returns bit for bit what the full loop returns
+    (pose, weights, residuals, bound, iteration count, convergence flag), for the 50 lockstep
+    samples of GNC-RANSAC (where most non-converging samples cycle), the LO's warm-started
+    multi-candidate IRLS and a fixed noise bound."""
+    from poseonly.estimator import get_estimator, lirp_estimator
+    from poseonly.robust.gnc import GNCOptions, gnc_irls_batch
+    from poseonly.robust.ransac import sample_indices
+
+    cases = []
+    for s in range(3):
+        sc = make_scene(300, "normal", "pinhole", noise_px=0.5, outlier_fraction=outl, seed=s)
+        idx = sample_indices(np.random.default_rng(s), 300, 30, 50)
+        cases.append((sc.f1[idx], sc.f2[idx], lirp_estimator(), GNCOptions(schedule=schedule), None))
+        cases.append((sc.f1[None], sc.f2[None], lirp_estimator(), GNCOptions(schedule=schedule, noise_bound=2 / 800), None))
+        cases.append((sc.f1[None], sc.f2[None], get_estimator("lirp-all", "sampson-chiral"),
+                      GNCOptions(schedule=schedule, noise_bound=2 / 800, mu0=1e3, max_iterations=10), sc.inliers[None].astype(float)))
+    cycled = 0
+    for f1, f2, est, opts, w0 in cases:
+        a = gnc_irls_batch(f1, f2, est, opts, w0, detect_cycles=False)
+        b = gnc_irls_batch(f1, f2, est, opts, w0)
+        for name in ("R", "t", "weights", "residuals", "c", "num_iterations", "converged"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+        cycled += int(np.sum(~a.converged & (a.num_iterations == opts.max_iterations)))
+    assert cycled > 0  # the case the shortcut exists for did occur

@@ -136,6 +136,54 @@ def _update_mu(mu: np.ndarray, opts: GNCOptions) -> np.ndarray:
     return np.minimum(new, 1e16)
 
 
+CYCLE_MAX_PERIOD = 8
+
+
+def _cycle_exit(k, active, cand, wnew, nb_last, HW, He, opts, P):
+    """Problems whose iteration ``k`` closed a limit cycle, and where the full loop would end.
+
+    With the adaptive bound ``c`` re-estimated every iteration, GNC-IRLS often ends in a cycle of
+    binary weight vectors (period 2-5 measured; the relative eps test never fires, so Alg. 2 runs to
+    its iteration cap). Let ``W_j`` be the input weights of iteration ``j`` (``W_{j+1}`` = its new
+    weights). The solve and the residuals depend on ``W_j`` only, and the new weights on them and on
+    ``mu``; a binary ``W_{j+1}`` means no residual lies in the TLS transition band, which only narrows
+    as ``mu`` grows (both schedules), so ``W_{j+1}`` is what every later iteration maps ``W_j`` to.
+    Hence if ``W_{k+1} = W_{k+1-p}`` and ``W_{k+2-p}, ..., W_{k+1}`` are binary, the iterations from
+    ``k+1-p`` on repeat with period ``p`` exactly. The future stopping tests (consecutive eps values)
+    take only ``p`` distinct forms, checked here; the loop ends at the first that fires (converged) or
+    at ``max_iterations - 1``. Returns ``(indices into active, cycle iteration whose outputs are returned,
+    final iteration, converged)`` or None.
+    """
+    K = opts.max_iterations - 1
+    if k >= K:
+        return None
+    S = P + 1
+    sel = np.nonzero(cand)[0]
+    a = active[sel]
+    ps = np.arange(1, min(P, k + 1) + 1)  # candidate periods; the smallest that matches wins
+    ok = np.all(HW[a][:, (k + 1 - ps) % S] == wnew[sel][:, None, :], axis=2) & (nb_last[a][:, None] < k + 1 - ps)
+    hit = ok.any(axis=1)
+    if not hit.any():
+        return None
+    sel, a, period = sel[hit], a[hit], ps[np.argmax(ok[hit], axis=1)]
+    base = k + 1 - period  # first iteration of the cycle
+    jf = np.full(len(sel), K)
+    conv = np.zeros(len(sel), bool)
+    for m in range(1, P + 1):  # future iteration k + m, for every position of the period
+        j = k + m
+        live = (m <= period) & (j <= K) & ~conv
+        if not live.any():
+            break
+        e_cur = He[a, (base + (j - base) % period) % S]
+        e_prev = He[a, (base + (j - 1 - base) % period) % S]
+        d = live & (np.abs(e_cur - e_prev) <= opts.eps0 * np.maximum(np.abs(e_cur), 1e-300))
+        jf = np.where(d, j, jf)
+        conv |= d
+    # the iteration whose outputs the loop returns: the cycle position of jf
+    jmap = base + (jf - base) % period
+    return sel, jmap, jf, conv
+
+
 @dataclass
 class GNCBatchResult:
     """Stacked GNC-IRLS output: ``R (h,3,3)``, ``t (h,3)``, final ``weights (h,n)``, ``residuals (h,n)``
@@ -157,10 +205,17 @@ def gnc_irls_batch(
     estimator: Estimator | None = None,
     options: GNCOptions | None = None,
     w0: np.ndarray | None = None,
+    *,
+    detect_cycles: bool = True,
 ) -> GNCBatchResult:
     """GNC-IRLS (Alg. 2) on ``h`` stacked problems ``f1, f2 (h, n, 3)`` in lockstep (no validation).
 
     ``estimator`` defaults to LiRP + v_LiGT; ``w0`` optional initial weights (default all ones).
+    ``detect_cycles`` (default) ends a problem as soon as its iteration has entered a limit cycle
+    (see :func:`_cycle_exit`) and returns what the full loop would have returned after
+    ``max_iterations`` (or at its first convergence inside the cycle): the same pose, weights,
+    residuals, bound, iteration count and convergence flag, without running the remaining iterations.
+    ``detect_cycles=False`` runs every iteration (the equality is a test).
     """
     est = estimator or lirp_estimator()
     opts = options or GNCOptions()
@@ -177,6 +232,14 @@ def gnc_irls_batch(
     active = np.arange(h)
     # per-point precomputation reused by every iteration: the Kronecker rows of LiRP (the weighted
     # system is A * w); while no problem has dropped out, whole arrays are used without gathers
+    P = CYCLE_MAX_PERIOD if detect_cycles else 0
+    if P:
+        S = P + 1  # ring buffers: slot j % S holds iteration j's outputs and input weights W_j
+        HW = np.empty((h, S, n))
+        HW[:, 0] = w
+        HR, Ht, Hv = np.empty((h, S, 3, 3)), np.empty((h, S, 3)), np.empty((h, S, n))
+        Hc, He = np.empty((h, S)), np.empty((h, S))
+        nb_last = np.full(h, -1)  # last iteration whose new weights were not all 0 or 1
     fast_lirp = est.solve is lirp_solver
     A_all = _kron_rows(f1, f2) if fast_lirp else None
     full = True
@@ -234,9 +297,30 @@ def gnc_irls_batch(
             converged[active[done]] = True
             mu[active] = _update_mu(mu_a, opts)
         stop = done | starving
-        if stop.any():
+        cyc = None
+        if P:
+            sl = k % S
+            HR[active, sl], Ht[active, sl], Hv[active, sl], Hc[active, sl], He[active, sl] = Rk, tk, v, c, eps
+            HW[active, (k + 1) % S] = wnew
+            nonbin = ~np.all((wn == 0.0) | (wn == 1.0), axis=1)
+            if nonbin.any():
+                nb_last[active[nonbin]] = k
+            cand = ~stop & (nb_last[active] < k) & (mu[active] >= mu_a)
+            if cand.any():
+                cyc = _cycle_exit(k, active, cand, wnew, nb_last, HW, He, opts, P)
+        if stop.any() or cyc is not None:
             if full:  # from now on the arrays are written through the active indices
                 R, t, v_all, c_all = R.copy(), t.copy(), np.array(v_all, dtype=float), np.array(c_all, dtype=float)
                 full = False
+            if cyc is not None:
+                idx, jmap, jf, conv = cyc
+                a = active[idx]
+                sl = jmap % S
+                R[a], t[a], v_all[a], c_all[a] = HR[a, sl], Ht[a, sl], Hv[a, sl], Hc[a, sl]
+                w[a] = HW[a, (jmap + 1) % S]
+                iters[a] = jf + 1
+                converged[a] = conv
+                stop = stop.copy()
+                stop[idx] = True
             active = active[~stop]
     return GNCBatchResult(R=R, t=t, weights=w, residuals=v_all, c=c_all, num_iterations=iters, converged=converged)
