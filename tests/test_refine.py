@@ -276,3 +276,51 @@ def test_npt_planar_is_not_tight_and_bad_input():
         npt(sc.f1, sc.f2[:-1])
     with pytest.raises(ValueError):
         npt(sc.f1[:7], sc.f2[:7])
+
+
+@pytest.mark.parametrize("norm", NORMALIZATIONS)
+def test_ligt_lm_solver_exact_and_matches_scipy(norm):
+    """solver="lm" (compact LM on IRLS normal equations) is exact from a perturbed noise-free start
+    and reaches scipy's minimum from a LiRP start on noisy data (robust and linear loss)."""
+    sc = make_scene(60, "normal", "wide", noise_px=0.0, seed=5)
+    R0 = rotation_from_rotvec(np.radians([0.5, -0.3, 0.2])) @ sc.R
+    r = ligt_refine(R0, sc.t + 0.02, sc.f1, sc.f2, normalization=norm, solver="lm")
+    assert rotation_error_deg(sc.R, r.R) < 1e-6 and translation_error_deg(sc.t, r.t) < 1e-5
+    for s in range(6):
+        sc = make_scene(200, "normal" if s % 2 else "planar", "pinhole" if s % 3 else "wide", noise_px=1.0, seed=50 + s)
+        lr = lirp(sc.f1, sc.f2)
+        # (angular residuals are angles, so the pixel scale applies; the others get the default MAD scale)
+        for loss, scale in (("linear", None), ("cauchy", 2.0 / 800 if norm == "angular" else None)):
+            a = ligt_refine(lr.R, lr.t, sc.f1, sc.f2, loss=loss, loss_scale=scale, normalization=norm)
+            b = ligt_refine(lr.R, lr.t, sc.f1, sc.f2, loss=loss, loss_scale=scale, normalization=norm, solver="lm")
+            assert b.cost_final <= a.cost_final * (1 + 1e-6) and a.cost_final <= b.cost_final * (1 + 1e-6)
+            assert rotation_error_deg(a.R, b.R) < 1e-3 and b.cost_final <= b.cost_initial
+
+
+def test_ligt_normal_equations_kernel_matches_numpy():
+    from poseonly import _kernels
+    from poseonly.refine._manifold import PoseChart
+    from poseonly.refine.ligt import _normal_equations, _normal_equations_numpy
+
+    if not _kernels.available():
+        pytest.skip("numba not installed")
+    sc = make_scene(80, "normal", "wide", noise_px=1.0, outlier_fraction=0.2, seed=7)
+    rng = np.random.default_rng(7)
+    chart = PoseChart(sc.R, sc.t + 0.05 * rng.standard_normal(3))
+    x, sw = 0.02 * rng.standard_normal(5), rng.random(80)
+    for norm in NORMALIZATIONS:
+        for loss in ("linear", "soft_l1", "huber", "cauchy", "arctan"):
+            a = _normal_equations_numpy(chart, x, sc.f1, sc.f2, sw, norm, loss, 0.003, True)
+            with _kernels.use(True):
+                b = _normal_equations(chart, x, sc.f1, sc.f2, sw, norm, loss, 0.003, True)
+                c = _normal_equations(chart, x, sc.f1, sc.f2, sw, norm, loss, 0.003, False)
+            np.testing.assert_allclose(b[0], a[0], rtol=1e-11)
+            np.testing.assert_allclose(c[0], a[0], rtol=1e-11)
+            np.testing.assert_allclose(b[1], a[1], rtol=1e-10, atol=1e-14 * np.abs(a[1]).max())
+            np.testing.assert_allclose(b[2], a[2], rtol=1e-10, atol=1e-14 * np.abs(a[2]).max())
+
+
+def test_ligt_refine_unknown_solver():
+    sc = make_scene(30, "normal", "wide", noise_px=0.0, seed=1)
+    with pytest.raises(ValueError, match="solver"):
+        ligt_refine(sc.R, sc.t, sc.f1, sc.f2, solver="newton")

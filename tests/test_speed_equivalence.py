@@ -315,9 +315,10 @@ if __name__ == "__main__":
 
 
 def test_residual_kernels_match_numpy():
-    """The compiled v_LiGT / v_sampson equal the numpy formulas (shared and per-pose points)."""
+    """The compiled v_LiGT / v_sampson / v_sampson_chiral equal the numpy formulas (shared and
+    per-pose points, and the (h, k) candidate stacks of multi-candidate GNC-IRLS)."""
     from poseonly import _kernels
-    from poseonly.residuals import v_LiGT, v_sampson
+    from poseonly.residuals import v_LiGT, v_sampson, v_sampson_chiral
 
     if not _kernels.available():
         pytest.skip("numba not installed")
@@ -327,13 +328,18 @@ def test_residual_kernels_match_numpy():
     R *= np.linalg.det(R)[:, None, None]
     t = np.concatenate([sc.t[None] * 3.0, rng.normal(size=(7, 3))])
     idx = np.argpartition(rng.random((8, 200)), 29, axis=1)[:, :30]
-    for f in (v_LiGT, v_sampson):
-        for args in ((R, t, sc.f1, sc.f2), (R[0], t[0], sc.f1, sc.f2), (R, t, sc.f1[idx], sc.f2[idx])):
+    R4, t4 = R.reshape(2, 4, 3, 3), t.reshape(2, 4, 3)
+    F1, F2 = sc.f1[idx[:2]][:, None], sc.f2[idx[:2]][:, None]
+    for f in (v_LiGT, v_sampson, v_sampson_chiral):
+        for args in ((R, t, sc.f1, sc.f2), (R[0], t[0], sc.f1, sc.f2), (R, t, sc.f1[idx], sc.f2[idx]),
+                     (R4, t4, F1, F2), (R4[:1], t4[:1], F1[:1], F2[:1])):
             with _kernels.use(True):
                 a = f(*args)
             with _kernels.use(False):
                 b = f(*args)
             np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-15)
+            if f is v_sampson_chiral:
+                assert 0 < np.mean(a == 1.0) < 1  # both branches exercised
 
 
 @pytest.mark.parametrize("schedule", ["ms-tls", "gnc-tls"])

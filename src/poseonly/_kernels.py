@@ -17,6 +17,8 @@ Kernels (docs/speed_notes.md has the profiles that motivated each one):
   template and least squares; candidate assembly, case-2 cubic, ``d_min``): ~40 small numpy calls
   per problem become two calls;
 * :func:`residual` -- ``v_LiGT`` and ``v_sampson`` of ``k`` poses on ``n`` points in one pass;
+* :func:`ligt_normal` -- LiGTopt's robust cost and 5x5 Gauss-Newton normal equations in one pass
+  over the points (the numpy twin builds the ``(n, 3, 5)`` Jacobian with ~40 array calls);
 * :func:`fivept_real` -- the Stewenius five-point solver on minimal samples returning the real
   solutions only (:mod:`poseonly.solvers.fivept`): 10x10 action matrix reduced to Hessenberg form
   and its real eigenvalues found by the Francis double-shift QR, eigenvectors by a 9x9 solve,
@@ -30,7 +32,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
-__all__ = ["available", "enabled", "use", "rank_candidates", "lirp_action", "lirp_post", "fivept_real", "residual"]
+__all__ = ["available", "enabled", "use", "rank_candidates", "lirp_action", "lirp_post", "fivept_real", "residual", "ligt_normal"]
 
 _state = {"checked": False, "available": False, "enabled": os.environ.get("POSEONLY_NUMBA", "1") not in ("0", "false", "no", "off")}
 _impl: dict = {}
@@ -75,6 +77,7 @@ def _compiled():
         _impl["residual"] = _kernels_nb.residual_nb
         _impl["eig6"] = _kernels_nb.eig6_nb
         _impl["kron"] = _kernels_nb.kron_rows_nb
+        _impl["ligt_normal"] = _kernels_nb.ligt_normal_nb
     return _impl
 
 
@@ -153,16 +156,32 @@ def eig6(C, sep_tol=1e-6):
     return lam, G
 
 
-_RESIDUAL_KIND = {"ligt": 0, "sampson": 1}
+_RESIDUAL_KIND = {"ligt": 0, "sampson": 1, "sampson-chiral": 2}
 
 
 def residual(kind, R, t, f1, f2):
-    """Compiled ``v_LiGT`` / ``v_sampson`` for ``R (k, 3, 3)`` or ``(3, 3)``, ``t`` to match, and
-    points ``(n, 3)`` shared by all poses or ``(k, n, 3)``; ``None`` for other shapes (use numpy)."""
+    """Compiled ``v_LiGT`` / ``v_sampson`` / ``v_sampson_chiral`` for ``R (k, 3, 3)`` or ``(3, 3)``,
+    ``t`` to match, and points ``(n, 3)`` shared by all poses or ``(k, n, 3)``; also ``R (h, k, 3, 3)``
+    with points ``(h, 1, n, 3)`` (``k`` candidates per problem, GNC-IRLS with multi-candidate
+    solvers). ``None`` for other shapes (use numpy)."""
     R = np.asarray(R, dtype=np.float64)
     t = np.asarray(t, dtype=np.float64)
     f1 = np.asarray(f1, dtype=np.float64)
     f2 = np.asarray(f2, dtype=np.float64)
+    if R.ndim == 4:
+        h, k = R.shape[:2]
+        if t.shape != (h, k, 3) or f1.shape != f2.shape or f1.ndim != 4 or f1.shape[:2] != (h, 1) or f1.shape[-1] != 3:
+            return None
+        n = f1.shape[2]
+        if h == 1:
+            F1, F2 = f1[0], f2[0]
+        else:
+            F1 = np.repeat(f1, k, axis=1).reshape(h * k, n, 3)
+            F2 = np.repeat(f2, k, axis=1).reshape(h * k, n, 3)
+        out = np.empty((h * k, n))
+        _compiled()["residual"](np.ascontiguousarray(R.reshape(h * k, 3, 3)), np.ascontiguousarray(t.reshape(h * k, 3)),
+                                np.ascontiguousarray(F1), np.ascontiguousarray(F2), _RESIDUAL_KIND[kind], out)
+        return out.reshape(h, k, n)
     single = R.ndim == 2
     if single:
         R, t = R[None], t[None]
@@ -202,3 +221,16 @@ def fivept_real(f1, f2):
     _compiled()["fivept"](np.ascontiguousarray(f1, dtype=np.float64), np.ascontiguousarray(f2, dtype=np.float64),
                           mono, unit_cols, rows, tol, E, mask, fail)
     return E, mask, fail
+
+
+def ligt_normal(R, t, Jl, Jt, f1, f2, sw, norm: int, loss: int, scale: float, want: bool):
+    """Compiled LiGTopt cost (and normal equations ``H (5, 5)``, ``g (5,)`` when ``want``)."""
+    H = np.empty((5, 5))
+    g = np.empty(5)
+    c = _compiled()["ligt_normal"](
+        np.ascontiguousarray(R, dtype=np.float64), np.ascontiguousarray(t, dtype=np.float64),
+        np.ascontiguousarray(Jl, dtype=np.float64), np.ascontiguousarray(Jt, dtype=np.float64),
+        np.ascontiguousarray(f1, dtype=np.float64), np.ascontiguousarray(f2, dtype=np.float64),
+        np.ascontiguousarray(sw, dtype=np.float64), int(norm), int(loss), float(scale), bool(want), H, g,
+    )
+    return float(c), H, g

@@ -1041,7 +1041,7 @@ def fivept_real_nb(f1, f2, mono, unit_cols, action_rows, real_tol, E, mask, fail
 
 @njit(cache=True, error_model="numpy")
 def residual_nb(R, t, f1, f2, kind, out):
-    """``out (k, n)``: residual ``kind`` (0 = v_LiGT, 1 = v_sampson) of the poses ``R (k, 3, 3)``,
+    """``out (k, n)``: residual ``kind`` (0 = v_LiGT, 1 = v_sampson, 2 = v_sampson_chiral) of the poses ``R (k, 3, 3)``,
     ``t (k, 3)`` (normalised here) on ``f (m, n, 3)`` with ``m = 1`` (shared points) or ``m = k``."""
     k = R.shape[0]
     m = f1.shape[0]
@@ -1078,6 +1078,31 @@ def residual_nb(R, t, f1, f2, kind, out):
             e21 = t0 * r11 - t1 * r01
             e22 = t0 * r12 - t1 * r02
             _sampson_row(P, G, e00, e01, e02, e10, e11, e12, e20, e21, e22, out[c], n)
+            if kind == 2:
+                _chiral_row(P, G, r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2, out[c], n)
+
+
+@njit(cache=True, error_model="numpy")
+def _chiral_row(P, G, r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2, o, n):
+    # 1 (a gross error) where a pose-only depth numerator is not positive (residuals.ligt_depths:
+    # h = (R f1 x f2) . (f2 x t), h' = (R f1 x f2) . (R f1 x t))
+    for i in range(n):
+        p0 = P[0, i]
+        p1 = P[1, i]
+        p2 = P[2, i]
+        a0 = r00 * p0 + r01 * p1 + r02 * p2
+        a1 = r10 * p0 + r11 * p1 + r12 * p2
+        a2 = r20 * p0 + r21 * p1 + r22 * p2
+        g0 = G[0, i]
+        g1 = G[1, i]
+        g2 = G[2, i]
+        c0 = a1 * g2 - a2 * g1
+        c1 = a2 * g0 - a0 * g2
+        c2 = a0 * g1 - a1 * g0
+        h = c0 * (g1 * t2 - g2 * t1) + c1 * (g2 * t0 - g0 * t2) + c2 * (g0 * t1 - g1 * t0)
+        hp = c0 * (a1 * t2 - a2 * t1) + c1 * (a2 * t0 - a0 * t2) + c2 * (a0 * t1 - a1 * t0)
+        if not (h > 0.0 and hp > 0.0):
+            o[i] = 1.0
 
 
 @njit(cache=True, error_model="numpy")
@@ -1254,3 +1279,143 @@ def kron_rows_nb(f1, f2, A):
                 a = f1[hh, i, j]
                 for k in range(3):
                     A[hh, i, 3 * j + k] = a * f2[hh, i, k]
+
+
+# ------------------------------------------------------------------------------------------------
+# LiGTopt normal equations (twin: poseonly.refine.ligt._normal_equations_numpy)
+
+
+@njit(cache=True, error_model="numpy")
+def _rho(s, loss):
+    """(rho(s), rho'(s)) of the grouped robust losses (codes of poseonly.refine.ligt._LOSS_CODE)."""
+    if loss == 0:
+        return s, 1.0
+    if loss == 1:  # soft_l1
+        r = math.sqrt(1.0 + s)
+        return 2.0 * (r - 1.0), 1.0 / r
+    if loss == 2:  # huber
+        if s > 1.0:
+            r = math.sqrt(s)
+            return 2.0 * r - 1.0, 1.0 / r
+        return s, 1.0
+    if loss == 3:  # cauchy
+        return math.log1p(s), 1.0 / (1.0 + s)
+    q = 1.0 + s * s  # arctan
+    return math.atan(s), 1.0 / q
+
+
+@njit(cache=True, error_model="numpy")
+def ligt_normal_nb(R, t, Jl, Jt, f1, f2, sw, norm, loss, scale, want, H, g):
+    """Robust LiGT cost ``scale^2 sum rho(|r_i|^2 / scale^2)`` and, when ``want``, the Gauss-Newton
+    normal equations ``H = sum rho' J_i^T J_i`` (5x5), ``g = sum rho' J_i^T r_i`` (5) of the
+    residual vectors ``r_i`` (normalisation ``norm``: 0 none, 1 theta2, 2 angular) with respect to
+    the pose chart ``(w, v)``; ``Jl`` the SO(3) left Jacobian, ``Jt`` (3, 2) the translation chart."""
+    n = f1.shape[0]
+    for p in range(5):
+        g[p] = 0.0
+        for q in range(5):
+            H[p, q] = 0.0
+    cost = 0.0
+    s2 = scale * scale
+    r = np.empty(3)
+    J = np.empty((3, 5))
+    dA = np.empty(3)
+    dC = np.empty(3)
+    dS = np.empty(3)
+    dT = np.empty(3)
+    for i in range(n):
+        x0, x1, x2 = f1[i, 0], f1[i, 1], f1[i, 2]
+        y0, y1, y2 = f2[i, 0], f2[i, 1], f2[i, 2]
+        a0 = R[0, 0] * x0 + R[0, 1] * x1 + R[0, 2] * x2
+        a1 = R[1, 0] * x0 + R[1, 1] * x1 + R[1, 2] * x2
+        a2 = R[2, 0] * x0 + R[2, 1] * x1 + R[2, 2] * x2
+        c0 = y1 * a2 - y2 * a1
+        c1 = y2 * a0 - y0 * a2
+        c2 = y0 * a1 - y1 * a0
+        s0 = y1 * t[2] - y2 * t[1]
+        s1 = y2 * t[0] - y0 * t[2]
+        s_2 = y0 * t[1] - y1 * t[0]
+        cc = c0 * c0 + c1 * c1 + c2 * c2
+        cs = c0 * s0 + c1 * s1 + c2 * s_2
+        z = 0.0
+        q0 = q1 = q2 = 0.0
+        P0 = P1 = P2 = 0.0
+        nP = 1.0
+        if norm == 0:
+            r[0] = cc * s0 - c0 * cs
+            r[1] = cc * s1 - c1 * cs
+            r[2] = cc * s_2 - c2 * cs
+        else:
+            cc = max(cc, 1e-30)
+            z = -cs / cc
+            q0 = s0 + z * c0
+            q1 = s1 + z * c1
+            q2 = s_2 + z * c2
+            if norm == 1:
+                r[0], r[1], r[2] = q0, q1, q2
+            else:
+                P0 = z * a0 + t[0]
+                P1 = z * a1 + t[1]
+                P2 = z * a2 + t[2]
+                nP = max(math.sqrt(P0 * P0 + P1 * P1 + P2 * P2), 1e-300)
+                r[0], r[1], r[2] = q0 / nP, q1 / nP, q2 / nP
+        w = sw[i]
+        r[0] *= w
+        r[1] *= w
+        r[2] *= w
+        si = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]) / s2
+        rho, drho = _rho(si, loss)
+        cost += s2 * rho
+        if not want:
+            continue
+        for k in range(5):
+            if k < 3:
+                j0, j1, j2 = Jl[0, k], Jl[1, k], Jl[2, k]
+                dA[0] = j1 * a2 - j2 * a1
+                dA[1] = j2 * a0 - j0 * a2
+                dA[2] = j0 * a1 - j1 * a0
+                dC[0] = y1 * dA[2] - y2 * dA[1]
+                dC[1] = y2 * dA[0] - y0 * dA[2]
+                dC[2] = y0 * dA[1] - y1 * dA[0]
+                dS[0] = dS[1] = dS[2] = 0.0
+                dT[0] = dT[1] = dT[2] = 0.0
+            else:
+                dA[0] = dA[1] = dA[2] = 0.0
+                dC[0] = dC[1] = dC[2] = 0.0
+                dT[0], dT[1], dT[2] = Jt[0, k - 3], Jt[1, k - 3], Jt[2, k - 3]
+                dS[0] = y1 * dT[2] - y2 * dT[1]
+                dS[1] = y2 * dT[0] - y0 * dT[2]
+                dS[2] = y0 * dT[1] - y1 * dT[0]
+            dcc = 2.0 * (dC[0] * c0 + dC[1] * c1 + dC[2] * c2)
+            dcs = dC[0] * s0 + dC[1] * s1 + dC[2] * s_2 + c0 * dS[0] + c1 * dS[1] + c2 * dS[2]
+            if norm == 0:
+                J[0, k] = s0 * dcc + cc * dS[0] - c0 * dcs - cs * dC[0]
+                J[1, k] = s1 * dcc + cc * dS[1] - c1 * dcs - cs * dC[1]
+                J[2, k] = s_2 * dcc + cc * dS[2] - c2 * dcs - cs * dC[2]
+            else:
+                dz = -dcs / cc + (cs / (cc * cc)) * dcc
+                e0 = dS[0] + c0 * dz + z * dC[0]
+                e1 = dS[1] + c1 * dz + z * dC[1]
+                e2 = dS[2] + c2 * dz + z * dC[2]
+                if norm == 1:
+                    J[0, k], J[1, k], J[2, k] = e0, e1, e2
+                else:
+                    dP0 = a0 * dz + z * dA[0] + dT[0]
+                    dP1 = a1 * dz + z * dA[1] + dT[1]
+                    dP2 = a2 * dz + z * dA[2] + dT[2]
+                    f = (P0 * dP0 + P1 * dP1 + P2 * dP2) / (nP * nP * nP)
+                    J[0, k] = e0 / nP - q0 * f
+                    J[1, k] = e1 / nP - q1 * f
+                    J[2, k] = e2 / nP - q2 * f
+        for k in range(5):
+            J[0, k] *= w
+            J[1, k] *= w
+            J[2, k] *= w
+        for p in range(5):
+            g[p] += drho * (J[0, p] * r[0] + J[1, p] * r[1] + J[2, p] * r[2])
+            for q in range(p, 5):
+                H[p, q] += drho * (J[0, p] * J[0, q] + J[1, p] * J[1, q] + J[2, p] * J[2, q])
+    for p in range(5):
+        for q in range(p):
+            H[p, q] = H[q, p]
+    return cost

@@ -57,6 +57,9 @@ from .twin import homography_twin
 __all__ = ["estimate_relative_pose", "RelativePoseResult", "gnc_irls", "gnc_ransac", "METHODS", "DEFAULT_METHOD"]
 
 DEFAULT_METHOD = "poseonly"
+# LiGTopt's optimiser inside the robust methods: the compact LM of poseonly.refine.ligt (same
+# objective as scipy's least_squares, ~10-20x less time per call; docs/RESULTS.md section 2)
+REFINE_SOLVER = "lm"
 METHODS = ("poseonly", "gnc-ransac", "gnc-irls", "lirp")
 
 # allowed options per method: name -> (type(s), validator or None, default)
@@ -353,7 +356,7 @@ def _polish(R, t, f1, f2, tau):
         if inl.sum() < 6:
             return R, t
     try:
-        r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization="angular", max_iter=20)
+        r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization="angular", max_iter=20, solver=REFINE_SOLVER)
     except ValueError:  # a degenerate candidate: keep it unpolished
         return R, t
     if np.all(np.isfinite(r.R)) and np.all(np.isfinite(r.t)):
@@ -408,7 +411,7 @@ def _refine(R, t, f1, f2, inl, tau, normalization="none"):
 
     if inl.sum() < 6:
         return R, t
-    r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization=normalization)
+    r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization=normalization, solver=REFINE_SOLVER)
     if np.all(np.isfinite(r.R)) and np.all(np.isfinite(r.t)):
         return r.R, r.t
     return R, t

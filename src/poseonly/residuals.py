@@ -167,6 +167,10 @@ def v_sampson_chiral(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarra
     ``-t`` or a planar scene's homography twin; the depth signs ``h^T t > 0`` and ``h'^T t > 0``
     (:func:`ligt_depths`) can. Used as the local-optimisation objective of the default method.
     """
+    if _kernels.enabled():
+        out = _kernels.residual("sampson-chiral", R, t, f1, f2)
+        if out is not None:
+            return out
     h, hp, _ = ligt_depths(R, t, f1, f2)
     return np.where((h > 0) & (hp > 0), v_sampson(R, t, f1, f2), 1.0)
 

@@ -42,7 +42,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..geometry import check_correspondences, normalize
+from .. import _kernels
+from ..geometry import check_correspondences, cross, normalize
 from ._common import LOSSES, RefineResult, check_pose, fix_translation_sign, grouped_loss
 from ._manifold import PoseChart
 
@@ -90,10 +91,10 @@ _CC_FLOOR = 1e-30  # theta^4 floor for the normalised residuals (zero-parallax p
 def _ligt_terms(R, t, f1, f2, normalization):
     """Per-point residual vectors of the chosen normalisation, plus the intermediates."""
     a = f1 @ R.T
-    c = np.cross(f2, a)
-    s = np.cross(f2, t)
-    cc = np.sum(c * c, axis=1)
-    cs = np.sum(c * s, axis=1)
+    c = cross(f2, a)
+    s = cross(f2, t)
+    cc = np.einsum("ij,ij->i", c, c)
+    cs = np.einsum("ij,ij->i", c, s)
     if normalization == "none":
         return cc[:, None] * s - c * cs[:, None], (a, c, s, cc, cs, None, None, None)
     ccf = np.maximum(cc, _CC_FLOOR)
@@ -102,40 +103,127 @@ def _ligt_terms(R, t, f1, f2, normalization):
     if normalization == "theta2":
         return q, (a, c, s, ccf, cs, z, None, None)
     P = z[:, None] * a + t  # the LiGT point in camera 2's frame
-    nP = np.maximum(np.linalg.norm(P, axis=1), 1e-300)
+    nP = np.maximum(np.sqrt(np.einsum("ij,ij->i", P, P)), 1e-300)
     return q / nP[:, None], (a, c, s, ccf, cs, z, P, nP)
 
 
 def _residual_and_jacobian(chart: PoseChart, x: np.ndarray, f1: np.ndarray, f2: np.ndarray, sw: np.ndarray,
                            want_jac: bool, normalization: str = "none"):
+    """Stacked residuals ``(3n,)`` and their Jacobian ``(3n, 5)`` w.r.t. the chart's ``x = (w, v)``.
+
+    Derivatives are formed per parameter block, ``[n, k, i]`` = d(component i)/d(x_k): the rotation
+    block (``k < 3``) moves ``a = R f1`` (``da = -[a]x J_l dw``) and with it ``c = f2 x a``; the
+    translation block (``k >= 3``) moves ``t`` (``dt = Jt dv``) and with it ``s = f2 x t``.
+    """
     if not want_jac:
         R, t = chart.retract(x)
         r, _ = _ligt_terms(R, t, f1, f2, normalization)
         return (sw[:, None] * r).ravel(), None
     R, t, Jl, Jt = chart.jacobians(x)
     r, (a, c, s, cc, cs, z, P, nP) = _ligt_terms(R, t, f1, f2, normalization)
-    n = len(f1)
-    # derivative tensors (n, 3, 5) w.r.t. x = (w, v): da = -[a]x J_l dw, dt = Jt dv
-    da = np.zeros((n, 3, 5))
-    da[:, :, :3] = -np.cross(a[:, None, :], Jl.T[None, :, :]).transpose(0, 2, 1)
-    dt = np.zeros((3, 5))
-    dt[:, 3:] = Jt
-    dc = np.cross(f2[:, None, :], da.transpose(0, 2, 1)).transpose(0, 2, 1)
-    ds = np.cross(f2[:, None, :], dt.T[None, :, :]).transpose(0, 2, 1)
-    dcc = 2.0 * np.einsum("ni,nik->nk", c, dc)
-    dcs = np.einsum("nik,ni->nk", dc, s) + np.einsum("ni,nik->nk", c, ds)
+    dA = cross(Jl.T[None, :, :], a[:, None, :])  # (n, 3, 3): -[a]x J_l, column k as row k
+    dC = cross(f2[:, None, :], dA)
+    dT = Jt.T  # (2, 3)
+    dS = cross(f2[:, None, :], dT[None, :, :])  # (n, 2, 3)
+    dcc_r = 2.0 * np.einsum("nki,ni->nk", dC, c)
+    dcs_r = np.einsum("nki,ni->nk", dC, s)
+    dcs_t = np.einsum("nki,ni->nk", dS, c)
     if normalization == "none":
-        J = s[:, :, None] * dcc[:, None, :] + cc[:, None, None] * ds - c[:, :, None] * dcs[:, None, :] - cs[:, None, None] * dc
+        Jr = s[:, None, :] * dcc_r[:, :, None] - c[:, None, :] * dcs_r[:, :, None] - cs[:, None, None] * dC
+        Jtr = cc[:, None, None] * dS - c[:, None, :] * dcs_t[:, :, None]
     else:
-        dz = -dcs / cc[:, None] + (cs / cc**2)[:, None] * dcc
-        J = ds + c[:, :, None] * dz[:, None, :] + z[:, None, None] * dc
+        dz_r = -dcs_r / cc[:, None] + (cs / cc**2)[:, None] * dcc_r
+        dz_t = -dcs_t / cc[:, None]
+        Jr = c[:, None, :] * dz_r[:, :, None] + z[:, None, None] * dC
+        Jtr = dS + c[:, None, :] * dz_t[:, :, None]
         if normalization == "angular":
-            dP = a[:, :, None] * dz[:, None, :] + z[:, None, None] * da + dt[None]
+            dP_r = a[:, None, :] * dz_r[:, :, None] + z[:, None, None] * dA
+            dP_t = a[:, None, :] * dz_t[:, :, None] + dT[None, :, :]
             q = r * nP[:, None]
-            PdP = np.einsum("ni,nik->nk", P, dP)
-            J = J / nP[:, None, None] - q[:, :, None] * (PdP / nP[:, None] ** 3)[:, None, :]
-    J = J * sw[:, None, None]
-    return (sw[:, None] * r).ravel(), J.reshape(-1, 5)
+            inv = 1.0 / nP
+            g = inv**3
+            Jr = Jr * inv[:, None, None] - q[:, None, :] * (np.einsum("nki,ni->nk", dP_r, P) * g[:, None])[:, :, None]
+            Jtr = Jtr * inv[:, None, None] - q[:, None, :] * (np.einsum("nki,ni->nk", dP_t, P) * g[:, None])[:, :, None]
+    J = np.concatenate([Jr, Jtr], axis=1) * sw[:, None, None]  # (n, 5, 3)
+    return (sw[:, None] * r).ravel(), J.transpose(0, 2, 1).reshape(-1, 5)
+
+
+_LOSS_CODE = {"linear": 0, "soft_l1": 1, "huber": 2, "cauchy": 3, "arctan": 4}
+_NORM_CODE = {"none": 0, "theta2": 1, "angular": 2}
+
+
+def _normal_equations_numpy(chart, x, f1, f2, sw, norm, loss, scale, want):
+    """Robust cost ``scale^2 sum rho(|r_i|^2 / scale^2)`` and, when ``want``, the Gauss-Newton normal
+    equations ``H = sum rho'_i J_i^T J_i``, ``g = sum rho'_i J_i^T r_i`` (IRLS form of the robust
+    loss: no second-order ``rho''`` term, so ``H`` stays positive semi-definite)."""
+    r, J = _residual_and_jacobian(chart, x, f1, f2, sw, want, norm)
+    r = r.reshape(-1, 3)
+    s2 = scale * scale
+    rho, drho, _ = LOSSES[loss](np.einsum("ij,ij->i", r, r) / s2)
+    cost = float(s2 * np.sum(rho))
+    if not want:
+        return cost, None, None
+    J = J.reshape(-1, 3, 5)
+    Jw = J * drho[:, None, None]
+    return cost, np.einsum("nip,niq->pq", Jw, J), np.einsum("nip,ni->p", Jw, r)
+
+
+def _normal_equations(chart, x, f1, f2, sw, norm, loss, scale, want=True):
+    """:func:`_normal_equations_numpy`, by the compiled kernel when numba is present."""
+    if _kernels.enabled():
+        if want:
+            R, t, Jl, Jt = chart.jacobians(x)
+        else:
+            (R, t), Jl, Jt = chart.retract(x), np.eye(3), np.zeros((3, 2))
+        return _kernels.ligt_normal(R, t, Jl, Jt, f1, f2, sw, _NORM_CODE[norm], _LOSS_CODE[loss], scale, want)
+    return _normal_equations_numpy(chart, x, f1, f2, sw, norm, loss, scale, want)
+
+
+def _lm(chart, f1, f2, sw, norm, loss, scale, max_iter, tol):
+    """Levenberg-Marquardt on the chart with IRLS-weighted robust normal equations.
+
+    Step ``(H + lam diag(H)) dx = -g``; a step is taken only when the robust cost decreases
+    (``lam / 3``), else ``lam * 10``. Stops when the relative cost decrease or the step falls below
+    ``tol``, the gradient vanishes, ``lam`` explodes, or after ``max_iter`` cost evaluations.
+    Returns ``(x, nfev, njev, status, message)`` with scipy's status codes (1 gtol, 2 ftol, 3 xtol,
+    0 max evaluations, -1 no decreasing step).
+    """
+    x = chart.x0()
+    F, H, g = _normal_equations(chart, x, f1, f2, sw, norm, loss, scale)
+    nfev = njev = 1
+    d = np.maximum(np.diag(H), 1e-300)
+    lam = 1e-3
+    status, msg = 0, "maximum number of cost evaluations reached"
+    while nfev < max_iter:
+        if not np.all(np.isfinite(g)) or np.max(np.abs(g)) <= tol * max(F, 1e-300):
+            status, msg = 1, "gradient vanished (gtol)"
+            break
+        try:
+            dx = np.linalg.solve(H + lam * np.diag(d), -g)
+        except np.linalg.LinAlgError:
+            lam *= 10.0
+            continue
+        xn = x + dx
+        Fn, Hn, gn = _normal_equations(chart, xn, f1, f2, sw, norm, loss, scale)
+        nfev += 1
+        if np.isfinite(Fn) and Fn < F:
+            dF = F - Fn
+            x, F, H, g = xn, Fn, Hn, gn
+            njev += 1
+            d = np.maximum(d, np.diag(H))  # Marquardt scaling by the largest diagonal seen (as MINPACK)
+            lam = max(lam / 3.0, 1e-15)
+            if dF <= tol * F:
+                status, msg = 2, "relative cost decrease below tol (ftol)"
+                break
+            if np.linalg.norm(dx) <= tol * (tol + np.linalg.norm(x)):
+                status, msg = 3, "step below tol (xtol)"
+                break
+        else:
+            lam *= 10.0
+            if lam > 1e16:
+                status, msg = -1, "no decreasing step"
+                break
+    return x, nfev, njev, status, msg
 
 
 def _objective(r: np.ndarray, loss: str, scale: float) -> float:
@@ -156,6 +244,7 @@ def ligt_refine(
     max_iter: int = 50,
     tol: float = 1e-12,
     normalization: str = "none",
+    solver: str = "scipy",
 ) -> RefineResult:
     """LiGTopt: refine ``(R, t)`` by minimising ``sum_i w_i rho(||L~_i t||^2)`` on SO(3) x S^2.
 
@@ -222,8 +311,13 @@ def ligt_refine(
     fun = lambda x: _residual_and_jacobian(chart, x, f1, f2, sw, False, norm)[0]  # noqa: E731
     jac = lambda x: _residual_and_jacobian(chart, x, f1, f2, sw, True, norm)[1]  # noqa: E731
     tol = max(float(tol), 2.3e-16)
+    if solver not in ("scipy", "lm"):
+        raise ValueError(f"unknown solver {solver!r}; choose 'scipy' or 'lm'")
     if cost0 == 0.0:
         x, nfev, njev, status, ok, msg = x0, 1, 0, 1, True, "exact start (zero residual)"
+    elif solver == "lm":
+        x, nfev, njev, status, msg = _lm(chart, f1, f2, sw, norm, key, scale, int(max_iter), tol)
+        ok = status > 0
     else:
         res = least_squares(
             fun, x0, jac=jac, method="lm" if key == "linear" else "trf",
