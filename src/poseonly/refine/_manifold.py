@@ -17,6 +17,8 @@ The Jacobians are exact at any parameter value (not only at 0), so the LM iterat
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..geometry import normalize, rotation_from_rotvec, skew
@@ -51,6 +53,29 @@ def left_jacobian_so3(w: np.ndarray) -> np.ndarray:
     return np.eye(3) + a * K + b * (K @ K)
 
 
+def _rodrigues_and_jl(x: np.ndarray, want_jl: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """``exp([w]x)`` and (optionally) ``J_l(w)`` for ``w = x[:3]`` in scalar arithmetic (the array
+    forms :func:`~poseonly.geometry.rotation_from_rotvec` / :func:`left_jacobian_so3` cost ~50 us of
+    numpy overhead per call, paid every LM iteration; same formulas and series thresholds)."""
+    w0, w1, w2 = float(x[0]), float(x[1]), float(x[2])
+    th2 = w0 * w0 + w1 * w1 + w2 * w2
+    K = np.array([[0.0, -w2, w1], [w2, 0.0, -w0], [-w1, w0, 0.0]])
+    K2 = K @ K
+    th = math.sqrt(th2)
+    if th < 1e-8:
+        a, b = 1.0 - th2 / 6.0, 0.5 - th2 / 24.0
+    else:
+        a, b = math.sin(th) / th, (1.0 - math.cos(th)) / th2
+    E = np.eye(3) + a * K + b * K2
+    if not want_jl:
+        return E, None
+    if th2 < 1e-12:
+        c, d = 0.5 - th2 / 24.0, 1.0 / 6.0 - th2 / 120.0
+    else:
+        c, d = (1.0 - math.cos(th)) / th2, (th - math.sin(th)) / (th2 * th)
+    return E, np.eye(3) + c * K + d * K2
+
+
 class PoseChart:
     """Local chart ``x = (w (3), v (2)) -> (R, t)`` of SO(3) x S^2 around ``(R0, t0)``.
 
@@ -70,7 +95,7 @@ class PoseChart:
         return np.zeros(self.size)
 
     def rotation(self, x: np.ndarray) -> np.ndarray:
-        return rotation_from_rotvec(x[:3]) @ self.R0
+        return _rodrigues_and_jl(x, False)[0] @ self.R0
 
     def translation(self, x: np.ndarray) -> np.ndarray | None:
         if not self.with_translation:
@@ -81,8 +106,8 @@ class PoseChart:
         return self.rotation(x), self.translation(x)
 
     def jacobians(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, np.ndarray | None]:
-        R = self.rotation(x)
-        Jl = left_jacobian_so3(x[:3])
+        E, Jl = _rodrigues_and_jl(x, True)
+        R = E @ self.R0
         if not self.with_translation:
             return R, self.t0, Jl, None
         u = self.t0 + self.B @ x[3:5]

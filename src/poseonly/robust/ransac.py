@@ -112,7 +112,9 @@ def ransac(
     needed = float(max_iterations)
     pre = min(int(preemptive), n) if preemptive else 0
     while it < max_iterations and (it < needed or it < min_iterations):
-        b = int(min(batch, max_iterations - it))
+        # the first batch draws min_iterations samples (when smaller than batch): at low outlier
+        # ratios the adaptive bound is met by then and a full batch would be wasted
+        b = int(min(batch if it or min_iterations <= 0 else min(batch, min_iterations), max_iterations - it))
         idx = sample_indices(rng, n, m, b)
         R, t = estimator.solve(f1[idx], f2[idx], None)
         R = R.reshape(-1, 3, 3)
