@@ -178,6 +178,29 @@ def components(scenes: int, repeats: int) -> dict:
         gnc(sc)
         tt.append((time.perf_counter() - t0) / its[-1])
     out["gnc_irls_n30_per_iteration"] = float(np.median(tt))
+    # GNC-RANSAC's 50 lockstep GNC-IRLS fits (samples of 30 from n = 300, 30 % outliers), with the
+    # exact limit-cycle exit (default) and running every iteration (the loop as written)
+    from poseonly.robust.ransac import sample_indices
+
+    scs3 = _scenes(300, 0.3, scenes, seed0=250)
+    batches = [(sc, sample_indices(np.random.default_rng(i), 300, 30, 50)) for i, sc in enumerate(scs3)]
+    for key, flag in (("gnc_batch50", True), ("gnc_batch50_no_cycle_exit", False)):
+        t, _ = _median_time(lambda a: gnc_irls_batch(a[0].f1[a[1]], a[0].f2[a[1]], est, GNCOptions(), detect_cycles=flag),
+                            [a for a in batches for _ in range(max(1, repeats // 2))])
+        out[key] = t
+    # LiGTopt (angular, Cauchy at 2 px) on the inliers of an n = 300 scene from the LiRP pose:
+    # scipy.optimize.least_squares against the compact LM on compiled normal equations
+    from poseonly.refine.ligt import ligt_refine
+
+    lig = []
+    for sc in scs3:
+        f1, f2 = sc.f1[sc.inliers], sc.f2[sc.inliers]
+        lr = lirp(f1, f2)
+        lig.append((lr.R, lr.t, f1, f2))
+    for key, solver in (("ligtopt_scipy", "scipy"), ("ligtopt_lm", "lm")):
+        t, _ = _median_time(lambda a: ligt_refine(*a, loss="cauchy", loss_scale=THRESHOLD_PX / 800.0, normalization="angular", solver=solver),
+                            [a for a in lig for _ in range(repeats)])
+        out[key] = t
     # RANSAC hypothesis solvers, per sample
     sc = _scenes(200, 0.5, 1, seed0=300)[0]
     rng = np.random.default_rng(0)
@@ -325,7 +348,11 @@ def write_report(data: dict, out: Path) -> None:
     prev = data.get("previous", {})
     rows = [("LiRP n = 30 (`poseonly.lirp`)", "lirp_n30"), ("LiRP n = 300", "lirp_n300"), ("LiRP n = 3000", "lirp_n3000"),
             ("GNC-IRLS n = 30, `GNCOptions()` (per call)", "gnc_irls_n30"), ("GNC-IRLS n = 30, per iteration", "gnc_irls_n30_per_iteration"),
-            ("LiRP 6-point hypothesis, per sample (batches of 128)", "lirp6_per_sample"), ("5-point hypotheses, per sample (batches of 256)", "fivept_per_sample")]
+            ("LiRP 6-point hypothesis, per sample (batches of 128)", "lirp6_per_sample"), ("5-point hypotheses, per sample (batches of 256)", "fivept_per_sample"),
+            ("GNC-RANSAC's 50 GNC-IRLS fits in lockstep (n_s = 30 of 300, 30 % outliers), limit-cycle exit", "gnc_batch50"),
+            ("the same, every iteration run (no cycle exit)", "gnc_batch50_no_cycle_exit"),
+            ("LiGTopt (angular, Cauchy), ~210 inliers, scipy least_squares", "ligtopt_scipy"),
+            ("LiGTopt (angular, Cauchy), ~210 inliers, compact LM (`solver=\"lm\"`)", "ligtopt_lm")]
     for label, key in rows:
         L.append(f"| {label} | {_fmt_t(comp.get(key))} | {_fmt_t(cnp.get(key)) if cnp else 'not run'} | {_fmt_t(prev.get(key))} |")
     L.append("")
