@@ -112,6 +112,34 @@ def pyplot():
     return plt
 
 
+def code_version() -> str | None:
+    """``git describe --always --dirty`` of the source tree (``None`` outside a git checkout)."""
+    import subprocess
+
+    try:
+        r = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=Path(__file__).parent, capture_output=True,
+                           text=True, timeout=10)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return (r.stdout.strip() or None) if r.returncode == 0 else None
+
+
+def stamp(res: dict, t0: float) -> dict:
+    """Record the wall time since ``t0`` (``time.perf_counter``), the machine and the code version."""
+    import time
+
+    res["wall_s"] = time.perf_counter() - t0
+    res["machine"] = machine()
+    res["code_version"] = code_version()
+    return res
+
+
+def finish_run(out: str | Path, name: str, header: str, res: dict, table: str, figure=None) -> None:
+    """Write a stamped experiment (:func:`stamp`): ``header`` + ``table`` + a machine/code line."""
+    md = header + "\n\n" + table + f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
+    write_outputs(out, name, md, res, figure)
+
+
 def write_outputs(out: str | Path, name: str, md: str, res: Any, figure=None) -> None:
     """Write ``<name>.md``, ``<name>.json`` and (with ``figure(res, path)``) ``<name>.png``
     atomically into ``out`` and print the table."""

@@ -38,8 +38,8 @@ import numpy as np
 
 from .. import sim
 from ..geometry import normalize, rotation_error_deg
-from ._common import pyplot, write_outputs, fmt, machine, markdown_table, progress
-from .opengv_ransac import code_version, get_refiner, opengv_ransac_5pt
+from ._common import finish_run, fmt, markdown_table, progress, pyplot, stamp
+from .opengv_ransac import get_refiner, opengv_ransac_5pt
 
 OUTLIERS = tuple(round(0.1 * k, 1) for k in range(10))
 QUICK_OUTLIERS = (0.0, 0.5, 0.9)
@@ -212,16 +212,11 @@ def run(args: argparse.Namespace) -> int:
     outliers = QUICK_OUTLIERS if args.quick else OUTLIERS
     trials = 3 if args.quick else (args.trials or 500)
     t0 = time.perf_counter()
-    res = compute(trials, args.n, outliers, args.noise, args.seed, args.cauchy_px)
-    res["wall_s"] = time.perf_counter() - t0
-    res["machine"] = machine()
-    res["code_version"] = code_version()
-    md = (f"Appendix B: chirality filter in the generator (n = {args.n}, {args.noise:g} px Gaussian, OpenGV-style geometry, "
-          f"{trials} trials per setting, seed {args.seed}; 'chirality' = points in front of both cameras, 'none' = OpenGV's "
-          f"points as generated; {res['wall_s']:.0f} s)\n\n" + to_markdown(res))
-    md += f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
-    out = Path(args.out)
-    write_outputs(out, "chirality", md, res, _figure)
+    res = stamp(compute(trials, args.n, outliers, args.noise, args.seed, args.cauchy_px), t0)
+    head = (f"Appendix B: chirality filter in the generator (n = {args.n}, {args.noise:g} px Gaussian, OpenGV-style geometry, "
+            f"{trials} trials per setting, seed {args.seed}; 'chirality' = points in front of both cameras, 'none' = OpenGV's "
+            f"points as generated; {res['wall_s']:.0f} s)")
+    finish_run(args.out, "chirality", head, res, to_markdown(res), _figure)
     return 0
 
 

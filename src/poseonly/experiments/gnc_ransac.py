@@ -49,8 +49,7 @@ import numpy as np
 
 from ..geometry import normalize, rotation_error_deg
 from ..sim import make_scene
-from ._common import pyplot, write_outputs, fmt, machine, markdown_table, progress, single_thread
-from .opengv_ransac import code_version
+from ._common import finish_run, fmt, markdown_table, progress, pyplot, single_thread, stamp
 
 OUTLIERS = (0.0, 0.2, 0.4, 0.5, 0.6, 0.7, 0.8)
 QUICK_OUTLIERS = (0.0, 0.5, 0.8)
@@ -301,17 +300,12 @@ def run(args: argparse.Namespace) -> int:
     outliers = tuple(args.outliers) if args.outliers else (QUICK_OUTLIERS if args.quick else OUTLIERS)
     trials = 2 if args.quick else (args.trials or 500)
     t0 = time.perf_counter()
-    res = compute(trials, args.n, outliers, args.noise, args.seed, max(1, min(args.jobs, os.cpu_count() or 1)), args.threshold_px)
-    res["wall_s"] = time.perf_counter() - t0
+    res = stamp(compute(trials, args.n, outliers, args.noise, args.seed, max(1, min(args.jobs, os.cpu_count() or 1)), args.threshold_px), t0)
     res["jobs"] = args.jobs
-    res["machine"] = machine()
-    res["code_version"] = code_version()
-    md = (f"GNC-RANSAC experiment (n = {args.n}, {args.noise:g} px, wide OpenGV-style scenes, {trials} trials per setting, "
-          f"seed {args.seed}; OpenCV/PoseLib on pixel coordinates with a {args.threshold_px:g} px threshold; "
-          f"{args.jobs} worker(s), {res['wall_s']:.0f} s)\n\n" + to_markdown(res))
-    md += f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
-    out = Path(args.out)
-    write_outputs(out, "gnc-ransac", md, res, _figure)
+    head = (f"GNC-RANSAC experiment (n = {args.n}, {args.noise:g} px, wide OpenGV-style scenes, {trials} trials per setting, "
+            f"seed {args.seed}; OpenCV/PoseLib on pixel coordinates with a {args.threshold_px:g} px threshold; "
+            f"{args.jobs} worker(s), {res['wall_s']:.0f} s)")
+    finish_run(args.out, "gnc-ransac", head, res, to_markdown(res), _figure)
     return 0
 
 

@@ -35,8 +35,8 @@ from ..solvers.fivept import fivept_batch
 from ..solvers.lirp import lirp_batch
 from ..solvers.sevenpt import sevenpt_batch
 from ..solvers.sixpt import sixpt_philip_batch, sixpt_pizarro_batch
-from ._common import pyplot, write_outputs, fmt, machine, markdown_table, progress
-from .opengv_ransac import code_version, get_refiner
+from ._common import finish_run, fmt, markdown_table, progress, pyplot, stamp
+from .opengv_ransac import get_refiner
 
 KINDS = ("normal", "planar")
 LEVELS = tuple(float(x) for x in range(11))
@@ -218,15 +218,10 @@ def run(args: argparse.Namespace) -> int:
     trials = 3 if args.quick else (args.trials or 500)
     use_npt = not args.no_npt
     t0 = time.perf_counter()
-    res = compute(trials, args.n, levels, args.seed, args.noise_model, use_npt)
-    res["wall_s"] = time.perf_counter() - t0
-    res["machine"] = machine()
-    res["code_version"] = code_version()
-    md = (f"Noise test (n = {args.n}, wide OpenGV-style scenes, {args.noise_model} noise, {trials} trials per level, "
-          f"seed {args.seed}; optimisation methods start from LiRP; {res['wall_s']:.0f} s)\n\n" + to_markdown(res))
-    md += f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
-    out = Path(args.out)
-    write_outputs(out, "noise", md, res, _figure)
+    res = stamp(compute(trials, args.n, levels, args.seed, args.noise_model, use_npt), t0)
+    head = (f"Noise test (n = {args.n}, wide OpenGV-style scenes, {args.noise_model} noise, {trials} trials per level, "
+            f"seed {args.seed}; optimisation methods start from LiRP; {res['wall_s']:.0f} s)")
+    finish_run(args.out, "noise", head, res, to_markdown(res), _figure)
     return 0
 
 

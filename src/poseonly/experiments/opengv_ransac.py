@@ -41,6 +41,7 @@ from ..geometry import four_poses
 from ..residuals import v_OpenGV
 from ..robust.ransac import sample_indices
 from ..solvers.fivept import fivept_batch
+from ._common import code_version  # noqa: F401  (re-exported: older imports)
 
 __all__ = ["OPENGV_THRESHOLD", "OpenGVRansacResult", "opengv_ransac_5pt", "opengv_ransac_nonlinear", "get_refiner", "code_version"]
 
@@ -55,19 +56,6 @@ _REFINE_MODULES = {
     "npt": "npt",
     "robust_npt": "npt",
 }
-
-
-def code_version() -> str | None:
-    """``git describe --always --dirty`` of the source tree (``None`` outside a git checkout)."""
-    import subprocess
-    from pathlib import Path
-
-    try:
-        r = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=Path(__file__).parent, capture_output=True,
-                           text=True, timeout=10)
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return (r.stdout.strip() or None) if r.returncode == 0 else None
 
 
 def get_refiner(name: str) -> Callable | None:

@@ -35,8 +35,8 @@ from ..estimator import lirp_estimator
 from ..geometry import rotation_error_deg
 from ..robust.gnc import GNCOptions, gnc_irls_batch
 from ..sim import make_scene
-from ._common import pyplot, write_outputs, machine, markdown_table, progress
-from .opengv_ransac import code_version, opengv_ransac_5pt
+from ._common import finish_run, markdown_table, progress, pyplot, stamp
+from .opengv_ransac import opengv_ransac_5pt
 
 RESIDUALS = ("coplanar", "ba", "opengv", "ppo", "ligt")
 LABELS = {"coplanar": "v_E", "ba": "v_BA", "opengv": "v_OpenGV", "ppo": "v_PPO", "ligt": "v_LiGT"}
@@ -160,16 +160,11 @@ def run(args: argparse.Namespace) -> int:
     outliers = QUICK_OUTLIERS if args.quick else OUTLIERS
     trials = 3 if args.quick else (args.trials or 500)
     t0 = time.perf_counter()
-    res = compute(trials, args.n, outliers, args.noise, args.seed, args.bound_px)
-    res["wall_s"] = time.perf_counter() - t0
-    res["machine"] = machine()
-    res["code_version"] = code_version()
-    md = (f"Residual selection for MS-TLS GNC-IRLS + LiRP (n = {args.n}, {args.noise:g} px, wide OpenGV-style scenes, "
-          f"{trials} trials per setting, seed {args.seed}; 'paper' = adaptive c = 5.54 * 1.4826 * median(v), "
-          f"'pixel' = fixed bound {args.bound_px:g} px / 800; reference {REF}; {res['wall_s']:.0f} s)\n\n" + to_markdown(res))
-    md += f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
-    out = Path(args.out)
-    write_outputs(out, "residuals", md, res, _figure)
+    res = stamp(compute(trials, args.n, outliers, args.noise, args.seed, args.bound_px), t0)
+    head = (f"Residual selection for MS-TLS GNC-IRLS + LiRP (n = {args.n}, {args.noise:g} px, wide OpenGV-style scenes, "
+            f"{trials} trials per setting, seed {args.seed}; 'paper' = adaptive c = 5.54 * 1.4826 * median(v), "
+            f"'pixel' = fixed bound {args.bound_px:g} px / 800; reference {REF}; {res['wall_s']:.0f} s)")
+    finish_run(args.out, "residuals", head, res, to_markdown(res), _figure)
     return 0
 
 

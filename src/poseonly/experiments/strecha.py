@@ -47,7 +47,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..geometry import InputError, bearings_from_pixels, rotation_error_deg, translation_error_deg
-from ._common import atomic_write_text, fmt, machine, markdown_table, progress, savefig, write_json
+from ._common import atomic_write_text, code_version, fmt, machine, markdown_table, progress, savefig, write_json
 
 OURS = ("poseonly", "gnc-ransac+LiGTopt", "gnc-ransac")
 OPENGV = "opengv-ransac-5pt"
@@ -336,23 +336,11 @@ def compute(root: str | Path, *, scenes: list[str] | None = None, cache: str | P
         "time_features_matching_s": t_feat,
         "time_total_s": time.perf_counter() - t_start,
         "machine": machine(),
-        "code_version": _code_version(),
+        "code_version": code_version(),
         "pairs": records,
     }
     out["summary"] = summarize(out)
     return out
-
-
-def _code_version() -> str | None:
-    """``git describe --always --dirty`` of the source tree, if it is a git checkout."""
-    import subprocess
-
-    try:
-        r = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=Path(__file__).parent, capture_output=True,
-                           text=True, timeout=10)
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return r.stdout.strip() or None if r.returncode == 0 else None
 
 
 # ------------------------------------------------------------------------------------------------

@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from ..geometry import normalize, rotation_from_rotvec, skew
+from ..geometry import normalize, skew
 
 __all__ = ["tangent_basis", "left_jacobian_so3", "PoseChart"]
 
