@@ -118,3 +118,19 @@ def test_chirality_compute_counts_failed_methods(monkeypatch):
     monkeypatch.setattr(chirality, "_methods", lambda c: ({"boom": boom}, {}))
     res = chirality.compute(1, n=20, outliers=(0.0,))
     assert res["results"]["chirality"]["boom"]["fail"] == [1]
+
+
+def test_atomic_writers_give_files_the_default_mode(tmp_path):
+    """Outputs written through a temp file get the mode a plain open() gives (not mkstemp's 0600)."""
+    import os
+
+    from poseonly.experiments._common import atomic_write_text
+    from poseonly.features import _atomic_savez
+
+    ref = tmp_path / "plain.txt"
+    ref.write_text("x")
+    a = atomic_write_text(tmp_path / "a.md", "x")
+    _atomic_savez(tmp_path / "b.npz", v=np.ones(2))
+    for p in (a, tmp_path / "b.npz"):
+        assert os.stat(p).st_mode & 0o777 == os.stat(ref).st_mode & 0o777
+    assert sorted(q.name for q in tmp_path.iterdir()) == ["a.md", "b.npz", "plain.txt"]  # no temp files left

@@ -26,6 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from ._fileutil import publish
+
 from .geometry import InputError, check_intrinsics, essential_from_pose
 
 __all__ = [
@@ -225,7 +227,7 @@ def _atomic_savez(path: Path, **arrays: np.ndarray) -> None:
             np.savez(fh, **arrays)
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(tmp, path)
+        publish(tmp, path)
     except BaseException:
         try:
             os.unlink(tmp)

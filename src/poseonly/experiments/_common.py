@@ -11,6 +11,8 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from .._fileutil import publish
+
 
 def progress(it: Iterable, total: int | None = None, desc: str = "", disable: bool | None = None):
     """tqdm progress bar when available (disabled when not a terminal unless forced)."""
@@ -28,7 +30,7 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(text)
-        os.replace(tmp, path)
+        publish(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
