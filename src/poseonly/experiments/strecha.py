@@ -76,6 +76,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--threshold-px", nargs="+", type=float, metavar="PX",
                    help="inlier threshold(s) in pixels of our methods (default: the API default); several values "
                         "run every one of our methods once per value, named METHOD@PXpx")
+    p.add_argument("--noise-factor", type=float, metavar="K",
+                   help="noise_factor option of the default method (its final threshold is K robust sigmas; "
+                        "default: the API default)")
     p.add_argument("--anchor-threshold-px", type=float, default=1.0,
                    help="threshold of OpenCV and PoseLib in pixels (default 1, their defaults)")
     p.add_argument("--opengv-threshold-px", type=float,
@@ -139,11 +142,12 @@ class Method:
     ours: bool
 
 
-def _ours(api_method: str, refine: bool | None, threshold: float | None) -> Callable[..., dict]:
+def _ours(api_method: str, refine: bool | None, threshold: float | None,
+          extra: dict[str, Any] | None = None) -> Callable[..., dict]:
     from ..api import estimate_relative_pose
 
     def run(u1, u2, K, seed):
-        opts: dict[str, Any] = {"seed": int(seed)}
+        opts: dict[str, Any] = {"seed": int(seed), **(extra or {})}
         if refine is not None:
             opts["refine"] = refine
         if threshold is not None:
@@ -220,7 +224,7 @@ def _opengv(thr_px: float | None, min_inl: int) -> Callable[..., dict] | None:
 
 
 def build_methods(names, thresholds, anchor_thr: float, min_inl: int, notes: list[str],
-                  opengv_thr: float | None = None) -> list[Method]:
+                  opengv_thr: float | None = None, noise_factor: float | None = None) -> list[Method]:
     from ..anchors import available_anchors
 
     names = list(names or ALL_METHODS)
@@ -231,7 +235,8 @@ def build_methods(names, thresholds, anchor_thr: float, min_inl: int, notes: lis
         if n in spec:
             for thr in thresholds:
                 label = n if len(thresholds) == 1 else f"{n}@{thr:g}px"
-                methods.append(Method(label, _ours(*spec[n], thr), True))
+                extra = {"noise_factor": float(noise_factor)} if (noise_factor is not None and n == "poseonly") else None
+                methods.append(Method(label, _ours(*spec[n], thr, extra), True))
         elif n == OPENGV:
             run = _opengv(opengv_thr, min_inl)
             if run is None:
@@ -269,7 +274,7 @@ def _select_scenes(root: Path, names: list[str] | None) -> list[Path]:
 
 def compute(root: str | Path, *, scenes: list[str] | None = None, cache: str | Path, ratio: float = 0.8,
             methods: list[str] | None = None, thresholds: list[float] | None = None, anchor_thr: float = 1.0,
-            opengv_thr: float | None = None,
+            opengv_thr: float | None = None, noise_factor: float | None = None,
             max_pairs: int | None = None, max_features: int | None = None, min_matches: int = 30, gt_px: float = 2.0,
             gt_min: int = 30, min_conf_inliers: int = 15, wrong_deg: float = 5.0, seed: int = 0) -> dict:
     from ..features import sampson_error_px
@@ -282,7 +287,7 @@ def compute(root: str | Path, *, scenes: list[str] | None = None, cache: str | P
     root = Path(root)
     cache = Path(cache)
     notes: list[str] = []
-    ms = build_methods(methods, thresholds, anchor_thr, min_conf_inliers, notes, opengv_thr)
+    ms = build_methods(methods, thresholds, anchor_thr, min_conf_inliers, notes, opengv_thr, noise_factor)
     loaded = [load_scene(p) for p in _select_scenes(root, scenes)]
     plan = []
     for sc in loaded:
@@ -329,7 +334,7 @@ def compute(root: str | Path, *, scenes: list[str] | None = None, cache: str | P
                    "max_features": max_features, "max_pairs": max_pairs, "min_matches": min_matches, "gt_px": gt_px,
                    "gt_min": gt_min, "min_confident_inliers": min_conf_inliers, "wrong_deg": wrong_deg, "seed": seed,
                    "threshold_px": thresholds, "anchor_threshold_px": anchor_thr,
-                   "opengv_threshold_px": opengv_thr},
+                   "opengv_threshold_px": opengv_thr, "noise_factor": noise_factor},
         "methods": [m.name for m in ms],
         "ours": [m.name for m in ms if m.ours],
         "notes": notes,
@@ -565,7 +570,7 @@ def run(args: argparse.Namespace) -> int:
     cache = Path(args.cache) if args.cache else out / "cache"
     res = compute(args.path, scenes=args.scenes, cache=cache, ratio=args.ratio, methods=args.methods,
                   thresholds=args.threshold_px, anchor_thr=args.anchor_threshold_px,
-                  opengv_thr=args.opengv_threshold_px, max_pairs=max_pairs,
+                  opengv_thr=args.opengv_threshold_px, noise_factor=args.noise_factor, max_pairs=max_pairs,
                   max_features=max_features, min_matches=args.min_matches, gt_px=args.gt_px, gt_min=args.gt_min,
                   min_conf_inliers=args.min_confident_inliers, wrong_deg=args.wrong_deg, seed=args.seed)
     prog = Path(sys.argv[0]).name if sys.argv else ""
