@@ -183,3 +183,20 @@ def test_default_method_does_not_raise_on_non_overlapping_pair(tmp_path: Path) -
     r = poseonly.estimate_relative_pose(m.u1, m.u2, sc.K, sc.K)
     assert r.status in ("ok", "planar_ambiguous", "pure_rotation", "too_few_inliers", "degenerate")
     # regression: this once raised "R must be a rotation matrix" from the homography-twin polish
+
+
+def test_noise_factor_reaches_the_default_method_only():
+    import numpy as np
+
+    import poseonly
+    from poseonly.experiments.strecha import build_methods
+    from poseonly.sim import make_scene
+
+    ms = {m.name: m for m in build_methods(["poseonly", "gnc-ransac"], None, 1.0, 15, [], None, 3.5)}
+    sc = make_scene(200, "normal", "pinhole", noise_px=1.0, outlier_fraction=0.3, seed=3)
+    got = ms["poseonly"].run(sc.u1, sc.u2, sc.K, 0)
+    want = poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0, noise_factor=3.5)
+    plain = poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0)
+    np.testing.assert_array_equal(got["R"], want.R)
+    assert got["num_inliers"] == want.num_inliers != plain.num_inliers
+    ms["gnc-ransac"].run(sc.u1, sc.u2, sc.K, 0)  # no noise_factor option there: must not raise
