@@ -342,9 +342,10 @@ def test_residual_kernels_match_numpy():
                 assert 0 < np.mean(a == 1.0) < 1  # both branches exercised
 
 
+@pytest.mark.parametrize("compiled", [True, False])
 @pytest.mark.parametrize("schedule", ["ms-tls", "gnc-tls"])
 @pytest.mark.parametrize("outl", [0.3, 0.7])
-def test_gnc_cycle_exit_is_exact(schedule, outl):
+def test_gnc_cycle_exit_is_exact(schedule, outl, compiled):
     """Ending GNC-IRLS at a detected limit cycle returns bit for bit what the full loop returns
     (pose, weights, residuals, bound, iteration count, convergence flag), for the 50 lockstep
     samples of GNC-RANSAC (where most non-converging samples cycle), the LO's warm-started
@@ -363,9 +364,46 @@ def test_gnc_cycle_exit_is_exact(schedule, outl):
                       GNCOptions(schedule=schedule, noise_bound=2 / 800, mu0=1e3, max_iterations=10), sc.inliers[None].astype(float)))
     cycled = 0
     for f1, f2, est, opts, w0 in cases:
-        a = gnc_irls_batch(f1, f2, est, opts, w0, detect_cycles=False)
-        b = gnc_irls_batch(f1, f2, est, opts, w0)
+        a = gnc_irls_batch(f1, f2, est, opts, w0, detect_cycles=False, compiled=compiled)
+        b = gnc_irls_batch(f1, f2, est, opts, w0, compiled=compiled)
         for name in ("R", "t", "weights", "residuals", "c", "num_iterations", "converged"):
             np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
         cycled += int(np.sum(~a.converged & (a.num_iterations == opts.max_iterations)))
     assert cycled > 0  # the case the shortcut exists for did occur
+
+
+GNC_OPTION_CASES = [dict(), dict(scale="mad"), dict(scale=1e-3), dict(schedule="gnc-tls"), dict(noise_bound=2 / 800),
+                    dict(mu0=1e3, max_iterations=7), dict(c_factor=3.0, eps0=0.0, max_iterations=25)]
+
+
+@pytest.mark.parametrize("opt", range(len(GNC_OPTION_CASES)))
+def test_gnc_compiled_loop_is_bit_identical(opt):
+    """The compiled GNC-IRLS loop (:mod:`poseonly._gnc_nb`) returns bit for bit what the lockstep loop
+    returns with the kernels enabled: every option, ``n`` below, at and above 9 and above the
+    Kronecker-kernel size, initial weights, outliers, planar scenes; noise-free planar samples take
+    the lockstep path (the case-2 cubic vanishes) and must come back the same too."""
+    from poseonly import _kernels
+    from poseonly.estimator import lirp_estimator
+    from poseonly.robust.gnc import CYCLE_MAX_PERIOD, GNCOptions, gnc_irls_batch
+    from poseonly.robust.ransac import sample_indices
+
+    if not _kernels.available():
+        pytest.skip("numba not installed: there is no compiled loop")
+    opts = GNCOptions(**GNC_OPTION_CASES[opt])
+    est = lirp_estimator()
+    redo = 0
+    with _kernels.use(True):
+        for s, (kind, noise, outl) in enumerate([("normal", 0.5, 0.3), ("normal", 0.5, 0.7), ("planar", 0.5, 0.3),
+                                                  ("planar", 0.0, 0.0)]):
+            sc = make_scene(300, kind, "pinhole", noise_px=noise, outlier_fraction=outl, seed=s)
+            rng = np.random.default_rng(s)
+            for m in (7, 9, 30, 100):
+                idx = sample_indices(rng, 300, m, 6)
+                w0 = None if m != 30 else rng.uniform(0.5, 1.0, (6, m))
+                a = gnc_irls_batch(sc.f1[idx], sc.f2[idx], est, opts, w0, compiled=False)
+                b = gnc_irls_batch(sc.f1[idx], sc.f2[idx], est, opts, w0)
+                for name in ("R", "t", "weights", "residuals", "c", "num_iterations", "converged"):
+                    np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=f"{name} {kind} {m}")
+                w = np.ones((6, m)) if w0 is None else w0
+                redo += int(_kernels.gnc_lirp(sc.f1[idx], sc.f2[idx], w, opts, CYCLE_MAX_PERIOD, 6)[-1].sum())
+    assert redo > 0  # the fallback to the lockstep path was exercised

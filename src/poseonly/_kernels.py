@@ -32,7 +32,8 @@ from contextlib import contextmanager
 
 import numpy as np
 
-__all__ = ["available", "enabled", "use", "rank_candidates", "lirp_action", "lirp_post", "fivept_real", "residual", "ligt_normal"]
+__all__ = ["available", "enabled", "use", "rank_candidates", "lirp_action", "lirp_post", "fivept_real", "residual", "ligt_normal",
+           "gnc_lirp"]
 
 _state = {"checked": False, "available": False, "enabled": os.environ.get("POSEONLY_NUMBA", "1") not in ("0", "false", "no", "off")}
 _impl: dict = {}
@@ -78,6 +79,9 @@ def _compiled():
         _impl["eig6"] = _kernels_nb.eig6_nb
         _impl["kron"] = _kernels_nb.kron_rows_nb
         _impl["ligt_normal"] = _kernels_nb.ligt_normal_nb
+        from . import _gnc_nb
+
+        _impl["gnc_lirp"] = _gnc_nb.gnc_lirp_nb
     return _impl
 
 
@@ -105,17 +109,21 @@ def rank_candidates(E, f1, f2, w, with_cost=True):
 _MONO27 = None
 
 
-def lirp_action(q):
-    """Action matrices ``C (h, 2, 6, 6)`` and ``ok (h,)`` from the null-space bases ``q (h, 3, 9)``."""
+def _mono27():
     global _MONO27
     if _MONO27 is None:
         from .solvers.lirp import _G
 
         _MONO27 = np.argmax(_G.reshape(27, 10), axis=1).astype(np.int64)
+    return _MONO27
+
+
+def lirp_action(q):
+    """Action matrices ``C (h, 2, 6, 6)`` and ``ok (h,)`` from the null-space bases ``q (h, 3, 9)``."""
     h = q.shape[0]
     C = np.empty((h, 2, 6, 6))
     ok = np.empty(h, np.bool_)
-    _compiled()["lirp_action"](np.ascontiguousarray(q, dtype=np.float64), _MONO27, C, ok)
+    _compiled()["lirp_action"](np.ascontiguousarray(q, dtype=np.float64), _mono27(), C, ok)
     return C, ok
 
 
@@ -234,3 +242,30 @@ def ligt_normal(R, t, Jl, Jt, f1, f2, sw, norm: int, loss: int, scale: float, wa
         np.ascontiguousarray(sw, dtype=np.float64), int(norm), int(loss), float(scale), bool(want), H, g,
     )
     return float(c), H, g
+
+
+def gnc_lirp(f1, f2, w0, opts, period: int, min_sample: int):
+    """Compiled GNC-IRLS with LiRP + ``v_LiGT`` (:mod:`poseonly._gnc_nb`) on ``f1, f2 (h, n, 3)``
+    from weights ``w0 (h, n)`` with :class:`poseonly.robust.gnc.GNCOptions` ``opts``. Returns
+    ``R, t, weights, residuals, c, num_iterations, converged`` and ``redo (h,)``: problems that need
+    the lockstep path (their outputs are undefined)."""
+    h, n = f1.shape[:2]
+    R = np.empty((h, 3, 3))
+    t = np.empty((h, 3))
+    w = np.empty((h, n))
+    v = np.empty((h, n))
+    c = np.empty(h)
+    it = np.empty(h, np.int64)
+    conv = np.empty(h, np.bool_)
+    status = np.empty(h, np.int64)
+    if isinstance(opts.scale, str):
+        kind, sval = (0 if opts.scale == "median" else 1), 0.0
+    else:
+        kind, sval = 2, float(opts.scale)
+    _compiled()["gnc_lirp"](
+        np.ascontiguousarray(f1, dtype=np.float64), np.ascontiguousarray(f2, dtype=np.float64),
+        np.ascontiguousarray(w0, dtype=np.float64), opts.schedule == "ms-tls", kind, sval, float(opts.c_factor),
+        -1.0 if opts.noise_bound is None else float(opts.noise_bound), int(opts.max_iterations), float(opts.eps0),
+        float(opts.sigma_floor), float(opts.mu_factor), -1.0 if opts.mu0 is None else float(opts.mu0), int(period),
+        int(min_sample), _mono27(), R, t, w, v, c, it, conv, status)
+    return R, t, w, v, c, it, conv, status != 0

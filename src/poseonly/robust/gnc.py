@@ -34,7 +34,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import _kernels
 from ..estimator import Estimator, lirp_estimator, lirp_solver
+from ..residuals import v_LiGT
 from ..solvers.lirp import _kron_rows, lirp_batch
 
 __all__ = ["GNCOptions", "gnc_irls_batch", "GNCBatchResult", "tls_weights"]
@@ -207,6 +209,7 @@ def gnc_irls_batch(
     w0: np.ndarray | None = None,
     *,
     detect_cycles: bool = True,
+    compiled: bool = True,
 ) -> GNCBatchResult:
     """GNC-IRLS (Alg. 2) on ``h`` stacked problems ``f1, f2 (h, n, 3)`` in lockstep (no validation).
 
@@ -216,11 +219,23 @@ def gnc_irls_batch(
     ``max_iterations`` (or at its first convergence inside the cycle): the same pose, weights,
     residuals, bound, iteration count and convergence flag, without running the remaining iterations.
     ``detect_cycles=False`` runs every iteration (the equality is a test).
+    ``compiled`` (default): with the paper's estimator (LiRP + ``v_LiGT``) and the numba kernels
+    available, each problem runs its whole loop in one compiled call (:mod:`poseonly._gnc_nb`: the
+    same iterations in the same floating-point order, bit-identical results, a test); ``False``
+    forces the lockstep loop below.
     """
     est = estimator or lirp_estimator()
     opts = options or GNCOptions()
     h, n, _ = f1.shape
     w = np.ones((h, n)) if w0 is None else np.array(w0, dtype=float)
+    if compiled and est.solve is lirp_solver and est.residual is v_LiGT and _kernels.enabled():
+        R, t, wo, v, c, it, conv, redo = _kernels.gnc_lirp(f1, f2, w, opts, CYCLE_MAX_PERIOD if detect_cycles else 0,
+                                                          est.sample_size)
+        if redo.any():  # a rare numpy fallback inside LiRP: those problems run the lockstep loop
+            g = gnc_irls_batch(f1[redo], f2[redo], est, opts, w[redo], detect_cycles=detect_cycles, compiled=False)
+            R[redo], t[redo], wo[redo], v[redo], c[redo] = g.R, g.t, g.weights, g.residuals, g.c
+            it[redo], conv[redo] = g.num_iterations, g.converged
+        return GNCBatchResult(R=R, t=t, weights=wo, residuals=v, c=c, num_iterations=it, converged=conv)
     R = np.tile(np.eye(3), (h, 1, 1))
     t = np.zeros((h, 3))
     v_all = np.zeros((h, n))
