@@ -378,7 +378,7 @@ GNC_OPTION_CASES = [dict(), dict(scale="mad"), dict(scale=1e-3), dict(schedule="
 
 @pytest.mark.parametrize("opt", range(len(GNC_OPTION_CASES)))
 def test_gnc_compiled_loop_is_bit_identical(opt):
-    """The compiled GNC-IRLS loop (:mod:`poseonly._gnc_nb`) returns bit for bit what the lockstep loop
+    """The compiled GNC-IRLS loop (``poseonly._kernels.gnc_lirp``) returns bit for bit what the lockstep loop
     returns with the kernels enabled: every option, ``n`` below, at and above 9 and above the
     Kronecker-kernel size, initial weights, outliers, planar scenes; noise-free planar samples take
     the lockstep path (the case-2 cubic vanishes) and must come back the same too."""

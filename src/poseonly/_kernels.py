@@ -16,6 +16,9 @@ Kernels (docs/speed_notes.md has the profiles that motivated each one):
 * :func:`lirp_action`, :func:`lirp_post` -- LiRP before and after LAPACK's ``eig`` (Demazure
   template and least squares; candidate assembly, case-2 cubic, ``d_min``): ~40 small numpy calls
   per problem become two calls;
+* :func:`svd9` -- the 9x9 SVD of LiRP's null space by one-sided Jacobi, four disjoint rotations per
+  round (LAPACK's ``dgesdd`` spends ~9 us on a 9x9 matrix, Jacobi ~4 us);
+* :func:`gnc_lirp` -- the whole GNC-IRLS loop with LiRP + ``v_LiGT`` per problem (``_kernels_nb.gnc_lirp_nb``);
 * :func:`residual` -- ``v_LiGT`` and ``v_sampson`` of ``k`` poses on ``n`` points in one pass;
 * :func:`ligt_normal` -- LiGTopt's robust cost and 5x5 Gauss-Newton normal equations in one pass
   over the points (the numpy twin builds the ``(n, 3, 5)`` Jacobian with ~40 array calls);
@@ -79,9 +82,8 @@ def _compiled():
         _impl["eig6"] = _kernels_nb.eig6_nb
         _impl["kron"] = _kernels_nb.kron_rows_nb
         _impl["ligt_normal"] = _kernels_nb.ligt_normal_nb
-        from . import _gnc_nb
-
-        _impl["gnc_lirp"] = _gnc_nb.gnc_lirp_nb
+        _impl["svd9"] = _kernels_nb.svd9_nb
+        _impl["gnc_lirp"] = _kernels_nb.gnc_lirp_nb
     return _impl
 
 
@@ -137,6 +139,17 @@ def lirp_post(q, lam, G):
     _compiled()["lirp_post"](np.ascontiguousarray(q, dtype=np.float64), np.ascontiguousarray(lam, dtype=np.complex128),
                              np.ascontiguousarray(G, dtype=np.complex128), cand, dmin, need)
     return cand, dmin, need
+
+
+def svd9(R):
+    """Singular values ``(h, 9)`` (descending) and right singular vectors as rows ``(h, 9, 9)`` of
+    stacked 9x9 matrices by one-sided Jacobi (LiRP's null space)."""
+    R = np.ascontiguousarray(R, dtype=np.float64)
+    h = R.shape[0]
+    s = np.empty((h, 9))
+    Vt = np.empty((h, 9, 9))
+    _compiled()["svd9"](R, s, Vt)
+    return s, Vt
 
 
 def kron_rows(f1, f2):
@@ -245,7 +258,7 @@ def ligt_normal(R, t, Jl, Jt, f1, f2, sw, norm: int, loss: int, scale: float, wa
 
 
 def gnc_lirp(f1, f2, w0, opts, period: int, min_sample: int):
-    """Compiled GNC-IRLS with LiRP + ``v_LiGT`` (:mod:`poseonly._gnc_nb`) on ``f1, f2 (h, n, 3)``
+    """Compiled GNC-IRLS with LiRP + ``v_LiGT`` (``_kernels_nb.gnc_lirp_nb``) on ``f1, f2 (h, n, 3)``
     from weights ``w0 (h, n)`` with :class:`poseonly.robust.gnc.GNCOptions` ``opts``. Returns
     ``R, t, weights, residuals, c, num_iterations, converged`` and ``redo (h,)``: problems that need
     the lockstep path (their outputs are undefined)."""

@@ -10,7 +10,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.np.linalg import _LAPACK, ensure_lapack  # numba's LAPACK bindings (those of numpy.linalg's overloads)
 
 # ------------------------------------------------------------------------------------------------
 # pose identification + PPO ranking (twin: poseonly.identify._rank_numpy)
@@ -1419,3 +1420,561 @@ def ligt_normal_nb(R, t, Jl, Jt, f1, f2, sw, norm, loss, scale, want, H, g):
         for q in range(p):
             H[p, q] = H[q, p]
     return cost
+
+
+# ------------------------------------------------------------------------------------------------
+# 9x9 SVD by one-sided Jacobi (LiRP's null space; replaces LAPACK's dgesdd, ~9 us per 9x9 call)
+
+
+def _round_robin(m):
+    """Round-robin (circle method) schedule of ``m - 1`` columns plus one idle slot: ``(m - 1,
+    m // 2 - 1, 2)``, each round ``m // 2 - 1`` disjoint pairs (the idle slot's pair left out);
+    every pair of columns occurs exactly once."""
+    players = list(range(m))
+    rounds = []
+    for _ in range(m - 1):
+        pr = []
+        for i in range(m // 2):
+            a, b = players[i], players[m - 1 - i]
+            if m - 1 not in (a, b):
+                pr.append((min(a, b), max(a, b)))
+        rounds.append(pr)
+        players = [players[0], players[-1]] + players[1:-1]
+    return np.array(rounds, dtype=np.int64)
+
+
+_JACOBI_ROUNDS = _round_robin(10)  # 9 columns: 9 rounds of 4 disjoint pairs (+ one idle)
+
+
+@njit(cache=True, error_model="numpy", fastmath={"reassoc", "contract"})
+def _jacobi9(R, s, Vt, X, V, nrm, cs, sn, act):
+    """SVD of a 9x9 ``R`` by one-sided Jacobi (Hestenes): columns of ``X = R V`` are rotated pairwise
+    until mutually orthogonal (``|x_p . x_q| <= 1e-15 |x_p| |x_q|``); ``V`` accumulates the rotations.
+    Returns the sweeps used; ``s (9,)`` descending, ``Vt (9, 9)`` rows = right singular vectors.
+    Each round rotates 4 disjoint pairs, so the square roots and divisions of the four rotation
+    angles overlap in the pipeline. High relative accuracy: the right singular vectors of the small
+    singular values (LiRP's null space) are as accurate as LAPACK's (measured agreement 2e-15)."""
+    for p in range(9):
+        for i in range(9):
+            X[p, i] = R[i, p]
+            V[p, i] = 0.0
+        V[p, p] = 1.0
+    sweep = 0
+    while sweep < 40:
+        sweep += 1
+        rotated = False
+        for r in range(9):
+            for k in range(4):
+                p = _JACOBI_ROUNDS[r, k, 0]
+                q = _JACOBI_ROUNDS[r, k, 1]
+                ap = 0.0
+                aq = 0.0
+                g = 0.0
+                for i in range(9):
+                    xp = X[p, i]
+                    xq = X[q, i]
+                    ap += xp * xp
+                    aq += xq * xq
+                    g += xp * xq
+                if p == q or not abs(g) > 1e-15 * math.sqrt(ap * aq):
+                    act[k] = False
+                    continue
+                act[k] = True
+                zeta = (aq - ap) / (2.0 * g)
+                t = 1.0 / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
+                if zeta < 0.0:
+                    t = -t
+                c = 1.0 / math.sqrt(1.0 + t * t)
+                cs[k] = c
+                sn[k] = c * t
+            for k in range(4):
+                if not act[k]:
+                    continue
+                rotated = True
+                p = _JACOBI_ROUNDS[r, k, 0]
+                q = _JACOBI_ROUNDS[r, k, 1]
+                c = cs[k]
+                s_ = sn[k]
+                for i in range(9):
+                    xp = X[p, i]
+                    xq = X[q, i]
+                    X[p, i] = c * xp - s_ * xq
+                    X[q, i] = s_ * xp + c * xq
+                    vp = V[p, i]
+                    vq = V[q, i]
+                    V[p, i] = c * vp - s_ * vq
+                    V[q, i] = s_ * vp + c * vq
+        if not rotated:
+            break
+    for p in range(9):
+        x = 0.0
+        for i in range(9):
+            x += X[p, i] * X[p, i]
+        nrm[p] = math.sqrt(x)
+    # descending order, stable (ties keep the column order); NaN norms (NaN input) sort last
+    for r in range(9):
+        b = -1
+        bv = -1.0
+        for p in range(9):
+            if nrm[p] > bv:
+                bv = nrm[p]
+                b = p
+        if b < 0:
+            for p in range(9):
+                if nrm[p] != -2.0:
+                    b = p
+                    break
+        s[r] = nrm[b]
+        for i in range(9):
+            Vt[r, i] = V[b, i]
+        nrm[b] = -2.0
+    return sweep
+
+
+@njit(cache=True, error_model="numpy")
+def svd9_nb(R, s, Vt):
+    """Singular values ``s (h, 9)`` (descending) and right singular vectors ``Vt (h, 9, 9)`` (rows) of
+    stacked 9x9 matrices ``R`` by :func:`_jacobi9`."""
+    X = np.empty((9, 9))
+    V = np.empty((9, 9))
+    nrm = np.empty(9)
+    cs = np.empty(4)
+    sn = np.empty(4)
+    act = np.empty(4, np.bool_)
+    for hh in range(R.shape[0]):
+        _jacobi9(R[hh], s[hh], Vt[hh], X, V, nrm, cs, sn, act)
+
+
+# ------------------------------------------------------------------------------------------------
+# GNC-IRLS with LiRP + v_LiGT, one problem after another (twin: poseonly.robust.gnc.gnc_irls_batch)
+# (behind :func:`poseonly._kernels.gnc_lirp`; kept in this module on purpose: numba's cache is
+# invalidated by the stamp of the file that holds a kernel, so a kernel in another module would keep
+# running stale copies of the helpers below after they change.)
+#
+# The twin of :func:`poseonly.robust.gnc.gnc_irls_batch` for the paper's estimator: the same
+# iterations, in the same floating-point order, without the lockstep's Python overhead per iteration
+# (docs/speed_notes.md section 8: at 30 % outliers GNC-RANSAC's lockstep spent ~9 of 17 ms in
+# per-iteration overhead, most of it while one or two problems were still running). Every numerical
+# step is the one the lockstep path executes with the kernels enabled:
+#
+# * the weighted rows ``kron(f1_i, f2_i) w_i``, their QR (``n > 9``) through numba's LAPACK bindings
+#   (the ``dgeqrf`` call of ``numpy.linalg.qr``; bit-identical outputs, compared in the tests) and the
+#   Jacobi SVD of the ``9 x 9`` factor (LAPACK's ``dgesdd`` of the zero-padded rows for ``n < 9``);
+# * the compiled LiRP stages above (action matrices, 6x6 eigen-
+#   decompositions, candidate assembly, identification and PPO ranking) and ``v_LiGT``;
+# * the noise bound (median by sorting: the same order statistics as ``np.partition``), Peng's or
+#   Yang's weights and ``mu`` schedule, ``eps = sum w v`` with numpy's pairwise summation
+#   (:func:`_np_sum`), the relative stopping test, the starving rule and the exact limit-cycle exit.
+#
+# Problems that reach one of the rare numpy fallbacks of the lockstep path (an exactly rank-deficient
+# Demazure block, nearly coincident action-matrix eigenvalues, a vanishing case-2 cubic) are flagged
+# in ``status`` and redone by the caller with the lockstep loop.
+
+MAD_TO_SIGMA = 1.4826
+
+ensure_lapack()
+_geqrf = _LAPACK().numba_ez_geqrf(types.float64)
+_gesdd = _LAPACK().numba_ez_gesdd(types.float64)
+_KIND_D = ord("d")
+_JOBZ_A = ord("A")
+
+
+@njit(cache=True, error_model="numpy")
+def _right_singular9(AF, n, tau, R9, s, U, VT, Vt, X, V, nrm, cs, sn, act):
+    """Right singular vectors ``Vt (9, 9)`` (rows, descending singular values ``s``) of the ``n x 9``
+    matrix stored column-major in ``AF (9, n)`` (overwritten), as :func:`poseonly.solvers.lirp._null_space3`
+    computes them with the kernels: for ``n > 9`` LAPACK's ``dgeqrf`` (the call of
+    ``numpy.linalg.qr(mode="r")``, without forming ``Q``) and the Jacobi SVD of the triangular factor,
+    for ``n = 9`` the Jacobi SVD of the rows, for ``n < 9`` LAPACK's ``dgesdd('A')`` of the
+    zero-padded rows (``numpy.linalg.svd``'s call), and LAPACK's SVD of the factor again where the null
+    space is exactly 3-D (``sigma_7 <= 1e-9 sigma_1``, ``lirp.DEGENERATE_NULL``).
+    ``R9``, ``U``, ``VT``: ``9 x 9`` scratch."""
+    if n < 9:
+        for j in range(9):
+            for i in range(9):
+                R9[j, i] = AF[j, i] if i < n else 0.0  # column-major padded rows
+        _gesdd(_KIND_D, _JOBZ_A, 9, 9, R9.ctypes, 9, s.ctypes, U.ctypes, 9, VT.ctypes, 9)
+        for r in range(9):
+            for c in range(9):
+                Vt[r, c] = VT[c, r]
+        return
+    if n > 9:
+        _geqrf(_KIND_D, n, 9, AF.ctypes, n, tau.ctypes)
+    for i in range(9):
+        for j in range(9):
+            R9[i, j] = AF[j, i] if (i <= j or n == 9) else 0.0
+    _jacobi9(R9, s, Vt, X, V, nrm, cs, sn, act)
+    if s[6] <= 1e-9 * s[0]:  # exactly 3-D null space: LAPACK's basis (lirp.DEGENERATE_NULL)
+        for j in range(9):
+            for i in range(9):
+                U[j, i] = R9[i, j]
+        _gesdd(_KIND_D, _JOBZ_A, 9, 9, U.ctypes, 9, s.ctypes, X.ctypes, 9, VT.ctypes, 9)
+        for r in range(9):
+            for c in range(9):
+                Vt[r, c] = VT[c, r]
+
+
+@njit(cache=True, error_model="numpy")
+def _block_sum(a, lo, n):
+    """numpy's ``pairwise_sum_DOUBLE`` on ``a[lo:lo + n]`` for ``n <= 128`` (8 accumulators)."""
+    if n < 8:
+        res = 0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    r0 = a[lo]
+    r1 = a[lo + 1]
+    r2 = a[lo + 2]
+    r3 = a[lo + 3]
+    r4 = a[lo + 4]
+    r5 = a[lo + 5]
+    r6 = a[lo + 6]
+    r7 = a[lo + 7]
+    i = 8
+    m = n - (n % 8)
+    while i < m:
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@njit(cache=True, error_model="numpy")
+def _pairwise(a, n):
+    """numpy's pairwise summation of ``a[:n]``: blocks of <= 128 summed by :func:`_block_sum`,
+    larger ranges split at ``n2 = n // 2 - (n // 2) % 8`` and the halves added. The recursion is
+    run on an explicit stack (numba's cache cannot hold self-recursive functions: a cached
+    recursive kernel called a null pointer when loaded)."""
+    if n <= 128:
+        return _block_sum(a, 0, n)
+    slo = np.empty(128, np.int64)
+    sn = np.empty(128, np.int64)
+    sst = np.zeros(128, np.int64)
+    vals = np.empty(128)
+    top = 1
+    slo[0] = 0
+    sn[0] = n
+    sst[0] = 0
+    vt = 0
+    while top > 0:
+        lo = slo[top - 1]
+        m = sn[top - 1]
+        if m <= 128:
+            vals[vt] = _block_sum(a, lo, m)
+            vt += 1
+            top -= 1
+            continue
+        m2 = m // 2
+        m2 -= m2 % 8
+        st = sst[top - 1]
+        if st == 0:
+            sst[top - 1] = 1
+            slo[top], sn[top], sst[top] = lo, m2, 0
+            top += 1
+        elif st == 1:
+            sst[top - 1] = 2
+            slo[top], sn[top], sst[top] = lo + m2, m - m2, 0
+            top += 1
+        else:
+            vals[vt - 2] = vals[vt - 2] + vals[vt - 1]
+            vt -= 1
+            top -= 1
+    return vals[0]
+
+
+@njit(cache=True, error_model="numpy")
+def _np_sum(a, n):
+    """``np.sum`` of a contiguous float64 row (``0.0 +`` the pairwise sum, as numpy's add.reduce)."""
+    return 0.0 + _pairwise(a, n)
+
+
+@njit(cache=True, error_model="numpy")
+def _median(a, n, buf):
+    """``np.median`` of ``a[:n]`` (finite values): the middle order statistic(s)."""
+    for i in range(n):
+        buf[i] = a[i]
+    s = np.sort(buf[:n])
+    k = n // 2
+    if n % 2:
+        return s[k]
+    return (s[k - 1] + s[k]) / 2.0
+
+
+@njit(cache=True, error_model="numpy")
+def gnc_lirp_nb(f1, f2, w0, ms_tls, scale_kind, scale_value, c_factor, noise_bound, max_it, eps0, sigma_floor,
+                mu_factor, mu0, P, min_sample, mono, R_out, t_out, w_out, v_out, c_out, it_out, conv_out, status):
+    """GNC-IRLS (Alg. 2) with LiRP and ``v_LiGT`` on ``f1, f2 (h, n, 3)`` from weights ``w0 (h, n)``.
+
+    ``scale_kind``: 0 median, 1 MAD, 2 fixed ``scale_value``; ``noise_bound > 0`` fixes ``c``;
+    ``mu0 > 0`` fixes the initial ``mu``; ``P`` the longest limit-cycle period detected (0: none).
+    Outputs as :class:`poseonly.robust.gnc.GNCBatchResult`; ``status[h] = 1`` where the problem needs
+    the lockstep path (a numpy fallback of LiRP), its outputs are then undefined.
+    """
+    h, n = f1.shape[0], f1.shape[1]
+    S = P + 1
+    A = np.empty((n, 9))
+    AF = np.empty((9, max(n, 9)))
+    tau = np.empty(9)
+    RF = np.empty((9, 9))
+    X9 = np.empty((9, 9))
+    V9 = np.empty((9, 9))
+    nrm = np.empty(9)
+    cs = np.empty(4)
+    sn = np.empty(4)
+    act = np.empty(4, np.bool_)
+    sv = np.empty(9)
+    Ub = np.empty((9, 9))
+    VTb = np.empty((9, 9))
+    Vt = np.empty((9, 9))
+    q = np.empty((1, 3, 9))
+    C = np.empty((1, 2, 6, 6))
+    ok = np.empty(1, np.bool_)
+    lam = np.empty((1, 2, 6), np.complex128)
+    G = np.empty((1, 2, 6, 6), np.complex128)
+    fail = np.empty(1, np.bool_)
+    cand = np.empty((1, 18, 9))
+    dmin = np.empty((1, 2))
+    need = np.empty(1, np.bool_)
+    E = np.empty((1, 18, 3, 3))
+    F1 = np.empty((1, n, 3))
+    F2 = np.empty((1, n, 3))
+    W = np.empty((1, n))
+    Rc = np.empty((1, 18, 3, 3))
+    tc = np.empty((1, 18, 3))
+    valid = np.empty((1, 18), np.bool_)
+    M1 = np.empty((1, 18))
+    cost = np.empty((1, 18))
+    best = np.empty(1, np.int64)
+    Rk = np.empty((1, 3, 3))
+    tk = np.empty((1, 3))
+    vout = np.empty((1, n))
+    v = np.empty(n)
+    vf = np.empty(n)
+    wn = np.empty(n)
+    prod = np.empty(n)
+    buf = np.empty(n)
+    HW = np.empty((max(S, 1), n))
+    HR = np.empty((max(S, 1), 3, 3))
+    Ht = np.empty((max(S, 1), 3))
+    Hv = np.empty((max(S, 1), n))
+    Hc = np.empty(max(S, 1))
+    He = np.empty(max(S, 1))
+    K = max_it - 1
+    for hh in range(h):
+        status[hh] = 0
+        for i in range(n):
+            for d in range(3):
+                F1[0, i, d] = f1[hh, i, d]
+                F2[0, i, d] = f2[hh, i, d]
+            for a in range(3):
+                x = f1[hh, i, a]
+                for b in range(3):
+                    A[i, 3 * a + b] = x * f2[hh, i, b]
+            W[0, i] = w0[hh, i]
+        if P > 0:
+            for i in range(n):
+                HW[0, i] = W[0, i]
+        mu = 0.0
+        eps_prev = np.inf
+        nb_last = -1
+        for k in range(max_it):
+            # ---- LiRP (Alg. 1) on the weighted rows
+            for i in range(n):
+                wi = W[0, i]
+                for j in range(9):
+                    AF[j, i] = A[i, j] * wi
+            _right_singular9(AF, n, tau, RF, sv, Ub, VTb, Vt, X9, V9, nrm, cs, sn, act)
+            for r in range(3):
+                for j in range(9):
+                    q[0, r, j] = Vt[6 + r, j]
+            lirp_action_nb(q, mono, C, ok)
+            if not ok[0]:
+                status[hh] = 1
+                break
+            eig6_nb(C, lam, G, fail, 1e-6)
+            if fail[0]:
+                status[hh] = 1
+                break
+            lirp_post_nb(q, lam, G, cand, dmin, need)
+            if need[0]:
+                status[hh] = 1
+                break
+            for c in range(18):
+                for i in range(3):
+                    for j in range(3):
+                        E[0, c, i, j] = cand[0, c, 3 * j + i]
+            rank_candidates_nb(E, F1, F2, W, True, True, Rc, tc, valid, M1, cost, best)
+            bk = best[0]
+            for i in range(3):
+                tk[0, i] = tc[0, bk, i]
+                for j in range(3):
+                    Rk[0, i, j] = Rc[0, bk, i, j]
+            # ---- residuals, bound, weights (gnc_irls_batch, step by step)
+            residual_nb(Rk, tk, F1, F2, 0, vout)
+            for i in range(n):
+                x = vout[0, i]
+                if math.isfinite(x):
+                    v[i] = x
+                    vf[i] = x
+                else:
+                    v[i] = np.inf
+                    vf[i] = 0.0
+            if noise_bound > 0.0:
+                c_k = noise_bound
+            else:
+                if scale_kind == 2:
+                    s = scale_value
+                else:
+                    for i in range(n):
+                        prod[i] = abs(vf[i])
+                    med = _median(prod, n, buf)
+                    if scale_kind == 0:
+                        s = MAD_TO_SIGMA * med
+                    else:
+                        for i in range(n):
+                            prod[i] = abs(prod[i] - med)
+                        s = MAD_TO_SIGMA * _median(prod, n, buf)
+                c_k = c_factor * max(s, sigma_floor)
+            mu_a = mu
+            if k == 0:
+                if mu0 > 0.0:
+                    mu_a = mu0
+                else:
+                    mx = -np.inf
+                    for i in range(n):
+                        x = vf[i] * vf[i]
+                        if x > mx:
+                            mx = x
+                    r = mx / max(c_k * c_k, 1e-300)
+                    if ms_tls:
+                        m_ = 1.0 / (5.0 * r - 1.0)
+                        mu_a = m_ if (math.isfinite(m_) and m_ > 1e-6) else 1e-6
+                    else:
+                        m_ = 1.0 / (2.0 * r - 1.0)
+                        mu_a = m_ if (math.isfinite(m_) and m_ > 0.0) else 1e16
+            npos = 0
+            nonbin = False
+            if ms_tls:
+                ub = (mu_a + 1.0) / mu_a * c_k
+                for i in range(n):
+                    x = abs(v[i])
+                    if x <= c_k:
+                        y = 1.0
+                    elif x >= ub:
+                        y = 0.0
+                    else:
+                        y = (mu_a + 1.0) * c_k / max(x, 1e-300) - mu_a
+                    wn[i] = y
+            else:
+                c2 = c_k * c_k
+                lb = mu_a / (mu_a + 1.0) * c2
+                ub = (mu_a + 1.0) / mu_a * c2
+                for i in range(n):
+                    x = abs(v[i])
+                    x2 = x * x
+                    if x2 <= lb:
+                        y = 1.0
+                    elif x2 >= ub:
+                        y = 0.0
+                    else:
+                        y = math.sqrt(c2 * mu_a * (mu_a + 1.0) / max(x2, 1e-300)) - mu_a
+                    wn[i] = y
+            for i in range(n):
+                y = wn[i]
+                if y > 0.0:
+                    npos += 1
+                if not (y == 0.0 or y == 1.0):
+                    nonbin = True
+                prod[i] = y * vf[i]
+            eps = _np_sum(prod, n)
+            done = abs(eps - eps_prev) <= eps0 * max(abs(eps), 1e-300)
+            starving = npos < min_sample
+            if not starving:
+                for i in range(n):
+                    W[0, i] = wn[i]
+            # outputs of this iteration
+            for i in range(3):
+                t_out[hh, i] = tk[0, i]
+                for j in range(3):
+                    R_out[hh, i, j] = Rk[0, i, j]
+            for i in range(n):
+                v_out[hh, i] = v[i]
+            c_out[hh] = c_k
+            it_out[hh] = k + 1
+            conv_out[hh] = done
+            eps_prev = eps
+            if ms_tls:
+                mu_n = mu_factor * math.sqrt(mu_a) if mu_a < 1.0 else mu_factor * mu_a
+            else:
+                mu_n = mu_factor * mu_a
+            mu = min(mu_n, 1e16)
+            if done or starving:
+                break
+            if P > 0:
+                sl = k % S
+                for i in range(3):
+                    Ht[sl, i] = tk[0, i]
+                    for j in range(3):
+                        HR[sl, i, j] = Rk[0, i, j]
+                for i in range(n):
+                    Hv[sl, i] = v[i]
+                    HW[(k + 1) % S, i] = W[0, i]
+                Hc[sl] = c_k
+                He[sl] = eps
+                if nonbin:
+                    nb_last = k
+                if nb_last < k and mu >= mu_a and k < K:
+                    # _cycle_exit: the smallest period p with W_{k+1} = W_{k+1-p}, all binary since
+                    period = 0
+                    for p in range(1, min(P, k + 1) + 1):
+                        if not nb_last < k + 1 - p:
+                            continue
+                        same = True
+                        slp = (k + 1 - p) % S
+                        sln = (k + 1) % S
+                        for i in range(n):
+                            if HW[slp, i] != HW[sln, i]:
+                                same = False
+                                break
+                        if same:
+                            period = p
+                            break
+                    if period > 0:
+                        base = k + 1 - period
+                        jf = K
+                        conv = False
+                        for m in range(1, P + 1):
+                            j = k + m
+                            if not (m <= period and j <= K):
+                                break
+                            e_cur = He[(base + (j - base) % period) % S]
+                            e_prev = He[(base + (j - 1 - base) % period) % S]
+                            if abs(e_cur - e_prev) <= eps0 * max(abs(e_cur), 1e-300):
+                                jf = j
+                                conv = True
+                                break
+                        jm = base + (jf - base) % period
+                        sl = jm % S
+                        for i in range(3):
+                            t_out[hh, i] = Ht[sl, i]
+                            for j in range(3):
+                                R_out[hh, i, j] = HR[sl, i, j]
+                        for i in range(n):
+                            v_out[hh, i] = Hv[sl, i]
+                            W[0, i] = HW[(jm + 1) % S, i]
+                        c_out[hh] = Hc[sl]
+                        it_out[hh] = jf + 1
+                        conv_out[hh] = conv
+                        break
+        for i in range(n):
+            w_out[hh, i] = W[0, i]

@@ -220,7 +220,7 @@ def gnc_irls_batch(
     residuals, bound, iteration count and convergence flag, without running the remaining iterations.
     ``detect_cycles=False`` runs every iteration (the equality is a test).
     ``compiled`` (default): with the paper's estimator (LiRP + ``v_LiGT``) and the numba kernels
-    available, each problem runs its whole loop in one compiled call (:mod:`poseonly._gnc_nb`: the
+    available, each problem runs its whole loop in one compiled call (``poseonly._kernels.gnc_lirp``: the
     same iterations in the same floating-point order, bit-identical results, a test); ``False``
     forces the lockstep loop below.
     """
