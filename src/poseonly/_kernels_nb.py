@@ -1212,6 +1212,84 @@ def _eigvec_inverse_iteration(A, n, lam, L, piv, b, anorm):
 
 
 @njit(cache=True, error_model="numpy")
+def _action_pattern(A):
+    """1 or 2 when rows 3-5 of the 6x6 ``A`` are the unit rows of LiRP's action matrix ``C1``
+    (``e0, e1, e3``: ``a g = (a^2, ab, b^2, a, b, 1) a``) or ``C2`` (``e1, e2, e4``), else 0."""
+    for k in range(2):
+        cols = (0, 1, 3) if k == 0 else (1, 2, 4)
+        ok = True
+        for r in range(3):
+            for c in range(6):
+                want = 1.0 if c == cols[r] else 0.0
+                if A[3 + r, c] != want:
+                    ok = False
+        if ok:
+            return k + 1
+    return 0
+
+
+@njit(cache=True, error_model="numpy")
+def _action_eigvec(A, pattern, lam, b):
+    """Unit eigenvector ``b`` of LiRP's action matrix ``A`` (:func:`_action_pattern`) for the
+    eigenvalue ``lam``: the unit rows give ``g = B(lam) y`` with three free entries ``y``, the three
+    dense rows ``K(lam) y = 0`` with ``K = (A - lam I)[:3] B(lam)``, solved by the largest cross
+    product of two rows of ``K`` (no 6x6 factorisation; complex-bilinear, so it works for complex
+    ``lam``). Returns False when ``K`` has no clear 1-D null space (the caller iterates instead)."""
+    l2 = lam * lam
+    l3 = l2 * lam
+    K = np.empty((3, 3), np.complex128)
+    for i in range(3):
+        if pattern == 1:  # y = (g2, g4, g5): g = (l^2 g5, l g4, g2, l g5, g4, g5)
+            K[i, 0] = A[i, 2] - (lam if i == 2 else 0.0)
+            K[i, 1] = lam * A[i, 1] + A[i, 4] - (l2 if i == 1 else 0.0)
+            K[i, 2] = l2 * A[i, 0] + lam * A[i, 3] + A[i, 5] - (l3 if i == 0 else 0.0)
+        else:  # y = (g0, g3, g5): g = (g0, l g3, l^2 g5, g3, l g5, g5)
+            K[i, 0] = A[i, 0] - (lam if i == 0 else 0.0)
+            K[i, 1] = lam * A[i, 1] + A[i, 3] - (l2 if i == 1 else 0.0)
+            K[i, 2] = l2 * A[i, 2] + lam * A[i, 4] + A[i, 5] - (l3 if i == 2 else 0.0)
+    best = -1.0
+    y0 = y1 = y2 = 0.0j
+    kn = 0.0
+    for i in range(3):
+        for j in range(3):
+            kn = max(kn, abs(K[i, j]))
+    for a, c in ((0, 1), (0, 2), (1, 2)):
+        x0 = K[a, 1] * K[c, 2] - K[a, 2] * K[c, 1]
+        x1 = K[a, 2] * K[c, 0] - K[a, 0] * K[c, 2]
+        x2 = K[a, 0] * K[c, 1] - K[a, 1] * K[c, 0]
+        nx = (x0.real * x0.real + x0.imag * x0.imag + x1.real * x1.real + x1.imag * x1.imag
+              + x2.real * x2.real + x2.imag * x2.imag)
+        if nx > best:
+            best = nx
+            y0, y1, y2 = x0, x1, x2
+    if not (best > (1e-12 * kn * kn) ** 2 and math.isfinite(best)):
+        return False
+    if pattern == 1:
+        b[0] = l2 * y2
+        b[1] = lam * y1
+        b[2] = y0
+        b[3] = lam * y2
+        b[4] = y1
+        b[5] = y2
+    else:
+        b[0] = y0
+        b[1] = lam * y1
+        b[2] = l2 * y2
+        b[3] = y1
+        b[4] = lam * y2
+        b[5] = y2
+    nb = 0.0
+    for r in range(6):
+        nb += b[r].real * b[r].real + b[r].imag * b[r].imag
+    nb = math.sqrt(nb)
+    if not (nb > 0.0 and math.isfinite(nb)):
+        return False
+    for r in range(6):
+        b[r] /= nb
+    return True
+
+
+@njit(cache=True, error_model="numpy")
 def eig6_nb(C, lam, G, fail, sep_tol):
     """Eigen-decompositions of ``C (h, m, 6, 6)``: ``lam (h, m, 6)``, ``G (h, m, 6, 6)`` (unit
     eigenvectors in columns, exact conjugates for conjugate pairs). ``fail[h]`` when the Francis QR
@@ -1252,10 +1330,12 @@ def eig6_nb(C, lam, G, fail, sep_tol):
                         fail[hh] = True
             if fail[hh]:
                 break
+            pat = _action_pattern(C[hh, mm])
+            Cm = C[hh, mm]
             e = 0
             while e < n:
                 lv = lam[hh, mm, e]
-                if not _eigvec_inverse_iteration(Ac, n, lv, Lc, piv, b, anorm):
+                if not (pat > 0 and _action_eigvec(Cm, pat, lv, b)) and not _eigvec_inverse_iteration(Ac, n, lv, Lc, piv, b, anorm):
                     fail[hh] = True
                     break
                 for r in range(n):
