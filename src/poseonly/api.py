@@ -47,7 +47,7 @@ import numpy as np
 from .estimator import get_estimator, lirp_estimator
 from .identify import identify_poses
 from .geometry import InputError, as_bearings, check_intrinsics, essential_from_pose, rotation_error_deg
-from .residuals import ligt_depths, v_sampson, v_sampson_chiral
+from .residuals import v_sampson, v_sampson_chiral
 from .robust.gnc import GNCOptions, gnc_irls_batch
 from .robust.ransac import gnc_ransac as _gnc_ransac
 from .robust.ransac import ransac
@@ -283,7 +283,9 @@ def _chance_inliers(R, t, f1, f2, tau, repeats: int = 3) -> float:
     rng = np.random.default_rng(20240611)
     n = len(f1)
     perms = np.stack([rng.permutation(n) for _ in range(repeats)])
-    v = v_sampson(R, t, f1, f2[perms])  # (repeats, n)
+    # one pose per re-pairing, so that the compiled residual takes the stacked points
+    v = v_sampson(np.broadcast_to(R, (repeats, 3, 3)), np.broadcast_to(t, (repeats, 3)),
+                  np.broadcast_to(f1, (repeats,) + f1.shape), f2[perms])  # (repeats, n)
     return float(np.mean(np.count_nonzero(v < tau, axis=1)))
 
 
@@ -333,10 +335,9 @@ def _finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_in
 
 
 def _support(R, t, f1, f2, tau):
-    """Inliers of stacked poses ``(h,3,3), (h,3)``: Sampson error below ``tau`` and positive depths."""
-    v = v_sampson(R, t, f1, f2)
-    h, hp, _ = ligt_depths(R, t, f1, f2)
-    return (v < tau) & (h > 0) & (hp > 0)
+    """Inliers of stacked poses ``(h,3,3), (h,3)``: Sampson error below ``tau`` and positive depths
+    (``v_sampson_chiral`` is 1 where a depth is not positive, and ``tau`` is far below 1)."""
+    return v_sampson_chiral(R, t, f1, f2) < min(tau, 0.5)
 
 
 def _plausible_twin(R, t, tw, f1, f2, tau) -> bool:

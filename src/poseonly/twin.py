@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .geometry import normalize, project_to_so3, rotation_error_deg, triangulate_midpoint
+from .geometry import cross, normalize, project_to_so3, rotation_error_deg, triangulate_midpoint
 
 __all__ = ["decompose_homography", "homography_twin", "fit_plane"]
 
@@ -35,17 +35,17 @@ def decompose_homography(H: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndar
     den = np.sqrt(max(s1 - s3, 1e-300))
     a = np.sqrt(max(1.0 - s3, 0.0))
     b = np.sqrt(max(s1 - 1.0, 0.0))
-    Rs, Ts, Ns = [], [], []
-    for u in ((a * v1 + b * v3) / den, (a * v1 - b * v3) / den):
-        U = np.column_stack([v2, u, np.cross(v2, u)])
-        W = np.column_stack([H @ v2, H @ u, np.cross(H @ v2, H @ u)])
-        R = project_to_so3(W @ U.T)  # exact for an exact homography; noise leaves it slightly off SO(3)
-        N = np.cross(v2, u)
-        T = (H - R) @ N
-        Rs += [R, R]
-        Ts += [T, -T]
-        Ns += [N, -N]
-    return np.array(Rs), np.array(Ts), np.array(Ns)
+    # both decompositions at once (stacked over the two choices of u)
+    u = np.stack([(a * v1 + b * v3) / den, (a * v1 - b * v3) / den])  # (2, 3)
+    v2s = np.broadcast_to(v2, u.shape)
+    N = cross(v2s, u)
+    Hv2 = np.broadcast_to(H @ v2, u.shape)
+    Hu = u @ H.T
+    U = np.stack([v2s, u, N], axis=-1)  # columns v2, u, v2 x u
+    W = np.stack([Hv2, Hu, cross(Hv2, Hu)], axis=-1)
+    R = project_to_so3(W @ np.swapaxes(U, -1, -2))  # exact for an exact homography; noise leaves it slightly off SO(3)
+    T = np.einsum("kij,kj->ki", H - R, N)
+    return np.repeat(R, 2, axis=0), np.stack([T[0], -T[0], T[1], -T[1]]), np.stack([N[0], -N[0], N[1], -N[1]])
 
 
 def fit_plane(X: np.ndarray) -> tuple[np.ndarray, float, float]:
@@ -77,14 +77,12 @@ def homography_twin(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray
     H = R + np.outer(t, n) / d
     Rs, Ts, Ns = decompose_homography(H)
     # physically valid: the inliers lie in front of camera 1 on the plane side (n . f1 > 0)
-    front = np.array([np.mean(f1 @ N > 0) for N in Ns])
-    cand = [k for k in range(4) if front[k] > 0.5 and np.linalg.norm(Ts[k]) > 1e-12]
-    if not cand:
+    front = np.mean(f1 @ Ns.T > 0, axis=0)
+    cand = np.nonzero((front > 0.5) & (np.linalg.norm(Ts, axis=1) > 1e-12))[0]
+    if len(cand) < 2:
         return None
-    errs = np.array([rotation_error_deg(R, Rs[k]) + np.degrees(np.arccos(np.clip(normalize(Ts[k]) @ t, -1, 1))) for k in cand])
+    Tn = normalize(Ts[cand])
+    errs = rotation_error_deg(R, Rs[cand]) + np.degrees(np.arccos(np.clip(Tn @ t, -1, 1)))
     # the decomposition closest to (R, t) is the pose itself; the other valid one is the twin
-    order = np.argsort(errs)
-    if len(order) < 2:
-        return None
-    k = cand[order[1]]
-    return Rs[k], normalize(Ts[k]), planarity
+    k = int(np.argsort(errs, kind="stable")[1])
+    return Rs[cand[k]], Tn[k], planarity
