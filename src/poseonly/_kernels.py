@@ -83,6 +83,7 @@ def _compiled():
         _impl["kron"] = _kernels_nb.kron_rows_nb
         _impl["ligt_normal"] = _kernels_nb.ligt_normal_nb
         _impl["svd9"] = _kernels_nb.svd9_nb
+        _impl["qr_r9"] = _kernels_nb.qr_r9_nb
         _impl["gnc_lirp"] = _kernels_nb.gnc_lirp_nb
     return _impl
 
@@ -139,6 +140,14 @@ def lirp_post(q, lam, G):
     _compiled()["lirp_post"](np.ascontiguousarray(q, dtype=np.float64), np.ascontiguousarray(lam, dtype=np.complex128),
                              np.ascontiguousarray(G, dtype=np.complex128), cand, dmin, need)
     return cand, dmin, need
+
+
+def qr_r9(A):
+    """Triangular factors ``(h, 9, 9)`` of the Householder QR of stacked ``A (h, n, 9)``, ``n >= 9``."""
+    A = np.ascontiguousarray(A, dtype=np.float64)
+    R = np.empty((A.shape[0], 9, 9))
+    _compiled()["qr_r9"](A, R)
+    return R
 
 
 def svd9(R):

@@ -282,14 +282,20 @@ def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost,
     wv = np.empty(n)
     sums = np.empty(6)
     for hh in range(H):
+        # points of zero weight add nothing to the weighted sums: they are left out of the passes
+        # (GNC-IRLS zeroes its outliers, a third of the points at 30 % outliers)
+        m = 0
         for i in range(n):
-            for c in range(3):
-                P[c, i] = f1[hh, i, c]
-                G[c, i] = f2[hh, i, c]
-            wv[i] = w[hh, i] if weighted else 1.0
+            wi = w[hh, i] if weighted else 1.0
+            if wi != 0.0:
+                for c in range(3):
+                    P[c, m] = f1[hh, i, c]
+                    G[c, m] = f2[hh, i, c]
+                wv[m] = wi
+                m += 1
         wsum = 0.0
         if weighted:
-            for i in range(n):
+            for i in range(m):
                 wsum += wv[i]
             wsum = max(wsum, 1e-300)
         else:
@@ -315,7 +321,7 @@ def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost,
                         R[hh, c, i, j] = R[hh, dup, i, j]
                 continue
             _frames(E[hh, c], u3, v3, F, Ep, M, V)
-            _sign_pass(P, G, F, u3, v3, wv, n, sums)
+            _sign_pass(P, G, F, u3, v3, wv, m, sums)
             m1a = sums[0] / wsum
             m1b = sums[1] / wsum
             pick_b = (m1b > m1a) or (m1b == m1a and sums[3] / wsum > sums[2] / wsum)
@@ -330,7 +336,7 @@ def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost,
                 for j in range(3):
                     R[hh, c, i, j] = u3[i] * v3[j] + sf * F[i, j]
             if with_cost:
-                cv = _ppo_pass(P, G, F, Ep, u3, v3, sf, sg, wv, n) / wsum
+                cv = _ppo_pass(P, G, F, Ep, u3, v3, sf, sg, wv, m) / wsum
                 cost[hh, c] = cv if math.isfinite(cv) else np.inf
             else:
                 cost[hh, c] = 0.0
@@ -1618,6 +1624,55 @@ def _jacobi9(R, s, Vt, X, V, nrm, cs, sn, act):
     return sweep
 
 
+@njit(cache=True, error_model="numpy", fastmath={"reassoc", "contract"})
+def _householder_r9(AF, n, R):
+    """Triangular factor ``R (9, 9)`` of the Householder QR of the ``n x 9`` matrix held column by
+    column in ``AF (9, n)`` (overwritten; LAPACK's ``dgeqr2`` conventions: ``R[k, k] = beta = -sign(alpha)
+    |x|``, no pivoting). The columns are contiguous, so the dot products and updates vectorise."""
+    for k in range(9):
+        sig = 0.0
+        for i in range(k + 1, n):
+            sig += AF[k, i] * AF[k, i]
+        alpha = AF[k, k]
+        if sig == 0.0:
+            R[k, k] = alpha
+            for j in range(k + 1, 9):
+                R[k, j] = AF[j, k]
+            continue
+        beta = math.sqrt(alpha * alpha + sig)
+        if alpha > 0.0:
+            beta = -beta
+        tau = (beta - alpha) / beta
+        scale = 1.0 / (alpha - beta)
+        for i in range(k + 1, n):
+            AF[k, i] *= scale
+        R[k, k] = beta
+        for j in range(k + 1, 9):
+            d = AF[j, k]
+            for i in range(k + 1, n):
+                d += AF[k, i] * AF[j, i]
+            d *= tau
+            AF[j, k] -= d
+            for i in range(k + 1, n):
+                AF[j, i] -= d * AF[k, i]
+            R[k, j] = AF[j, k]
+    for k in range(9):
+        for j in range(k):
+            R[k, j] = 0.0
+
+
+@njit(cache=True, error_model="numpy")
+def qr_r9_nb(A, R):
+    """``R (h, 9, 9)`` of stacked ``A (h, n, 9)`` (``n >= 9``) by :func:`_householder_r9`."""
+    h, n = A.shape[0], A.shape[1]
+    AF = np.empty((9, n))
+    for hh in range(h):
+        for i in range(n):
+            for j in range(9):
+                AF[j, i] = A[hh, i, j]
+        _householder_r9(AF, n, R[hh])
+
+
 @njit(cache=True, error_model="numpy")
 def svd9_nb(R, s, Vt):
     """Singular values ``s (h, 9)`` (descending) and right singular vectors ``Vt (h, 9, 9)`` (rows) of
@@ -1667,14 +1722,14 @@ _JOBZ_A = ord("A")
 
 
 @njit(cache=True, error_model="numpy")
-def _right_singular9(AF, n, tau, R9, s, U, VT, Vt, X, V, nrm, cs, sn, act):
+def _right_singular9(AF, AF2, n, tau, R9, s, U, VT, Vt, X, V, nrm, cs, sn, act):
     """Right singular vectors ``Vt (9, 9)`` (rows, descending singular values ``s``) of the ``n x 9``
     matrix stored column-major in ``AF (9, n)`` (overwritten), as :func:`poseonly.solvers.lirp._null_space3`
-    computes them with the kernels: for ``n > 9`` LAPACK's ``dgeqrf`` (the call of
-    ``numpy.linalg.qr(mode="r")``, without forming ``Q``) and the Jacobi SVD of the triangular factor,
+    computes them with the kernels: for ``n > 9`` the Householder QR of :func:`_householder_r9` and
+    the Jacobi SVD of the triangular factor,
     for ``n = 9`` the Jacobi SVD of the rows, for ``n < 9`` LAPACK's ``dgesdd('A')`` of the
-    zero-padded rows (``numpy.linalg.svd``'s call), and LAPACK's SVD of the factor again where the null
-    space is exactly 3-D (``sigma_7 <= 1e-9 sigma_1``, ``lirp.DEGENERATE_NULL``).
+    zero-padded rows (``numpy.linalg.svd``'s call), and LAPACK's QR and SVD again where the null space
+    is exactly 3-D (``sigma_7 <= 1e-9 sigma_1``, ``lirp.DEGENERATE_NULL``: ``numpy.linalg``'s basis).
     ``R9``, ``U``, ``VT``: ``9 x 9`` scratch."""
     if n < 9:
         for j in range(9):
@@ -1686,15 +1741,25 @@ def _right_singular9(AF, n, tau, R9, s, U, VT, Vt, X, V, nrm, cs, sn, act):
                 Vt[r, c] = VT[c, r]
         return
     if n > 9:
-        _geqrf(_KIND_D, n, 9, AF.ctypes, n, tau.ctypes)
-    for i in range(9):
-        for j in range(9):
-            R9[i, j] = AF[j, i] if (i <= j or n == 9) else 0.0
+        for j in range(9):  # the rows are needed again if the null space is exactly 3-D
+            for i in range(n):
+                AF2[j, i] = AF[j, i]
+        _householder_r9(AF, n, R9)
+    else:
+        for i in range(9):
+            for j in range(9):
+                R9[i, j] = AF[j, i]
     _jacobi9(R9, s, Vt, X, V, nrm, cs, sn, act)
     if s[6] <= 1e-9 * s[0]:  # exactly 3-D null space: LAPACK's basis (lirp.DEGENERATE_NULL)
-        for j in range(9):
-            for i in range(9):
-                U[j, i] = R9[i, j]
+        if n > 9:
+            _geqrf(_KIND_D, n, 9, AF2.ctypes, n, tau.ctypes)
+            for j in range(9):
+                for i in range(9):
+                    U[j, i] = AF2[j, i] if i <= j else 0.0
+        else:
+            for j in range(9):
+                for i in range(9):
+                    U[j, i] = R9[i, j]
         _gesdd(_KIND_D, _JOBZ_A, 9, 9, U.ctypes, 9, s.ctypes, X.ctypes, 9, VT.ctypes, 9)
         for r in range(9):
             for c in range(9):
@@ -1811,6 +1876,7 @@ def gnc_lirp_nb(f1, f2, w0, ms_tls, scale_kind, scale_value, c_factor, noise_bou
     S = P + 1
     A = np.empty((n, 9))
     AF = np.empty((9, max(n, 9)))
+    AF2 = np.empty((9, max(n, 9)))
     tau = np.empty(9)
     RF = np.empty((9, 9))
     X9 = np.empty((9, 9))
@@ -1880,7 +1946,7 @@ def gnc_lirp_nb(f1, f2, w0, ms_tls, scale_kind, scale_value, c_factor, noise_bou
                 wi = W[0, i]
                 for j in range(9):
                     AF[j, i] = A[i, j] * wi
-            _right_singular9(AF, n, tau, RF, sv, Ub, VTb, Vt, X9, V9, nrm, cs, sn, act)
+            _right_singular9(AF, AF2, n, tau, RF, sv, Ub, VTb, Vt, X9, V9, nrm, cs, sn, act)
             for r in range(3):
                 for j in range(9):
                     q[0, r, j] = Vt[6 + r, j]

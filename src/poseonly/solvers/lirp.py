@@ -87,18 +87,19 @@ def right_singular(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _null_space3(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Singular values ``(h, 9)`` and ``q1, q2, q3`` as rows ``(h, 3, 9)`` of stacked ``A (h, n, 9)``.
 
-    With the compiled kernels and ``n >= 9`` the 9x9 SVD is a one-sided Jacobi
-    (:func:`poseonly._kernels.svd9`, 2x faster than LAPACK's at this size, as accurate); where the
+    With the compiled kernels and ``n >= 9`` the QR (``n > 9``) is a compiled Householder QR and the
+    9x9 SVD a one-sided Jacobi (:func:`poseonly._kernels.svd9`, 2x faster than LAPACK's at this size,
+    as accurate); where the
     null space is exactly 3-D (``n < 9``, or ``sigma_7 <= DEGENERATE_NULL sigma_1``: noise-free planar
     scenes and pure rotation) its basis is arbitrary and LAPACK's is kept, so that those problems
     reproduce the reference code's candidates (tests/test_speed_equivalence.py)."""
     if _kernels.enabled() and A.shape[1] >= 9:
-        R = np.linalg.qr(A, mode="r") if A.shape[1] > 9 else A
+        R = _kernels.qr_r9(A) if A.shape[1] > 9 else A
         s, Vt = _kernels.svd9(R)
         exact = s[:, 6] <= DEGENERATE_NULL * s[:, 0]
         if exact.any():  # an exactly 3-D null space (noise-free planar / pure rotation): its basis is
             # arbitrary, keep LAPACK's (the reference code's candidates; DEGENERATE_NULL below)
-            s[exact], Vt[exact] = np.linalg.svd(R[exact])[1:]
+            s[exact], Vt[exact] = right_singular(A[exact])
     else:
         s, Vt = right_singular(A)
     return s, Vt[:, 6:9, :]
