@@ -407,3 +407,47 @@ def test_gnc_compiled_loop_is_bit_identical(opt):
                 w = np.ones((6, m)) if w0 is None else w0
                 redo += int(_kernels.gnc_lirp(sc.f1[idx], sc.f2[idx], w, opts, CYCLE_MAX_PERIOD, 6)[-1].sum())
     assert redo > 0  # the fallback to the lockstep path was exercised
+
+
+def test_linear_algebra_kernels_match_lapack():
+    """The compiled Householder QR, Jacobi SVD and action-matrix eigenvectors that replaced LAPACK
+    calls on LiRP's hot path agree with LAPACK to rounding: the triangular factor up to row signs,
+    the three smallest right singular vectors up to sign (and the null space as a subspace when the
+    smallest singular values cluster), the eigenvectors up to a complex phase."""
+    import importlib
+
+    from poseonly import _kernels
+
+    if not _kernels.available():
+        pytest.skip("numba not installed")
+    L = importlib.import_module("poseonly.solvers.lirp")
+    from poseonly.robust.ransac import sample_indices
+
+    for s, (kind, noise, m) in enumerate([("normal", 0.5, 30), ("normal", 0.0, 30), ("planar", 0.5, 100), ("normal", 1.0, 300),
+                                          ("normal", 0.5, 10)]):
+        sc = make_scene(300, kind, "pinhole", noise_px=noise, outlier_fraction=0.3 if noise else 0.0, seed=s)
+        rng = np.random.default_rng(s)
+        idx = sample_indices(rng, 300, m, 40)
+        A = L._kron_rows(sc.f1[idx], sc.f2[idx]) * rng.uniform(0.2, 1.0, (40, m, 1))
+        Rk, Rl = _kernels.qr_r9(A), np.linalg.qr(A, mode="r")
+        sign = np.sign(np.diagonal(Rk, axis1=1, axis2=2) * np.diagonal(Rl, axis1=1, axis2=2))[..., None]
+        np.testing.assert_allclose(Rk * sign, Rl, rtol=0, atol=1e-13 * np.abs(Rl).max())
+        sk, Vk = _kernels.svd9(Rl)
+        sl, Vl = np.linalg.svd(Rl)[1:]
+        np.testing.assert_allclose(sk, sl, rtol=1e-12, atol=1e-15 * sl[:, :1].max())
+        Pk = np.einsum("hki,hkj->hij", Vk[:, 6:], Vk[:, 6:])
+        Pl = np.einsum("hki,hkj->hij", Vl[:, 6:], Vl[:, 6:])
+        np.testing.assert_allclose(Pk, Pl, atol=1e-12)
+        if noise > 0:  # separated singular values: the vectors themselves, up to sign
+            d = np.abs(np.sum(Vk[:, 6:] * Vl[:, 6:], axis=-1))
+            np.testing.assert_allclose(d, 1.0, atol=1e-12)
+        C, ok = _kernels.lirp_action(Vl[:, 6:])
+        lam, G = _kernels.eig6(C[ok])
+        lw, Gw = np.linalg.eig(C[ok])
+        for h in range(len(lam)):
+            for mm in range(2):
+                for e in range(6):
+                    j = np.argmin(np.abs(lw[h, mm] - lam[h, mm, e]))
+                    a, b = G[h, mm, :, e], Gw[h, mm, :, j]
+                    ph = np.vdot(b, a)
+                    assert np.linalg.norm(a - ph / abs(ph) * b) < 1e-10
