@@ -268,7 +268,7 @@ def _ppo_pass(P, G, Fm, Em, u3, v3, sf, sg, wv, n):
 
 
 @njit(cache=True, error_model="numpy")
-def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost, best):
+def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost, best, lazy=False):
     H, k = E.shape[0], E.shape[1]
     n = f1.shape[1]
     u3 = np.empty(3)
@@ -281,6 +281,8 @@ def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost,
     G = np.empty((3, n))
     wv = np.empty(n)
     sums = np.empty(6)
+    sfs = np.empty(k)
+    sgs = np.empty(k)
     for hh in range(H):
         # points of zero weight add nothing to the weighted sums: they are left out of the passes
         # (GNC-IRLS zeroes its outliers, a third of the points at 30 % outliers)
@@ -315,6 +317,8 @@ def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost,
                 M1[hh, c] = M1[hh, dup]
                 valid[hh, c] = valid[hh, dup]
                 cost[hh, c] = cost[hh, dup]
+                sfs[c] = sfs[dup]
+                sgs[c] = sgs[dup]
                 for i in range(3):
                     t[hh, c, i] = t[hh, dup, i]
                     for j in range(3):
@@ -331,19 +335,38 @@ def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost,
             sf = -1.0 if pick_b else 1.0
             M1[hh, c] = m1
             valid[hh, c] = (m1 > 0.0) and (abs(m2) > 0.0)
+            sfs[c] = sf
+            sgs[c] = sg
             for i in range(3):
                 t[hh, c, i] = sg * u3[i]
                 for j in range(3):
                     R[hh, c, i, j] = u3[i] * v3[j] + sf * F[i, j]
-            if with_cost:
+            if with_cost and not (lazy and not valid[hh, c]):
                 cv = _ppo_pass(P, G, F, Ep, u3, v3, sf, sg, wv, m) / wsum
                 cost[hh, c] = cv if math.isfinite(cv) else np.inf
             else:
-                cost[hh, c] = 0.0
+                cost[hh, c] = np.nan if with_cost else 0.0
+        if lazy and with_cost:
+            # ``best`` only (GNC-IRLS): invalid candidates rank after every valid one of finite cost
+            # (their key is cost + 10, PPO costs are <= 2), so their PPO pass is needed only when no
+            # valid candidate has a finite cost; their ``cost`` entries stay NaN otherwise
+            need = True
+            for c in range(k):
+                if valid[hh, c] and cost[hh, c] < np.inf:
+                    need = False
+                    break
+            if need:
+                for c in range(k):
+                    if cost[hh, c] != cost[hh, c]:
+                        _frames(E[hh, c], u3, v3, F, Ep, M, V)
+                        cv = _ppo_pass(P, G, F, Ep, u3, v3, sfs[c], sgs[c], wv, m) / wsum
+                        cost[hh, c] = cv if math.isfinite(cv) else np.inf
         # best: the first minimum of cost (+10 for invalid candidates: PPO residuals are <= 2)
         bk = 0
         bkey = np.inf
         for c in range(k):
+            if cost[hh, c] != cost[hh, c]:  # deferred (lazy): ranks after the valid ones
+                continue
             key = cost[hh, c] if valid[hh, c] else cost[hh, c] + 10.0
             if key < bkey:
                 bkey = key
@@ -1966,7 +1989,7 @@ def gnc_lirp_nb(f1, f2, w0, ms_tls, scale_kind, scale_value, c_factor, noise_bou
                 for i in range(3):
                     for j in range(3):
                         E[0, c, i, j] = cand[0, c, 3 * j + i]
-            rank_candidates_nb(E, F1, F2, W, True, True, Rc, tc, valid, M1, cost, best)
+            rank_candidates_nb(E, F1, F2, W, True, True, Rc, tc, valid, M1, cost, best, True)
             bk = best[0]
             for i in range(3):
                 tk[0, i] = tc[0, bk, i]
