@@ -1651,7 +1651,8 @@ def _jacobi9(R, s, Vt, X, V, nrm, cs, sn, act):
 def _householder_r9(AF, n, R):
     """Triangular factor ``R (9, 9)`` of the Householder QR of the ``n x 9`` matrix held column by
     column in ``AF (9, n)`` (overwritten; LAPACK's ``dgeqr2`` conventions: ``R[k, k] = beta = -sign(alpha)
-    |x|``, no pivoting). The columns are contiguous, so the dot products and updates vectorise."""
+    |x|``, no pivoting; equal to ``dgeqrf``'s factor to ~1e-15). Used for ``n <= QR_SMALL``, where it
+    beats LAPACK's call (workspace query and allocation per call); OpenBLAS wins for larger ``n``."""
     for k in range(9):
         sig = 0.0
         for i in range(k + 1, n):
@@ -1684,16 +1685,33 @@ def _householder_r9(AF, n, R):
             R[k, j] = 0.0
 
 
+QR_SMALL = 64
+
+
+@njit(cache=True, error_model="numpy")
+def _qr_r9(AF, n, tau, R):
+    """``R (9, 9)`` of the ``n x 9`` matrix held column-major in ``AF (9, n)`` (overwritten), ``n > 9``:
+    :func:`_householder_r9` up to ``QR_SMALL`` rows, LAPACK's ``dgeqrf`` above (numpy's bits)."""
+    if n <= QR_SMALL:
+        _householder_r9(AF, n, R)
+        return
+    _geqrf(_KIND_D, n, 9, AF.ctypes, n, tau.ctypes)
+    for i in range(9):
+        for j in range(9):
+            R[i, j] = AF[j, i] if i <= j else 0.0
+
+
 @njit(cache=True, error_model="numpy")
 def qr_r9_nb(A, R):
-    """``R (h, 9, 9)`` of stacked ``A (h, n, 9)`` (``n >= 9``) by :func:`_householder_r9`."""
+    """``R (h, 9, 9)`` of stacked ``A (h, n, 9)`` (``n > 9``) by :func:`_qr_r9`."""
     h, n = A.shape[0], A.shape[1]
     AF = np.empty((9, n))
+    tau = np.empty(9)
     for hh in range(h):
         for i in range(n):
             for j in range(9):
                 AF[j, i] = A[hh, i, j]
-        _householder_r9(AF, n, R[hh])
+        _qr_r9(AF, n, tau, R[hh])
 
 
 @njit(cache=True, error_model="numpy")
@@ -1748,11 +1766,11 @@ _JOBZ_A = ord("A")
 def _right_singular9(AF, AF2, n, tau, R9, s, U, VT, Vt, X, V, nrm, cs, sn, act):
     """Right singular vectors ``Vt (9, 9)`` (rows, descending singular values ``s``) of the ``n x 9``
     matrix stored column-major in ``AF (9, n)`` (overwritten), as :func:`poseonly.solvers.lirp._null_space3`
-    computes them with the kernels: for ``n > 9`` the Householder QR of :func:`_householder_r9` and
-    the Jacobi SVD of the triangular factor,
+    computes them with the kernels: for ``n > 9`` the QR of :func:`_qr_r9` and the Jacobi SVD of the
+    triangular factor,
     for ``n = 9`` the Jacobi SVD of the rows, for ``n < 9`` LAPACK's ``dgesdd('A')`` of the
-    zero-padded rows (``numpy.linalg.svd``'s call), and LAPACK's QR and SVD again where the null space
-    is exactly 3-D (``sigma_7 <= 1e-9 sigma_1``, ``lirp.DEGENERATE_NULL``: ``numpy.linalg``'s basis).
+    zero-padded rows (``numpy.linalg.svd``'s call), and LAPACK's QR and SVD where the null space is
+    exactly 3-D (``sigma_7 <= 1e-9 sigma_1``, ``lirp.DEGENERATE_NULL``: ``numpy.linalg``'s basis).
     ``R9``, ``U``, ``VT``: ``9 x 9`` scratch."""
     if n < 9:
         for j in range(9):
@@ -1763,18 +1781,20 @@ def _right_singular9(AF, AF2, n, tau, R9, s, U, VT, Vt, X, V, nrm, cs, sn, act):
             for c in range(9):
                 Vt[r, c] = VT[c, r]
         return
-    if n > 9:
-        for j in range(9):  # the rows are needed again if the null space is exactly 3-D
+    small = 9 < n <= QR_SMALL
+    if small:  # the rows are needed again if the null space turns out exactly 3-D
+        for j in range(9):
             for i in range(n):
                 AF2[j, i] = AF[j, i]
-        _householder_r9(AF, n, R9)
+    if n > 9:
+        _qr_r9(AF, n, tau, R9)
     else:
         for i in range(9):
             for j in range(9):
                 R9[i, j] = AF[j, i]
     _jacobi9(R9, s, Vt, X, V, nrm, cs, sn, act)
-    if s[6] <= 1e-9 * s[0]:  # exactly 3-D null space: LAPACK's basis (lirp.DEGENERATE_NULL)
-        if n > 9:
+    if s[6] <= 1e-9 * s[0]:  # exactly 3-D null space: LAPACK's QR and SVD (lirp.DEGENERATE_NULL)
+        if small:
             _geqrf(_KIND_D, n, 9, AF2.ctypes, n, tau.ctypes)
             for j in range(9):
                 for i in range(9):

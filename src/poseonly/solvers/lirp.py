@@ -87,8 +87,8 @@ def right_singular(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _null_space3(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Singular values ``(h, 9)`` and ``q1, q2, q3`` as rows ``(h, 3, 9)`` of stacked ``A (h, n, 9)``.
 
-    With the compiled kernels and ``n >= 9`` the QR (``n > 9``) is a compiled Householder QR and the
-    9x9 SVD a one-sided Jacobi (:func:`poseonly._kernels.svd9`, 2x faster than LAPACK's at this size,
+    With the compiled kernels and ``n >= 9`` the QR (``n > 9``) is compiled (:func:`poseonly._kernels.qr_r9`:
+    Householder up to 64 rows, LAPACK's beyond) and the 9x9 SVD a one-sided Jacobi (:func:`poseonly._kernels.svd9`, 2x faster than LAPACK's at this size,
     as accurate); where the
     null space is exactly 3-D (``n < 9``, or ``sigma_7 <= DEGENERATE_NULL sigma_1``: noise-free planar
     scenes and pure rotation) its basis is arbitrary and LAPACK's is kept, so that those problems
