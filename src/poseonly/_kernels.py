@@ -268,9 +268,14 @@ def ligt_normal(R, t, Jl, Jt, f1, f2, sw, norm: int, loss: int, scale: float, wa
     return float(c), H, g
 
 
-def gnc_lirp(f1, f2, w0, opts, period: int, min_sample: int):
-    """Compiled GNC-IRLS with LiRP + ``v_LiGT`` (``_kernels_nb.gnc_lirp_nb``) on ``f1, f2 (h, n, 3)``
-    from weights ``w0 (h, n)`` with :class:`poseonly.robust.gnc.GNCOptions` ``opts``. Returns
+_GNC_RESIDUAL_KIND = {"v_LiGT": 0, "v_sampson": 1, "v_sampson_chiral": 2}
+
+
+def gnc_lirp(f1, f2, w0, opts, period: int, min_sample: int, multi: bool = False, residual: str = "v_LiGT"):
+    """Compiled GNC-IRLS with LiRP (``_kernels_nb.gnc_lirp_nb``) on ``f1, f2 (h, n, 3)`` from weights
+    ``w0 (h, n)`` with :class:`poseonly.robust.gnc.GNCOptions` ``opts``; ``multi``: all candidates
+    (``lirp_all_solver``) instead of the identified one; ``residual``: ``v_LiGT``, ``v_sampson`` or
+    ``v_sampson_chiral`` (by function name). Returns
     ``R, t, weights, residuals, c, num_iterations, converged`` and ``redo (h,)``: problems that need
     the lockstep path (their outputs are undefined)."""
     h, n = f1.shape[:2]
@@ -291,5 +296,5 @@ def gnc_lirp(f1, f2, w0, opts, period: int, min_sample: int):
         np.ascontiguousarray(w0, dtype=np.float64), opts.schedule == "ms-tls", kind, sval, float(opts.c_factor),
         -1.0 if opts.noise_bound is None else float(opts.noise_bound), int(opts.max_iterations), float(opts.eps0),
         float(opts.sigma_floor), float(opts.mu_factor), -1.0 if opts.mu0 is None else float(opts.mu0), int(period),
-        int(min_sample), _mono27(), R, t, w, v, c, it, conv, status)
+        int(min_sample), _mono27(), R, t, w, v, c, it, conv, status, bool(multi), _GNC_RESIDUAL_KIND[residual])
     return R, t, w, v, c, it, conv, status != 0

@@ -1907,9 +1907,13 @@ def _median(a, n, buf):
 
 @njit(cache=True, error_model="numpy")
 def gnc_lirp_nb(f1, f2, w0, ms_tls, scale_kind, scale_value, c_factor, noise_bound, max_it, eps0, sigma_floor,
-                mu_factor, mu0, P, min_sample, mono, R_out, t_out, w_out, v_out, c_out, it_out, conv_out, status):
-    """GNC-IRLS (Alg. 2) with LiRP and ``v_LiGT`` on ``f1, f2 (h, n, 3)`` from weights ``w0 (h, n)``.
+                mu_factor, mu0, P, min_sample, mono, R_out, t_out, w_out, v_out, c_out, it_out, conv_out, status,
+                multi=False, rkind=0):
+    """GNC-IRLS (Alg. 2) with LiRP on ``f1, f2 (h, n, 3)`` from weights ``w0 (h, n)``.
 
+    ``multi=False``: LiRP's identified pose (``poseonly.estimator.lirp_solver``); ``multi=True``: all
+    valid candidates (``lirp_all_solver``: every candidate where none is valid), the one minimising
+    ``sum w v`` kept. ``rkind``: the residual, 0 ``v_LiGT``, 1 ``v_sampson``, 2 ``v_sampson_chiral``.
     ``scale_kind``: 0 median, 1 MAD, 2 fixed ``scale_value``; ``noise_bound > 0`` fixes ``c``;
     ``mu0 > 0`` fixes the initial ``mu``; ``P`` the longest limit-cycle period detected (0: none).
     Outputs as :class:`poseonly.robust.gnc.GNCBatchResult`; ``status[h] = 1`` where the problem needs
@@ -1954,6 +1958,7 @@ def gnc_lirp_nb(f1, f2, w0, ms_tls, scale_kind, scale_value, c_factor, noise_bou
     Rk = np.empty((1, 3, 3))
     tk = np.empty((1, 3))
     vout = np.empty((1, n))
+    vall = np.empty((18, n))
     v = np.empty(n)
     vf = np.empty(n)
     wn = np.empty(n)
@@ -2009,14 +2014,37 @@ def gnc_lirp_nb(f1, f2, w0, ms_tls, scale_kind, scale_value, c_factor, noise_bou
                 for i in range(3):
                     for j in range(3):
                         E[0, c, i, j] = cand[0, c, 3 * j + i]
-            rank_candidates_nb(E, F1, F2, W, True, True, Rc, tc, valid, M1, cost, best, True)
-            bk = best[0]
+            if not multi:
+                rank_candidates_nb(E, F1, F2, W, True, True, Rc, tc, valid, M1, cost, best, True)
+                bk = best[0]
+                okb = True
+            else:
+                # lirp_all_solver + the weighted objective (gnc_irls_batch's multi-candidate branch):
+                # costs sum w v of the kept candidates (NaN poses elsewhere: cost inf), first argmin
+                rank_candidates_nb(E, F1, F2, W, True, False, Rc, tc, valid, M1, cost, best, False)
+                anyv = False
+                for c in range(18):
+                    if valid[0, c]:
+                        anyv = True
+                residual_nb(Rc[0], tc[0], F1, F2, rkind, vall)  # all 18 poses, points shared
+                bk = 0
+                bc = np.inf
+                for c in range(18):
+                    if not (valid[0, c] or not anyv):
+                        continue
+                    for i in range(n):
+                        prod[i] = W[0, i] * vall[c, i]
+                    cc = _np_sum(prod, n)
+                    if cc < bc:  # (NaN / inf costs never win; all inf: candidate 0, as np.argmin)
+                        bc = cc
+                        bk = c
+                okb = valid[0, bk] or not anyv
             for i in range(3):
-                tk[0, i] = tc[0, bk, i]
+                tk[0, i] = tc[0, bk, i] if okb else np.nan
                 for j in range(3):
-                    Rk[0, i, j] = Rc[0, bk, i, j]
+                    Rk[0, i, j] = Rc[0, bk, i, j] if okb else np.nan
             # ---- residuals, bound, weights (gnc_irls_batch, step by step)
-            residual_nb(Rk, tk, F1, F2, 0, vout)
+            residual_nb(Rk, tk, F1, F2, rkind, vout)
             for i in range(n):
                 x = vout[0, i]
                 if math.isfinite(x):

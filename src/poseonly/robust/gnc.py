@@ -35,8 +35,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import _kernels
-from ..estimator import Estimator, lirp_estimator, lirp_solver
-from ..residuals import v_LiGT
+from ..estimator import Estimator, lirp_all_solver, lirp_estimator, lirp_solver
+from ..residuals import v_LiGT, v_sampson, v_sampson_chiral
+
+_COMPILED_RESIDUALS = (v_LiGT, v_sampson, v_sampson_chiral)
 from ..solvers.lirp import _kron_rows, lirp_batch
 
 __all__ = ["GNCOptions", "gnc_irls_batch", "GNCBatchResult", "tls_weights"]
@@ -219,8 +221,9 @@ def gnc_irls_batch(
     ``max_iterations`` (or at its first convergence inside the cycle): the same pose, weights,
     residuals, bound, iteration count and convergence flag, without running the remaining iterations.
     ``detect_cycles=False`` runs every iteration (the equality is a test).
-    ``compiled`` (default): with the paper's estimator (LiRP + ``v_LiGT``) and the numba kernels
-    available, each problem runs its whole loop in one compiled call (``poseonly._kernels.gnc_lirp``: the
+    ``compiled`` (default): with LiRP (the identified pose, or all candidates: ``lirp-all``) and
+    ``v_LiGT``, ``v_sampson`` or ``v_sampson_chiral``, and the numba kernels available, each problem
+    runs its whole loop in one compiled call (``poseonly._kernels.gnc_lirp``: the
     same iterations in the same floating-point order, bit-identical results, a test); ``False``
     forces the lockstep loop below.
     """
@@ -228,9 +231,10 @@ def gnc_irls_batch(
     opts = options or GNCOptions()
     h, n, _ = f1.shape
     w = np.ones((h, n)) if w0 is None else np.array(w0, dtype=float)
-    if compiled and est.solve is lirp_solver and est.residual is v_LiGT and _kernels.enabled():
+    if compiled and est.solve in (lirp_solver, lirp_all_solver) and est.residual in _COMPILED_RESIDUALS and _kernels.enabled():
         R, t, wo, v, c, it, conv, redo = _kernels.gnc_lirp(f1, f2, w, opts, CYCLE_MAX_PERIOD if detect_cycles else 0,
-                                                          est.sample_size)
+                                                          est.sample_size, est.solve is lirp_all_solver,
+                                                          est.residual.__name__)
         if redo.any():  # a rare numpy fallback inside LiRP: those problems run the lockstep loop
             g = gnc_irls_batch(f1[redo], f2[redo], est, opts, w[redo], detect_cycles=detect_cycles, compiled=False)
             R[redo], t[redo], wo[redo], v[redo], c[redo] = g.R, g.t, g.weights, g.residuals, g.c
