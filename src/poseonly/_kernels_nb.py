@@ -268,21 +268,9 @@ def _ppo_pass(P, G, Fm, Em, u3, v3, sf, sg, wv, n):
 
 
 @njit(cache=True, error_model="numpy")
-def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost, best, lazy=False):
+def _rank_core(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost, best, lazy, u3, v3, F, Ep, M, V, P, G, wv, sums, sfs, sgs):
     H, k = E.shape[0], E.shape[1]
     n = f1.shape[1]
-    u3 = np.empty(3)
-    v3 = np.empty(3)
-    F = np.empty((3, 3))
-    Ep = np.empty((3, 3))
-    M = np.empty((3, 3))
-    V = np.empty((3, 3))
-    P = np.empty((3, n))
-    G = np.empty((3, n))
-    wv = np.empty(n)
-    sums = np.empty(6)
-    sfs = np.empty(k)
-    sgs = np.empty(k)
     for hh in range(H):
         # points of zero weight add nothing to the weighted sums: they are left out of the passes
         # (GNC-IRLS zeroes its outliers, a third of the points at 30 % outliers)
@@ -374,6 +362,16 @@ def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost,
         best[hh] = bk
 
 
+@njit(cache=True, error_model="numpy")
+def rank_candidates_nb(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost, best, lazy=False):
+    """Allocating wrapper of :func:`_rank_core` (the compiled GNC loop passes its own scratch)."""
+    k = E.shape[1]
+    n = f1.shape[1]
+    _rank_core(E, f1, f2, w, weighted, with_cost, R, t, valid, M1, cost, best, lazy, np.empty(3), np.empty(3),
+               np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, n)), np.empty((3, n)),
+               np.empty(n), np.empty(6), np.empty(k), np.empty(k))
+
+
 # ------------------------------------------------------------------------------------------------
 # LiRP around LAPACK's eig (twins: poseonly.solvers.lirp._demazure_rows / lirp_candidates)
 
@@ -425,18 +423,11 @@ def _householder_ls(A, Bm, X, m, p, r):
 
 
 @njit(cache=True, error_model="numpy")
-def lirp_action_nb(q, mono, C, ok):
+def _action_core(q, mono, C, ok, Q, P, tr, B, B4, B6, X):
     """Action matrices ``C (h, 2, 6, 6)`` of the Demazure system of ``a Q1 + b Q2 + Q3`` (``q (h, 3, 9)``
     column-major vecs; ``mono (27,)`` monomial index of ``Q_i Q_j Q_k``); ``ok[h] = False`` when the
     4-column block is rank deficient (the caller falls back to numpy's pinv)."""
     h = q.shape[0]
-    Q = np.empty((3, 3, 3))
-    P = np.empty((3, 3, 3, 3))
-    tr = np.empty((3, 3))
-    B = np.empty((9, 10))
-    B4 = np.empty((9, 4))
-    B6 = np.empty((9, 6))
-    X = np.empty((4, 6))
     for hh in range(h):
         for i in range(3):
             for a in range(3):
@@ -489,6 +480,13 @@ def lirp_action_nb(q, mono, C, ok):
 
 
 @njit(cache=True, error_model="numpy")
+def lirp_action_nb(q, mono, C, ok):
+    """Allocating wrapper of :func:`_action_core`."""
+    _action_core(q, mono, C, ok, np.empty((3, 3, 3)), np.empty((3, 3, 3, 3)), np.empty((3, 3)), np.empty((9, 10)),
+                 np.empty((9, 4)), np.empty((9, 6)), np.empty((4, 6)))
+
+
+@njit(cache=True, error_model="numpy")
 def _det3(M):
     return (M[0, 0] * (M[1, 1] * M[2, 2] - M[1, 2] * M[2, 1]) - M[0, 1] * (M[1, 0] * M[2, 2] - M[1, 2] * M[2, 0])
             + M[0, 2] * (M[1, 0] * M[2, 1] - M[1, 1] * M[2, 0]))
@@ -532,17 +530,13 @@ def _cubic_real_parts(c3, c2, c1, c0, out):
 
 
 @njit(cache=True, error_model="numpy")
-def lirp_post_nb(q, lam, G, cand, dmin, need_numpy):
+def _post_core(q, lam, G, cand, dmin, need_numpy, coef, M, r, dets):
     """The 18 unit candidates ``cand (h, 18, 9)`` and ``dmin (h, 2)`` from ``q (h, 3, 9)`` and the
     eigen-decompositions ``lam (h, 2, 6)``, ``G (h, 2, 6, 6)`` (eigenvectors in columns).
     ``need_numpy[h]`` is set when the case-2 cubic is nearly identically zero (noise-free planar
     scenes): its roots are then rounding noise and the caller recomputes them with numpy's LAPACK
     calls (bitwise the old results)."""
     h = q.shape[0]
-    coef = np.empty((18, 3))
-    M = np.empty((3, 3))
-    r = np.empty(3)
-    dets = np.empty(4)
     for hh in range(h):
         for c in range(2):
             for j in range(6):
@@ -605,6 +599,12 @@ def lirp_post_nb(q, lam, G, cand, dmin, need_numpy):
             else:
                 for m in range(9):
                     cand[hh, k, m] = q[hh, 2, m]
+
+
+@njit(cache=True, error_model="numpy")
+def lirp_post_nb(q, lam, G, cand, dmin, need_numpy):
+    """Allocating wrapper of :func:`_post_core`."""
+    _post_core(q, lam, G, cand, dmin, need_numpy, np.empty((18, 3)), np.empty((3, 3)), np.empty(3), np.empty(4))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -1070,14 +1070,12 @@ def fivept_real_nb(f1, f2, mono, unit_cols, action_rows, real_tol, E, mask, fail
 
 
 @njit(cache=True, error_model="numpy")
-def residual_nb(R, t, f1, f2, kind, out):
+def _residual_core(R, t, f1, f2, kind, out, P, G):
     """``out (k, n)``: residual ``kind`` (0 = v_LiGT, 1 = v_sampson, 2 = v_sampson_chiral) of the poses ``R (k, 3, 3)``,
     ``t (k, 3)`` (normalised here) on ``f (m, n, 3)`` with ``m = 1`` (shared points) or ``m = k``."""
     k = R.shape[0]
     m = f1.shape[0]
     n = f1.shape[1]
-    P = np.empty((3, n))
-    G = np.empty((3, n))
     for c in range(k):
         if c == 0 or m > 1:
             j = c if m > 1 else 0
@@ -1110,6 +1108,13 @@ def residual_nb(R, t, f1, f2, kind, out):
             _sampson_row(P, G, e00, e01, e02, e10, e11, e12, e20, e21, e22, out[c], n)
             if kind == 2:
                 _chiral_row(P, G, r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2, out[c], n)
+
+
+@njit(cache=True, error_model="numpy")
+def residual_nb(R, t, f1, f2, kind, out):
+    """Allocating wrapper of :func:`_residual_core`."""
+    n = f1.shape[1]
+    _residual_core(R, t, f1, f2, kind, out, np.empty((3, n)), np.empty((3, n)))
 
 
 @njit(cache=True, error_model="numpy")
@@ -1258,7 +1263,7 @@ def _action_pattern(A):
 
 
 @njit(cache=True, error_model="numpy")
-def _action_eigvec(A, pattern, lam, b):
+def _action_eigvec(A, pattern, lam, b, K):
     """Unit eigenvector ``b`` of LiRP's action matrix ``A`` (:func:`_action_pattern`) for the
     eigenvalue ``lam``: the unit rows give ``g = B(lam) y`` with three free entries ``y``, the three
     dense rows ``K(lam) y = 0`` with ``K = (A - lam I)[:3] B(lam)``, solved by the largest cross
@@ -1266,7 +1271,6 @@ def _action_eigvec(A, pattern, lam, b):
     ``lam``). Returns False when ``K`` has no clear 1-D null space (the caller iterates instead)."""
     l2 = lam * lam
     l3 = l2 * lam
-    K = np.empty((3, 3), np.complex128)
     for i in range(3):
         if pattern == 1:  # y = (g2, g4, g5): g = (l^2 g5, l g4, g2, l g5, g4, g5)
             K[i, 0] = A[i, 2] - (lam if i == 2 else 0.0)
@@ -1319,21 +1323,13 @@ def _action_eigvec(A, pattern, lam, b):
 
 
 @njit(cache=True, error_model="numpy")
-def eig6_nb(C, lam, G, fail, sep_tol):
+def _eig6_core(C, lam, G, fail, sep_tol, Hs, Lr, wr, wi, Lc, Ac, piv, b, K):
     """Eigen-decompositions of ``C (h, m, 6, 6)``: ``lam (h, m, 6)``, ``G (h, m, 6, 6)`` (unit
     eigenvectors in columns, exact conjugates for conjugate pairs). ``fail[h]`` when the Francis QR
     did not converge or two eigenvalues are closer than ``sep_tol (1 + |lambda|)`` (eigenvectors
     ill-determined: the caller uses LAPACK for those problems)."""
     h, m = C.shape[0], C.shape[1]
     n = 6
-    Hs = np.empty((n + 1, n + 1))
-    Lr = np.empty((n, n))
-    wr = np.empty(n + 1)
-    wi = np.empty(n + 1)
-    Lc = np.empty((n, n), np.complex128)
-    Ac = np.empty((n, n), np.complex128)
-    piv = np.empty(n, np.int64)
-    b = np.empty(n, np.complex128)
     for hh in range(h):
         fail[hh] = False
         for mm in range(m):
@@ -1364,7 +1360,7 @@ def eig6_nb(C, lam, G, fail, sep_tol):
             e = 0
             while e < n:
                 lv = lam[hh, mm, e]
-                if not (pat > 0 and _action_eigvec(Cm, pat, lv, b)) and not _eigvec_inverse_iteration(Ac, n, lv, Lc, piv, b, anorm):
+                if not (pat > 0 and _action_eigvec(Cm, pat, lv, b, K)) and not _eigvec_inverse_iteration(Ac, n, lv, Lc, piv, b, anorm):
                     fail[hh] = True
                     break
                 for r in range(n):
@@ -1377,6 +1373,14 @@ def eig6_nb(C, lam, G, fail, sep_tol):
                     e += 1
             if fail[hh]:
                 break
+
+
+@njit(cache=True, error_model="numpy")
+def eig6_nb(C, lam, G, fail, sep_tol):
+    """Allocating wrapper of :func:`_eig6_core`."""
+    _eig6_core(C, lam, G, fail, sep_tol, np.empty((7, 7)), np.empty((6, 6)), np.empty(7), np.empty(7),
+               np.empty((6, 6), np.complex128), np.empty((6, 6), np.complex128), np.empty(6, np.int64),
+               np.empty(6, np.complex128), np.empty((3, 3), np.complex128))
 
 
 @njit(cache=True)
@@ -1898,7 +1902,8 @@ def _median(a, n, buf):
     """``np.median`` of ``a[:n]`` (finite values): the middle order statistic(s)."""
     for i in range(n):
         buf[i] = a[i]
-    s = np.sort(buf[:n])
+    s = buf[:n]
+    s.sort()  # in place: no allocation
     k = n // 2
     if n % 2:
         return s[k]
@@ -1959,6 +1964,31 @@ def gnc_lirp_nb(f1, f2, w0, ms_tls, scale_kind, scale_value, c_factor, noise_bou
     tk = np.empty((1, 3))
     vout = np.empty((1, n))
     vall = np.empty((18, n))
+    # scratch of the stages, allocated once (the allocating wrappers cost ~40 allocations per iteration)
+    sQ = np.empty((3, 3, 3))
+    sP4 = np.empty((3, 3, 3, 3))
+    str3 = np.empty((3, 3))
+    sB = np.empty((9, 10))
+    sB4 = np.empty((9, 4))
+    sB6 = np.empty((9, 6))
+    sX = np.empty((4, 6))
+    sHs = np.empty((7, 7))
+    sLr = np.empty((6, 6))
+    swr = np.empty(7)
+    swi = np.empty(7)
+    sLc = np.empty((6, 6), np.complex128)
+    sAc = np.empty((6, 6), np.complex128)
+    spiv = np.empty(6, np.int64)
+    sb = np.empty(6, np.complex128)
+    sK = np.empty((3, 3), np.complex128)
+    scoef = np.empty((18, 3))
+    sM3 = np.empty((3, 3))
+    sr3 = np.empty(3)
+    sdets = np.empty(4)
+    sPr = np.empty((3, n))
+    sGr = np.empty((3, n))
+    rs = (np.empty(3), np.empty(3), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, n)),
+          np.empty((3, n)), np.empty(n), np.empty(6), np.empty(18), np.empty(18))
     v = np.empty(n)
     vf = np.empty(n)
     wn = np.empty(n)
@@ -1998,15 +2028,15 @@ def gnc_lirp_nb(f1, f2, w0, ms_tls, scale_kind, scale_value, c_factor, noise_bou
             for r in range(3):
                 for j in range(9):
                     q[0, r, j] = Vt[6 + r, j]
-            lirp_action_nb(q, mono, C, ok)
+            _action_core(q, mono, C, ok, sQ, sP4, str3, sB, sB4, sB6, sX)
             if not ok[0]:
                 status[hh] = 1
                 break
-            eig6_nb(C, lam, G, fail, 1e-6)
+            _eig6_core(C, lam, G, fail, 1e-6, sHs, sLr, swr, swi, sLc, sAc, spiv, sb, sK)
             if fail[0]:
                 status[hh] = 1
                 break
-            lirp_post_nb(q, lam, G, cand, dmin, need)
+            _post_core(q, lam, G, cand, dmin, need, scoef, sM3, sr3, sdets)
             if need[0]:
                 status[hh] = 1
                 break
@@ -2015,18 +2045,18 @@ def gnc_lirp_nb(f1, f2, w0, ms_tls, scale_kind, scale_value, c_factor, noise_bou
                     for j in range(3):
                         E[0, c, i, j] = cand[0, c, 3 * j + i]
             if not multi:
-                rank_candidates_nb(E, F1, F2, W, True, True, Rc, tc, valid, M1, cost, best, True)
+                _rank_core(E, F1, F2, W, True, True, Rc, tc, valid, M1, cost, best, True, *rs)
                 bk = best[0]
                 okb = True
             else:
                 # lirp_all_solver + the weighted objective (gnc_irls_batch's multi-candidate branch):
                 # costs sum w v of the kept candidates (NaN poses elsewhere: cost inf), first argmin
-                rank_candidates_nb(E, F1, F2, W, True, False, Rc, tc, valid, M1, cost, best, False)
+                _rank_core(E, F1, F2, W, True, False, Rc, tc, valid, M1, cost, best, False, *rs)
                 anyv = False
                 for c in range(18):
                     if valid[0, c]:
                         anyv = True
-                residual_nb(Rc[0], tc[0], F1, F2, rkind, vall)  # all 18 poses, points shared
+                _residual_core(Rc[0], tc[0], F1, F2, rkind, vall, sPr, sGr)  # all 18 poses, points shared
                 bk = 0
                 bc = np.inf
                 for c in range(18):
@@ -2044,7 +2074,7 @@ def gnc_lirp_nb(f1, f2, w0, ms_tls, scale_kind, scale_value, c_factor, noise_bou
                 for j in range(3):
                     Rk[0, i, j] = Rc[0, bk, i, j] if okb else np.nan
             # ---- residuals, bound, weights (gnc_irls_batch, step by step)
-            residual_nb(Rk, tk, F1, F2, rkind, vout)
+            _residual_core(Rk, tk, F1, F2, rkind, vout, sPr, sGr)
             for i in range(n):
                 x = vout[0, i]
                 if math.isfinite(x):
