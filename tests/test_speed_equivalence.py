@@ -477,3 +477,32 @@ def test_linear_algebra_kernels_match_lapack():
                     a, b = G[h, mm, :, e], Gw[h, mm, :, j]
                     ph = np.vdot(b, a)
                     assert np.linalg.norm(a - ph / abs(ph) * b) < 1e-10
+
+
+def test_fused_ransac_scores_are_bit_identical():
+    """The compiled residual + score of RANSAC (no ``(k, n)`` residual array) equals
+    ``ransac._score`` of the residuals bit for bit, for every scoring rule and compiled residual,
+    including a threshold given as a numpy scalar."""
+    import importlib
+
+    from poseonly import _kernels
+    from poseonly.estimator import SOLVERS
+    from poseonly.residuals import v_LiGT, v_sampson, v_sampson_chiral
+
+    if not _kernels.available():
+        pytest.skip("numba not installed")
+    RS = importlib.import_module("poseonly.robust.ransac")
+    import poseonly.baselines  # noqa: F401  (registers 5pt)
+
+    sc = make_scene(300, "normal", "pinhole", noise_px=0.5, outlier_fraction=0.5, seed=3)
+    idx = RS.sample_indices(np.random.default_rng(0), 300, 5, 60)
+    R, t = SOLVERS["5pt"][0](sc.f1[idx], sc.f2[idx], None)
+    R, t = R.reshape(-1, 3, 3), t.reshape(-1, 3)
+    ok = np.all(np.isfinite(R), axis=(1, 2))
+    R, t = R[ok], t[ok]
+    for f, kind in ((v_sampson, "sampson"), (v_LiGT, "ligt"), (v_sampson_chiral, "sampson-chiral")):
+        for scoring in ("count", "msac", "msac-multi"):
+            for thr in (2 / 800, np.float64(0.01)):
+                a = RS._score(f(R, t, sc.f1, sc.f2), thr, scoring)[0]
+                b = _kernels.ransac_score(kind, R, t, sc.f1, sc.f2, thr, scoring)
+                np.testing.assert_array_equal(a, b, err_msg=f"{kind} {scoring} {thr}")

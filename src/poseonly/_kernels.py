@@ -84,6 +84,7 @@ def _compiled():
         _impl["ligt_normal"] = _kernels_nb.ligt_normal_nb
         _impl["svd9"] = _kernels_nb.svd9_nb
         _impl["qr_r9"] = _kernels_nb.qr_r9_nb
+        _impl["score"] = _kernels_nb.score_nb
         _impl["gnc_lirp"] = _kernels_nb.gnc_lirp_nb
     return _impl
 
@@ -233,6 +234,25 @@ def residual(kind, R, t, f1, f2):
 
 
 _FIVEPT_TABLES = None
+
+
+_SCORE_MODE = {"count": 0, "msac": 1, "msac-multi": 2}
+
+
+def ransac_score(kind, R, t, f1, f2, thr: float, scoring: str):
+    """Scores ``(k,)`` of :func:`poseonly.robust.ransac._score` for the residual ``kind`` (``"sampson"``,
+    ``"ligt"``, ``"sampson-chiral"``) of poses ``R (k, 3, 3)``, ``t (k, 3)`` on shared points ``(n, 3)``,
+    without the ``(k, n)`` residual array (bit-identical)."""
+    mode = _SCORE_MODE[scoring]
+    if mode == 2:
+        thr2 = np.array([(f * thr) ** 2 for f in (1.0, 0.5, 0.25)])
+    else:
+        thr2 = np.array([thr * thr])
+    out = np.empty(len(R))
+    _compiled()["score"](np.ascontiguousarray(R, dtype=np.float64), np.ascontiguousarray(t, dtype=np.float64),
+                         np.ascontiguousarray(f1, dtype=np.float64), np.ascontiguousarray(f2, dtype=np.float64),
+                         _RESIDUAL_KIND[kind], mode, float(thr), thr2, out)
+    return out
 
 
 def fivept_real(f1, f2):

@@ -1083,31 +1083,80 @@ def _residual_core(R, t, f1, f2, kind, out, P, G):
                 for d in range(3):
                     P[d, i] = f1[j, i, d]
                     G[d, i] = f2[j, i, d]
-        tn = math.sqrt(t[c, 0] * t[c, 0] + t[c, 1] * t[c, 1] + t[c, 2] * t[c, 2])
-        if not tn > 0.0:
-            tn = 1.0
-        t0 = t[c, 0] / tn
-        t1 = t[c, 1] / tn
-        t2 = t[c, 2] / tn
-        r00, r01, r02 = R[c, 0, 0], R[c, 0, 1], R[c, 0, 2]
-        r10, r11, r12 = R[c, 1, 0], R[c, 1, 1], R[c, 1, 2]
-        r20, r21, r22 = R[c, 2, 0], R[c, 2, 1], R[c, 2, 2]
-        if kind == 0:
-            _ligt_row(P, G, r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2, out[c], n)
+        _pose_row(R, t, c, P, G, kind, out[c], n)
+
+
+@njit(cache=True, error_model="numpy")
+def _pose_row(R, t, c, P, G, kind, o, n):
+    """Residual ``kind`` of pose ``c`` of ``R, t`` on the points ``P, G (3, n)`` into ``o (n,)``."""
+    tn = math.sqrt(t[c, 0] * t[c, 0] + t[c, 1] * t[c, 1] + t[c, 2] * t[c, 2])
+    if not tn > 0.0:
+        tn = 1.0
+    t0 = t[c, 0] / tn
+    t1 = t[c, 1] / tn
+    t2 = t[c, 2] / tn
+    r00, r01, r02 = R[c, 0, 0], R[c, 0, 1], R[c, 0, 2]
+    r10, r11, r12 = R[c, 1, 0], R[c, 1, 1], R[c, 1, 2]
+    r20, r21, r22 = R[c, 2, 0], R[c, 2, 1], R[c, 2, 2]
+    if kind == 0:
+        _ligt_row(P, G, r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2, o, n)
+    else:
+        # E = [t]x R
+        e00 = t1 * r20 - t2 * r10
+        e01 = t1 * r21 - t2 * r11
+        e02 = t1 * r22 - t2 * r12
+        e10 = t2 * r00 - t0 * r20
+        e11 = t2 * r01 - t0 * r21
+        e12 = t2 * r02 - t0 * r22
+        e20 = t0 * r10 - t1 * r00
+        e21 = t0 * r11 - t1 * r01
+        e22 = t0 * r12 - t1 * r02
+        _sampson_row(P, G, e00, e01, e02, e10, e11, e12, e20, e21, e22, o, n)
+        if kind == 2:
+            _chiral_row(P, G, r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2, o, n)
+
+
+@njit(cache=True, error_model="numpy")
+def score_nb(R, t, f1, f2, kind, mode, thr, thr2, out):
+    """RANSAC scores ``out (k,)`` of the poses ``R (k, 3, 3)``, ``t (k, 3)`` on shared points ``f (n, 3)``
+    without materialising the ``(k, n)`` residuals (twin: :func:`poseonly.robust.ransac._score`, same
+    order of operations and numpy's pairwise sums, so the same bits). ``mode`` 0: inlier count below
+    ``thr``; 1: MSAC ``sum thr^2 - min(v^2, thr^2)`` (``thr2[0] = thr^2``); 2: MSAC averaged over the
+    squared thresholds ``thr2`` (``sum_k sum 1 - min(v^2, t_k^2) / t_k^2``). ``min`` propagates NaN
+    as ``np.minimum`` does."""
+    k = R.shape[0]
+    n = f1.shape[0]
+    P = np.empty((3, n))
+    G = np.empty((3, n))
+    row = np.empty(n)
+    term = np.empty(n)
+    for i in range(n):
+        for d in range(3):
+            P[d, i] = f1[i, d]
+            G[d, i] = f2[i, d]
+    for c in range(k):
+        _pose_row(R, t, c, P, G, kind, row, n)
+        if mode == 0:
+            cnt = 0
+            for i in range(n):
+                if row[i] < thr:
+                    cnt += 1
+            out[c] = float(cnt)
+        elif mode == 1:
+            t2 = thr2[0]
+            for i in range(n):
+                v2 = row[i] * row[i]
+                term[i] = t2 - (t2 if v2 > t2 else v2)
+            out[c] = _np_sum(term, n)
         else:
-            # E = [t]x R
-            e00 = t1 * r20 - t2 * r10
-            e01 = t1 * r21 - t2 * r11
-            e02 = t1 * r22 - t2 * r12
-            e10 = t2 * r00 - t0 * r20
-            e11 = t2 * r01 - t0 * r21
-            e12 = t2 * r02 - t0 * r22
-            e20 = t0 * r10 - t1 * r00
-            e21 = t0 * r11 - t1 * r01
-            e22 = t0 * r12 - t1 * r02
-            _sampson_row(P, G, e00, e01, e02, e10, e11, e12, e20, e21, e22, out[c], n)
-            if kind == 2:
-                _chiral_row(P, G, r00, r01, r02, r10, r11, r12, r20, r21, r22, t0, t1, t2, out[c], n)
+            acc = 0.0
+            for j in range(thr2.shape[0]):
+                t2 = thr2[j]
+                for i in range(n):
+                    v2 = row[i] * row[i]
+                    term[i] = 1.0 - (t2 if v2 > t2 else v2) / t2
+                acc = acc + _np_sum(term, n)
+            out[c] = acc
 
 
 @njit(cache=True, error_model="numpy")

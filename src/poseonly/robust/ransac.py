@@ -16,8 +16,9 @@ from typing import Callable
 
 import numpy as np
 
+from .. import _kernels
 from ..estimator import Estimator, lirp_estimator
-from ..residuals import v_LiGT
+from ..residuals import v_LiGT, v_sampson, v_sampson_chiral
 from .gnc import GNCOptions, gnc_irls_batch
 
 __all__ = ["RansacResult", "ransac", "gnc_ransac", "sample_indices", "adaptive_iterations"]
@@ -34,6 +35,10 @@ class RansacResult:
     num_lo: int = 0
     num_scored: int = 0
     weights: np.ndarray | None = None
+
+
+# residuals whose RANSAC score has a fused compiled kernel (_kernels.ransac_score)
+_FUSED = {v_sampson: "sampson", v_LiGT: "ligt", v_sampson_chiral: "sampson-chiral"}
 
 
 def sample_indices(rng: np.random.Generator, n: int, m: int, b: int) -> np.ndarray:
@@ -102,6 +107,7 @@ def ransac(
     at high outlier ratios; a good hypothesis is rejected with probability ``P(Bin(d, w) < d w / 2)``).
     """
     res = score_residual or estimator.residual
+    fused = _FUSED.get(res) if (_kernels.enabled() and f1.ndim == 2) else None
     n = len(f1)
     m = estimator.sample_size
     best = (-np.inf, np.eye(3), np.zeros(3))
@@ -134,13 +140,16 @@ def ransac(
             if len(R) == 0:
                 continue
         num_scored += len(R)
-        v = res(R, t, f1, f2)
-        s, _ = _score(v, threshold, scoring)
+        if fused is not None:  # compiled residual + score in one pass, no (k, n) array (same bits)
+            s = _kernels.ransac_score(fused, R, t, f1, f2, threshold, scoring)
+        else:
+            v = res(R, t, f1, f2)
+            s, _ = _score(v, threshold, scoring)
         k = int(np.argmax(s))
         if s[k] > best[0]:
             best = (float(s[k]), R[k], t[k])
             if local_optimization is not None and num_lo < max_lo:
-                inl = v[k] < threshold
+                inl = (res(R[k], t[k], f1, f2) if fused is not None else v[k]) < threshold
                 R_lo, t_lo = local_optimization(R[k], t[k], inl)
                 num_lo += 1
                 s_lo, _ = _score(res(R_lo, t_lo, f1, f2), threshold, scoring)
