@@ -18,7 +18,11 @@ Kernels (docs/speed_notes.md has the profiles that motivated each one):
   per problem become two calls;
 * :func:`svd9` -- the 9x9 SVD of LiRP's null space by one-sided Jacobi, four disjoint rotations per
   round (LAPACK's ``dgesdd`` spends ~9 us on a 9x9 matrix, Jacobi ~4 us);
-* :func:`gnc_lirp` -- the whole GNC-IRLS loop with LiRP + ``v_LiGT`` per problem (``_kernels_nb.gnc_lirp_nb``);
+* :func:`qr_r9` -- the triangular factor of LiRP's epipolar rows (Householder up to 64 rows, LAPACK's
+  ``dgeqrf`` from compiled code above);
+* :func:`gnc_lirp` -- the whole GNC-IRLS loop with LiRP (identified pose or all candidates) and
+  ``v_LiGT`` / ``v_sampson`` / ``v_sampson_chiral`` per problem (``_kernels_nb.gnc_lirp_nb``);
+* :func:`ransac_score` -- residual and MSAC score of every RANSAC hypothesis in one pass;
 * :func:`residual` -- ``v_LiGT`` and ``v_sampson`` of ``k`` poses on ``n`` points in one pass;
 * :func:`ligt_normal` -- LiGTopt's robust cost and 5x5 Gauss-Newton normal equations in one pass
   over the points (the numpy twin builds the ``(n, 3, 5)`` Jacobian with ~40 array calls);
@@ -36,7 +40,7 @@ from contextlib import contextmanager
 import numpy as np
 
 __all__ = ["available", "enabled", "use", "rank_candidates", "lirp_action", "lirp_post", "fivept_real", "residual", "ligt_normal",
-           "gnc_lirp"]
+           "gnc_lirp", "svd9", "qr_r9", "ransac_score"]
 
 _state = {"checked": False, "available": False, "enabled": os.environ.get("POSEONLY_NUMBA", "1") not in ("0", "false", "no", "off")}
 _impl: dict = {}
