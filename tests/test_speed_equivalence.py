@@ -506,3 +506,19 @@ def test_fused_ransac_scores_are_bit_identical():
                 a = RS._score(f(R, t, sc.f1, sc.f2), thr, scoring)[0]
                 b = _kernels.ransac_score(kind, R, t, sc.f1, sc.f2, thr, scoring)
                 np.testing.assert_array_equal(a, b, err_msg=f"{kind} {scoring} {thr}")
+
+
+def test_pairwise_sum_matches_numpy():
+    """The compiled loop's ``eps = sum w v`` re-implements numpy's pairwise summation (blocks of 128
+    with 8 accumulators, halves split at multiples of 8): equal to ``np.sum`` bit for bit for every
+    length up to 300 and for long rows."""
+    from poseonly import _kernels
+
+    if not _kernels.available():
+        pytest.skip("numba not installed")
+    from poseonly._kernels_nb import _np_sum
+
+    rng = np.random.default_rng(0)
+    for n in list(range(301)) + [511, 1000, 1029, 4096, 33333]:
+        a = rng.standard_normal(n) * rng.exponential(size=n) ** 3
+        assert _np_sum(a, n) == np.sum(a[None], axis=1)[0], n
