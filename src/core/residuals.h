@@ -1,0 +1,79 @@
+// Per-correspondence residuals of Section 4 of the paper (and Sampson's), for one pose and one pair
+// of unit bearings. Every residual normalises nothing: callers pass unit bearings and a unit t.
+// The numpy references live in tests/reference/residuals.py; tests compare to 1e-12.
+#pragma once
+
+#include "common.h"
+
+namespace poseonly {
+
+enum class Residual : int { Sampson = 0, SampsonChiral = 1, LiGT = 2, Coplanar = 3, PPO = 4 };
+constexpr int kNumResiduals = 5;
+
+// Gross error assigned to a point whose pose-only depths are not positive (SampsonChiral).
+constexpr double kChiralPenalty = 1.0;
+
+// A pose with the quantities every residual needs, computed once per hypothesis.
+struct PoseTerms {
+  Mat3 R;
+  Vec3 t;
+  Mat3 E;
+  explicit PoseTerms(const Pose& p) : R(p.R), t(p.t), E(skew(p.t) * p.R) {}
+};
+
+// Sampson distance on the unit sphere: |f2^T E f1| / sqrt(|P_f2 E f1|^2 + |P_f1 E^T f2|^2),
+// P_f = I - f f^T (tangent projections); radians, the quantity PoseLib and COLMAP threshold.
+inline double sampson(const Mat3& E, const Vec3& f1, const Vec3& f2) {
+  const Vec3 Ef1 = E * f1;
+  const Vec3 Etf2 = E.transpose() * f2;
+  const double num = f2.dot(Ef1);
+  const double den = Ef1.squaredNorm() + Etf2.squaredNorm() - 2.0 * num * num;
+  return std::abs(num) / std::sqrt(std::max(den, kTiny));
+}
+
+// Pose-only depth numerators h^T t = (R f1 x f2).(f2 x t) and h'^T t = (R f1 x f2).(R f1 x t)
+// (the equation after Eq. 7): both positive iff the point is in front of both cameras.
+inline void depth_numerators(const Mat3& R, const Vec3& t, const Vec3& f1, const Vec3& f2, double* h, double* hp) {
+  const Vec3 a = R * f1;
+  const Vec3 c = a.cross(f2);
+  *h = c.dot(f2.cross(t));
+  *hp = c.dot(a.cross(t));
+}
+
+inline double sampson_chiral(const PoseTerms& p, const Vec3& f1, const Vec3& f2) {
+  double h, hp;
+  depth_numerators(p.R, p.t, f1, f2, &h, &hp);
+  return (h > 0.0 && hp > 0.0) ? sampson(p.E, f1, f2) : kChiralPenalty;
+}
+
+// LiGT residual ||L_i t|| (Eq. 8) = |c| |c . t| with c = f2 x R f1 (Lagrange identity).
+inline double ligt(const PoseTerms& p, const Vec3& f1, const Vec3& f2) {
+  const Vec3 c = f2.cross(p.R * f1);
+  return c.norm() * std::abs(c.dot(p.t));
+}
+
+// Coplanar residual |f2^T [t]x R f1| (Eq. 4).
+inline double coplanar(const PoseTerms& p, const Vec3& f1, const Vec3& f2) { return std::abs(f2.dot(p.E * f1)); }
+
+// Pairwise pose-only residual ||normalize(eps) - f2||, eps = |t x f2| R f1 + |f2 x R f1| t (Eq. 7);
+// 1 where eps = 0.
+inline double ppo(const PoseTerms& p, const Vec3& f1, const Vec3& f2) {
+  const Vec3 a = p.R * f1;
+  const Vec3 eps = p.t.cross(f2).norm() * a + f2.cross(a).norm() * p.t;
+  const double ne = eps.norm();
+  if (!(ne > 0.0)) return 1.0;
+  return (eps / ne - f2).norm();
+}
+
+inline double residual(Residual kind, const PoseTerms& p, const Vec3& f1, const Vec3& f2) {
+  switch (kind) {
+    case Residual::Sampson: return sampson(p.E, f1, f2);
+    case Residual::SampsonChiral: return sampson_chiral(p, f1, f2);
+    case Residual::LiGT: return ligt(p, f1, f2);
+    case Residual::Coplanar: return coplanar(p, f1, f2);
+    case Residual::PPO: return ppo(p, f1, f2);
+  }
+  return kInf;
+}
+
+}  // namespace poseonly
