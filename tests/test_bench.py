@@ -16,5 +16,5 @@ def test_bench_robust_quick(tmp_path):
 
 
 def test_bench_speed_quick(tmp_path):
-    assert main(["bench", "speed", "--quick", "--no-numpy-path", "--out", str(tmp_path)]) == 0
+    assert main(["bench", "speed", "--quick", "--no-fresh", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "speed.md").exists() and (tmp_path / "speed.json").exists()

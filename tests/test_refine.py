@@ -297,29 +297,6 @@ def test_ligt_lm_solver_exact_and_matches_scipy(norm):
             assert rotation_error_deg(a.R, b.R) < 1e-3 and b.cost_final <= b.cost_initial
 
 
-def test_ligt_normal_equations_kernel_matches_numpy():
-    from poseonly import _kernels
-    from poseonly.refine._manifold import PoseChart
-    from poseonly.refine.ligt import _normal_equations, _normal_equations_numpy
-
-    if not _kernels.available():
-        pytest.skip("numba not installed")
-    sc = make_scene(80, "normal", "wide", noise_px=1.0, outlier_fraction=0.2, seed=7)
-    rng = np.random.default_rng(7)
-    chart = PoseChart(sc.R, sc.t + 0.05 * rng.standard_normal(3))
-    x, sw = 0.02 * rng.standard_normal(5), rng.random(80)
-    for norm in NORMALIZATIONS:
-        for loss in ("linear", "soft_l1", "huber", "cauchy", "arctan"):
-            a = _normal_equations_numpy(chart, x, sc.f1, sc.f2, sw, norm, loss, 0.003, True)
-            with _kernels.use(True):
-                b = _normal_equations(chart, x, sc.f1, sc.f2, sw, norm, loss, 0.003, True)
-                c = _normal_equations(chart, x, sc.f1, sc.f2, sw, norm, loss, 0.003, False)
-            np.testing.assert_allclose(b[0], a[0], rtol=1e-11)
-            np.testing.assert_allclose(c[0], a[0], rtol=1e-11)
-            np.testing.assert_allclose(b[1], a[1], rtol=1e-10, atol=1e-14 * np.abs(a[1]).max())
-            np.testing.assert_allclose(b[2], a[2], rtol=1e-10, atol=1e-14 * np.abs(a[2]).max())
-
-
 def test_ligt_refine_unknown_solver():
     sc = make_scene(30, "normal", "wide", noise_px=0.0, seed=1)
     with pytest.raises(ValueError, match="solver"):

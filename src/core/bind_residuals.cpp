@@ -36,6 +36,6 @@ POSEONLY_BIND(residuals) {
   using namespace poseonly;
   m.def("residual_matrix", &residual_matrix, nb::arg("kind"), nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
         "Residuals (k, n) of k poses R (k,3,3), unit t (k,3) on bearings f1, f2 (n,3); kind: 0 sampson, "
-        "1 sampson-chiral, 2 ligt, 3 coplanar, 4 ppo.");
-  m.attr("RESIDUAL_KINDS") = nb::make_tuple("sampson", "sampson-chiral", "ligt", "coplanar", "ppo");
+        "1 sampson-chiral, 2 ligt, 3 coplanar, 4 ppo, 5 ba, 6 opengv, 7 opengv-symmetric (the order of RESIDUAL_KINDS).");
+  m.attr("RESIDUAL_KINDS") = nb::make_tuple("sampson", "sampson-chiral", "ligt", "coplanar", "ppo", "ba", "opengv", "opengv-symmetric");
 }

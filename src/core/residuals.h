@@ -7,8 +7,13 @@
 
 namespace poseonly {
 
-enum class Residual : int { Sampson = 0, SampsonChiral = 1, LiGT = 2, Coplanar = 3, PPO = 4 };
-constexpr int kNumResiduals = 5;
+enum class Residual : int { Sampson = 0, SampsonChiral = 1, LiGT = 2, Coplanar = 3, PPO = 4, BA = 5, OpenGV = 6, OpenGVSymmetric = 7 };
+constexpr int kNumResiduals = 8;
+
+// Residual of a point reconstructed behind camera 2 (BA): a gross error.
+constexpr double kBehindPenalty = 2.0;
+// Rays closer to parallel than this (1 - (R f1 . f2)^2) get zero midpoint depths.
+constexpr double kParallelRays = 1e-14;
 
 // Gross error assigned to a point whose pose-only depths are not positive (SampsonChiral).
 constexpr double kChiralPenalty = 1.0;
@@ -65,6 +70,41 @@ inline double ppo(const PoseTerms& p, const Vec3& f1, const Vec3& f2) {
   return (eps / ne - f2).norm();
 }
 
+// Midpoint triangulation: depths z1, z2 minimising |z1 R f1 + t - z2 f2| and the midpoint P2 in
+// camera 2's frame (geometry.triangulate_midpoint); parallel rays get zero depths.
+inline Vec3 midpoint2(const PoseTerms& p, const Vec3& f1, const Vec3& f2) {
+  const Vec3 a = p.R * f1;
+  const double ab = a.dot(f2), at = a.dot(p.t), bt = f2.dot(p.t);
+  const double den = 1.0 - ab * ab;
+  const bool ok = den > kParallelRays;
+  const double z1 = ok ? (ab * bt - at) / den : 0.0;
+  const double z2 = ok ? (bt - ab * at) / den : 0.0;
+  return 0.5 * (z1 * a + p.t + z2 * f2);
+}
+
+// Reprojection residual after midpoint triangulation (v^BA, Section 4), on the tangent plane at f2:
+// |eps / (f2 . eps) - f2| with eps = R X1 + t; kBehindPenalty where f2 . eps <= 0.
+inline double ba(const PoseTerms& p, const Vec3& f1, const Vec3& f2) {
+  const Vec3 eps = midpoint2(p, f1, f2);  // R X1 + t with X1 = R^T (P2 - t)
+  const double d = eps.dot(f2);
+  if (!(d > 1e-12)) return kBehindPenalty;
+  return (eps / d - f2).norm();
+}
+
+// OpenGV residual 1 - normalize(eps) . f2 with eps = R X1 + t of the midpoint; `symmetric` adds
+// view 1's term (OpenGV's SAC score).
+inline double opengv(const PoseTerms& p, const Vec3& f1, const Vec3& f2, bool symmetric) {
+  const Vec3 P2 = midpoint2(p, f1, f2);
+  const double n2 = P2.norm();
+  double r = 1.0 - (n2 > 0.0 ? P2.dot(f2) / n2 : 0.0);
+  if (symmetric) {
+    const Vec3 X1 = p.R.transpose() * (P2 - p.t);
+    const double n1 = X1.norm();
+    r += 1.0 - (n1 > 0.0 ? X1.dot(f1) / n1 : 0.0);
+  }
+  return r;
+}
+
 inline double residual(Residual kind, const PoseTerms& p, const Vec3& f1, const Vec3& f2) {
   switch (kind) {
     case Residual::Sampson: return sampson(p.E, f1, f2);
@@ -72,6 +112,9 @@ inline double residual(Residual kind, const PoseTerms& p, const Vec3& f1, const 
     case Residual::LiGT: return ligt(p, f1, f2);
     case Residual::Coplanar: return coplanar(p, f1, f2);
     case Residual::PPO: return ppo(p, f1, f2);
+    case Residual::BA: return ba(p, f1, f2);
+    case Residual::OpenGV: return opengv(p, f1, f2, false);
+    case Residual::OpenGVSymmetric: return opengv(p, f1, f2, true);
   }
   return kInf;
 }

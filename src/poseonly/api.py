@@ -44,13 +44,15 @@ from typing import Any
 
 import numpy as np
 
-from .estimator import get_estimator, lirp_estimator
+from . import _core
+from .estimator import lirp_estimator
+from .residuals import get_residual
 from .identify import identify_poses
 from .geometry import InputError, as_bearings, check_intrinsics, essential_from_pose, rotation_error_deg
 from .residuals import v_sampson, v_sampson_chiral
 from .robust.gnc import GNCOptions, gnc_irls_batch
+from .robust.ransac import core_seed, ransac_relpose
 from .robust.ransac import gnc_ransac as _gnc_ransac
-from .robust.ransac import ransac
 from .solvers.lirp import lirp_batch
 from .twin import homography_twin
 
@@ -217,9 +219,6 @@ def _blas_single_thread():
         _CONTROLLER = ThreadpoolController()
     return _CONTROLLER.limit(limits=1, user_api="blas")
 
-
-def _rng(seed) -> np.random.Generator:
-    return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(int(seed))
 
 
 def _focal(K1, K2, focal_px):
@@ -440,28 +439,21 @@ def _noise_threshold(R, t, f1, f2, tau, o) -> float:
 
 
 def _run_poseonly(f1, f2, o, tau):
-    rng = _rng(o["seed"])
-    est = get_estimator(o["solver"], "sampson")
-    lirp_all = get_estimator("lirp-all", o["lo_residual"])
+    if o["solver"] not in ("5pt", "lirp"):
+        raise InputError(f"option 'solver' must be '5pt' or 'lirp', got {o['solver']!r}")
+    lo_res = get_residual(o["lo_residual"])
+    seed = core_seed(o["seed"])
 
-    def make_lo(thr):
-        gopts = GNCOptions(noise_bound=thr, max_iterations=o["lo_iterations"], mu0=o["lo_mu0"])
+    def lo(R, t, thr):
+        # the core's LO step: warm-started TLS IRLS on all-candidate LiRP from the cheirality-consistent
+        # inliers at thr, on the points within 4 thresholds
+        Rl, tl, ok = _core.relpose_lo(R, t, f1, f2, thr, float(o["lo_mu0"]), int(o["lo_iterations"]), lo_res.code)
+        return (Rl, tl) if ok else (R, t)
 
-        def lo(R, t, inl):
-            # warm-started TLS IRLS on the points within 4 thresholds of the model (the rest would
-            # get weight 0 at once), from the model's inliers
-            cand = np.nonzero(v_sampson(R, t, f1, f2) < 4.0 * thr)[0]
-            if inl.sum() < 6 or len(cand) < 6:
-                return R, t
-            g = gnc_irls_batch(f1[cand][None], f2[cand][None], lirp_all, gopts, w0=inl[cand][None].astype(float))
-            return g.R[0], g.t[0]
-
-        return lo
-
-    r = ransac(
-        f1, f2, est, tau, rng, max_iterations=o["max_iterations"], min_iterations=o["min_iterations"],
-        confidence=o["confidence"], batch=o["batch"], scoring=o["scoring"], local_optimization=make_lo(tau),
-        max_lo=o["max_lo"], preemptive=o["preemptive"],
+    r = ransac_relpose(
+        f1, f2, tau, seed, solver=o["solver"], scoring=o["scoring"], max_iterations=o["max_iterations"],
+        min_iterations=o["min_iterations"], confidence=o["confidence"], max_lo=o["max_lo"], lo_mu0=o["lo_mu0"],
+        lo_iterations=o["lo_iterations"], lo_residual=lo_res,
     )
     # final stage: the pose-only choice among the RANSAC model (re-identified on its inliers), its
     # homography twin and the LiRP candidates of its consensus set, by cheirality-consistent
@@ -470,8 +462,7 @@ def _run_poseonly(f1, f2, o, tau):
     # each kept only if the cheirality-aware MSAC score does not drop
     R, t = _select_by_support(r.R, r.t, f1, f2, tau)
     thr = _noise_threshold(R, t, f1, f2, tau, o)
-    lo = make_lo(thr)
-    R, t = _keep_better((R, t), lo(R, t, _support(R[None], t[None], f1, f2, thr)[0]), f1, f2, thr)
+    R, t = _keep_better((R, t), lo(R, t, thr), f1, f2, thr)
     if o["refine"]:
         ref = _refine(R, t, f1, f2, _support(R[None], t[None], f1, f2, thr)[0], thr, normalization="angular")
         R, t = _keep_better((R, t), ref, f1, f2, thr, tol=0.98)
@@ -480,12 +471,11 @@ def _run_poseonly(f1, f2, o, tau):
 
 
 def _run_gnc_ransac(f1, f2, o, tau):
-    rng = _rng(o["seed"])
     if o["sample_size"] > len(f1):
         raise InputError(f"sample_size n_s = {o['sample_size']} is larger than the number of points {len(f1)}")
     est = lirp_estimator(o["residual"])
     gopts = GNCOptions(schedule=o["schedule"], scale=o["scale"])
-    r = _gnc_ransac(f1, f2, tau, rng, estimator=est, sample_size=o["sample_size"], max_iterations=o["max_iterations"],
+    r = _gnc_ransac(f1, f2, tau, core_seed(o["seed"]), estimator=est, sample_size=o["sample_size"], max_iterations=o["max_iterations"],
                     gnc_options=gopts, adaptive=o["adaptive"], confidence=o["confidence"])
     R, t = r.R, r.t
     if o["refine"]:
@@ -607,6 +597,6 @@ def gnc_ransac(f1: np.ndarray, f2: np.ndarray, *, theta: float, seed: int | np.r
         raise InputError(f"theta must be > 0, got {theta}")
     if sample_size > len(f1):
         raise InputError(f"sample_size n_s = {sample_size} is larger than the number of points {len(f1)}")
-    return _gnc_ransac(f1, f2, theta, _rng(seed), estimator=lirp_estimator(residual), sample_size=sample_size,
+    return _gnc_ransac(f1, f2, theta, core_seed(seed), estimator=lirp_estimator(residual), sample_size=sample_size,
                        max_iterations=max_iterations, gnc_options=GNCOptions(schedule=schedule, scale=scale),
                        adaptive=adaptive)

@@ -1,82 +1,83 @@
-"""The small protocol the robust loops need (in the spirit of PoseLib and COLMAP estimators).
+"""The estimator contract of the robust loops, and the typed candidates every solver returns.
 
-An :class:`Estimator` binds
+The loops themselves are C++ templates (``src/core/ransac.h``: ``ransac<Estimator, Scorer,
+Sampler>``, in the spirit of PoseLib's ``ransac<>`` and COLMAP's ``LORANSAC<Estimator,
+SupportMeasurer, Sampler>``): an estimator provides ``sample_size``, ``generate`` (the solver),
+``terms``/``residual`` (one row of the residual table), ``refine`` (the local optimisation step) and
+``success_probability`` (the adaptive stopping rule); a scorer (MSAC, multi-scale MSAC, inlier
+count) measures support with an exact early bail-out; a sampler is uniform or PROSAC. The estimators
+compiled in are the default method's (5-point or 6-point LiRP hypotheses, LO by weighted LiRP), the
+paper's GNC-RANSAC (GNC-IRLS fits of 30-point samples) and a 2-D line estimator that the tests run
+through the same loop.
 
-* a **solver** ``solve(f1 (h, m, 3), f2 (h, m, 3), w (h, m) | None) -> (R (h, k, 3, 3), t (h, k, 3))``
-  returning ``k`` identified candidate poses for each of ``h`` stacked problems (LiRP returns its
-  best candidate, ``k = 1``; a minimal solver returns all its roots);
-* a **residual** ``(R (..., 3, 3), t (..., 3), f1, f2) -> (..., n)`` from :mod:`poseonly.residuals`;
-* the solver's ``sample_size`` (minimal number of points).
-
-RANSAC, GNC-IRLS and GNC-RANSAC in :mod:`poseonly.robust` only talk to this interface, so a new
-solver or residual plugs in without touching them.
+This module is the Python face: :class:`Estimator` names the solver and the residual a loop binds,
+and :class:`Candidates` is the one shape every solver's output takes.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
 from .residuals import Residual, get_residual
-from .solvers.lirp import lirp_batch
 
-__all__ = ["Estimator", "Solver", "lirp_solver", "lirp_all_solver", "lirp_estimator", "get_estimator", "register_solver", "SOLVERS"]
+__all__ = ["Candidates", "Estimator", "SOLVERS", "lirp_estimator", "get_estimator"]
 
-Solver = Callable[[np.ndarray, np.ndarray, "np.ndarray | None"], tuple[np.ndarray, np.ndarray]]
-
-
-def lirp_solver(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Weighted LiRP (Alg. 1) as a batched solver: one identified pose per problem."""
-    o = lirp_batch(f1, f2, w)
-    return o["R"][:, None], o["t"][:, None]
+# solver name -> minimal sample size; these are the solvers compiled into the core's loops
+SOLVERS: dict[str, int] = {"lirp": 6, "lirp-all": 6, "5pt": 5}
 
 
-def lirp_all_solver(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Weighted LiRP returning all 18 identified candidates (NaN where the pose-only depth
-    conditions fail), so a robust loop can choose the one minimising its own objective."""
-    o = lirp_batch(f1, f2, w)
-    ok = o["cand_valid"]
-    none = ~np.any(ok, axis=1)
-    ok = ok | none[:, None]  # no valid candidate: keep all rather than none
-    return np.where(ok[..., None, None], o["cand_R"], np.nan), np.where(ok[..., None], o["cand_t"], np.nan)
+@dataclass(frozen=True)
+class Candidates:
+    """Identified candidate poses of ``h`` stacked problems: ``R (h, k, 3, 3)``, unit ``t (h, k, 3)``
+    and ``valid (h, k)`` (the slot holds a pose that passed the solver's checks: a real root, positive
+    pose-only depths). Invalid slots hold NaN poses."""
+
+    R: np.ndarray
+    t: np.ndarray
+    valid: np.ndarray
+
+    def __post_init__(self) -> None:
+        if self.R.shape[:-2] != self.valid.shape or self.t.shape[:-1] != self.valid.shape:
+            raise ValueError(f"inconsistent candidate shapes R {self.R.shape}, t {self.t.shape}, valid {self.valid.shape}")
+
+    @property
+    def num_problems(self) -> int:
+        return int(self.valid.shape[0])
 
 
 @dataclass(frozen=True)
 class Estimator:
-    """Solver + residual + minimal sample size (see the module docstring)."""
+    """A solver of the core (``lirp``: LiRP's identified pose; ``lirp-all``: the LiRP candidate that
+    minimises the loop's weighted residual; ``5pt``: five-point hypotheses) bound to a residual."""
 
-    name: str
-    solve: Solver
-    sample_size: int
+    solver: str
     residual: Residual
 
-    def with_residual(self, residual: str | Residual) -> "Estimator":
-        return Estimator(self.name, self.solve, self.sample_size, get_residual(residual))
+    def __post_init__(self) -> None:
+        if self.solver not in SOLVERS:
+            raise ValueError(f"unknown solver {self.solver!r}; choose one of {sorted(SOLVERS)}")
 
+    @property
+    def name(self) -> str:
+        return self.solver
 
-SOLVERS: dict[str, tuple[Solver, int]] = {"lirp": (lirp_solver, 6), "lirp-all": (lirp_all_solver, 6)}
+    @property
+    def sample_size(self) -> int:
+        return SOLVERS[self.solver]
 
-
-def register_solver(name: str, solver: Solver, sample_size: int) -> None:
-    """Make a batched solver available to :func:`get_estimator` by name."""
-    SOLVERS[name] = (solver, sample_size)
+    def with_residual(self, residual: str | Residual) -> Estimator:
+        return Estimator(self.solver, get_residual(residual))
 
 
 def lirp_estimator(residual: str | Residual = "ligt") -> Estimator:
     """LiRP with the LiGT residual: the paper's estimator."""
-    return Estimator("lirp", lirp_solver, 6, get_residual(residual))
+    return Estimator("lirp", get_residual(residual))
 
 
 def get_estimator(solver: str = "lirp", residual: str | Residual = "ligt") -> Estimator:
-    """Estimator by solver name (``lirp`` and any registered solver, e.g. ``5pt``)."""
-    if solver not in SOLVERS:
-        try:  # baseline solvers register themselves on import
-            from . import baselines  # noqa: F401
-        except ImportError:
-            pass
-    if solver not in SOLVERS:
+    """Estimator by solver name (:data:`SOLVERS`) and residual name."""
+    if not isinstance(solver, str) or solver not in SOLVERS:
         raise ValueError(f"unknown solver {solver!r}; choose one of {sorted(SOLVERS)}")
-    fn, m = SOLVERS[solver]
-    return Estimator(solver, fn, m, get_residual(residual))
+    return Estimator(solver, get_residual(residual))

@@ -10,7 +10,7 @@ OpenGV's ``test/test_relative_pose_sac.cpp`` and ``matlab/opengv.cpp``:
   the 40 poses with the smallest summed residual over all 8 sample points is the model (OpenGV's
   "5 + 3" scheme);
 * the residual is OpenGV's ``getSelectedDistancesToModel``: midpoint triangulation, then
-  ``(1 - f1 . r1) + (1 - f2 . r2)`` (:func:`poseonly.residuals.v_OpenGV` with ``symmetric=True``);
+  ``(1 - f1 . r1) + (1 - f2 . r2)`` (the ``opengv-symmetric`` residual of :mod:`poseonly.residuals`);
 * inliers: residual ``< threshold`` with the test-file threshold
   ``2 (1 - cos(atan(sqrt(2) * 0.5 / 800)))`` (0.5 sqrt(2) px at f = 800, both views);
 * inlier-count scoring; adaptive stop ``k = log(1 - p) / log(1 - w^8)`` with ``p = 0.99`` after every
@@ -38,7 +38,9 @@ from typing import Callable
 import numpy as np
 
 from ..geometry import four_poses
-from ..residuals import v_OpenGV
+from ..residuals import RESIDUALS
+
+v_OpenGV_symmetric = RESIDUALS["opengv-symmetric"]
 from ..robust.ransac import sample_indices
 from ..solvers.fivept import fivept_batch
 from ._common import code_version  # noqa: F401  (re-exported: older imports)
@@ -99,7 +101,7 @@ def _models(f1: np.ndarray, f2: np.ndarray, idx: np.ndarray) -> tuple[np.ndarray
     b = len(idx)
     R = R.reshape(b, 40, 3, 3)
     t = t.reshape(b, 40, 3)
-    q = v_OpenGV(R, t, s1[:, None], s2[:, None], symmetric=True).sum(axis=-1)  # (b, 40)
+    q = v_OpenGV_symmetric(R, t, s1[:, None], s2[:, None]).sum(axis=-1)  # (b, 40)
     q = np.where(np.isfinite(q), q, np.inf)
     k = np.argmin(q, axis=1)
     rows = np.arange(b)
@@ -145,7 +147,7 @@ def opengv_ransac_5pt(
         R, t, ok = _models(f1, f2, idx)
         counts = np.full(b, -1)
         if np.any(ok):
-            v = v_OpenGV(R[ok], t[ok], f1, f2, symmetric=True)  # (b_ok, n)
+            v = v_OpenGV_symmetric(R[ok], t[ok], f1, f2)  # (b_ok, n)
             counts[ok] = np.count_nonzero(v < threshold, axis=1)
         for j in range(b):  # replay OpenGV's sequential loop over the solved chunk
             if not it < k:
@@ -169,7 +171,7 @@ def opengv_ransac_5pt(
                 break
         if it >= k:
             done = True
-    v = v_OpenGV(best_R, best_t, f1, f2, symmetric=True)
+    v = v_OpenGV_symmetric(best_R, best_t, f1, f2)
     inl = v < threshold
     t_unit = best_t / max(np.linalg.norm(best_t), 1e-300)
     return OpenGVRansacResult(R=best_R, t=t_unit, inliers=inl, num_inliers=int(inl.sum()), num_iterations=it, residuals=v,
@@ -201,6 +203,6 @@ def opengv_ransac_nonlinear(
         if np.all(np.isfinite(o.R)) and np.all(np.isfinite(o.t)):
             r.R, r.t = o.R, o.t
             r.info["refined"] = True
-            r.residuals = v_OpenGV(r.R, r.t, f1, f2, symmetric=True)
+            r.residuals = v_OpenGV_symmetric(r.R, r.t, f1, f2)
             # inliers stay those RANSAC selected (the refinement does not re-select)
     return r

@@ -42,7 +42,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
-from .. import _kernels
 from ..geometry import check_correspondences, cross, normalize
 from ._common import LOSSES, RefineResult, check_pose, fix_translation_sign, grouped_loss
 from ._manifold import PoseChart
@@ -169,13 +168,6 @@ def _normal_equations_numpy(chart, x, f1, f2, sw, norm, loss, scale, want):
 
 
 def _normal_equations(chart, x, f1, f2, sw, norm, loss, scale, want=True):
-    """:func:`_normal_equations_numpy`, by the compiled kernel when numba is present."""
-    if _kernels.enabled():
-        if want:
-            R, t, Jl, Jt = chart.jacobians(x)
-        else:
-            (R, t), Jl, Jt = chart.retract(x), np.eye(3), np.zeros((3, 2))
-        return _kernels.ligt_normal(R, t, Jl, Jt, f1, f2, sw, _NORM_CODE[norm], _LOSS_CODE[loss], scale, want)
     return _normal_equations_numpy(chart, x, f1, f2, sw, norm, loss, scale, want)
 
 

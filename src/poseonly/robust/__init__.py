@@ -1,16 +1,14 @@
-"""Robust loops, generic over :class:`poseonly.estimator.Estimator`."""
+"""Robust loops of the compiled core (``src/core/ransac.h``, ``gnc.cpp``) and their option/result types."""
 
-from .gnc import GNCBatchResult, GNCOptions, gnc_irls_batch, tls_weights
-from .ransac import RansacResult, adaptive_iterations, gnc_ransac, ransac, sample_indices
+from .gnc import GNCBatchResult, GNCOptions, gnc_irls_batch
+from .ransac import RansacResult, gnc_ransac, ransac_relpose, sample_indices
 
 __all__ = [
     "GNCOptions",
     "GNCBatchResult",
     "gnc_irls_batch",
-    "tls_weights",
     "RansacResult",
-    "ransac",
+    "ransac_relpose",
     "gnc_ransac",
     "sample_indices",
-    "adaptive_iterations",
 ]

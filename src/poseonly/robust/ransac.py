@@ -1,31 +1,43 @@
-"""RANSAC loops generic over :class:`poseonly.estimator.Estimator`.
+"""RANSAC-family loops of the core, bound to their estimators.
 
-* :func:`ransac` -- hypothesise-and-verify with batched hypotheses: ``batch`` samples are drawn at
-  once, solved as stacked arrays, and every candidate is scored against every point in one residual
-  call. Inlier-count or MSAC (truncated quadratic) scoring, adaptive stopping
-  ``N = log(1 - p) / log(1 - w^m)``, optional local optimisation (LO) on each new best model.
-* :func:`gnc_ransac` -- the paper's Algorithm 3: samples of ``n_s = 30`` fitted by GNC-IRLS
-  (Alg. 2) in lockstep, scored by inlier count of ``v_LiGT < theta`` on all points, best inlier set
-  refit by GNC-IRLS.
+* :func:`ransac_relpose` -- LO-RANSAC of minimal relative-pose hypotheses (5-point, or LiRP on 6
+  points) scored by (multi-scale) MSAC on the Sampson error, with the exact early bail-out of the
+  support measurer, adaptive stopping ``N = log(1 - p) / log(1 - w^m)``, local optimisation of each
+  new best model by warm-started TLS IRLS on all-candidate LiRP, and PROSAC sampling when a match
+  quality order is given (``scores``).
+* :func:`gnc_ransac` -- the paper's Algorithm 3: samples of ``n_s = 30`` fitted by GNC-IRLS (Alg. 2),
+  scored by the inlier count of the estimator's residual (``v_LiGT`` in the paper) on all points, the
+  best inlier set refit by GNC-IRLS.
+
+Both are the one generic loop of ``src/core/ransac.h`` with different estimators and scorers.
+Seeds: an ``int`` is used as the core's 64-bit seed; a ``numpy.random.Generator`` gives one draw.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from .. import _kernels
+from .. import _core
 from ..estimator import Estimator, lirp_estimator
-from ..residuals import v_LiGT, v_sampson, v_sampson_chiral
-from .gnc import GNCOptions, gnc_irls_batch
+from ..residuals import Residual, get_residual
+from .gnc import GNCOptions
 
-__all__ = ["RansacResult", "ransac", "gnc_ransac", "sample_indices", "adaptive_iterations"]
+__all__ = ["RansacResult", "ransac_relpose", "gnc_ransac", "sample_indices", "core_seed", "SCORINGS", "prosac_order"]
+
+SCORINGS = {"msac": 0, "msac-multi": 1, "count": 2}
+_MINIMAL = {"5pt": 0, "lirp": 1}
+_SEED_MASK = (1 << 64) - 1
 
 
 @dataclass
 class RansacResult:
+    """``R (3, 3)``, unit ``t (3,)``, ``inliers (n,)`` and ``residuals (n,)`` against the returned
+    model, the loop's ``score`` (its cost: lower is better; GNC-RANSAC: the best sample's inlier
+    count), iteration counts and, for GNC-RANSAC, the final GNC ``weights (n,)``."""
+
     R: np.ndarray
     t: np.ndarray
     inliers: np.ndarray
@@ -35,139 +47,76 @@ class RansacResult:
     num_lo: int = 0
     num_scored: int = 0
     weights: np.ndarray | None = None
+    stats: dict[str, Any] = field(default_factory=dict)
 
 
-# residuals whose RANSAC score has a fused compiled kernel (_kernels.ransac_score)
-_FUSED = {v_sampson: "sampson", v_LiGT: "ligt", v_sampson_chiral: "sampson-chiral"}
+def core_seed(seed: int | np.integer | np.random.Generator) -> int:
+    """The core's 64-bit seed: a non-negative ``int`` as is, one draw of a ``Generator``."""
+    if isinstance(seed, np.random.Generator):
+        return int(seed.integers(0, 2**63))
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer or a numpy.random.Generator, got {seed!r}")
+    return int(seed) & _SEED_MASK
+
+
+def prosac_order(scores: np.ndarray) -> np.ndarray:
+    """Match indices by decreasing quality (stable: ties keep their input order): PROSAC's order."""
+    return np.argsort(-np.asarray(scores, dtype=float), kind="stable").astype(np.int64)
 
 
 def sample_indices(rng: np.random.Generator, n: int, m: int, b: int) -> np.ndarray:
-    """``b`` samples of ``m`` distinct indices from ``range(n)``: ``(b, m)``.
-
-    Vectorized: the ``m`` smallest of ``n`` uniform keys per row (``O(b n)``, no rejection loop).
-    """
+    """``b`` samples of ``m`` distinct indices from ``range(n)``: ``(b, m)`` (numpy loops of the
+    experiments; the core's loops draw their own). The ``m`` smallest of ``n`` uniform keys per row."""
     if m >= n:
         return np.tile(np.arange(n), (b, 1))
     return np.argpartition(rng.random((b, n)), m - 1, axis=1)[:, :m]
 
 
-def adaptive_iterations(inlier_ratio: float, m: int, confidence: float) -> float:
-    """Number of samples needed to draw one all-inlier sample of size ``m`` with ``confidence``."""
-    if inlier_ratio <= 0:
-        return np.inf
-    p = inlier_ratio**m
-    if p >= 1:
-        return 1.0
-    return np.log(1.0 - confidence) / np.log1p(-p)
+def _c(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=float)
 
 
-def _score(v: np.ndarray, thr: float, scoring: str) -> tuple[np.ndarray, np.ndarray]:
-    inl = v < thr
-    if scoring == "count":
-        return inl.sum(axis=-1).astype(float), inl
-    if scoring == "msac-multi":
-        # MSAC averaged over the thresholds thr, thr/2, thr/4 (a coarse marginalisation over the noise
-        # scale in the spirit of MAGSAC): a model whose inliers fit tightly beats one that collects
-        # more points near the threshold
-        v2 = v * v
-        s = np.zeros(v.shape[:-1])
-        for k in (1.0, 0.5, 0.25):
-            tk2 = (k * thr) ** 2
-            s = s + np.sum(1.0 - np.minimum(v2, tk2) / tk2, axis=-1)
-        return s, inl
-    # MSAC: maximise sum(thr^2 - min(v^2, thr^2)) (higher is better)
-    return np.sum(thr * thr - np.minimum(v * v, thr * thr), axis=-1), inl
-
-
-def ransac(
+def ransac_relpose(
     f1: np.ndarray,
     f2: np.ndarray,
-    estimator: Estimator,
     threshold: float,
-    rng: np.random.Generator,
+    seed: int | np.random.Generator = 0,
     *,
-    max_iterations: int = 10000,
-    min_iterations: int = 0,
+    solver: str = "5pt",
+    scoring: str = "msac-multi",
+    max_iterations: int = 100000,
+    min_iterations: int = 50,
     confidence: float = 0.999,
-    adaptive: bool = True,
-    batch: int = 64,
-    scoring: str = "msac",
-    score_residual: Callable | None = None,
-    local_optimization: Callable | None = None,
-    max_lo: int = 10,
-    preemptive: int = 0,
+    max_lo: int = 8,
+    lo_mu0: float = 1e3,
+    lo_iterations: int = 10,
+    lo_residual: str | Residual = "sampson-chiral",
+    scores: np.ndarray | None = None,
 ) -> RansacResult:
-    """Generic batched RANSAC / MSAC with optional LO (see the module docstring).
+    """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
-    ``score_residual`` (default ``estimator.residual``) and ``threshold`` define inliers.
-    ``local_optimization(R, t, inliers) -> (R, t)`` is called on every new best model (at most
-    ``max_lo`` times); its result replaces the best model when it scores at least as well.
-    ``preemptive > 0`` first scores each hypothesis on that many random points and fully scores only
-    those reaching half the inlier count the current best model implies (saves most of the scoring
-    at high outlier ratios; a good hypothesis is rejected with probability ``P(Bin(d, w) < d w / 2)``).
+    ``scores (n,)`` (higher is better) switch to PROSAC sampling in that order. Returns a
+    :class:`RansacResult` whose inliers are the Sampson inliers of the returned model.
     """
-    res = score_residual or estimator.residual
-    fused = _FUSED.get(res) if (_kernels.enabled() and f1.ndim == 2) else None
-    n = len(f1)
-    m = estimator.sample_size
-    best = (-np.inf, np.eye(3), np.zeros(3))
-    best_ratio = 0.0
-    it = 0
-    num_lo = 0
-    num_scored = 0
-    needed = float(max_iterations)
-    pre = min(int(preemptive), n) if preemptive else 0
-    while it < max_iterations and (it < needed or it < min_iterations):
-        # the first batch draws min_iterations samples (when smaller than batch): at low outlier
-        # ratios the adaptive bound is met by then and a full batch would be wasted
-        b = int(min(batch if it or min_iterations <= 0 else min(batch, min_iterations), max_iterations - it))
-        idx = sample_indices(rng, n, m, b)
-        R, t = estimator.solve(f1[idx], f2[idx], None)
-        R = R.reshape(-1, 3, 3)
-        t = t.reshape(-1, 3)
-        ok = np.all(np.isfinite(R), axis=(1, 2)) & np.all(np.isfinite(t), axis=1)
-        R, t = R[ok], t[ok]
-        it += b
-        if len(R) == 0:
-            continue
-        if pre and pre < n and best_ratio > 0:
-            # preemptive test (in the spirit of the T(d,d) test): score a random subset first and keep
-            # hypotheses whose subset inlier count reaches half of what the best model would give
-            sub = rng.choice(n, size=pre, replace=False)
-            cnt = np.count_nonzero(res(R, t, f1[sub], f2[sub]) < threshold, axis=1)
-            keep = cnt >= max(1.0, 0.5 * best_ratio * pre)
-            R, t = R[keep], t[keep]
-            if len(R) == 0:
-                continue
-        num_scored += len(R)
-        if fused is not None:  # compiled residual + score in one pass, no (k, n) array (same bits)
-            s = _kernels.ransac_score(fused, R, t, f1, f2, threshold, scoring)
-        else:
-            v = res(R, t, f1, f2)
-            s, _ = _score(v, threshold, scoring)
-        k = int(np.argmax(s))
-        if s[k] > best[0]:
-            best = (float(s[k]), R[k], t[k])
-            if local_optimization is not None and num_lo < max_lo:
-                inl = (res(R[k], t[k], f1, f2) if fused is not None else v[k]) < threshold
-                R_lo, t_lo = local_optimization(R[k], t[k], inl)
-                num_lo += 1
-                s_lo, _ = _score(res(R_lo, t_lo, f1, f2), threshold, scoring)
-                if s_lo >= best[0]:
-                    best = (float(s_lo), R_lo, t_lo)
-            best_ratio = np.count_nonzero(res(best[1], best[2], f1, f2) < threshold) / n
-            if adaptive:
-                needed = adaptive_iterations(best_ratio, m, confidence)
-    _, R, t = best
-    v = res(R, t, f1, f2)
-    return RansacResult(R=R, t=t, inliers=v < threshold, residuals=v, score=best[0], num_iterations=it, num_lo=num_lo, num_scored=num_scored)
+    if solver not in _MINIMAL:
+        raise ValueError(f"unknown minimal solver {solver!r}; choose one of {sorted(_MINIMAL)}")
+    if scoring not in SCORINGS:
+        raise ValueError(f"unknown scoring {scoring!r}; choose one of {sorted(SCORINGS)}")
+    f1, f2 = _c(f1), _c(f2)
+    order = None if scores is None else prosac_order(scores)
+    R, t, st = _core.ransac_relpose(f1, f2, float(threshold), core_seed(seed), _MINIMAL[solver], SCORINGS[scoring],
+                                    int(max_iterations), int(min_iterations), float(confidence), int(max_lo), float(lo_mu0),
+                                    int(lo_iterations), get_residual(lo_residual).code, order)
+    v = get_residual("sampson")(R, t, f1, f2)
+    return RansacResult(R=R, t=t, inliers=v < threshold, residuals=v, score=float(st["cost"]), num_iterations=int(st["iterations"]),
+                        num_lo=int(st["num_lo"]), num_scored=int(st["num_models"]), stats=dict(st))
 
 
 def gnc_ransac(
     f1: np.ndarray,
     f2: np.ndarray,
     theta: float,
-    rng: np.random.Generator,
+    seed: int | np.random.Generator = 0,
     *,
     estimator: Estimator | None = None,
     sample_size: int = 30,
@@ -176,52 +125,20 @@ def gnc_ransac(
     adaptive: bool = False,
     confidence: float = 0.99,
 ) -> RansacResult:
-    """GNC-RANSAC, Algorithm 3 of the paper.
+    """GNC-RANSAC, Algorithm 3 of the paper, on bearings ``(n, 3)``.
 
-    ``max_iterations`` samples of ``sample_size`` (n_s = 30) points are each fitted by GNC-IRLS
-    (Alg. 2, all samples in lockstep as stacked arrays), every fit is scored on all points by the
-    count of ``v_LiGT < theta`` and the best inlier set is refit by GNC-IRLS. ``adaptive=True`` stops
-    early with the RANSAC rule applied to the paper's rationale (a sample only needs a majority of
-    inliers, taken as ``>= 60 %``; hypergeometric approximation by a binomial). Open choices (notes
-    section 8): ``theta`` is given by the caller (:func:`poseonly.api.estimate_relative_pose`
-    derives it from a pixel threshold); samples start from uniform weights.
+    ``max_iterations`` samples of ``sample_size`` (n_s = 30) points are each fitted by GNC-IRLS (Alg. 2
+    from uniform weights), every fit is scored on all points by the count of ``residual < theta``
+    (the estimator's residual; ``v_LiGT`` for the paper's estimator), and the best inlier set is refit
+    by GNC-IRLS. ``adaptive=True`` stops early with the RANSAC rule applied to the paper's rationale (a
+    sample only needs a majority of inliers, taken as ``>= 60 %``; binomial tail). ``theta`` is given by
+    the caller (:func:`poseonly.api.estimate_relative_pose` derives it from a pixel threshold).
     """
     est = estimator or lirp_estimator()
-    n = len(f1)
-    ns = min(sample_size, n)
-    iters = max_iterations
-    if adaptive:
-        # draw in chunks and stop once a good sample is likely enough
-        chunk = 10
-    else:
-        chunk = max_iterations
-    best_count, best_R, best_t, best_inl = -1, np.eye(3), np.zeros(3), np.zeros(n, bool)
-    done = 0
-    while done < iters:
-        b = min(chunk, iters - done)
-        idx = sample_indices(rng, n, ns, b)
-        g = gnc_irls_batch(f1[idx], f2[idx], est, gnc_options)
-        v = v_LiGT(g.R, g.t, f1, f2)
-        inl = v < theta
-        cnt = inl.sum(axis=1)
-        k = int(np.argmax(cnt))
-        if cnt[k] > best_count:
-            best_count, best_R, best_t, best_inl = int(cnt[k]), g.R[k], g.t[k], inl[k]
-        done += b
-        if adaptive:
-            from scipy.stats import binom
-
-            w = best_count / n
-            p_good = binom.sf(int(np.ceil(0.6 * ns)) - 1, ns, w)
-            if p_good > 0:
-                need = np.log(1 - confidence) / np.log1p(-min(p_good, 1 - 1e-12))
-                iters = int(min(max_iterations, max(done, np.ceil(need))))
-    R, t = best_R, best_t
-    weights = np.zeros(n)
-    if best_inl.sum() >= est.sample_size:
-        sel = np.nonzero(best_inl)[0]
-        g = gnc_irls_batch(f1[sel][None], f2[sel][None], est, gnc_options)
-        R, t = g.R[0], g.t[0]
-        weights[sel] = g.weights[0]
-    v = v_LiGT(R, t, f1, f2)
-    return RansacResult(R=R, t=t, inliers=v < theta, residuals=v, score=float(best_count), num_iterations=done, weights=weights)
+    opts = gnc_options or GNCOptions()
+    f1, f2 = _c(f1), _c(f2)
+    R, t, w, st = _core.gnc_ransac(f1, f2, float(theta), core_seed(seed), int(min(sample_size, len(f1))), int(max_iterations),
+                                   bool(adaptive), float(confidence), opts.core_options(est))
+    v = est.residual(R, t, f1, f2)
+    return RansacResult(R=R, t=t, inliers=v < theta, residuals=v, score=float(len(f1) - st["cost"]),
+                        num_iterations=int(st["iterations"]), weights=w, stats=dict(st))

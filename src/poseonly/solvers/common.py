@@ -21,8 +21,7 @@ from itertools import product
 import numpy as np
 
 from ..geometry import check_correspondences
-from ..identify import identify_poses, select_candidate
-from .lirp import _mat, _pairwise_min_gap, right_singular
+from ..identify import INVALID_RANK_OFFSET, identify_and_rank
 
 __all__ = [
     "epipolar_rows",
@@ -40,8 +39,34 @@ __all__ = [
     "prepare",
 ]
 
-vec_to_mat = _mat
-pairwise_min_gap = _pairwise_min_gap
+
+
+def vec_to_mat(q: np.ndarray) -> np.ndarray:
+    """Column-major ``vec`` -> matrix: ``(..., 9) -> (..., 3, 3)``."""
+    q = np.asarray(q)
+    return np.swapaxes(q.reshape(q.shape[:-1] + (3, 3)), -1, -2)
+
+
+def pairwise_min_gap(lam: np.ndarray) -> np.ndarray:
+    """``min_{i != j} |lam_i - lam_j|`` over the last axis: ``(..., k) -> (...)``."""
+    d = np.abs(lam[..., :, None] - lam[..., None, :])
+    k = lam.shape[-1]
+    d[..., np.arange(k), np.arange(k)] = np.inf
+    return d.min(axis=(-1, -2))
+
+
+def right_singular(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values ``(h, 9)`` (descending) and right singular vectors as rows ``Vt (h, 9, 9)``
+    of stacked ``A (h, n, 9)``: zero rows appended for ``n < 9``, the 9x9 ``R`` factor of a QR for
+    ``n > 9`` (same right singular vectors without forming ``A^T A``). ``Vt[:, 9 - k:]`` is the
+    ``k``-dimensional (least-squares) null space, the last row belonging to the smallest value."""
+    h, n, _ = A.shape
+    if n < 9:
+        A = np.concatenate([A, np.zeros((h, 9 - n, 9))], axis=1)
+    elif n > 9:
+        A = np.linalg.qr(A, mode="r")
+    _, s, Vt = np.linalg.svd(A)
+    return s, Vt
 
 
 def mat_to_vec(M: np.ndarray) -> np.ndarray:
@@ -160,8 +185,8 @@ def pose_from_essentials(
     """Choose one pose among candidate essential matrices, exactly as LiRP does.
 
     Each candidate is reduced to one ``(R, t)`` with the pose-only depth conditions (``M1 > 0``,
-    ``M2 > 0``; :func:`poseonly.identify.identify_poses`) and ranked by the weighted mean PPO
-    residual (:func:`poseonly.identify.select_candidate`; candidates failing the depth conditions
+    ``M2 > 0``; :func:`poseonly.identify.identify_and_rank`) and ranked by the weighted mean PPO
+    residual ( candidates failing the depth conditions
     rank after all valid ones). ``f1, f2, w`` are the correspondences used for this choice: they
     may be a superset of the points the candidates were computed from (e.g. OpenGV's 5 + 3 scheme).
 
@@ -190,10 +215,10 @@ def pose_from_essentials(
     else:
         Es = np.where(mask[..., None, None], E, np.eye(3))  # harmless filler for empty slots
         Es = np.where(np.isfinite(Es), Es, 0.0)
-        R, t, valid, _ = identify_poses(Es, f1, f2, w)
-        cost, _ = select_candidate(R, t, valid, f1, f2, w)
-        cost = np.where(mask, cost, np.inf)
-        key = np.where(valid, cost, cost + 10.0)  # same ranking rule as select_candidate
+        o = identify_and_rank(Es, f1, f2, w)
+        R, t, valid = o["R"], o["t"], o["valid"]
+        cost = np.where(mask, o["cost"], np.inf)
+        key = np.where(valid, cost, cost + INVALID_RANK_OFFSET)
         best = np.argmin(key, axis=-1)
         none = ~np.any(mask, axis=-1)
         idx = np.arange(h)

@@ -1,0 +1,193 @@
+// Bindings of the robust loops (ransac.h) for the estimators of estimators.h.
+#include <nanobind/stl/optional.h>
+#include <nanobind/stl/string.h>
+
+#include "arrays.h"
+#include "estimators.h"
+#include "ransac.h"
+#include "register.h"
+#include "sampling.h"
+
+namespace poseonly {
+
+GncOptions gnc_options_from(const nb::dict& o);  // bind_lirp.cpp
+
+namespace {
+
+enum class Scoring : int { Msac = 0, MultiMsac = 1, Count = 2 };
+
+template <class Est, class Sampler, class Model>
+RansacStats run_scored(Est& est, Scoring scoring, double thr, Sampler& sampler, const RansacOptions& ro, Model* best) {
+  switch (scoring) {
+    case Scoring::Msac: return ransac(est, MsacScorer{thr}, sampler, ro, best);
+    case Scoring::MultiMsac: return ransac(est, MultiMsacScorer{thr}, sampler, ro, best);
+    case Scoring::Count: return ransac(est, CountScorer{thr}, sampler, ro, best);
+  }
+  throw std::invalid_argument("unknown scoring");
+}
+
+// Uniform sampling, or PROSAC when an order (best first) is given.
+template <class Est, class Model>
+RansacStats run_sampled(Est& est, Scoring scoring, double thr, const std::vector<int>& order, uint64_t seed,
+                        const RansacOptions& ro, Model* best) {
+  if (order.empty()) {
+    UniformSampler s(est.num_data(), est.sample_size(), seed);
+    return run_scored(est, scoring, thr, s, ro, best);
+  }
+  ProsacSampler s(order, est.sample_size(), ro.max_iterations, seed);
+  return run_scored(est, scoring, thr, s, ro, best);
+}
+
+std::vector<int> order_of(const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order, int n) {
+  std::vector<int> out;
+  if (!order) return out;
+  if (static_cast<int>(order->shape(0)) != n) throw std::invalid_argument("order must be a permutation of range(n)");
+  std::vector<uint8_t> seen(n, 0);
+  for (int i = 0; i < n; ++i) {
+    const int64_t k = order->data()[i];
+    if (k < 0 || k >= n || seen[k]) throw std::invalid_argument("order must be a permutation of range(n)");
+    seen[k] = 1;
+    out.push_back(static_cast<int>(k));
+  }
+  return out;
+}
+
+RansacOptions ransac_options(int max_iterations, int min_iterations, double confidence, bool adaptive, int max_lo) {
+  if (max_iterations < 1) throw std::invalid_argument("max_iterations must be >= 1");
+  if (!(confidence > 0.0 && confidence < 1.0)) throw std::invalid_argument("confidence must be in (0, 1)");
+  RansacOptions ro;
+  ro.max_iterations = max_iterations;
+  ro.min_iterations = std::max(min_iterations, 0);
+  ro.confidence = confidence;
+  ro.adaptive = adaptive;
+  ro.max_lo = std::max(max_lo, 0);
+  return ro;
+}
+
+nb::dict stats_dict(const RansacStats& st) {
+  nb::dict d;
+  d["iterations"] = st.iterations;
+  d["num_models"] = st.num_models;
+  d["num_lo"] = st.num_lo;
+  d["num_inliers"] = st.num_inliers;
+  d["cost"] = st.cost;
+  return d;
+}
+
+nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double threshold, uint64_t seed, int solver, int scoring,
+                         int max_iterations, int min_iterations, double confidence, int max_lo, double lo_mu0, int lo_iterations,
+                         int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order) {
+  const Points P = points_of(f1, f2);
+  if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
+  const RansacOptions ro = ransac_options(max_iterations, min_iterations, confidence, true, max_lo);
+  RelativePoseEstimator::Options eo;
+  eo.solver = static_cast<MinimalSolver>(solver);
+  eo.lo_threshold = threshold;
+  eo.lo_mu0 = lo_mu0;
+  eo.lo_iterations = lo_iterations;
+  eo.lo_residual = static_cast<Residual>(lo_residual);
+  const std::vector<int> ord = order_of(order, P.n);
+  Pose best;
+  RansacStats st;
+  {
+    nb::gil_scoped_release release;
+    RelativePoseEstimator est(P, eo);
+    st = run_sampled(est, static_cast<Scoring>(scoring), threshold, ord, seed, ro, &best);
+  }
+  std::vector<double> R(9), t(3);
+  put_pose(best, R.data(), t.data());
+  return nb::make_tuple(to_numpy(std::move(R), {3, 3}), to_numpy(std::move(t), {3}), stats_dict(st));
+}
+
+nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double threshold,
+                     double lo_mu0, int lo_iterations, int lo_residual) {
+  const Points P = points_of(f1, f2);
+  Pose p = pose_of(R, t);
+  RelativePoseEstimator::Options eo;
+  eo.solver = MinimalSolver::LiRP6;
+  eo.lo_threshold = threshold;
+  eo.lo_mu0 = lo_mu0;
+  eo.lo_iterations = lo_iterations;
+  eo.lo_residual = static_cast<Residual>(lo_residual);
+  bool ok;
+  {
+    nb::gil_scoped_release release;
+    RelativePoseEstimator est(P, eo);
+    std::vector<int> inl;
+    const PoseTerms T(p);
+    for (int i = 0; i < P.n; ++i)
+      if (sampson_chiral(T, P.a(i), P.b(i)) < std::min(threshold, 0.5)) inl.push_back(i);
+    ok = est.local_optimization(&p, inl, threshold);
+  }
+  std::vector<double> Ro(9), to(3);
+  put_pose(p, Ro.data(), to.data());
+  return nb::make_tuple(to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}), ok);
+}
+
+nb::tuple gnc_ransac(const BearingsIn& f1, const BearingsIn& f2, double theta, uint64_t seed, int sample_size,
+                     int max_iterations, bool adaptive, double confidence, const nb::dict& gnc) {
+  const Points P = points_of(f1, f2);
+  if (!(theta > 0.0 && std::isfinite(theta))) throw std::invalid_argument("theta must be finite and > 0");
+  if (sample_size < kLirpMinPoints || sample_size > P.n) throw std::invalid_argument("sample_size must be in [6, n]");
+  const GncOptions g = gnc_options_from(gnc);
+  RansacOptions ro = ransac_options(max_iterations, adaptive ? 0 : max_iterations, confidence, adaptive, 0);
+  Pose best;
+  RansacStats st;
+  std::vector<double> weights(P.n, 0.0);
+  {
+    nb::gil_scoped_release release;
+    GncRansacEstimator est(P, sample_size, g);
+    UniformSampler s(P.n, sample_size, seed);
+    const CountScorer sc{theta};
+    st = ransac(est, sc, s, ro, &best);
+    // Algorithm 3, last step: the best model's inlier set refit by GNC-IRLS
+    std::vector<int> inl;
+    inliers_of(est, best, sc, &inl);
+    if (static_cast<int>(inl.size()) >= kLirpMinPoints && est.refine(&best, inl))
+      for (size_t j = 0; j < inl.size(); ++j) weights[inl[j]] = est.last().weights[j];
+  }
+  std::vector<double> R(9), t(3);
+  put_pose(best, R.data(), t.data());
+  return nb::make_tuple(to_numpy(std::move(R), {3, 3}), to_numpy(std::move(t), {3}), to_numpy(std::move(weights), {static_cast<size_t>(P.n)}),
+                        stats_dict(st));
+}
+
+nb::tuple ransac_line(const nb::ndarray<const double, nb::ndim<2>, nb::c_contig>& xy, double threshold, uint64_t seed,
+                      int max_iterations, double confidence, int max_lo, int scoring) {
+  if (xy.shape(1) != 2) throw std::invalid_argument("points must have shape (n, 2)");
+  const int n = static_cast<int>(xy.shape(0));
+  if (n < 2) throw std::invalid_argument("at least 2 points are needed");
+  const RansacOptions ro = ransac_options(max_iterations, 0, confidence, true, max_lo);
+  Line best;
+  RansacStats st;
+  {
+    nb::gil_scoped_release release;
+    LineEstimator est(xy.data(), n);
+    st = run_sampled(est, static_cast<Scoring>(scoring), threshold, {}, seed, ro, &best);
+  }
+  return nb::make_tuple(nb::make_tuple(best.a, best.b, best.c), stats_dict(st));
+}
+
+}  // namespace
+}  // namespace poseonly
+
+POSEONLY_BIND(robust) {
+  using namespace poseonly;
+  using Order = std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>;
+  m.def("ransac_relpose", &ransac_relpose, nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"), nb::arg("seed"), nb::arg("solver") = 0,
+        nb::arg("scoring") = 1, nb::arg("max_iterations") = 100000, nb::arg("min_iterations") = 50, nb::arg("confidence") = 0.999,
+        nb::arg("max_lo") = 8, nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1,
+        nb::arg("order") = Order(),
+        "LO-RANSAC of minimal hypotheses (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
+        "Sampson error against `threshold` (radians); scoring 0 msac, 1 multi-scale msac, 2 count; `order` "
+        "(a permutation, best match first) switches to PROSAC. Returns (R, t, stats).");
+  m.def("relpose_lo", &relpose_lo, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"),
+        nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1,
+        "The default method's LO step at `threshold` from the pose's cheirality-consistent inliers: (R, t, ok).");
+  m.def("gnc_ransac", &gnc_ransac, nb::arg("f1"), nb::arg("f2"), nb::arg("theta"), nb::arg("seed"), nb::arg("sample_size") = 30,
+        nb::arg("max_iterations") = 50, nb::arg("adaptive") = false, nb::arg("confidence") = 0.99, nb::arg("gnc") = nb::dict(),
+        "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats).");
+  m.def("ransac_line", &ransac_line, nb::arg("xy"), nb::arg("threshold"), nb::arg("seed"), nb::arg("max_iterations") = 1000,
+        nb::arg("confidence") = 0.999, nb::arg("max_lo") = 8, nb::arg("scoring") = 0,
+        "The generic loop on a 2-D line estimator (tests): ((a, b, c), stats).");
+}

@@ -1,0 +1,187 @@
+// Estimators for the generic loop of ransac.h: the relative-pose estimator of the default method,
+// the paper's GNC-RANSAC estimator (Algorithm 3) and a 2-D line estimator (tests of the loop).
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "common.h"
+#include "gnc.h"
+#include "lirp.h"
+#include "residuals.h"
+
+namespace poseonly {
+
+enum class MinimalSolver : int { FivePoint = 0, LiRP6 = 1 };
+
+// The five-point solver (fivept.cpp): poses whose sample points all have positive depths.
+void fivept_poses(const Points& p, std::vector<Pose>* out);
+
+// Minimal hypotheses on bearings, Sampson residual on the sphere, LO by warm-started TLS IRLS on
+// all-candidate LiRP (the candidate minimising the weighted residual kept) with `lo_residual`,
+// from the model's inliers, on the points within `lo_window` thresholds.
+class RelativePoseEstimator {
+ public:
+  struct Options {
+    MinimalSolver solver = MinimalSolver::FivePoint;
+    double lo_threshold = 1e-3;  // the LO's fixed TLS bound (radians)
+    double lo_window = 4.0;      // LO sees points with Sampson error < lo_window * lo_threshold
+    double lo_mu0 = 1e3;         // start at (near) hard TLS
+    int lo_iterations = 10;
+    Residual lo_residual = Residual::SampsonChiral;
+  };
+  using Model = Pose;
+  using Terms = PoseTerms;
+
+  RelativePoseEstimator(const Points& P, const Options& o) : P_(P), o_(o) {}
+  int sample_size() const { return o_.solver == MinimalSolver::FivePoint ? 5 : 6; }
+  int num_data() const { return P_.n; }
+  Terms terms(const Model& m) const { return PoseTerms(m); }
+  double residual(const Terms& T, int i) const { return sampson(T.E, P_.a(i), P_.b(i)); }
+  double success_probability(double r) const { return std::pow(r, sample_size()); }
+
+  void generate(const std::vector<int>& s, std::vector<Model>* models) {
+    buf_.clear();
+    for (int i : s) buf_.push(P_.f1 + 3 * i, P_.f2 + 3 * i);
+    if (o_.solver == MinimalSolver::FivePoint) {
+      fivept_poses(buf_.view(), models);
+    } else {
+      lirp(buf_.view(), nullptr, false, &lr_);
+      models->push_back(lr_.id[lr_.best].pose);
+    }
+  }
+
+  bool refine(Model* m, const std::vector<int>& inliers) { return local_optimization(m, inliers, o_.lo_threshold); }
+
+  // The LO step at an explicit bound `thr` (also the default method's final stage).
+  bool local_optimization(Model* m, const std::vector<int>& inliers, double thr) {
+    if (static_cast<int>(inliers.size()) < kLirpMinPoints) return false;
+    const PoseTerms T(*m);
+    buf_.clear();
+    w0_.clear();
+    size_t j = 0;
+    for (int i = 0; i < P_.n; ++i) {
+      while (j < inliers.size() && inliers[j] < i) ++j;
+      const bool in = j < inliers.size() && inliers[j] == i;
+      if (!(sampson(T.E, P_.a(i), P_.b(i)) < o_.lo_window * thr) && !in) continue;
+      buf_.push(P_.f1 + 3 * i, P_.f2 + 3 * i);
+      w0_.push_back(in ? 1.0 : 0.0);
+    }
+    if (buf_.view().n < kLirpMinPoints) return false;
+    GncOptions g;
+    g.noise_bound = thr;
+    g.max_iterations = o_.lo_iterations;
+    g.mu0 = o_.lo_mu0;
+    g.residual = o_.lo_residual;
+    g.all_candidates = true;
+    GncResult r;
+    gnc_irls(buf_.view(), w0_.data(), g, &r);
+    if (!(r.pose.R.allFinite() && r.pose.t.allFinite())) return false;
+    *m = r.pose;
+    return true;
+  }
+
+ private:
+  Points P_;
+  Options o_;
+  PointBuffer buf_;
+  std::vector<double> w0_;
+  LirpResult lr_;
+};
+
+// Algorithm 3's estimator: a sample of n_s points is fitted by GNC-IRLS (Algorithm 2) from uniform
+// weights; the residual (v_LiGT in the paper) decides inliers; refine = GNC-IRLS on the inlier set.
+// A sample is "good" when it holds a majority (>= 60 %) of inliers: its probability is the
+// binomial tail, the adaptive-stop rule of the paper's rationale.
+class GncRansacEstimator {
+ public:
+  using Model = Pose;
+  using Terms = PoseTerms;
+  GncRansacEstimator(const Points& P, int sample_size, const GncOptions& g) : P_(P), ns_(sample_size), g_(g) {}
+  int sample_size() const { return ns_; }
+  int num_data() const { return P_.n; }
+  Terms terms(const Model& m) const { return PoseTerms(m); }
+  double residual(const Terms& T, int i) const { return poseonly::residual(g_.residual, T, P_.a(i), P_.b(i)); }
+  double success_probability(double r) const {
+    const int need = static_cast<int>(std::ceil(0.6 * ns_));
+    double p = 0.0;  // P(Bin(ns, r) >= need)
+    for (int k = need; k <= ns_; ++k)
+      p += std::exp(std::lgamma(ns_ + 1.0) - std::lgamma(k + 1.0) - std::lgamma(ns_ - k + 1.0) +
+                    (k ? k * std::log(r) : 0.0) + (ns_ - k ? (ns_ - k) * std::log1p(-r) : 0.0));
+    return std::min(p, 1.0 - 1e-12);
+  }
+  void generate(const std::vector<int>& s, std::vector<Model>* models) {
+    fit(s, nullptr);
+    models->push_back(last_.pose);
+  }
+  bool refine(Model* m, const std::vector<int>& inliers) {
+    if (static_cast<int>(inliers.size()) < kLirpMinPoints) return false;
+    fit(inliers, nullptr);
+    *m = last_.pose;
+    return m->R.allFinite() && m->t.allFinite();
+  }
+  const GncResult& last() const { return last_; }
+
+ private:
+  void fit(const std::vector<int>& idx, const double* w0) {
+    buf_.clear();
+    for (int i : idx) buf_.push(P_.f1 + 3 * i, P_.f2 + 3 * i);
+    gnc_irls(buf_.view(), w0, g_, &last_);
+  }
+  Points P_;
+  int ns_;
+  GncOptions g_;
+  PointBuffer buf_;
+  GncResult last_;
+};
+
+// A 2-D line a x + b y + c = 0 (a^2 + b^2 = 1) from 2 points; refine = total least squares on the
+// inliers. It exists to test that the loop is generic (ransac_test.cc in COLMAP does the same).
+struct Line {
+  double a = 1.0, b = 0.0, c = 0.0;
+};
+class LineEstimator {
+ public:
+  using Model = Line;
+  using Terms = Line;
+  LineEstimator(const double* xy, int n) : xy_(xy), n_(n) {}
+  int sample_size() const { return 2; }
+  int num_data() const { return n_; }
+  Terms terms(const Model& m) const { return m; }
+  double residual(const Terms& l, int i) const { return std::abs(l.a * xy_[2 * i] + l.b * xy_[2 * i + 1] + l.c); }
+  double success_probability(double r) const { return r * r; }
+  void generate(const std::vector<int>& s, std::vector<Model>* models) {
+    const double dx = xy_[2 * s[1]] - xy_[2 * s[0]], dy = xy_[2 * s[1] + 1] - xy_[2 * s[0] + 1];
+    const double nrm = std::hypot(dx, dy);
+    if (!(nrm > 0.0)) return;
+    Line l{-dy / nrm, dx / nrm, 0.0};
+    l.c = -(l.a * xy_[2 * s[0]] + l.b * xy_[2 * s[0] + 1]);
+    models->push_back(l);
+  }
+  bool refine(Model* m, const std::vector<int>& inl) {
+    if (inl.size() < 2) return false;
+    double mx = 0.0, my = 0.0;
+    for (int i : inl) {
+      mx += xy_[2 * i];
+      my += xy_[2 * i + 1];
+    }
+    mx /= inl.size();
+    my /= inl.size();
+    Eigen::Matrix2d S = Eigen::Matrix2d::Zero();
+    for (int i : inl) {
+      const Eigen::Vector2d d(xy_[2 * i] - mx, xy_[2 * i + 1] - my);
+      S += d * d.transpose();
+    }
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(S);
+    const Eigen::Vector2d nv = es.eigenvectors().col(0);  // normal: the smallest eigenvalue's vector
+    *m = Line{nv(0), nv(1), -(nv(0) * mx + nv(1) * my)};
+    return true;
+  }
+
+ private:
+  const double* xy_;
+  int n_;
+};
+
+}  // namespace poseonly

@@ -1,0 +1,358 @@
+// LiRP (Algorithm 1) and pose-only identification; see lirp.h and the paper's Section 5.
+#include "lirp.h"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/QR>
+#include <Eigen/SVD>
+#include <complex>
+
+#include "residuals.h"
+
+namespace poseonly {
+namespace {
+
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using RowsA = Eigen::Matrix<double, Eigen::Dynamic, 9>;
+
+// monomial index of a^p b^q in y = (a^3, a^2 b, a b^2, b^3, a^2, ab, b^2, a, b, 1)
+int monomial(int p, int q) {
+  static const int table[4][4] = {{9, 8, 6, 3}, {7, 5, 2, -1}, {4, 1, -1, -1}, {0, -1, -1, -1}};
+  return table[p][q];
+}
+
+// Null space basis q1, q2, q3 (columns 6, 7, 8 of V: q3 belongs to the smallest singular value).
+void null_space(const Points& P, const double* w, Mat9* V, Vec9* s) {
+  double wmax = 0.0;
+  int m = 0;
+  for (int i = 0; i < P.n; ++i) {
+    const double wi = w ? w[i] : 1.0;
+    if (wi > 0.0) ++m;
+    wmax = std::max(wmax, wi);
+  }
+  RowsA A = RowsA::Zero(std::max(m, 9), 9);
+  int r = 0;
+  const double inv = wmax > 0.0 ? 1.0 / wmax : 0.0;
+  for (int i = 0; i < P.n; ++i) {
+    const double wi = w ? w[i] * inv : 1.0;
+    if (!(wi > 0.0)) continue;
+    const auto a = P.a(i);
+    const auto b = P.b(i);
+    // A_i q = f2^T Q f1 with q = vec(Q) column-major: coefficient of Q(rr, c) is f1_c f2_rr
+    for (int c = 0; c < 3; ++c)
+      for (int rr = 0; rr < 3; ++rr) A(r, 3 * c + rr) = wi * a(c) * b(rr);
+    ++r;
+  }
+  Mat9 Rf;
+  if (A.rows() > 9) {
+    Eigen::HouseholderQR<RowsA> qr(A);
+    Rf = qr.matrixQR().topRows<9>().triangularView<Eigen::Upper>();
+  } else {
+    Rf = A.topRows<9>();
+  }
+  Eigen::JacobiSVD<Mat9> svd(Rf, Eigen::ComputeFullV);
+  *V = svd.matrixV();
+  *s = svd.singularValues() * wmax;
+}
+
+// The 9 x 10 Demazure system B y = 0 of Q = a Q1 + b Q2 + Q3 (Eq. 14):
+// 2 Q Q^T Q - tr(Q Q^T) Q = 0 expanded over the monomials y.
+Eigen::Matrix<double, 9, 10> demazure(const std::array<Mat3, 3>& Q) {
+  Eigen::Matrix<double, 9, 10> B = Eigen::Matrix<double, 9, 10>::Zero();
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      const Mat3 Pij = Q[i] * Q[j].transpose();
+      const double tr = Pij.trace();
+      for (int k = 0; k < 3; ++k) {
+        const Mat3 T = 2.0 * Pij * Q[k] - tr * Q[k];
+        const int p = (i == 0) + (j == 0) + (k == 0);
+        const int q = (i == 1) + (j == 1) + (k == 1);
+        B.col(monomial(p, q)) += Eigen::Map<const Vec9>(T.data());
+      }
+    }
+  }
+  return B;
+}
+
+double min_gap(const Eigen::Matrix<std::complex<double>, 6, 1>& lam) {
+  double d = kInf;
+  for (int i = 0; i < 6; ++i)
+    for (int j = i + 1; j < 6; ++j) d = std::min(d, std::abs(lam(i) - lam(j)));
+  return d;
+}
+
+
+using Cd = std::complex<double>;
+using Vec3c = Eigen::Matrix<Cd, 3, 1>;
+
+// Eigenpairs of an action matrix. Eigenvalues by the real Schur form without its vectors; each
+// eigenvector from the three unit rows of the matrix, which fix half of g in terms of the other
+// half: for C1 (a g): g3 = a g5, g0 = a^2 g5, g1 = a g4, leaving (g2, g4, g5) as the null vector of
+// a 3x3 complex matrix N(a) (cross product of its two most independent rows); for C2 (b g): g4 = b g5,
+// g2 = b^2 g5, g1 = b g3, leaving (g0, g3, g5). Falls back to the full eigen-decomposition where
+// N(lambda) has no well-defined 1-D null space (repeated eigenvalues).
+bool action_eigen(const Mat6& C, int which, Eigen::Matrix<Cd, 6, 1>* lam, Eigen::Matrix<Cd, 6, 6>* G) {
+  Eigen::EigenSolver<Mat6> es(C, false);
+  if (es.info() != Eigen::Success) return false;
+  *lam = es.eigenvalues();
+  for (int e = 0; e < 6; ++e) {
+    const Cd l = (*lam)(e);
+    Eigen::Matrix<Cd, 3, 3> N;
+    for (int r = 0; r < 3; ++r) {
+      if (which == 0) {  // unknowns (g2, g4, g5)
+        N(r, 0) = C(r, 2) - (r == 2 ? l : Cd(0.0));
+        N(r, 1) = C(r, 1) * l + C(r, 4) - (r == 1 ? l * l : Cd(0.0));
+        N(r, 2) = C(r, 0) * l * l + C(r, 3) * l + C(r, 5) - (r == 0 ? l * l * l : Cd(0.0));
+      } else {  // unknowns (g0, g3, g5)
+        N(r, 0) = C(r, 0) - (r == 0 ? l : Cd(0.0));
+        N(r, 1) = C(r, 1) * l + C(r, 3) - (r == 1 ? l * l : Cd(0.0));
+        N(r, 2) = C(r, 2) * l * l + C(r, 4) * l + C(r, 5) - (r == 2 ? l * l * l : Cd(0.0));
+      }
+    }
+    Vec3c best = Vec3c::Zero();
+    double bn = -1.0;
+    for (int p = 0; p < 3; ++p) {
+      const Vec3c x = N.row(p).transpose(), y = N.row((p + 1) % 3).transpose();
+      const Vec3c z(x(1) * y(2) - x(2) * y(1), x(2) * y(0) - x(0) * y(2), x(0) * y(1) - x(1) * y(0));
+      const double zn = z.norm();
+      if (zn > bn) {
+        bn = zn;
+        best = z;
+      }
+    }
+    const double scale = N.norm();
+    if (!(bn > 1e-10 * scale * scale)) {  // no clear 1-D null space: the general solver
+      Eigen::EigenSolver<Mat6> full(C, true);
+      if (full.info() != Eigen::Success) return false;
+      *lam = full.eigenvalues();
+      *G = full.eigenvectors();
+      return true;
+    }
+    Eigen::Matrix<Cd, 6, 1> g;
+    if (which == 0) {
+      const Cd g2 = best(0), g4 = best(1), g5 = best(2);
+      g << l * l * g5, l * g4, g2, l * g5, g4, g5;
+    } else {
+      const Cd g0 = best(0), g3 = best(1), g5 = best(2);
+      g << g0, l * g3, l * l * g5, g3, l * g5, g5;
+    }
+    G->col(e) = g / g.norm();
+  }
+  return true;
+}
+
+Mat3 unit_or(const Vec9& v, const Vec9& fallback) {
+  const double nv = v.norm();
+  const Vec9 u = (nv > 0.0 && std::isfinite(nv)) ? Vec9(v / nv) : fallback;
+  return Eigen::Map<const Mat3>(u.data());
+}
+
+}  // namespace
+
+void lirp_candidates(const Points& P, const double* w, LirpCandidates* out) {
+  Mat9 V;
+  null_space(P, w, &V, &out->singular_values);
+  const Vec9 q1 = V.col(6), q2 = V.col(7), q3 = V.col(8);
+  const std::array<Mat3, 3> Q = {Eigen::Map<const Mat3>(q1.data()), Eigen::Map<const Mat3>(q2.data()),
+                                 Eigen::Map<const Mat3>(q3.data())};
+  // Case 1 (c = 1): M = B1^+ B2 and the action matrices C1 g = a g, C2 g = b g,
+  // g = (a^2, ab, b^2, a, b, 1); least squares by a complete orthogonal decomposition (= pinv)
+  const Eigen::Matrix<double, 9, 10> B = demazure(Q);
+  const Eigen::Matrix<double, 9, 4> B1 = B.leftCols<4>();
+  const Eigen::Matrix<double, 9, 6> B2 = B.rightCols<6>();
+  const Eigen::Matrix<double, 4, 6> M = B1.completeOrthogonalDecomposition().solve(B2);
+  Mat6 C[2];
+  C[0].setZero();
+  C[1].setZero();
+  C[0].topRows<3>() = -M.topRows<3>();
+  C[0](3, 0) = C[0](4, 1) = C[0](5, 3) = 1.0;  // a * (a^2, ab, a) = (g0, g1, g3)
+  C[1].topRows<3>() = -M.bottomRows<3>();
+  C[1](3, 1) = C[1](4, 2) = C[1](5, 4) = 1.0;  // b * (ab, b^2, b) = (g1, g2, g4)
+  int c = 0;
+  for (int m = 0; m < 2; ++m) {
+    Eigen::Matrix<std::complex<double>, 6, 1> lam;
+    Eigen::Matrix<std::complex<double>, 6, 6> G;
+    const bool ok = C[m].allFinite() && action_eigen(C[m], m, &lam, &G);
+    if (ok) (m == 0 ? out->d_min : out->d_min_C2) = min_gap(lam);
+    for (int e = 0; e < 6; ++e, ++c) {
+      if (!ok) {
+        out->E[c] = unit_or(q3, q3);
+        continue;
+      }
+      const auto g = G.col(e);
+      // homogeneous reading of (a, b, 1) = (g3, g4, g5) / g5: real parts, no division by g5
+      const std::complex<double> g5c = std::conj(g(5));
+      const double ca = std::real(g(3) * g5c), cb = std::real(g(4) * g5c), cc = std::norm(g(5));
+      out->E[c] = unit_or(ca * q1 + cb * q2 + cc * q3, q3);
+    }
+  }
+  // Case 2 (c = 0, b = 1): det(a Q1 + Q2) = d3 a^3 + d2 a^2 + d1 a + d0 (Eq. 15), solved in a or in
+  // 1/a, whichever has the larger leading coefficient
+  const double d3 = Q[0].determinant(), d0 = Q[1].determinant();
+  const double sp = (Q[0] + Q[1]).determinant(), sm = (Q[1] - Q[0]).determinant();
+  const double d2 = 0.5 * (sp + sm) - d0, d1 = 0.5 * (sp - sm) - d3;
+  const bool use_a = std::abs(d3) >= std::abs(d0);
+  const double c3 = use_a ? d3 : d0, c2 = use_a ? d2 : d1, c1 = use_a ? d1 : d2, c0 = use_a ? d0 : d3;
+  Mat3 comp = Mat3::Zero();
+  const double inv = 1.0 / (c3 == 0.0 ? kTiny : c3);
+  comp(0, 0) = -c2 * inv;
+  comp(0, 1) = -c1 * inv;
+  comp(0, 2) = -c0 * inv;
+  comp(1, 0) = comp(2, 1) = 1.0;
+  Eigen::Vector3cd roots = Eigen::Vector3cd::Zero();
+  if (comp.allFinite()) {
+    Eigen::EigenSolver<Mat3> es(comp, false);
+    if (es.info() == Eigen::Success) roots = es.eigenvalues();
+  }
+  for (int k = 0; k < 3; ++k, ++c) {
+    const double r = std::real(roots(k));
+    out->E[c] = unit_or(use_a ? Vec9(r * q1 + q2) : Vec9(q1 + r * q2), q3);
+  }
+  out->E[c++] = unit_or(q1, q3);
+  out->E[c++] = unit_or(q2, q3);
+  out->E[c++] = unit_or(q3, q3);
+}
+
+double ppo_cost(const Pose& pose, const Points& P, const double* w) {
+  const PoseTerms pt(pose);
+  double s = 0.0, ws = 0.0;
+  for (int i = 0; i < P.n; ++i) {
+    const double wi = w ? w[i] : 1.0;
+    if (!(wi > 0.0)) continue;
+    s += wi * ppo(pt, P.a(i), P.b(i));
+    ws += wi;
+  }
+  const double cost = s / std::max(ws, kTiny);
+  return std::isfinite(cost) ? cost : kInf;
+}
+
+namespace {
+
+// v_PPO from the bilinear forms ab = f2.R f1, bt = t.f2, h = h^T t and |e| = |f2^T [t]x R f1| (unit t):
+// with alpha = |t x f2|, beta = |f2 x R f1| (h^2 + e^2 = alpha^2 beta^2), |eps x f2|^2 =
+// 2 alpha^2 beta^2 (1 - cos gamma), eps . f2 = alpha ab + beta bt, both 1 - cos by half-angle forms
+// (an exact fit keeps a residual ~1e-16). Equal to residuals.h's ppo() to ~1e-15.
+inline double ppo_from_forms(double ab, double bt, double h, double e_abs) {
+  const double alpha = std::sqrt(std::max((1.0 - bt) * (1.0 + bt), 0.0));
+  const double beta = std::sqrt(std::max((1.0 - ab) * (1.0 + ab), 0.0));
+  const double p = alpha * ab + beta * bt;
+  const double rho = alpha * beta;
+  double q2 = 0.0;
+  if (rho > 0.0) {
+    const double omc = h > 0.0 ? e_abs * e_abs / (rho * (rho + h)) : (rho - h) / rho;
+    q2 = 2.0 * rho * rho * omc;
+  }
+  const double r = std::sqrt(p * p + q2);
+  if (!(r > 0.0)) return 1.0;  // eps = 0: normalize(eps) = 0, |0 - f2| = 1
+  const double omc2 = p > 0.0 ? q2 / (r * (r + p)) : (r - p) / r;
+  return std::sqrt(2.0 * omc2);
+}
+
+// SVD-free decomposition of E (geometry.essential_frames): v3 the right singular vector of the
+// smallest singular value, u3 = cof(E) v3 / |cof(E) v3| (E = U diag(s1, s2, s3') V^T, det U = det V
+// = 1), F = [u3]x U V^T; the two rotations are u3 v3^T +- F and t = +-u3.
+struct Frames {
+  Vec3 u3, v3;
+  Mat3 F, G;  // G = [u3]x F: e = f2^T [t]x R f1 = +- f2^T G f1
+};
+
+Frames essential_frames(const Mat3& E) {
+  Frames fr;
+  Eigen::SelfAdjointEigenSolver<Mat3> es;
+  es.computeDirect(E.transpose() * E);
+  fr.v3 = es.eigenvectors().col(0);
+  Mat3 cof;
+  cof.col(0) = E.col(1).cross(E.col(2));
+  cof.col(1) = E.col(2).cross(E.col(0));
+  cof.col(2) = E.col(0).cross(E.col(1));
+  const Vec3 u = cof * fr.v3;
+  const double s12 = u.norm();
+  fr.u3 = s12 > 0.0 ? Vec3(u / s12) : fr.v3;
+  const double s3 = fr.u3.dot(E * fr.v3);
+  double sp = std::sqrt(std::max(E.squaredNorm() - s3 * s3 + 2.0 * s12, 0.0));  // s1 + s2
+  if (!(sp > 0.0)) sp = 1.0;
+  const Mat3 Su = skew(fr.u3), Sv = skew(fr.v3);
+  const Mat3 Ep = (E - Su * E * Sv - s3 * fr.u3 * fr.v3.transpose()) / sp;
+  fr.F = Su * Ep;
+  fr.G = Su * fr.F;
+  return fr;
+}
+
+inline double sgn(double x) { return static_cast<double>((x > 0.0) - (x < 0.0)); }
+
+}  // namespace
+
+void identify(const Mat3& E, const Points& P, const double* w, CostMode mode, Identified* out) {
+  const Frames fr = essential_frames(E);
+  // per point, with a = R f1: a.t = v3.f1 and b.t = u3.f2 for both rotations, a.b = bt at +- f2^T F f1;
+  // h = (a x b).(b x t) = ab bt - at, h' = (a x b).(a x t) = bt - at ab (Lagrange identity)
+  double m1[2] = {0.0, 0.0}, raw[2] = {0.0, 0.0}, m2[2] = {0.0, 0.0}, ws = 0.0;
+  for (int i = 0; i < P.n; ++i) {
+    const double wi = w ? w[i] : 1.0;
+    if (!(wi > 0.0)) continue;
+    ws += wi;
+    const auto a = P.a(i);
+    const auto b = P.b(i);
+    const double at = fr.v3.dot(a), bt = fr.u3.dot(b), x = b.dot(fr.F * a);
+    for (int r = 0; r < 2; ++r) {
+      const double ab = bt * at + (r ? -x : x);
+      const double h = ab * bt - at, hp = bt - at * ab;
+      const double hh = h * hp;
+      m1[r] += wi * sgn(hh);
+      raw[r] += wi * hh;
+      m2[r] += wi * sgn(h);
+    }
+  }
+  const double norm = 1.0 / std::max(ws, kTiny);
+  // the twisted pair makes every depth product negative: keep the rotation with the larger M1
+  // (tie: the larger raw sum of h h')
+  const int pick = (m1[1] > m1[0] || (m1[1] == m1[0] && raw[1] > raw[0])) ? 1 : 0;
+  const double s = pick ? -1.0 : 1.0;
+  out->M1 = m1[pick] * norm;
+  const double M2 = m2[pick] * norm;
+  const double sigma = M2 < 0.0 ? -1.0 : 1.0;
+  out->pose.R = fr.u3 * fr.v3.transpose() + s * fr.F;
+  out->pose.t = sigma * fr.u3;
+  out->valid = out->M1 > 0.0 && std::abs(M2) > 0.0;
+  out->cost = kInf;
+  if (mode == CostMode::Never || (mode == CostMode::IfValid && !out->valid)) return;
+  double c = 0.0;
+  for (int i = 0; i < P.n; ++i) {
+    const double wi = w ? w[i] : 1.0;
+    if (!(wi > 0.0)) continue;
+    const auto a = P.a(i);
+    const auto b = P.b(i);
+    const double at = fr.v3.dot(a), bt = fr.u3.dot(b);
+    const double ab = bt * at + s * b.dot(fr.F * a);
+    const double e = b.dot(fr.G * a);
+    c += wi * ppo_from_forms(ab, sigma * bt, sigma * (ab * bt - at), std::abs(e));
+  }
+  const double cost = c * norm;
+  out->cost = std::isfinite(cost) ? cost : kInf;
+}
+
+int rank_best(const std::array<Identified, kLirpCandidates>& id) {
+  int best = 0;
+  double key_best = kInf;
+  for (int k = 0; k < kLirpCandidates; ++k) {
+    const double key = id[k].valid ? id[k].cost : id[k].cost + 10.0;
+    if (key < key_best) {
+      key_best = key;
+      best = k;
+    }
+  }
+  return best;
+}
+
+void lirp(const Points& P, const double* w, bool all_costs, LirpResult* out) {
+  lirp_candidates(P, w, &out->cand);
+  bool any_valid_cost = false;
+  for (int k = 0; k < kLirpCandidates; ++k) {
+    identify(out->cand.E[k], P, w, all_costs ? CostMode::Always : CostMode::IfValid, &out->id[k]);
+    any_valid_cost |= out->id[k].valid && std::isfinite(out->id[k].cost);
+  }
+  if (!all_costs && !any_valid_cost)  // no valid candidate: rank every candidate by its cost
+    for (int k = 0; k < kLirpCandidates; ++k) out->id[k].cost = ppo_cost(out->id[k].pose, P, w);
+  out->best = rank_best(out->id);
+}
+
+}  // namespace poseonly

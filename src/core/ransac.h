@@ -1,0 +1,153 @@
+// The robust loop, generic over an estimator, a support measurer (scorer) and a sampler, in the
+// spirit of PoseLib's ransac<> (estimator contract) and COLMAP's LORANSAC<Estimator, SupportMeasurer,
+// Sampler>. The same loop runs the default method (5-point hypotheses, LO by weighted LiRP),
+// the paper's GNC-RANSAC (Algorithm 3: GNC-IRLS fits of 30-point samples, inlier counting) and a
+// 2-D line estimator in the tests.
+//
+// Estimator contract (Model = the estimator's model type):
+//   int sample_size() const;  int num_data() const;
+//   void generate(const std::vector<int>& sample, std::vector<Model>* models);   // the solver
+//   Terms terms(const Model&) const;  double residual(const Terms&, int i) const; // the residual
+//   bool refine(Model* m, const std::vector<int>& inliers);       // local optimisation (LO) step
+//   double success_probability(double inlier_ratio) const;        // P(a sample is good)
+// Scorer contract: double cost(const Estimator&, const Model&, double bail) const (lower is better;
+// may stop early once the partial cost exceeds `bail`: costs are sums of non-negative terms, so the
+// bail-out is exact), and bool inlier(double v) const.
+#pragma once
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace poseonly {
+
+struct RansacOptions {
+  int max_iterations = 100000;
+  int min_iterations = 0;
+  double confidence = 0.999;
+  bool adaptive = true;
+  int max_lo = 8;  // LO runs at most this often (on each new best model)
+};
+
+struct RansacStats {
+  int iterations = 0;
+  int num_models = 0;
+  int num_lo = 0;
+  int num_inliers = 0;
+  double cost = std::numeric_limits<double>::infinity();
+};
+
+// Samples needed to draw one good sample with `confidence` when one sample is good with probability p.
+inline double samples_needed(double p, double confidence) {
+  if (!(p > 0.0)) return std::numeric_limits<double>::infinity();
+  if (p >= 1.0) return 1.0;
+  return std::log(1.0 - confidence) / std::log1p(-p);
+}
+
+// Squared-error truncated at thr (MSAC, Torr and Zisserman 2000).
+struct MsacScorer {
+  double thr;
+  bool inlier(double v) const { return v < thr; }
+  template <class Est, class Model>
+  double cost(const Est& est, const Model& m, double bail) const {
+    const auto T = est.terms(m);
+    const double t2 = thr * thr;
+    double c = 0.0;
+    const int n = est.num_data();
+    for (int i = 0; i < n; ++i) {
+      const double v = est.residual(T, i);
+      c += std::isfinite(v) ? std::min(v * v, t2) : t2;
+      if (c > bail) return c;
+    }
+    return c;
+  }
+};
+
+// MSAC averaged over thr, thr / 2, thr / 4 (normalised by each scale): a coarse marginalisation
+// over the noise scale in the spirit of MAGSAC.
+struct MultiMsacScorer {
+  double thr;
+  bool inlier(double v) const { return v < thr; }
+  template <class Est, class Model>
+  double cost(const Est& est, const Model& m, double bail) const {
+    const auto T = est.terms(m);
+    const double t2[3] = {thr * thr, 0.25 * thr * thr, 0.0625 * thr * thr};
+    double c = 0.0;
+    const int n = est.num_data();
+    for (int i = 0; i < n; ++i) {
+      const double v = est.residual(T, i);
+      const double v2 = std::isfinite(v) ? v * v : std::numeric_limits<double>::infinity();
+      for (double s : t2) c += std::min(v2, s) / s;
+      if (c > bail) return c;
+    }
+    return c;
+  }
+};
+
+// Number of outliers (RANSAC's inlier count, as a cost).
+struct CountScorer {
+  double thr;
+  bool inlier(double v) const { return v < thr; }
+  template <class Est, class Model>
+  double cost(const Est& est, const Model& m, double bail) const {
+    const auto T = est.terms(m);
+    double c = 0.0;
+    const int n = est.num_data();
+    for (int i = 0; i < n; ++i) {
+      c += !(est.residual(T, i) < thr);
+      if (c > bail) return c;
+    }
+    return c;
+  }
+};
+
+template <class Est, class Model, class Scorer>
+void inliers_of(const Est& est, const Model& m, const Scorer& sc, std::vector<int>* inl) {
+  inl->clear();
+  const auto T = est.terms(m);
+  for (int i = 0; i < est.num_data(); ++i)
+    if (sc.inlier(est.residual(T, i))) inl->push_back(i);
+}
+
+template <class Est, class Scorer, class Sampler, class Model>
+RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const RansacOptions& opt, Model* best) {
+  RansacStats st;
+  const int n = est.num_data();
+  std::vector<int> sample, inl;
+  std::vector<Model> models;
+  double needed = opt.max_iterations;
+  bool have = false;
+  while (st.iterations < opt.max_iterations && (st.iterations < needed || st.iterations < opt.min_iterations)) {
+    ++st.iterations;
+    sampler.sample(&sample);
+    models.clear();
+    est.generate(sample, &models);
+    for (const Model& m : models) {
+      ++st.num_models;
+      const double c = scorer.cost(est, m, st.cost);
+      if (!(c < st.cost)) continue;
+      *best = m;
+      st.cost = c;
+      have = true;
+      if (st.num_lo < opt.max_lo) {
+        inliers_of(est, *best, scorer, &inl);
+        Model lo = *best;
+        ++st.num_lo;
+        if (est.refine(&lo, inl)) {
+          const double c2 = scorer.cost(est, lo, st.cost);
+          if (c2 <= st.cost) {
+            *best = lo;
+            st.cost = c2;
+          }
+        }
+      }
+      inliers_of(est, *best, scorer, &inl);
+      st.num_inliers = static_cast<int>(inl.size());
+      if (opt.adaptive) needed = samples_needed(est.success_probability(static_cast<double>(inl.size()) / n), opt.confidence);
+    }
+  }
+  if (!have) st.num_inliers = 0;
+  return st;
+}
+
+}  // namespace poseonly
