@@ -1,7 +1,6 @@
 // Stewenius five-point solver (see fivept.h for the construction).
 #include "fivept.h"
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 
 #include <algorithm>
@@ -17,6 +16,10 @@ using Vec10 = Eigen::Matrix<double, 10, 1>;
 // Monomials of (x, y, z, 1): linear (4: x, y, z, 1), quadratic (10: x^2, xy, y^2, xz, yz, z^2, x, y,
 // z, 1) and cubic (20: poseonly.solvers.fivept.MONOMIALS: the ten cubic terms, then the quadratic
 // ones). Tables of the products linear x linear -> quadratic and quadratic x linear -> cubic.
+constexpr int kCubic[20][3] = {{3, 0, 0}, {2, 1, 0}, {1, 2, 0}, {0, 3, 0}, {2, 0, 1}, {1, 1, 1}, {0, 2, 1},
+                               {1, 0, 2}, {0, 1, 2}, {0, 0, 3}, {2, 0, 0}, {1, 1, 0}, {0, 2, 0}, {1, 0, 1},
+                               {0, 1, 1}, {0, 0, 2}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
+
 struct MonomialTables {
   int q11[4][4];
   int c21[10][4];
@@ -24,9 +27,7 @@ struct MonomialTables {
     // exponents (x, y, z) of the quadratic and cubic bases
     static const int quad[10][3] = {{2, 0, 0}, {1, 1, 0}, {0, 2, 0}, {1, 0, 1}, {0, 1, 1},
                                     {0, 0, 2}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
-    static const int cub[20][3] = {{3, 0, 0}, {2, 1, 0}, {1, 2, 0}, {0, 3, 0}, {2, 0, 1}, {1, 1, 1}, {0, 2, 1},
-                                   {1, 0, 2}, {0, 1, 2}, {0, 0, 3}, {2, 0, 0}, {1, 1, 0}, {0, 2, 0}, {1, 0, 1},
-                                   {0, 1, 1}, {0, 0, 2}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
+    const auto& cub = kCubic;
     auto unit = [](int i, int e[3]) {
       e[0] = e[1] = e[2] = 0;
       if (i < 3) e[i] = 1;
@@ -112,14 +113,15 @@ void build_template(const Mat3 basis[4], Eigen::Matrix<double, 10, 20>* A) {
   for (int m = 0; m < 20; ++m) (*A)(9, m) = det[m];
 }
 
-// In-place LU with partial pivoting; zero pivots are floored at `floor` (inverse iteration on a
-// singular matrix then still yields the null vector). Returns false if a pivot is exactly zero and
-// floor == 0.
-bool lu10(Mat10* L, int piv[10], double floor) {
-  for (int k = 0; k < 10; ++k) {
+// In-place LU with partial pivoting of an N x N matrix (full rows swapped: P A = L U); zero pivots
+// are floored at `floor` (inverse iteration on a singular matrix then still yields the null vector).
+// Returns false if a pivot is exactly zero and floor == 0.
+template <int N>
+bool lu_inplace(Eigen::Matrix<double, N, N>* L, int piv[N], double floor) {
+  for (int k = 0; k < N; ++k) {
     int pk = k;
     double big = std::abs((*L)(k, k));
-    for (int i = k + 1; i < 10; ++i)
+    for (int i = k + 1; i < N; ++i)
       if (std::abs((*L)(i, k)) > big) {
         big = std::abs((*L)(i, k));
         pk = i;
@@ -131,26 +133,273 @@ bool lu10(Mat10* L, int piv[10], double floor) {
       (*L)(k, k) = floor;
     }
     const double inv = 1.0 / (*L)(k, k);
-    for (int i = k + 1; i < 10; ++i) {
+    for (int i = k + 1; i < N; ++i) {
       const double f = ((*L)(i, k) *= inv);
       if (f != 0.0)
-        for (int j = k + 1; j < 10; ++j) (*L)(i, j) -= f * (*L)(k, j);
+        for (int j = k + 1; j < N; ++j) (*L)(i, j) -= f * (*L)(k, j);
     }
   }
   return true;
 }
 
-void lu10_solve(const Mat10& L, const int piv[10], double* b) {
-  for (int k = 0; k < 10; ++k)  // the row interchanges (full rows were swapped: P A = L U)
+template <int N>
+void lu_solve(const Eigen::Matrix<double, N, N>& L, const int piv[N], double* b) {
+  for (int k = 0; k < N; ++k)  // the row interchanges first (full rows were swapped)
     if (piv[k] != k) std::swap(b[k], b[piv[k]]);
-  for (int k = 0; k < 10; ++k)
-    for (int i = k + 1; i < 10; ++i) b[i] -= L(i, k) * b[k];
-  for (int k = 9; k >= 0; --k) {
+  for (int k = 0; k < N; ++k)
+    for (int i = k + 1; i < N; ++i) b[i] -= L(i, k) * b[k];
+  for (int k = N - 1; k >= 0; --k) {
     double s = b[k];
-    for (int j = k + 1; j < 10; ++j) s -= L(k, j) * b[j];
+    for (int j = k + 1; j < N; ++j) s -= L(k, j) * b[j];
     b[k] = s / L(k, k);
   }
 }
+
+// Parlett-Reinsch balancing in place (Numerical Recipes balanc; powers of 2, no rounding).
+void balance10(Mat10* A) {
+  constexpr double radix = 2.0, sqrdx = radix * radix;
+  Mat10& a = *A;
+  bool done = false;
+  while (!done) {
+    done = true;
+    for (int i = 0; i < 10; ++i) {
+      double r = 0.0, c = 0.0;
+      for (int j = 0; j < 10; ++j)
+        if (j != i) {
+          c += std::abs(a(j, i));
+          r += std::abs(a(i, j));
+        }
+      if (c != 0.0 && r != 0.0) {
+        double g = r / radix, f = 1.0;
+        const double s = c + r;
+        while (c < g) {
+          f *= radix;
+          c *= sqrdx;
+        }
+        g = r * radix;
+        while (c > g) {
+          f /= radix;
+          c /= sqrdx;
+        }
+        if ((c + r) / f < 0.95 * s) {
+          done = false;
+          g = 1.0 / f;
+          a.row(i) *= g;
+          a.col(i) *= f;
+        }
+      }
+    }
+  }
+}
+
+// Reduction to upper Hessenberg form by stabilised elementary similarity transformations (NR elmhes).
+void hessenberg10(Mat10* A) {
+  constexpr int n = 10;
+  Mat10& a = *A;
+  for (int m = 1; m < n - 1; ++m) {
+    double x = 0.0;
+    int i = m;
+    for (int j = m; j < n; ++j)
+      if (std::abs(a(j, m - 1)) > std::abs(x)) {
+        x = a(j, m - 1);
+        i = j;
+      }
+    if (i != m) {
+      for (int j = m - 1; j < n; ++j) std::swap(a(i, j), a(m, j));
+      for (int j = 0; j < n; ++j) std::swap(a(j, i), a(j, m));
+    }
+    if (x != 0.0) {
+      for (int i2 = m + 1; i2 < n; ++i2) {
+        double y = a(i2, m - 1);
+        if (y != 0.0) {
+          y /= x;
+          a(i2, m - 1) = y;
+          for (int j = m; j < n; ++j) a(i2, j) -= y * a(m, j);
+          for (int j = 0; j < n; ++j) a(j, m) += y * a(j, i2);
+        }
+      }
+    }
+  }
+  for (int i = 2; i < n; ++i)
+    for (int j = 0; j < i - 1; ++j) a(i, j) = 0.0;
+}
+
+// Eigenvalues of an upper Hessenberg matrix by the Francis double-shift QR algorithm (EISPACK hqr as
+// in Numerical Recipes; 1-based h[1..n][1..n], destroyed). False if it did not converge.
+bool hqr10(double h[11][11], double wr[11], double wi[11]) {
+  constexpr int n = 10;
+  double anorm = 0.0;
+  for (int i = 1; i <= n; ++i)
+    for (int j = std::max(i - 1, 1); j <= n; ++j) anorm += std::abs(h[i][j]);
+  int nn = n, l = 1;
+  double t = 0.0, x = 0.0, y = 0.0, z = 0.0, w = 0.0, p = 0.0, q = 0.0, r = 0.0, s = 0.0;
+  while (nn >= 1) {
+    int its = 0;
+    do {
+      l = 1;
+      for (int ll = nn; ll >= 2; --ll) {
+        s = std::abs(h[ll - 1][ll - 1]) + std::abs(h[ll][ll]);
+        if (s == 0.0) s = anorm;
+        if (std::abs(h[ll][ll - 1]) + s == s) {
+          h[ll][ll - 1] = 0.0;
+          l = ll;
+          break;
+        }
+      }
+      x = h[nn][nn];
+      if (l == nn) {
+        wr[nn] = x + t;
+        wi[nn--] = 0.0;
+      } else {
+        y = h[nn - 1][nn - 1];
+        w = h[nn][nn - 1] * h[nn - 1][nn];
+        if (l == nn - 1) {
+          p = 0.5 * (y - x);
+          q = p * p + w;
+          z = std::sqrt(std::abs(q));
+          x += t;
+          if (q >= 0.0) {
+            z = p + (p >= 0.0 ? z : -z);
+            wr[nn - 1] = wr[nn] = x + z;
+            if (z != 0.0) wr[nn] = x - w / z;
+            wi[nn - 1] = wi[nn] = 0.0;
+          } else {
+            wr[nn - 1] = wr[nn] = x + p;
+            wi[nn - 1] = -z;
+            wi[nn] = z;
+          }
+          nn -= 2;
+        } else {
+          if (its == 60) return false;
+          if (its == 10 || its == 20 || its == 40) {  // exceptional shift
+            t += x;
+            for (int i = 1; i <= nn; ++i) h[i][i] -= x;
+            s = std::abs(h[nn][nn - 1]) + std::abs(h[nn - 1][nn - 2]);
+            y = x = 0.75 * s;
+            w = -0.4375 * s * s;
+          }
+          ++its;
+          int m = nn - 2;
+          for (; m >= l; --m) {
+            z = h[m][m];
+            r = x - z;
+            s = y - z;
+            p = (r * s - w) / h[m + 1][m] + h[m][m + 1];
+            q = h[m + 1][m + 1] - z - r - s;
+            r = h[m + 2][m + 1];
+            s = std::abs(p) + std::abs(q) + std::abs(r);
+            p /= s;
+            q /= s;
+            r /= s;
+            if (m == l) break;
+            const double u = std::abs(h[m][m - 1]) * (std::abs(q) + std::abs(r));
+            const double v = std::abs(p) * (std::abs(h[m - 1][m - 1]) + std::abs(z) + std::abs(h[m + 1][m + 1]));
+            if (u + v == v) break;
+          }
+          for (int i = m + 2; i <= nn; ++i) {
+            h[i][i - 2] = 0.0;
+            if (i != m + 2) h[i][i - 3] = 0.0;
+          }
+          for (int k = m; k <= nn - 1; ++k) {
+            if (k != m) {
+              p = h[k][k - 1];
+              q = h[k + 1][k - 1];
+              r = 0.0;
+              if (k != nn - 1) r = h[k + 2][k - 1];
+              if ((x = std::abs(p) + std::abs(q) + std::abs(r)) != 0.0) {
+                p /= x;
+                q /= x;
+                r /= x;
+              }
+            }
+            s = std::sqrt(p * p + q * q + r * r);
+            if (p < 0.0) s = -s;
+            if (s != 0.0) {
+              if (k == m) {
+                if (l != m) h[k][k - 1] = -h[k][k - 1];
+              } else {
+                h[k][k - 1] = -s * x;
+              }
+              p += s;
+              x = p / s;
+              y = q / s;
+              z = r / s;
+              q /= p;
+              r /= p;
+              for (int j = k; j <= nn; ++j) {
+                p = h[k][j] + q * h[k + 1][j];
+                if (k != nn - 1) {
+                  p += r * h[k + 2][j];
+                  h[k + 2][j] -= p * z;
+                }
+                h[k + 1][j] -= p * y;
+                h[k][j] -= p * x;
+              }
+              const int mmin = nn < k + 3 ? nn : k + 3;
+              for (int i = l; i <= mmin; ++i) {
+                p = x * h[i][k] + y * h[i][k + 1];
+                if (k != nn - 1) {
+                  p += z * h[i][k + 2];
+                  h[i][k + 2] -= p * r;
+                }
+                h[i][k + 1] -= p * q;
+                h[i][k] -= p;
+              }
+            }
+          }
+        }
+      }
+    } while (l < nn - 1);
+  }
+  return true;
+}
+
+// Gauss-Newton polish of a solution (x, y, z) of the ten template equations A m(x, y, z) = 0 (m the
+// 20 cubic monomials): the eigenvalue/eigenvector pair is accurate to ~1e-10 relative; two steps bring
+// the solution to rounding level. A step is kept only if it lowers |A m|.
+constexpr int kPolishSteps = 2;
+
+double template_residual(const Eigen::Matrix<double, 10, 20>& A, const double p[3], Eigen::Matrix<double, 10, 3>* J,
+                         Eigen::Matrix<double, 10, 1>* F) {
+  double pw[3][4];
+  for (int d = 0; d < 3; ++d) {
+    pw[d][0] = 1.0;
+    for (int e = 1; e < 4; ++e) pw[d][e] = pw[d][e - 1] * p[d];
+  }
+  Eigen::Matrix<double, 20, 1> m;
+  Eigen::Matrix<double, 20, 3> dm;
+  for (int k = 0; k < 20; ++k) {
+    const int* e = kCubic[k];
+    m(k) = pw[0][e[0]] * pw[1][e[1]] * pw[2][e[2]];
+    dm(k, 0) = e[0] ? e[0] * pw[0][e[0] - 1] * pw[1][e[1]] * pw[2][e[2]] : 0.0;
+    dm(k, 1) = e[1] ? e[1] * pw[0][e[0]] * pw[1][e[1] - 1] * pw[2][e[2]] : 0.0;
+    dm(k, 2) = e[2] ? e[2] * pw[0][e[0]] * pw[1][e[1]] * pw[2][e[2] - 1] : 0.0;
+  }
+  *F = A * m;
+  if (J) *J = A * dm;
+  return F->squaredNorm();
+}
+
+void polish(const Eigen::Matrix<double, 10, 20>& A, double p[3]) {
+  Eigen::Matrix<double, 10, 3> J;
+  Eigen::Matrix<double, 10, 1> F;
+  double f = template_residual(A, p, &J, &F);
+  for (int it = 0; it < kPolishSteps && f > 0.0; ++it) {
+    const Vec3 dp = J.householderQr().solve(-F);
+    if (!dp.allFinite()) return;
+    double q[3] = {p[0] + dp(0), p[1] + dp(1), p[2] + dp(2)};
+    Eigen::Matrix<double, 10, 3> Jn;
+    Eigen::Matrix<double, 10, 1> Fn;
+    const double fn = template_residual(A, q, &Jn, &Fn);
+    if (!(fn < f)) return;
+    std::copy(q, q + 3, p);
+    f = fn;
+    J = Jn;
+    F = Fn;
+  }
+}
+
+constexpr double kPolishMinV9 = 1e-8;  // |v9| / |v| below which (x, y, z) = v[6:9] / v9 is not formed
 
 constexpr int kActionRows[6] = {0, 1, 2, 4, 5, 7};  // template rows of x * b_0 .. x * b_5
 constexpr int kUnitCols[4] = {0, 1, 3, 6};          // x * (x, y, z, 1) = b_0, b_1, b_3, b_6
@@ -192,46 +441,68 @@ int fivept_essentials(const Points& p, std::vector<Mat3>* E) {
   // --- template, elimination, action matrix
   Eigen::Matrix<double, 10, 20> A;
   build_template(basis, &A);
-  Mat10 A1 = A.leftCols<10>();
-  int piv[10];
-  if (!lu10(&A1, piv, 0.0)) return 0;
+  const Eigen::PartialPivLU<Mat10> lu(A.leftCols<10>());
+  const auto d = lu.matrixLU().diagonal();
+  if (!(d.cwiseAbs().minCoeff() > 0.0) || !d.allFinite()) return 0;  // singular elimination template
+  const Mat10 G = lu.solve(A.rightCols<10>());
   Mat10 M = Mat10::Zero();
-  double col[10];
-  for (int c = 0; c < 10; ++c) {
-    for (int r = 0; r < 10; ++r) col[r] = A(r, 10 + c);
-    lu10_solve(A1, piv, col);
-    for (int rr = 0; rr < 6; ++rr) M(rr, c) = -col[kActionRows[rr]];
-  }
+  for (int rr = 0; rr < 6; ++rr) M.row(rr) = -G.row(kActionRows[rr]);
   for (int rr = 0; rr < 4; ++rr) M(6 + rr, kUnitCols[rr]) = 1.0;
   if (!M.allFinite()) return 0;
-  // --- eigenvalues (real Schur form), eigenvectors by inverse iteration
-  Eigen::EigenSolver<Mat10> es;
-  es.compute(M, false);
-  if (es.info() != Eigen::Success) return 0;
-  const auto lam = es.eigenvalues();
+  // --- eigenvalues: balancing, Hessenberg reduction, Francis QR; eigenvectors by inverse iteration
+  Mat10 Hm = M;
+  balance10(&Hm);
+  hessenberg10(&Hm);
+  double h[11][11], wr[11], wi[11];
+  for (int r = 0; r < 10; ++r)
+    for (int c = 0; c < 10; ++c) h[r + 1][c + 1] = Hm(r, c);
+  if (!hqr10(h, wr, wi)) return 0;
   const double mnorm = M.cwiseAbs().maxCoeff();
-  for (int e = 0; e < 10; ++e) {
-    const double lr = lam(e).real(), li = lam(e).imag();
-    if (!(std::abs(li) <= kFiveptRealTol * (1.0 + std::abs(lam(e))))) continue;
-    Mat10 L = M;
-    L.diagonal().array() -= lr;
-    lu10(&L, piv, 1e-300 + 1e-15 * mnorm);
-    double v[10];
-    std::fill(v, v + 10, 1.0);
+  for (int e = 1; e <= 10; ++e) {
+    const double lr = wr[e], li = wi[e];
+    if (!(std::abs(li) <= kFiveptRealTol * (1.0 + std::sqrt(lr * lr + li * li)))) continue;
+    // the eigenvector v ~ b: the unit rows give v0 = lr^2 v9, v1 = lr v7, v3 = lr v8, v6 = lr v9, so
+    // rows 0..5 of (M - lr I) v = 0 are a 6 x 6 homogeneous system in (v2, v4, v5, v7, v8, v9)
+    Eigen::Matrix<double, 6, 6> K;
+    const double l2 = lr * lr;
+    for (int r = 0; r < 6; ++r) {
+      K(r, 0) = M(r, 2) - (r == 2 ? lr : 0.0);
+      K(r, 1) = M(r, 4) - (r == 4 ? lr : 0.0);
+      K(r, 2) = M(r, 5) - (r == 5 ? lr : 0.0);
+      K(r, 3) = M(r, 7) + lr * M(r, 1) - (r == 1 ? l2 : 0.0);
+      K(r, 4) = M(r, 8) + lr * M(r, 3) - (r == 3 ? l2 : 0.0);
+      K(r, 5) = M(r, 9) + lr * M(r, 6) + l2 * M(r, 0) - (r == 0 ? l2 * lr : 0.0);
+    }
+    int piv6[6];
+    lu_inplace<6>(&K, piv6, 1e-300 + 1e-15 * (mnorm * (1.0 + l2 + l2 * std::abs(lr))));
+    double u[6];
+    std::fill(u, u + 6, 1.0);
     bool ok = true;
-    for (int it = 0; it < 2 && ok; ++it) {
-      lu10_solve(L, piv, v);
-      double nv = 0.0;
-      for (double x : v) nv += x * x;
-      nv = std::sqrt(nv);
-      if (!(nv > 0.0 && std::isfinite(nv))) {
+    for (int it = 0; it < 2 && ok; ++it) {  // two steps of inverse iteration
+      lu_solve<6>(K, piv6, u);
+      double nu = 0.0;
+      for (double x : u) nu += x * x;
+      nu = std::sqrt(nu);
+      if (!(nu > 0.0 && std::isfinite(nu))) {
         ok = false;
         break;
       }
-      for (double& x : v) x /= nv;
+      for (double& x : u) x /= nu;
     }
     if (!ok) continue;
-    Mat3 Ee = v[6] * basis[0] + v[7] * basis[1] + v[8] * basis[2] + v[9] * basis[3];
+    double v[10];
+    v[7] = u[3];
+    v[8] = u[4];
+    v[9] = u[5];
+    v[6] = lr * u[5];
+    Mat3 Ee;
+    if (std::abs(v[9]) > kPolishMinV9 * std::sqrt(v[6] * v[6] + v[7] * v[7] + v[8] * v[8] + v[9] * v[9])) {
+      double xyz[3] = {v[6] / v[9], v[7] / v[9], v[8] / v[9]};
+      polish(A, xyz);
+      Ee = xyz[0] * basis[0] + xyz[1] * basis[1] + xyz[2] * basis[2] + basis[3];
+    } else {
+      Ee = v[6] * basis[0] + v[7] * basis[1] + v[8] * basis[2] + v[9] * basis[3];
+    }
     const double ne = Ee.norm();
     if (!(ne > 0.0 && std::isfinite(ne))) continue;
     Ee /= ne;
