@@ -1,6 +1,8 @@
 // Stewenius five-point solver (see fivept.h for the construction).
 #include "fivept.h"
 
+#include <Eigen/Geometry>
+#include <Eigen/LU>
 #include <Eigen/QR>
 
 #include <algorithm>
@@ -551,6 +553,66 @@ bool decompose_chiral(const Mat3& E0, const Points& p, Pose* pose) {
   return false;
 }
 
+namespace {
+
+constexpr int kPoseNewtonSteps = 2;
+
+double epipolar_residuals(const Pose& P, const Points& p, double r[5]) {
+  double m = 0.0;
+  for (int i = 0; i < 5; ++i) {
+    r[i] = (P.R * p.a(i)).dot(p.b(i).cross(P.t));
+    m = std::max(m, std::abs(r[i]));
+  }
+  return m;
+}
+
+// Newton steps on the five epipolar equations f2_i^T [t]x R f1_i = 0 in the 5 pose parameters
+// (R <- exp([dw]x) R, t <- normalize(t + B dv)). The linear null space of the epipolar rows is
+// ill-conditioned when the parallax is small (it nearly contains every [t]x R); the pose equations
+// have the geometric conditioning, so this removes the algebraic error amplification. A step is kept
+// only if the largest residual decreases and the chirality of all five points is unchanged.
+void polish_pose(const Points& p, Pose* pose) {
+  double r[5];
+  double f = epipolar_residuals(*pose, p, r);
+  for (int it = 0; it < kPoseNewtonSteps && f > 0.0; ++it) {
+    Eigen::Index k;
+    pose->t.cwiseAbs().minCoeff(&k);
+    Vec3 e = Vec3::Zero();
+    e(k) = 1.0;
+    const Vec3 b1 = pose->t.cross(e).normalized();
+    const Vec3 b2 = pose->t.cross(b1);
+    Eigen::Matrix<double, 5, 5> J;
+    Eigen::Matrix<double, 5, 1> rv;
+    for (int i = 0; i < 5; ++i) {
+      const Vec3 a = pose->R * p.a(i);
+      const Vec3 g = a.cross(p.b(i).cross(pose->t));  // d r / d w
+      const Vec3 h = a.cross(p.b(i));                 // d r / d t
+      J.row(i) << g(0), g(1), g(2), h.dot(b1), h.dot(b2);
+      rv(i) = r[i];
+    }
+    const Eigen::Matrix<double, 5, 1> dx = J.partialPivLu().solve(-rv);
+    if (!dx.allFinite()) return;
+    Pose q;
+    const Vec3 w = dx.head<3>();
+    const double th = w.norm();
+    q.R = (th > 0.0 ? Mat3(Eigen::AngleAxisd(th, w / th).toRotationMatrix()) : Mat3::Identity()) * pose->R;
+    q.t = (pose->t + dx(3) * b1 + dx(4) * b2).normalized();
+    double rq[5];
+    const double fq = epipolar_residuals(q, p, rq);
+    if (!(fq < f)) return;
+    for (int i = 0; i < p.n; ++i) {
+      double h0, hp0;
+      depth_numerators(q.R, q.t, p.a(i), p.b(i), &h0, &hp0);
+      if (!(h0 > 0.0 && hp0 > 0.0)) return;
+    }
+    *pose = q;
+    f = fq;
+    std::copy(rq, rq + 5, r);
+  }
+}
+
+}  // namespace
+
 void fivept_poses(const Points& p, std::vector<Pose>* out) {
   out->clear();
   std::vector<Mat3> E;
@@ -558,7 +620,10 @@ void fivept_poses(const Points& p, std::vector<Pose>* out) {
   fivept_essentials(p, &E);
   for (const Mat3& e : E) {
     Pose pose;
-    if (decompose_chiral(e, p, &pose)) out->push_back(pose);
+    if (decompose_chiral(e, p, &pose)) {
+      polish_pose(p, &pose);
+      out->push_back(pose);
+    }
   }
 }
 

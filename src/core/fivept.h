@@ -30,7 +30,9 @@ int fivept_essentials(const Points& p, std::vector<Mat3>* E);
 
 // Every real solution decomposed into the pose (unit t) under which all five points have positive
 // pose-only depths h^T t > 0 and h'^T t > 0 (depth_numerators); solutions without such a
-// decomposition are dropped. out is cleared first.
+// decomposition are dropped; each pose is then polished by two Newton steps on the five epipolar
+// equations f2_i^T [t]x R f1_i = 0 (kept only if they lower the largest residual and keep the
+// chirality; this removes the null space's error amplification at small parallax). out is cleared first.
 void fivept_poses(const Points& p, std::vector<Pose>* out);
 
 // The chiral decomposition of one essential matrix (any scale) on the points p (any n >= 1):
