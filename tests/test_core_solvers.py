@@ -15,15 +15,21 @@ core = pytest.importorskip("poseonly._core")
 if not hasattr(core, "fivept"):
     pytest.skip("poseonly._core was built without the solvers", allow_module_level=True)
 
-from scipy.optimize import least_squares  # noqa: E402
+from scipy.optimize import least_squares
 
-from poseonly import lirp  # noqa: E402
-from poseonly.geometry import normalize, rotation_error_deg, rotation_from_rotvec, skew, translation_error_deg  # noqa: E402
-from poseonly.refine._manifold import PoseChart  # noqa: E402
-from poseonly.refine.ligt import NORMALIZATIONS, _residual_and_jacobian, ligt_refine  # noqa: E402
-from poseonly.residuals import v_sampson  # noqa: E402
-from poseonly.sim import make_scene  # noqa: E402
-from poseonly.solvers.fivept import fivept as fivept_numpy  # noqa: E402
+from poseonly import lirp
+from poseonly.geometry import (
+    normalize,
+    rotation_error_deg,
+    rotation_from_rotvec,
+    skew,
+    translation_error_deg,
+)
+from poseonly.refine._manifold import PoseChart
+from poseonly.refine.ligt import NORMALIZATIONS, _residual_and_jacobian, ligt_refine
+from poseonly.residuals import v_sampson
+from poseonly.sim import make_scene
+from poseonly.solvers.fivept import fivept as fivept_numpy
 
 EXACT_DEG = 1e-6
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
@@ -84,12 +90,12 @@ def test_fivept_wide_angle_bearings_with_negative_z():
 @pytest.mark.parametrize(
     ("case", "tol_deg"),
     [
-        (dict(baseline=0.02), EXACT_DEG),  # short baseline (1/300 of the depth)
-        (dict(forward=True), EXACT_DEG),  # translation along the optical axis (epipole inside the image)
-        (dict(spread=0.05), EXACT_DEG),  # narrow field of view: points within ~1 degree
+        ({"baseline": 0.02}, EXACT_DEG),  # short baseline (1/300 of the depth)
+        ({"forward": True}, EXACT_DEG),  # translation along the optical axis (epipole inside the image)
+        ({"spread": 0.05}, EXACT_DEG),  # narrow field of view: points within ~1 degree
         # distant, shallow points (baseline 1/60 of the depth, depth range +-1/60): the problem itself is
         # ill-conditioned (numpy's Stewenius E is off by up to 0.3 in these samples); 1e-5 deg here
-        (dict(depth=60.0), 1e-5),
+        ({"depth": 60.0}, 1e-5),
     ],
     ids=["short-baseline", "forward", "narrow-fov", "distant"],
 )
@@ -326,7 +332,7 @@ def test_refine_max_iterations_caps_evaluations():
     rng = np.random.default_rng(2)
     R0, t0 = _perturbed_start(sc, rng, 5.0, 0.2)
     for fn in (core.refine_sampson, core.refine_ligt):
-        R, t, st = fn(R0, t0, sc.f1, sc.f2, max_iterations=3)
+        _, _, st = fn(R0, t0, sc.f1, sc.f2, max_iterations=3)
         assert st["evaluations"] <= 3 and st["status"] == 0 and st["final_cost"] <= st["initial_cost"]
 
 
