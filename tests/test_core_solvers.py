@@ -88,25 +88,25 @@ def test_fivept_wide_angle_bearings_with_negative_z():
 
 
 @pytest.mark.parametrize(
-    ("case", "tol_deg"),
+    "case",
     [
-        ({"baseline": 0.02}, EXACT_DEG),  # short baseline (1/300 of the depth)
-        ({"forward": True}, EXACT_DEG),  # translation along the optical axis (epipole inside the image)
-        ({"spread": 0.05}, EXACT_DEG),  # narrow field of view: points within ~1 degree
-        # distant, shallow points (baseline 1/60 of the depth, depth range +-1/60): the problem itself is
-        # ill-conditioned (numpy's Stewenius E is off by up to 0.3 in these samples); 1e-5 deg here
-        ({"depth": 60.0}, 1e-5),
+        {"baseline": 0.02},  # short baseline (1/300 of the depth)
+        {"forward": True},  # translation along the optical axis (epipole inside the image)
+        {"spread": 0.05},  # narrow field of view: points within ~1 degree
+        # distant, shallow points (baseline 1/60 of the depth, depth range +-1/60): numpy's Stewenius E
+        # is off by up to 0.3 (Frobenius-normalised entries) in these samples
+        {"depth": 60.0},
     ],
     ids=["short-baseline", "forward", "narrow-fov", "distant"],
 )
-def test_fivept_near_degenerate_geometry(case, tol_deg):
+def test_fivept_near_degenerate_geometry(case):
     """Near-degenerate but valid samples stay exact (the Newton polish of the pose removes the
     null space's error amplification at small parallax)."""
     rng = np.random.default_rng(3)
     for _ in range(30):
         f1, f2, R, t = _custom_scene(rng, **case)
         Rs, ts = core.fivept(f1, f2)
-        assert _best_error(R, t, Rs, ts) < tol_deg, case
+        assert _best_error(R, t, Rs, ts) < EXACT_DEG, case
 
 
 def test_fivept_essentials_match_numpy():

@@ -416,9 +416,9 @@ inline Mat3 cofactor(const Mat3& E) {
   return C;
 }
 
-}  // namespace
-
-int fivept_essentials(const Points& p, std::vector<Mat3>* E) {
+// fivept_essentials; polish: the Gauss-Newton polish of (x, y, z) on the template (fivept_poses
+// skips it: its Newton polish of the pose on the epipolar equations reaches rounding level anyway)
+int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots) {
   E->clear();
   if (p.n != 5) return 0;
   // --- null space of the epipolar rows: A^T (9 x 5), column i = kron(f1_i, f2_i) (E column-major)
@@ -498,7 +498,7 @@ int fivept_essentials(const Points& p, std::vector<Mat3>* E) {
     v[9] = u[5];
     v[6] = lr * u[5];
     Mat3 Ee;
-    if (std::abs(v[9]) > kPolishMinV9 * std::sqrt(v[6] * v[6] + v[7] * v[7] + v[8] * v[8] + v[9] * v[9])) {
+    if (polish_roots && std::abs(v[9]) > kPolishMinV9 * std::sqrt(v[6] * v[6] + v[7] * v[7] + v[8] * v[8] + v[9] * v[9])) {
       double xyz[3] = {v[6] / v[9], v[7] / v[9], v[8] / v[9]};
       polish(A, xyz);
       Ee = xyz[0] * basis[0] + xyz[1] * basis[1] + xyz[2] * basis[2] + basis[3];
@@ -515,6 +515,10 @@ int fivept_essentials(const Points& p, std::vector<Mat3>* E) {
   }
   return static_cast<int>(E->size());
 }
+
+}  // namespace
+
+int fivept_essentials(const Points& p, std::vector<Mat3>* E) { return essentials_impl(p, E, true); }
 
 bool decompose_chiral(const Mat3& E0, const Points& p, Pose* pose) {
   const double ne = E0.norm();
@@ -555,7 +559,8 @@ bool decompose_chiral(const Mat3& E0, const Points& p, Pose* pose) {
 
 namespace {
 
-constexpr int kPoseNewtonSteps = 2;
+constexpr int kPoseNewtonSteps = 4;  // at most; stops when a step no longer lowers the residual
+constexpr double kPoseStepTol = 1e-15;  // |dx| below which the iteration has converged
 
 double epipolar_residuals(const Pose& P, const Points& p, double r[5]) {
   double m = 0.0;
@@ -608,6 +613,7 @@ void polish_pose(const Points& p, Pose* pose) {
     *pose = q;
     f = fq;
     std::copy(rq, rq + 5, r);
+    if (dx.norm() < kPoseStepTol) return;
   }
 }
 
@@ -617,7 +623,7 @@ void fivept_poses(const Points& p, std::vector<Pose>* out) {
   out->clear();
   std::vector<Mat3> E;
   E.reserve(10);
-  fivept_essentials(p, &E);
+  essentials_impl(p, &E, false);
   for (const Mat3& e : E) {
     Pose pose;
     if (decompose_chiral(e, p, &pose)) {

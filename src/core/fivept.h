@@ -9,7 +9,7 @@
 //      double-shift QR (EISPACK hqr, as the numba kernel fivept_real_nb; Eigen's EigenSolver on the
 //      fixed 10 x 10 cost ~5x more); each real eigenvalue's eigenvector by two steps of inverse
 //      iteration on the 6 x 6 system left by the four unit rows of the action matrix;
-//   5. (x, y, z) = v[6:9] / v9 polished by two Gauss-Newton steps on the ten template equations
+//   5. (fivept_essentials) (x, y, z) = v[6:9] / v9 polished by two Gauss-Newton steps on the ten template equations
 //      (kept only if they lower the residual); E = x X + y Y + z Z + W (v6 X + v7 Y + v8 Z + v9 W when
 //      v9 ~ 0), unit Frobenius norm, largest entry positive.
 // Only the real solutions are returned (|Im lambda| <= kFiveptRealTol (1 + |lambda|), as numpy's
@@ -30,7 +30,7 @@ int fivept_essentials(const Points& p, std::vector<Mat3>* E);
 
 // Every real solution decomposed into the pose (unit t) under which all five points have positive
 // pose-only depths h^T t > 0 and h'^T t > 0 (depth_numerators); solutions without such a
-// decomposition are dropped; each pose is then polished by two Newton steps on the five epipolar
+// decomposition are dropped; each pose is then polished by (at most four) Newton steps on the five epipolar
 // equations f2_i^T [t]x R f1_i = 0 (kept only if they lower the largest residual and keep the
 // chirality; this removes the null space's error amplification at small parallax). out is cleared first.
 void fivept_poses(const Points& p, std::vector<Pose>* out);
