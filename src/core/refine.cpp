@@ -315,12 +315,11 @@ double default_scale(const Points& p, const double* w, int kind, const Chart& ch
 }
 
 // the LM loop of poseonly.refine.ligt._lm
-void levenberg_marquardt(const Problem& pr, int max_iter, double tol, double x[5], double F0, RefineStats* st) {
+void levenberg_marquardt(const Problem& pr, int max_iter, double tol, double x[5], RefineStats* st) {
   Mat5 H, Hn;
   Vec5 g, gn;
   Vec5 xv = Vec5::Zero();
   double F = pr.eval(xv.data(), true, &H, &g);
-  (void)F0;
   int nfev = 1, njev = 1;
   Vec5 d = H.diagonal().cwiseMax(kDiagFloor);
   double lam = kLambda0;
@@ -416,7 +415,7 @@ RefineStats refine(const Points& p, const double* w, const RefineOptions& opt, i
     st.evaluations = 1;
     st.status = 1;
   } else {
-    levenberg_marquardt(pr, std::max(opt.max_iterations, 1), tol, x, cost0, &st);
+    levenberg_marquardt(pr, std::max(opt.max_iterations, 1), tol, x, &st);
   }
   Frame F;
   chart.eval(x, false, &F.R, &F.t, &F.Jl, &F.Jt);
