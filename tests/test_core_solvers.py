@@ -144,6 +144,23 @@ def test_fivept_batch_equals_single_calls():
     assert R0.shape == (0, 3, 3) and t0.shape == (0, 3) and s0.shape == (0,)
 
 
+def test_fivept_batch_on_random_bearings_returns_valid_poses():
+    """Arbitrary (outlier) samples: every returned pose is a finite rotation with unit t, chiral on its sample."""
+    rng = np.random.default_rng(21)
+    F1, F2 = normalize(rng.standard_normal((300, 5, 3))), normalize(rng.standard_normal((300, 5, 3)))
+    R, t, sample = core.fivept_batch(F1, F2)
+    assert len(R) > 0 and np.all(np.isfinite(R)) and np.all(np.isfinite(t))
+    np.testing.assert_allclose(np.einsum("mji,mjk->mik", R, R), np.broadcast_to(np.eye(3), R.shape), atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(t, axis=1), 1.0, atol=1e-14)
+    a = np.einsum("mij,mnj->mni", R, F1[sample])
+    c = np.cross(a, F2[sample])
+    assert np.all(np.sum(c * np.cross(F2[sample], t[:, None, :]), axis=2) > 0)
+    assert np.all(np.sum(c * np.cross(a, t[:, None, :]), axis=2) > 0)
+    # the epipolar equations hold to rounding for every returned pose
+    E = np.einsum("mij,mjk->mik", np.stack([skew(x) for x in t]), R)
+    assert np.abs(np.einsum("mni,mij,mnj->mn", F2[sample], E, F1[sample])).max() < 1e-12
+
+
 def test_fivept_degenerate_sample_returns_nothing():
     sc = make_scene(5, "normal", "wide", seed=1)
     f1, f2 = sc.f1.copy(), sc.f2.copy()
