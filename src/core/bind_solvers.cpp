@@ -1,0 +1,234 @@
+// Bindings of the minimal solver and the refinements (GIL released around the numeric work).
+#include <nanobind/stl/optional.h>
+#include <nanobind/stl/string.h>
+
+#include <string>
+
+#include "arrays.h"
+#include "fivept.h"
+#include "refine.h"
+#include "register.h"
+
+namespace poseonly {
+namespace {
+
+nb::tuple poses_to_numpy(const std::vector<Pose>& poses) {
+  const size_t k = poses.size();
+  std::vector<double> R(9 * k), t(3 * k);
+  for (size_t h = 0; h < k; ++h) put_pose(poses[h], R.data() + 9 * h, t.data() + 3 * h);
+  return nb::make_tuple(to_numpy(std::move(R), {k, size_t{3}, size_t{3}}), to_numpy(std::move(t), {k, size_t{3}}));
+}
+
+nb::tuple fivept_py(const BearingsIn& f1, const BearingsIn& f2) {
+  const Points P = points_of(f1, f2);
+  if (P.n != 5) throw std::invalid_argument("fivept needs exactly 5 bearings per view, shape (5, 3)");
+  std::vector<Pose> poses;
+  {
+    nb::gil_scoped_release release;
+    fivept_poses(P, &poses);
+  }
+  return poses_to_numpy(poses);
+}
+
+NpArray fivept_essentials_py(const BearingsIn& f1, const BearingsIn& f2) {
+  const Points P = points_of(f1, f2);
+  if (P.n != 5) throw std::invalid_argument("fivept_essentials needs exactly 5 bearings per view, shape (5, 3)");
+  std::vector<Mat3> E;
+  {
+    nb::gil_scoped_release release;
+    fivept_essentials(P, &E);
+  }
+  const size_t k = E.size();
+  std::vector<double> out(9 * k);
+  for (size_t h = 0; h < k; ++h)
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) out[9 * h + 3 * i + j] = E[h](i, j);
+  return to_numpy(std::move(out), {k, size_t{3}, size_t{3}});
+}
+
+using SamplesIn = nb::ndarray<const double, nb::ndim<3>, nb::c_contig, nb::device::cpu>;
+
+nb::tuple fivept_batch_py(const SamplesIn& f1, const SamplesIn& f2) {
+  if (f1.shape(1) != 5 || f1.shape(2) != 3 || f2.shape(1) != 5 || f2.shape(2) != 3)
+    throw std::invalid_argument("fivept_batch needs bearings of shape (b, 5, 3)");
+  if (f1.shape(0) != f2.shape(0)) throw std::invalid_argument("f1 and f2 must hold the same number of samples");
+  const size_t b = f1.shape(0);
+  std::vector<Pose> all;
+  std::vector<int64_t> index;
+  {
+    nb::gil_scoped_release release;
+    all.reserve(4 * b);
+    index.reserve(4 * b);
+    std::vector<Pose> poses;
+    poses.reserve(10);
+    for (size_t s = 0; s < b; ++s) {
+      const Points P{f1.data() + 15 * s, f2.data() + 15 * s, 5};
+      fivept_poses(P, &poses);
+      for (const Pose& p : poses) {
+        all.push_back(p);
+        index.push_back(static_cast<int64_t>(s));
+      }
+    }
+  }
+  nb::tuple Rt = poses_to_numpy(all);
+  const size_t m = index.size();
+  return nb::make_tuple(Rt[0], Rt[1], to_numpy_t<int64_t>(std::move(index), {m}));
+}
+
+RefineLoss loss_of(const std::string& name) {
+  if (name == "linear") return RefineLoss::Linear;
+  if (name == "soft_l1") return RefineLoss::SoftL1;
+  if (name == "huber") return RefineLoss::Huber;
+  if (name == "cauchy") return RefineLoss::Cauchy;
+  if (name == "arctan") return RefineLoss::Arctan;
+  throw std::invalid_argument("unknown loss '" + name + "'; choose linear, soft_l1, huber, cauchy or arctan");
+}
+
+int normalization_of(const std::string& name) {
+  if (name == "none") return 0;
+  if (name == "theta2") return 1;
+  if (name == "angular") return 2;
+  throw std::invalid_argument("unknown normalization '" + name + "'; choose none, theta2 or angular");
+}
+
+RefineOptions options_of(const std::string& loss, std::optional<double> loss_scale, int max_iterations, double tol) {
+  RefineOptions o;
+  o.loss = loss_of(loss);
+  if (loss_scale) {
+    if (!(std::isfinite(*loss_scale) && *loss_scale > 0.0)) throw std::invalid_argument("loss_scale must be positive and finite");
+    o.loss_scale = *loss_scale;
+  } else {
+    o.loss_scale = 0.0;  // default scale (refine.h)
+  }
+  if (max_iterations < 1) throw std::invalid_argument("max_iterations must be >= 1");
+  o.max_iterations = max_iterations;
+  if (!(tol >= 0.0)) throw std::invalid_argument("tol must be >= 0");
+  o.tol = tol;
+  return o;
+}
+
+Pose checked_pose(const ArrayIn& R, const ArrayIn& t) {
+  if (R.ndim() != 2 || R.shape(0) != 3 || R.shape(1) != 3) throw std::invalid_argument("R must have shape (3, 3)");
+  if (t.ndim() != 1 || t.shape(0) != 3) throw std::invalid_argument("t must have shape (3,)");
+  Pose p = pose_of(R, t);
+  if (!p.R.allFinite() || !p.t.allFinite()) throw std::invalid_argument("R and t must be finite");
+  if ((p.R.transpose() * p.R - Mat3::Identity()).cwiseAbs().maxCoeff() > 1e-6 || p.R.determinant() < 0.0)
+    throw std::invalid_argument("R must be a rotation matrix (R^T R = I, det R = +1)");
+  const double nt = p.t.norm();
+  if (!(nt > 1e-12)) throw std::invalid_argument("t must be non-zero");
+  p.t /= nt;
+  return p;
+}
+
+Points checked_points(const BearingsIn& f1, const BearingsIn& f2, int min_points) {
+  const Points P = points_of(f1, f2);
+  if (P.n < min_points)
+    throw std::invalid_argument("the refinement needs at least " + std::to_string(min_points) + " correspondences");
+  for (int i = 0; i < 3 * P.n; ++i)
+    if (!std::isfinite(P.f1[i]) || !std::isfinite(P.f2[i])) throw std::invalid_argument("bearings must be finite");
+  return P;
+}
+
+const double* checked_weights(const std::optional<VectorIn>& w, int n) {
+  const double* wp = weights_of(w, n);
+  if (wp)
+    for (int i = 0; i < n; ++i)
+      if (!(std::isfinite(wp[i]) && wp[i] >= 0.0)) throw std::invalid_argument("weights must be finite and non-negative");
+  return wp;
+}
+
+nb::tuple refine_result(const Pose& p, const RefineStats& s) {
+  std::vector<double> R(9), t(3);
+  put_pose(p, R.data(), t.data());
+  nb::dict d;
+  d["iterations"] = s.iterations;
+  d["evaluations"] = s.evaluations;
+  d["status"] = s.status;
+  d["initial_cost"] = s.initial_cost;
+  d["final_cost"] = s.final_cost;
+  d["loss_scale"] = s.loss_scale;
+  d["positive_depth_fraction"] = s.positive_depth_fraction;
+  return nb::make_tuple(to_numpy(std::move(R), {size_t{3}, size_t{3}}), to_numpy(std::move(t), {size_t{3}}), d);
+}
+
+nb::tuple refine_sampson_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2,
+                            const std::optional<VectorIn>& w, const std::string& loss, std::optional<double> loss_scale,
+                            int max_iterations, double tol) {
+  const Points P = checked_points(f1, f2, kRefineMinPoints);
+  const double* wp = checked_weights(w, P.n);
+  Pose pose = checked_pose(R, t);
+  const RefineOptions o = options_of(loss, loss_scale, max_iterations, tol);
+  RefineStats s;
+  {
+    nb::gil_scoped_release release;
+    s = refine_sampson(P, wp, o, &pose);
+  }
+  return refine_result(pose, s);
+}
+
+nb::tuple refine_ligt_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2,
+                         const std::optional<VectorIn>& w, const std::string& normalization, const std::string& loss,
+                         std::optional<double> loss_scale, int max_iterations, double tol) {
+  const Points P = checked_points(f1, f2, kRefineMinPoints);
+  const double* wp = checked_weights(w, P.n);
+  Pose pose = checked_pose(R, t);
+  const int norm = normalization_of(normalization);
+  const RefineOptions o = options_of(loss, loss_scale, max_iterations, tol);
+  RefineStats s;
+  {
+    nb::gil_scoped_release release;
+    s = refine_ligt(P, wp, o, norm, &pose);
+  }
+  return refine_result(pose, s);
+}
+
+// residuals and chart Jacobians of the refinements at chart point x (tests: finite differences)
+nb::tuple refine_residuals_py(int kind, const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2,
+                              const VectorIn& x, const std::optional<VectorIn>& w) {
+  if (kind < 0 || kind > 3) throw std::invalid_argument("kind must be 0 (sampson) or 1 + LiGT normalization (1..3)");
+  const Points P = points_of(f1, f2);
+  const double* wp = checked_weights(w, P.n);
+  const Pose pose = checked_pose(R, t);
+  if (x.shape(0) != 5) throw std::invalid_argument("x must have shape (5,)");
+  std::vector<double> r, J;
+  {
+    nb::gil_scoped_release release;
+    refine_residuals(P, wp, pose, x.data(), kind, &r, &J);
+  }
+  const size_t m = r.size();
+  return nb::make_tuple(to_numpy(std::move(r), {m}), to_numpy(std::move(J), {m, size_t{5}}));
+}
+
+}  // namespace
+}  // namespace poseonly
+
+POSEONLY_BIND(solvers) {
+  using namespace poseonly;
+  m.def("fivept", &fivept_py, nb::arg("f1"), nb::arg("f2"),
+        "Stewenius five-point on unit bearings f1, f2 (5, 3): the chiral poses (R (k, 3, 3), unit t (k, 3)), "
+        "k <= 10, one per real essential matrix that has a decomposition with all five points in front of both "
+        "cameras.");
+  m.def("fivept_essentials", &fivept_essentials_py, nb::arg("f1"), nb::arg("f2"),
+        "The real essential matrices E (k, 3, 3) of the five-point problem f1, f2 (5, 3): unit Frobenius norm, "
+        "largest entry positive, k <= 10.");
+  m.def("fivept_batch", &fivept_batch_py, nb::arg("f1"), nb::arg("f2"),
+        "fivept on b stacked samples f1, f2 (b, 5, 3) in one call: (R (m, 3, 3), t (m, 3), sample index (m,) int64).");
+  m.def("refine_sampson", &refine_sampson_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
+        nb::arg("w") = nb::none(), nb::arg("loss") = "linear", nb::arg("loss_scale") = nb::none(),
+        nb::arg("max_iterations") = 50, nb::arg("tol") = 1e-12,
+        "Levenberg-Marquardt on SO(3) x S^2 of sum_i w_i s^2 rho(r_i^2 / s^2), r_i the Sampson distance (radians). "
+        "R (3, 3), t (3,) start; f1, f2 (n, 3) unit bearings, n >= 6; w (n,) or None; loss linear | soft_l1 | huber | "
+        "cauchy | arctan (scipy semantics); loss_scale s (None: 1.4826 median_i sqrt(w_i) |r_i| at the start); "
+        "max_iterations caps cost evaluations. Returns (R, unit t, stats dict); t's sign is the weighted majority of "
+        "positive pose-only depths.");
+  m.def("refine_ligt", &refine_ligt_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
+        nb::arg("w") = nb::none(), nb::arg("normalization") = "none", nb::arg("loss") = "linear",
+        nb::arg("loss_scale") = nb::none(), nb::arg("max_iterations") = 50, nb::arg("tol") = 1e-12,
+        "LiGTopt (poseonly.refine.ligt.ligt_refine(..., solver='lm')): LM on IRLS normal equations of "
+        "sum_i s^2 rho(|sqrt(w_i) L~_i t|^2 / s^2) with normalization none | theta2 | angular; other arguments as "
+        "refine_sampson. Returns (R, unit t, stats dict).");
+  m.def("_refine_residuals", &refine_residuals_py, nb::arg("kind"), nb::arg("R"), nb::arg("t"), nb::arg("f1"),
+        nb::arg("f2"), nb::arg("x"), nb::arg("w") = nb::none(),
+        "Test helper: stacked residuals r (m,) and their Jacobian (m, 5) w.r.t. the refinement chart x = (w, v) "
+        "around (R, t) at x (5,); kind 0 Sampson, 1 + normalization LiGT.");
+}

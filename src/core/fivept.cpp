@@ -1,0 +1,636 @@
+// Stewenius five-point solver (see fivept.h for the construction).
+#include "fivept.h"
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <Eigen/QR>
+
+#include <algorithm>
+
+#include "residuals.h"
+
+namespace poseonly {
+namespace {
+
+using Mat10 = Eigen::Matrix<double, 10, 10>;
+using Vec10 = Eigen::Matrix<double, 10, 1>;
+
+// Monomials of (x, y, z, 1): linear (4: x, y, z, 1), quadratic (10: x^2, xy, y^2, xz, yz, z^2, x, y,
+// z, 1) and cubic (20: poseonly.solvers.fivept.MONOMIALS: the ten cubic terms, then the quadratic
+// ones). Tables of the products linear x linear -> quadratic and quadratic x linear -> cubic.
+constexpr int kCubic[20][3] = {{3, 0, 0}, {2, 1, 0}, {1, 2, 0}, {0, 3, 0}, {2, 0, 1}, {1, 1, 1}, {0, 2, 1},
+                               {1, 0, 2}, {0, 1, 2}, {0, 0, 3}, {2, 0, 0}, {1, 1, 0}, {0, 2, 0}, {1, 0, 1},
+                               {0, 1, 1}, {0, 0, 2}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
+
+struct MonomialTables {
+  int q11[4][4];
+  int c21[10][4];
+  MonomialTables() {
+    // exponents (x, y, z) of the quadratic and cubic bases
+    static const int quad[10][3] = {{2, 0, 0}, {1, 1, 0}, {0, 2, 0}, {1, 0, 1}, {0, 1, 1},
+                                    {0, 0, 2}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
+    const auto& cub = kCubic;
+    auto unit = [](int i, int e[3]) {
+      e[0] = e[1] = e[2] = 0;
+      if (i < 3) e[i] = 1;
+    };
+    auto find = [](const int (*tab)[3], int m, const int e[3]) {
+      for (int k = 0; k < m; ++k)
+        if (tab[k][0] == e[0] && tab[k][1] == e[1] && tab[k][2] == e[2]) return k;
+      return -1;
+    };
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) {
+        int a[3], b[3], e[3];
+        unit(i, a);
+        unit(j, b);
+        for (int d = 0; d < 3; ++d) e[d] = a[d] + b[d];
+        q11[i][j] = find(quad, 10, e);
+      }
+    for (int q = 0; q < 10; ++q)
+      for (int j = 0; j < 4; ++j) {
+        int b[3], e[3];
+        unit(j, b);
+        for (int d = 0; d < 3; ++d) e[d] = quad[q][d] + b[d];
+        c21[q][j] = find(cub, 20, e);
+      }
+  }
+};
+
+const MonomialTables& tables() {
+  static const MonomialTables t;
+  return t;
+}
+
+using P1 = std::array<double, 4>;
+using P2 = std::array<double, 10>;
+using P3 = std::array<double, 20>;
+
+inline void mul11_add(const P1& a, const P1& b, double s, P2* out, const MonomialTables& T) {
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) (*out)[T.q11[i][j]] += s * a[i] * b[j];
+}
+
+inline void mul21_add(const P2& a, const P1& b, double s, P3* out, const MonomialTables& T) {
+  for (int q = 0; q < 10; ++q)
+    for (int j = 0; j < 4; ++j) (*out)[T.c21[q][j]] += s * a[q] * b[j];
+}
+
+// The 10 x 20 template of E = x X + y Y + z Z + W (rows: Demazure cubic (a, c) -> 3 c + a, det).
+void build_template(const Mat3 basis[4], Eigen::Matrix<double, 10, 20>* A) {
+  const MonomialTables& T = tables();
+  P1 e[3][3];
+  for (int a = 0; a < 3; ++a)
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < 4; ++k) e[a][c][k] = basis[k](a, c);
+  P2 eet[3][3];
+  for (int a = 0; a < 3; ++a)
+    for (int b = a; b < 3; ++b) {
+      P2 s{};
+      for (int d = 0; d < 3; ++d) mul11_add(e[a][d], e[b][d], 1.0, &s, T);
+      eet[a][b] = s;
+      eet[b][a] = s;
+    }
+  P2 tr{};
+  for (int q = 0; q < 10; ++q) tr[q] = eet[0][0][q] + eet[1][1][q] + eet[2][2][q];
+  for (int a = 0; a < 3; ++a)
+    for (int c = 0; c < 3; ++c) {
+      P3 d{};
+      for (int b = 0; b < 3; ++b) mul21_add(eet[a][b], e[b][c], 2.0, &d, T);
+      mul21_add(tr, e[a][c], -1.0, &d, T);
+      for (int m = 0; m < 20; ++m) (*A)(3 * c + a, m) = d[m];
+    }
+  // det E by the first row's cofactors
+  P2 m0{}, m1{}, m2{};
+  mul11_add(e[1][1], e[2][2], 1.0, &m0, T);
+  mul11_add(e[1][2], e[2][1], -1.0, &m0, T);
+  mul11_add(e[1][2], e[2][0], 1.0, &m1, T);
+  mul11_add(e[1][0], e[2][2], -1.0, &m1, T);
+  mul11_add(e[1][0], e[2][1], 1.0, &m2, T);
+  mul11_add(e[1][1], e[2][0], -1.0, &m2, T);
+  P3 det{};
+  mul21_add(m0, e[0][0], 1.0, &det, T);
+  mul21_add(m1, e[0][1], 1.0, &det, T);
+  mul21_add(m2, e[0][2], 1.0, &det, T);
+  for (int m = 0; m < 20; ++m) (*A)(9, m) = det[m];
+}
+
+// In-place LU with partial pivoting of an N x N matrix (full rows swapped: P A = L U); zero pivots
+// are floored at `floor` (inverse iteration on a singular matrix then still yields the null vector).
+// Returns false if a pivot is exactly zero and floor == 0.
+template <int N>
+bool lu_inplace(Eigen::Matrix<double, N, N>* L, int piv[N], double floor) {
+  for (int k = 0; k < N; ++k) {
+    int pk = k;
+    double big = std::abs((*L)(k, k));
+    for (int i = k + 1; i < N; ++i)
+      if (std::abs((*L)(i, k)) > big) {
+        big = std::abs((*L)(i, k));
+        pk = i;
+      }
+    piv[k] = pk;
+    if (pk != k) L->row(k).swap(L->row(pk));
+    if ((*L)(k, k) == 0.0) {
+      if (floor == 0.0) return false;
+      (*L)(k, k) = floor;
+    }
+    const double inv = 1.0 / (*L)(k, k);
+    for (int i = k + 1; i < N; ++i) {
+      const double f = ((*L)(i, k) *= inv);
+      if (f != 0.0)
+        for (int j = k + 1; j < N; ++j) (*L)(i, j) -= f * (*L)(k, j);
+    }
+  }
+  return true;
+}
+
+template <int N>
+void lu_solve(const Eigen::Matrix<double, N, N>& L, const int piv[N], double* b) {
+  for (int k = 0; k < N; ++k)  // the row interchanges first (full rows were swapped)
+    if (piv[k] != k) std::swap(b[k], b[piv[k]]);
+  for (int k = 0; k < N; ++k)
+    for (int i = k + 1; i < N; ++i) b[i] -= L(i, k) * b[k];
+  for (int k = N - 1; k >= 0; --k) {
+    double s = b[k];
+    for (int j = k + 1; j < N; ++j) s -= L(k, j) * b[j];
+    b[k] = s / L(k, k);
+  }
+}
+
+// Parlett-Reinsch balancing in place (Numerical Recipes balanc; powers of 2, no rounding).
+void balance10(Mat10* A) {
+  constexpr double radix = 2.0, sqrdx = radix * radix;
+  Mat10& a = *A;
+  bool done = false;
+  while (!done) {
+    done = true;
+    for (int i = 0; i < 10; ++i) {
+      double r = 0.0, c = 0.0;
+      for (int j = 0; j < 10; ++j)
+        if (j != i) {
+          c += std::abs(a(j, i));
+          r += std::abs(a(i, j));
+        }
+      if (c != 0.0 && r != 0.0) {
+        double g = r / radix, f = 1.0;
+        const double s = c + r;
+        while (c < g) {
+          f *= radix;
+          c *= sqrdx;
+        }
+        g = r * radix;
+        while (c > g) {
+          f /= radix;
+          c /= sqrdx;
+        }
+        if ((c + r) / f < 0.95 * s) {
+          done = false;
+          g = 1.0 / f;
+          a.row(i) *= g;
+          a.col(i) *= f;
+        }
+      }
+    }
+  }
+}
+
+// Reduction to upper Hessenberg form by stabilised elementary similarity transformations (NR elmhes).
+void hessenberg10(Mat10* A) {
+  constexpr int n = 10;
+  Mat10& a = *A;
+  for (int m = 1; m < n - 1; ++m) {
+    double x = 0.0;
+    int i = m;
+    for (int j = m; j < n; ++j)
+      if (std::abs(a(j, m - 1)) > std::abs(x)) {
+        x = a(j, m - 1);
+        i = j;
+      }
+    if (i != m) {
+      for (int j = m - 1; j < n; ++j) std::swap(a(i, j), a(m, j));
+      for (int j = 0; j < n; ++j) std::swap(a(j, i), a(j, m));
+    }
+    if (x != 0.0) {
+      for (int i2 = m + 1; i2 < n; ++i2) {
+        double y = a(i2, m - 1);
+        if (y != 0.0) {
+          y /= x;
+          a(i2, m - 1) = y;
+          for (int j = m; j < n; ++j) a(i2, j) -= y * a(m, j);
+          for (int j = 0; j < n; ++j) a(j, m) += y * a(j, i2);
+        }
+      }
+    }
+  }
+  for (int i = 2; i < n; ++i)
+    for (int j = 0; j < i - 1; ++j) a(i, j) = 0.0;
+}
+
+// Eigenvalues of an upper Hessenberg matrix by the Francis double-shift QR algorithm (EISPACK hqr as
+// in Numerical Recipes; 1-based h[1..n][1..n], destroyed). False if it did not converge.
+bool hqr10(double h[11][11], double wr[11], double wi[11]) {
+  constexpr int n = 10;
+  double anorm = 0.0;
+  for (int i = 1; i <= n; ++i)
+    for (int j = std::max(i - 1, 1); j <= n; ++j) anorm += std::abs(h[i][j]);
+  int nn = n, l = 1;
+  double t = 0.0, x = 0.0, y = 0.0, z = 0.0, w = 0.0, p = 0.0, q = 0.0, r = 0.0, s = 0.0;
+  while (nn >= 1) {
+    int its = 0;
+    do {
+      l = 1;
+      for (int ll = nn; ll >= 2; --ll) {
+        s = std::abs(h[ll - 1][ll - 1]) + std::abs(h[ll][ll]);
+        if (s == 0.0) s = anorm;
+        if (std::abs(h[ll][ll - 1]) + s == s) {
+          h[ll][ll - 1] = 0.0;
+          l = ll;
+          break;
+        }
+      }
+      x = h[nn][nn];
+      if (l == nn) {
+        wr[nn] = x + t;
+        wi[nn--] = 0.0;
+      } else {
+        y = h[nn - 1][nn - 1];
+        w = h[nn][nn - 1] * h[nn - 1][nn];
+        if (l == nn - 1) {
+          p = 0.5 * (y - x);
+          q = p * p + w;
+          z = std::sqrt(std::abs(q));
+          x += t;
+          if (q >= 0.0) {
+            z = p + (p >= 0.0 ? z : -z);
+            wr[nn - 1] = wr[nn] = x + z;
+            if (z != 0.0) wr[nn] = x - w / z;
+            wi[nn - 1] = wi[nn] = 0.0;
+          } else {
+            wr[nn - 1] = wr[nn] = x + p;
+            wi[nn - 1] = -z;
+            wi[nn] = z;
+          }
+          nn -= 2;
+        } else {
+          if (its == 60) return false;
+          if (its == 10 || its == 20 || its == 40) {  // exceptional shift
+            t += x;
+            for (int i = 1; i <= nn; ++i) h[i][i] -= x;
+            s = std::abs(h[nn][nn - 1]) + std::abs(h[nn - 1][nn - 2]);
+            y = x = 0.75 * s;
+            w = -0.4375 * s * s;
+          }
+          ++its;
+          int m = nn - 2;
+          for (; m >= l; --m) {
+            z = h[m][m];
+            r = x - z;
+            s = y - z;
+            p = (r * s - w) / h[m + 1][m] + h[m][m + 1];
+            q = h[m + 1][m + 1] - z - r - s;
+            r = h[m + 2][m + 1];
+            s = std::abs(p) + std::abs(q) + std::abs(r);
+            p /= s;
+            q /= s;
+            r /= s;
+            if (m == l) break;
+            const double u = std::abs(h[m][m - 1]) * (std::abs(q) + std::abs(r));
+            const double v = std::abs(p) * (std::abs(h[m - 1][m - 1]) + std::abs(z) + std::abs(h[m + 1][m + 1]));
+            if (u + v == v) break;
+          }
+          for (int i = m + 2; i <= nn; ++i) {
+            h[i][i - 2] = 0.0;
+            if (i != m + 2) h[i][i - 3] = 0.0;
+          }
+          for (int k = m; k <= nn - 1; ++k) {
+            if (k != m) {
+              p = h[k][k - 1];
+              q = h[k + 1][k - 1];
+              r = 0.0;
+              if (k != nn - 1) r = h[k + 2][k - 1];
+              if ((x = std::abs(p) + std::abs(q) + std::abs(r)) != 0.0) {
+                p /= x;
+                q /= x;
+                r /= x;
+              }
+            }
+            s = std::sqrt(p * p + q * q + r * r);
+            if (p < 0.0) s = -s;
+            if (s != 0.0) {
+              if (k == m) {
+                if (l != m) h[k][k - 1] = -h[k][k - 1];
+              } else {
+                h[k][k - 1] = -s * x;
+              }
+              p += s;
+              x = p / s;
+              y = q / s;
+              z = r / s;
+              q /= p;
+              r /= p;
+              for (int j = k; j <= nn; ++j) {
+                p = h[k][j] + q * h[k + 1][j];
+                if (k != nn - 1) {
+                  p += r * h[k + 2][j];
+                  h[k + 2][j] -= p * z;
+                }
+                h[k + 1][j] -= p * y;
+                h[k][j] -= p * x;
+              }
+              const int mmin = nn < k + 3 ? nn : k + 3;
+              for (int i = l; i <= mmin; ++i) {
+                p = x * h[i][k] + y * h[i][k + 1];
+                if (k != nn - 1) {
+                  p += z * h[i][k + 2];
+                  h[i][k + 2] -= p * r;
+                }
+                h[i][k + 1] -= p * q;
+                h[i][k] -= p;
+              }
+            }
+          }
+        }
+      }
+    } while (l < nn - 1);
+  }
+  return true;
+}
+
+// Gauss-Newton polish of a solution (x, y, z) of the ten template equations A m(x, y, z) = 0 (m the
+// 20 cubic monomials): the eigenvalue/eigenvector pair is accurate to ~1e-10 relative; two steps bring
+// the solution to rounding level. A step is kept only if it lowers |A m|.
+constexpr int kPolishSteps = 2;
+
+double template_residual(const Eigen::Matrix<double, 10, 20>& A, const double p[3], Eigen::Matrix<double, 10, 3>* J,
+                         Eigen::Matrix<double, 10, 1>* F) {
+  double pw[3][4];
+  for (int d = 0; d < 3; ++d) {
+    pw[d][0] = 1.0;
+    for (int e = 1; e < 4; ++e) pw[d][e] = pw[d][e - 1] * p[d];
+  }
+  Eigen::Matrix<double, 20, 1> m;
+  Eigen::Matrix<double, 20, 3> dm;
+  for (int k = 0; k < 20; ++k) {
+    const int* e = kCubic[k];
+    m(k) = pw[0][e[0]] * pw[1][e[1]] * pw[2][e[2]];
+    dm(k, 0) = e[0] ? e[0] * pw[0][e[0] - 1] * pw[1][e[1]] * pw[2][e[2]] : 0.0;
+    dm(k, 1) = e[1] ? e[1] * pw[0][e[0]] * pw[1][e[1] - 1] * pw[2][e[2]] : 0.0;
+    dm(k, 2) = e[2] ? e[2] * pw[0][e[0]] * pw[1][e[1]] * pw[2][e[2] - 1] : 0.0;
+  }
+  *F = A * m;
+  if (J) *J = A * dm;
+  return F->squaredNorm();
+}
+
+void polish(const Eigen::Matrix<double, 10, 20>& A, double p[3]) {
+  Eigen::Matrix<double, 10, 3> J;
+  Eigen::Matrix<double, 10, 1> F;
+  double f = template_residual(A, p, &J, &F);
+  for (int it = 0; it < kPolishSteps && f > 0.0; ++it) {
+    const Vec3 dp = J.householderQr().solve(-F);
+    if (!dp.allFinite()) return;
+    double q[3] = {p[0] + dp(0), p[1] + dp(1), p[2] + dp(2)};
+    Eigen::Matrix<double, 10, 3> Jn;
+    Eigen::Matrix<double, 10, 1> Fn;
+    const double fn = template_residual(A, q, &Jn, &Fn);
+    if (!(fn < f)) return;
+    std::copy(q, q + 3, p);
+    f = fn;
+    J = Jn;
+    F = Fn;
+  }
+}
+
+constexpr double kPolishMinV9 = 1e-8;  // |v9| / |v| below which (x, y, z) = v[6:9] / v9 is not formed
+
+constexpr int kActionRows[6] = {0, 1, 2, 4, 5, 7};  // template rows of x * b_0 .. x * b_5
+constexpr int kUnitCols[4] = {0, 1, 3, 6};          // x * (x, y, z, 1) = b_0, b_1, b_3, b_6
+constexpr double kRankTol = 1e-12;                   // relative diagonal of R in the null-space QR
+
+// cofactor matrix of a 3 x 3 matrix (rows: cross products of the other two rows)
+inline Mat3 cofactor(const Mat3& E) {
+  Mat3 C;
+  C.row(0) = E.row(1).cross(E.row(2));
+  C.row(1) = E.row(2).cross(E.row(0));
+  C.row(2) = E.row(0).cross(E.row(1));
+  return C;
+}
+
+// fivept_essentials; polish: the Gauss-Newton polish of (x, y, z) on the template (fivept_poses
+// skips it: its Newton polish of the pose on the epipolar equations reaches rounding level anyway)
+int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots) {
+  E->clear();
+  if (p.n != 5) return 0;
+  // --- null space of the epipolar rows: A^T (9 x 5), column i = kron(f1_i, f2_i) (E column-major)
+  Eigen::Matrix<double, 9, 5> At;
+  for (int i = 0; i < 5; ++i) {
+    const auto a = p.a(i);
+    const auto b = p.b(i);
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) At(3 * c + r, i) = a(c) * b(r);
+  }
+  Eigen::HouseholderQR<Eigen::Matrix<double, 9, 5>> qr(At);
+  const auto& QR = qr.matrixQR();
+  double dmax = 0.0, dmin = kInf;
+  for (int i = 0; i < 5; ++i) {
+    dmax = std::max(dmax, std::abs(QR(i, i)));
+    dmin = std::min(dmin, std::abs(QR(i, i)));
+  }
+  if (!(dmin > kRankTol * dmax)) return 0;  // rank-deficient sample (coincident or NaN points)
+  const Eigen::Matrix<double, 9, 9> Q = qr.householderQ();
+  Mat3 basis[4];
+  for (int k = 0; k < 4; ++k) basis[k] = Eigen::Map<const Mat3>(Q.col(5 + k).data());  // column-major E
+  // --- template, elimination, action matrix
+  Eigen::Matrix<double, 10, 20> A;
+  build_template(basis, &A);
+  const Eigen::PartialPivLU<Mat10> lu(A.leftCols<10>());
+  const auto d = lu.matrixLU().diagonal();
+  if (!(d.cwiseAbs().minCoeff() > 0.0) || !d.allFinite()) return 0;  // singular elimination template
+  const Mat10 G = lu.solve(A.rightCols<10>());
+  Mat10 M = Mat10::Zero();
+  for (int rr = 0; rr < 6; ++rr) M.row(rr) = -G.row(kActionRows[rr]);
+  for (int rr = 0; rr < 4; ++rr) M(6 + rr, kUnitCols[rr]) = 1.0;
+  if (!M.allFinite()) return 0;
+  // --- eigenvalues: balancing, Hessenberg reduction, Francis QR; eigenvectors by inverse iteration
+  Mat10 Hm = M;
+  balance10(&Hm);
+  hessenberg10(&Hm);
+  double h[11][11], wr[11], wi[11];
+  for (int r = 0; r < 10; ++r)
+    for (int c = 0; c < 10; ++c) h[r + 1][c + 1] = Hm(r, c);
+  if (!hqr10(h, wr, wi)) return 0;
+  const double mnorm = M.cwiseAbs().maxCoeff();
+  for (int e = 1; e <= 10; ++e) {
+    const double lr = wr[e], li = wi[e];
+    if (!(std::abs(li) <= kFiveptRealTol * (1.0 + std::sqrt(lr * lr + li * li)))) continue;
+    // the eigenvector v ~ b: the unit rows give v0 = lr^2 v9, v1 = lr v7, v3 = lr v8, v6 = lr v9, so
+    // rows 0..5 of (M - lr I) v = 0 are a 6 x 6 homogeneous system in (v2, v4, v5, v7, v8, v9)
+    Eigen::Matrix<double, 6, 6> K;
+    const double l2 = lr * lr;
+    for (int r = 0; r < 6; ++r) {
+      K(r, 0) = M(r, 2) - (r == 2 ? lr : 0.0);
+      K(r, 1) = M(r, 4) - (r == 4 ? lr : 0.0);
+      K(r, 2) = M(r, 5) - (r == 5 ? lr : 0.0);
+      K(r, 3) = M(r, 7) + lr * M(r, 1) - (r == 1 ? l2 : 0.0);
+      K(r, 4) = M(r, 8) + lr * M(r, 3) - (r == 3 ? l2 : 0.0);
+      K(r, 5) = M(r, 9) + lr * M(r, 6) + l2 * M(r, 0) - (r == 0 ? l2 * lr : 0.0);
+    }
+    int piv6[6];
+    lu_inplace<6>(&K, piv6, 1e-300 + 1e-15 * (mnorm * (1.0 + l2 + l2 * std::abs(lr))));
+    double u[6];
+    std::fill(u, u + 6, 1.0);
+    bool ok = true;
+    for (int it = 0; it < 2 && ok; ++it) {  // two steps of inverse iteration
+      lu_solve<6>(K, piv6, u);
+      double nu = 0.0;
+      for (double x : u) nu += x * x;
+      nu = std::sqrt(nu);
+      if (!(nu > 0.0 && std::isfinite(nu))) {
+        ok = false;
+        break;
+      }
+      for (double& x : u) x /= nu;
+    }
+    if (!ok) continue;
+    double v[10];
+    v[7] = u[3];
+    v[8] = u[4];
+    v[9] = u[5];
+    v[6] = lr * u[5];
+    Mat3 Ee;
+    if (polish_roots && std::abs(v[9]) > kPolishMinV9 * std::sqrt(v[6] * v[6] + v[7] * v[7] + v[8] * v[8] + v[9] * v[9])) {
+      double xyz[3] = {v[6] / v[9], v[7] / v[9], v[8] / v[9]};
+      polish(A, xyz);
+      Ee = xyz[0] * basis[0] + xyz[1] * basis[1] + xyz[2] * basis[2] + basis[3];
+    } else {
+      Ee = v[6] * basis[0] + v[7] * basis[1] + v[8] * basis[2] + v[9] * basis[3];
+    }
+    const double ne = Ee.norm();
+    if (!(ne > 0.0 && std::isfinite(ne))) continue;
+    Ee /= ne;
+    Eigen::Index ir, ic;
+    Ee.cwiseAbs().maxCoeff(&ir, &ic);
+    if (Ee(ir, ic) < 0.0) Ee = -Ee;
+    E->push_back(Ee);
+  }
+  return static_cast<int>(E->size());
+}
+
+}  // namespace
+
+int fivept_essentials(const Points& p, std::vector<Mat3>* E) { return essentials_impl(p, E, true); }
+
+bool decompose_chiral(const Mat3& E0, const Points& p, Pose* pose) {
+  const double ne = E0.norm();
+  if (!(ne > 0.0 && std::isfinite(ne))) return false;
+  const Mat3 E = E0 * (std::sqrt(2.0) / ne);  // |[t]x R|_F = sqrt(2) for unit t
+  // t spans the left null space of E: the largest cross product of two columns
+  Vec3 t = E.col(0).cross(E.col(1));
+  for (const Vec3& c : {Vec3(E.col(1).cross(E.col(2))), Vec3(E.col(2).cross(E.col(0)))})
+    if (c.squaredNorm() > t.squaredNorm()) t = c;
+  const double nt = t.norm();
+  if (!(nt > 0.0)) return false;
+  t /= nt;
+  // E = [s t]x R with s = +-1: R = cof(E) - s [t]x E (cof([t]x) = t t^T, cof(R) = R)
+  const Mat3 C = cofactor(E);
+  const Mat3 TE = skew(t) * E;
+  for (int s = 0; s < 2; ++s) {
+    Mat3 R = s == 0 ? Mat3(C - TE) : Mat3(C + TE);
+    for (int it = 0; it < 2; ++it) {  // Newton steps of the polar decomposition: R <- (R + R^-T) / 2
+      const double d = R.determinant();
+      if (!(std::abs(d) > 0.0)) break;
+      R = 0.5 * (R + cofactor(R) / d);
+    }
+    int pos = 0, neg = 0;
+    for (int i = 0; i < p.n; ++i) {
+      double h, hp;
+      depth_numerators(R, t, p.a(i), p.b(i), &h, &hp);
+      if (h > 0.0 && hp > 0.0) ++pos;
+      else if (h < 0.0 && hp < 0.0) ++neg;
+    }
+    if (pos == p.n || neg == p.n) {
+      pose->R = R;
+      pose->t = pos == p.n ? t : Vec3(-t);
+      return true;
+    }
+  }
+  return false;
+}
+
+namespace {
+
+constexpr int kPoseNewtonSteps = 4;  // at most; stops when a step no longer lowers the residual
+constexpr double kPoseStepTol = 1e-15;  // |dx| below which the iteration has converged
+
+double epipolar_residuals(const Pose& P, const Points& p, double r[5]) {
+  double m = 0.0;
+  for (int i = 0; i < 5; ++i) {
+    r[i] = (P.R * p.a(i)).dot(p.b(i).cross(P.t));
+    m = std::max(m, std::abs(r[i]));
+  }
+  return m;
+}
+
+// Newton steps on the five epipolar equations f2_i^T [t]x R f1_i = 0 in the 5 pose parameters
+// (R <- exp([dw]x) R, t <- normalize(t + B dv)). The linear null space of the epipolar rows is
+// ill-conditioned when the parallax is small (it nearly contains every [t]x R); the pose equations
+// have the geometric conditioning, so this removes the algebraic error amplification. A step is kept
+// only if the largest residual decreases and the chirality of all five points is unchanged.
+void polish_pose(const Points& p, Pose* pose) {
+  double r[5];
+  double f = epipolar_residuals(*pose, p, r);
+  for (int it = 0; it < kPoseNewtonSteps && f > 0.0; ++it) {
+    Eigen::Index k;
+    pose->t.cwiseAbs().minCoeff(&k);
+    Vec3 e = Vec3::Zero();
+    e(k) = 1.0;
+    const Vec3 b1 = pose->t.cross(e).normalized();
+    const Vec3 b2 = pose->t.cross(b1);
+    Eigen::Matrix<double, 5, 5> J;
+    Eigen::Matrix<double, 5, 1> rv;
+    for (int i = 0; i < 5; ++i) {
+      const Vec3 a = pose->R * p.a(i);
+      const Vec3 g = a.cross(p.b(i).cross(pose->t));  // d r / d w
+      const Vec3 h = a.cross(p.b(i));                 // d r / d t
+      J.row(i) << g(0), g(1), g(2), h.dot(b1), h.dot(b2);
+      rv(i) = r[i];
+    }
+    const Eigen::Matrix<double, 5, 1> dx = J.partialPivLu().solve(-rv);
+    if (!dx.allFinite()) return;
+    Pose q;
+    const Vec3 w = dx.head<3>();
+    const double th = w.norm();
+    q.R = (th > 0.0 ? Mat3(Eigen::AngleAxisd(th, w / th).toRotationMatrix()) : Mat3::Identity()) * pose->R;
+    q.t = (pose->t + dx(3) * b1 + dx(4) * b2).normalized();
+    double rq[5];
+    const double fq = epipolar_residuals(q, p, rq);
+    if (!(fq < f)) return;
+    for (int i = 0; i < p.n; ++i) {
+      double h0, hp0;
+      depth_numerators(q.R, q.t, p.a(i), p.b(i), &h0, &hp0);
+      if (!(h0 > 0.0 && hp0 > 0.0)) return;
+    }
+    *pose = q;
+    f = fq;
+    std::copy(rq, rq + 5, r);
+    if (dx.norm() < kPoseStepTol) return;
+  }
+}
+
+}  // namespace
+
+void fivept_poses(const Points& p, std::vector<Pose>* out) {
+  out->clear();
+  std::vector<Mat3> E;
+  E.reserve(10);
+  essentials_impl(p, &E, false);
+  for (const Mat3& e : E) {
+    Pose pose;
+    if (decompose_chiral(e, p, &pose)) {
+      polish_pose(p, &pose);
+      out->push_back(pose);
+    }
+  }
+}
+
+}  // namespace poseonly

@@ -1,0 +1,466 @@
+// Levenberg-Marquardt pose refinements (see refine.h for the chart, the losses and the LM rules).
+#include "refine.h"
+
+#include <Eigen/LU>
+
+#include <algorithm>
+#include <vector>
+
+namespace poseonly {
+namespace {
+
+using Mat32 = Eigen::Matrix<double, 3, 2>;
+using Mat5 = Eigen::Matrix<double, 5, 5>;
+using Vec5 = Eigen::Matrix<double, 5, 1>;
+
+constexpr double kLambda0 = 1e-3;
+constexpr double kLambdaMin = 1e-15;
+constexpr double kLambdaMax = 1e16;
+constexpr double kLambdaDown = 3.0;
+constexpr double kLambdaUp = 10.0;
+constexpr double kDiagFloor = 1e-300;
+constexpr double kCCFloor = 1e-30;  // theta^4 floor of the normalised LiGT residuals (ligt._CC_FLOOR)
+
+// ---------------------------------------------------------------------------------------------
+// the chart of poseonly.refine._manifold.PoseChart (same formulas and series thresholds)
+
+struct Chart {
+  Mat3 R0;
+  Vec3 t0;
+  Mat32 B;
+  explicit Chart(const Pose& p) : R0(p.R), t0(p.t.normalized()) {
+    Eigen::Index k;
+    t0.cwiseAbs().minCoeff(&k);  // the axis least aligned with t0 (first on ties, as np.argmin)
+    Vec3 e = Vec3::Zero();
+    e(k) = 1.0;
+    const Vec3 b1 = t0.cross(e).normalized();
+    B.col(0) = b1;
+    B.col(1) = t0.cross(b1);
+  }
+  // R(x), t(x) and (want) J_l(w), Jt = dt/dv.
+  void eval(const double* x, bool want, Mat3* R, Vec3* t, Mat3* Jl, Mat32* Jt) const {
+    const double th2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2];
+    const double th = std::sqrt(th2);
+    const Mat3 K = skew(Vec3(x[0], x[1], x[2]));
+    const Mat3 K2 = K * K;
+    double a, b;
+    if (th < 1e-8) {
+      a = 1.0 - th2 / 6.0;
+      b = 0.5 - th2 / 24.0;
+    } else {
+      a = std::sin(th) / th;
+      b = (1.0 - std::cos(th)) / th2;
+    }
+    *R = (Mat3::Identity() + a * K + b * K2) * R0;
+    const Vec3 u = t0 + B * Eigen::Vector2d(x[3], x[4]);
+    const double nu = u.norm();
+    *t = u / nu;
+    if (!want) return;
+    double c, d;
+    if (th2 < 1e-12) {
+      c = 0.5 - th2 / 24.0;
+      d = 1.0 / 6.0 - th2 / 120.0;
+    } else {
+      c = (1.0 - std::cos(th)) / th2;
+      d = (th - std::sin(th)) / (th2 * th);
+    }
+    *Jl = Mat3::Identity() + c * K + d * K2;
+    *Jt = (B - (*t) * ((*t).transpose() * B)) / nu;
+  }
+};
+
+// rho(s), rho'(s) of the scipy losses
+inline void rho_of(RefineLoss loss, double s, double* rho, double* drho) {
+  switch (loss) {
+    case RefineLoss::Linear: *rho = s; *drho = 1.0; return;
+    case RefineLoss::SoftL1: {
+      const double r = std::sqrt(1.0 + s);
+      *rho = 2.0 * (r - 1.0);
+      *drho = 1.0 / r;
+      return;
+    }
+    case RefineLoss::Huber:
+      if (s > 1.0) {
+        const double r = std::sqrt(s);
+        *rho = 2.0 * r - 1.0;
+        *drho = 1.0 / r;
+      } else {
+        *rho = s;
+        *drho = 1.0;
+      }
+      return;
+    case RefineLoss::Cauchy: *rho = std::log1p(s); *drho = 1.0 / (1.0 + s); return;
+    case RefineLoss::Arctan: *rho = std::atan(s); *drho = 1.0 / (1.0 + s * s); return;
+  }
+  *rho = s;
+  *drho = 1.0;
+}
+
+// ---------------------------------------------------------------------------------------------
+// per-point residuals and Jacobians (J[c][k] = d r_c / d x_k); unweighted
+
+struct Frame {  // the pose quantities of one chart point
+  Mat3 R, Jl;
+  Vec3 t;
+  Mat32 Jt;
+};
+
+// LiGT (poseonly.refine.ligt._ligt_terms / _kernels_nb.ligt_normal_nb, the same expression order)
+inline void ligt_point(const Frame& F, const Vec3& f1, const Vec3& f2, int norm, bool want, double r[3], double J[3][5]) {
+  const double y0 = f2(0), y1 = f2(1), y2 = f2(2);
+  const Vec3 a = F.R * f1;
+  const double a0 = a(0), a1 = a(1), a2 = a(2);
+  const double t0 = F.t(0), t1 = F.t(1), t2 = F.t(2);
+  const double c0 = y1 * a2 - y2 * a1, c1 = y2 * a0 - y0 * a2, c2 = y0 * a1 - y1 * a0;
+  const double s0 = y1 * t2 - y2 * t1, s1 = y2 * t0 - y0 * t2, s2 = y0 * t1 - y1 * t0;
+  double cc = c0 * c0 + c1 * c1 + c2 * c2;
+  const double cs = c0 * s0 + c1 * s1 + c2 * s2;
+  double z = 0.0, q0 = 0.0, q1 = 0.0, q2 = 0.0, P0 = 0.0, P1 = 0.0, P2 = 0.0, nP = 1.0;
+  if (norm == 0) {
+    r[0] = cc * s0 - c0 * cs;
+    r[1] = cc * s1 - c1 * cs;
+    r[2] = cc * s2 - c2 * cs;
+  } else {
+    cc = std::max(cc, kCCFloor);
+    z = -cs / cc;
+    q0 = s0 + z * c0;
+    q1 = s1 + z * c1;
+    q2 = s2 + z * c2;
+    if (norm == 1) {
+      r[0] = q0;
+      r[1] = q1;
+      r[2] = q2;
+    } else {
+      P0 = z * a0 + t0;
+      P1 = z * a1 + t1;
+      P2 = z * a2 + t2;
+      nP = std::max(std::sqrt(P0 * P0 + P1 * P1 + P2 * P2), 1e-300);
+      r[0] = q0 / nP;
+      r[1] = q1 / nP;
+      r[2] = q2 / nP;
+    }
+  }
+  if (!want) return;
+  for (int k = 0; k < 5; ++k) {
+    double dA[3] = {0, 0, 0}, dC[3] = {0, 0, 0}, dS[3] = {0, 0, 0}, dT[3] = {0, 0, 0};
+    if (k < 3) {
+      const double j0 = F.Jl(0, k), j1 = F.Jl(1, k), j2 = F.Jl(2, k);
+      dA[0] = j1 * a2 - j2 * a1;
+      dA[1] = j2 * a0 - j0 * a2;
+      dA[2] = j0 * a1 - j1 * a0;
+      dC[0] = y1 * dA[2] - y2 * dA[1];
+      dC[1] = y2 * dA[0] - y0 * dA[2];
+      dC[2] = y0 * dA[1] - y1 * dA[0];
+    } else {
+      dT[0] = F.Jt(0, k - 3);
+      dT[1] = F.Jt(1, k - 3);
+      dT[2] = F.Jt(2, k - 3);
+      dS[0] = y1 * dT[2] - y2 * dT[1];
+      dS[1] = y2 * dT[0] - y0 * dT[2];
+      dS[2] = y0 * dT[1] - y1 * dT[0];
+    }
+    const double dcc = 2.0 * (dC[0] * c0 + dC[1] * c1 + dC[2] * c2);
+    const double dcs = dC[0] * s0 + dC[1] * s1 + dC[2] * s2 + c0 * dS[0] + c1 * dS[1] + c2 * dS[2];
+    if (norm == 0) {
+      J[0][k] = s0 * dcc + cc * dS[0] - c0 * dcs - cs * dC[0];
+      J[1][k] = s1 * dcc + cc * dS[1] - c1 * dcs - cs * dC[1];
+      J[2][k] = s2 * dcc + cc * dS[2] - c2 * dcs - cs * dC[2];
+    } else {
+      const double dz = -dcs / cc + (cs / (cc * cc)) * dcc;
+      const double e0 = dS[0] + c0 * dz + z * dC[0];
+      const double e1 = dS[1] + c1 * dz + z * dC[1];
+      const double e2 = dS[2] + c2 * dz + z * dC[2];
+      if (norm == 1) {
+        J[0][k] = e0;
+        J[1][k] = e1;
+        J[2][k] = e2;
+      } else {
+        const double dP0 = a0 * dz + z * dA[0] + dT[0];
+        const double dP1 = a1 * dz + z * dA[1] + dT[1];
+        const double dP2 = a2 * dz + z * dA[2] + dT[2];
+        const double f = (P0 * dP0 + P1 * dP1 + P2 * dP2) / (nP * nP * nP);
+        J[0][k] = e0 / nP - q0 * f;
+        J[1][k] = e1 / nP - q1 * f;
+        J[2][k] = e2 / nP - q2 * f;
+      }
+    }
+  }
+}
+
+// Sampson distance r = num / sqrt(den), num = f2^T [t]x R f1 = a . s (a = R f1, s = f2 x t),
+// den = |t x a|^2 + |s|^2 - 2 num^2 (|E^T f2| = |R^T (f2 x t)| = |s|); floored at kTiny as residuals.h.
+inline void sampson_point(const Frame& F, const Vec3& f1, const Vec3& f2, bool want, double r[1], double J[1][5]) {
+  const Vec3 a = F.R * f1;
+  const Vec3 s = f2.cross(F.t);
+  const Vec3 u = F.t.cross(a);
+  const double num = a.dot(s);
+  const double den_raw = u.squaredNorm() + s.squaredNorm() - 2.0 * num * num;
+  const double den = std::max(den_raw, kTiny);
+  const double q = 1.0 / std::sqrt(den);
+  r[0] = num * q;
+  if (!want) return;
+  if (!(den_raw > kTiny)) {  // no epipolar geometry for this point (f1 or f2 along t): flat
+    for (int k = 0; k < 5; ++k) J[0][k] = 0.0;
+    return;
+  }
+  const double q3 = q * q * q;
+  for (int k = 0; k < 5; ++k) {
+    double dnum, dden;
+    if (k < 3) {
+      const Vec3 da = F.Jl.col(k).cross(a);  // d(R f1)/dw_k = -[a]x J_l e_k
+      dnum = da.dot(s);
+      const Vec3 du = F.t.cross(da);
+      dden = 2.0 * u.dot(du) - 4.0 * num * dnum;
+    } else {
+      const Vec3 dt = F.Jt.col(k - 3);
+      const Vec3 ds = f2.cross(dt);
+      dnum = a.dot(ds);
+      const Vec3 du = dt.cross(a);
+      dden = 2.0 * u.dot(du) + 2.0 * s.dot(ds) - 4.0 * num * dnum;
+    }
+    J[0][k] = q * dnum - 0.5 * num * q3 * dden;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// robust cost and IRLS normal equations over all points
+
+struct Problem {
+  const Points& p;
+  const double* w;  // weights (not square roots) or nullptr
+  int kind;         // 0 Sampson, 1 + normalization LiGT
+  RefineLoss loss;
+  double scale;
+  const Chart& chart;
+  int dim() const { return kind == 0 ? 1 : 3; }
+
+  void point(const Frame& F, int i, bool want, double r[3], double J[3][5]) const {
+    if (kind == 0) sampson_point(F, p.a(i), p.b(i), want, r, J);
+    else ligt_point(F, p.a(i), p.b(i), kind - 1, want, r, J);
+  }
+
+  // cost s^2 sum rho(|r_i|^2 / s^2); with want also H and g
+  double eval(const double* x, bool want, Mat5* H, Vec5* g) const {
+    Frame F;
+    chart.eval(x, want, &F.R, &F.t, &F.Jl, &F.Jt);
+    const int m = dim();
+    const double s2 = scale * scale;
+    double Hs[5][5] = {}, gs[5] = {};
+    double cost = 0.0;
+    double r[3], J[3][5];
+    for (int i = 0; i < p.n; ++i) {
+      point(F, i, want, r, J);
+      const double sw = w ? std::sqrt(w[i]) : 1.0;
+      double sq = 0.0;
+      for (int c = 0; c < m; ++c) {
+        r[c] *= sw;
+        sq += r[c] * r[c];
+      }
+      double rho, drho;
+      rho_of(loss, sq / s2, &rho, &drho);
+      cost += s2 * rho;
+      if (!want) continue;
+      for (int c = 0; c < m; ++c)
+        for (int k = 0; k < 5; ++k) J[c][k] *= sw;
+      for (int a = 0; a < 5; ++a) {
+        double ga = 0.0;
+        for (int c = 0; c < m; ++c) ga += J[c][a] * r[c];
+        gs[a] += drho * ga;
+        for (int b = a; b < 5; ++b) {
+          double h = 0.0;
+          for (int c = 0; c < m; ++c) h += J[c][a] * J[c][b];
+          Hs[a][b] += drho * h;
+        }
+      }
+    }
+    if (want) {
+      for (int a = 0; a < 5; ++a) {
+        (*g)(a) = gs[a];
+        for (int b = a; b < 5; ++b) (*H)(a, b) = (*H)(b, a) = Hs[a][b];
+      }
+    }
+    return cost;
+  }
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const size_t h = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + h, v.end());
+  const double hi = v[h];
+  if (v.size() % 2) return hi;
+  const double lo = *std::max_element(v.begin(), v.begin() + h);
+  return 0.5 * (lo + hi);
+}
+
+// default scale: 1.4826 median over the points with positive weight (all if none) of |sqrt(w_i) r_i|
+double default_scale(const Points& p, const double* w, int kind, const Chart& chart) {
+  Frame F;
+  const double x0[5] = {0, 0, 0, 0, 0};
+  chart.eval(x0, false, &F.R, &F.t, &F.Jl, &F.Jt);
+  const Problem pr{p, w, kind, RefineLoss::Linear, 1.0, chart};
+  std::vector<double> all, pos;
+  all.reserve(p.n);
+  pos.reserve(p.n);
+  double r[3], J[3][5];
+  for (int i = 0; i < p.n; ++i) {
+    pr.point(F, i, false, r, J);
+    const double sw = w ? std::sqrt(w[i]) : 1.0;
+    double sq = 0.0;
+    for (int c = 0; c < pr.dim(); ++c) sq += (sw * r[c]) * (sw * r[c]);
+    all.push_back(std::sqrt(sq));
+    if (sw > 0.0) pos.push_back(all.back());
+  }
+  return std::max(kMadFactor * median(pos.empty() ? all : pos), kMinLossScale);
+}
+
+// the LM loop of poseonly.refine.ligt._lm
+void levenberg_marquardt(const Problem& pr, int max_iter, double tol, double x[5], RefineStats* st) {
+  Mat5 H, Hn;
+  Vec5 g, gn;
+  Vec5 xv = Vec5::Zero();
+  double F = pr.eval(xv.data(), true, &H, &g);
+  int nfev = 1, njev = 1;
+  Vec5 d = H.diagonal().cwiseMax(kDiagFloor);
+  double lam = kLambda0;
+  int status = 0;
+  while (nfev < max_iter) {
+    if (!g.allFinite() || g.cwiseAbs().maxCoeff() <= tol * std::max(F, 1e-300)) {
+      status = 1;
+      break;
+    }
+    Mat5 A = H;
+    A.diagonal() += lam * d;
+    const Eigen::PartialPivLU<Mat5> lu(A);
+    const Vec5 dx = lu.solve(-g);
+    if (!dx.allFinite()) {  // (numerically) singular system: numpy's LinAlgError branch
+      lam *= kLambdaUp;
+      if (lam > kLambdaMax) {
+        status = -1;
+        break;
+      }
+      continue;
+    }
+    const Vec5 xn = xv + dx;
+    const double Fn = pr.eval(xn.data(), true, &Hn, &gn);
+    ++nfev;
+    if (std::isfinite(Fn) && Fn < F) {
+      const double dF = F - Fn;
+      xv = xn;
+      F = Fn;
+      H = Hn;
+      g = gn;
+      ++njev;
+      d = d.cwiseMax(H.diagonal());
+      lam = std::max(lam / kLambdaDown, kLambdaMin);
+      if (dF <= tol * F) {
+        status = 2;
+        break;
+      }
+      if (dx.norm() <= tol * (tol + xv.norm())) {
+        status = 3;
+        break;
+      }
+    } else {
+      lam *= kLambdaUp;
+      if (lam > kLambdaMax) {
+        status = -1;
+        break;
+      }
+    }
+  }
+  for (int k = 0; k < 5; ++k) x[k] = xv(k);
+  st->iterations = njev;
+  st->evaluations = nfev;
+  st->status = status;
+}
+
+// flip t so that the weighted majority of h_i^T t is positive; the weighted positive fraction after
+double fix_translation_sign(const Points& p, const double* w, const Mat3& R, Vec3* t) {
+  double m2 = 0.0, sw = 0.0, pos = 0.0;
+  std::vector<double> h(p.n);
+  for (int i = 0; i < p.n; ++i) {
+    const Vec3 c = (R * p.a(i)).cross(p.b(i));
+    h[i] = c.dot(p.b(i).cross(*t));
+    const double wi = w ? w[i] : 1.0;
+    m2 += wi * (h[i] > 0.0 ? 1.0 : (h[i] < 0.0 ? -1.0 : 0.0));
+  }
+  const double sgn = m2 < 0.0 ? -1.0 : 1.0;
+  if (m2 < 0.0) *t = -*t;
+  for (int i = 0; i < p.n; ++i) {
+    const double wi = w ? w[i] : 1.0;
+    sw += wi;
+    if (sgn * h[i] > 0.0) pos += wi;
+  }
+  *t = t->normalized();
+  return pos / std::max(sw, 1e-300);
+}
+
+RefineStats refine(const Points& p, const double* w, const RefineOptions& opt, int kind, Pose* pose) {
+  RefineStats st;
+  Pose start = *pose;
+  start.t = start.t.normalized();
+  const Chart chart(start);
+  double scale = 1.0;
+  if (opt.loss != RefineLoss::Linear) scale = opt.loss_scale > 0.0 ? opt.loss_scale : default_scale(p, w, kind, chart);
+  st.loss_scale = scale;
+  const Problem pr{p, w, kind, opt.loss, scale, chart};
+  const double x0[5] = {0, 0, 0, 0, 0};
+  const double cost0 = pr.eval(x0, false, nullptr, nullptr);
+  st.initial_cost = cost0;
+  const double tol = std::max(opt.tol, kRefineMinTol);
+  double x[5] = {0, 0, 0, 0, 0};
+  if (cost0 == 0.0) {
+    st.iterations = 0;
+    st.evaluations = 1;
+    st.status = 1;
+  } else {
+    levenberg_marquardt(pr, std::max(opt.max_iterations, 1), tol, x, &st);
+  }
+  Frame F;
+  chart.eval(x, false, &F.R, &F.t, &F.Jl, &F.Jt);
+  double cost1 = pr.eval(x, false, nullptr, nullptr);
+  Pose out{F.R, F.t};
+  if (!(cost1 <= cost0)) {  // never return a worse pose (guard; LM only accepts decreasing steps)
+    out = start;
+    cost1 = cost0;
+    st.status = -2;
+  }
+  st.final_cost = cost1;
+  st.positive_depth_fraction = fix_translation_sign(p, w, out.R, &out.t);
+  *pose = out;
+  return st;
+}
+
+}  // namespace
+
+RefineStats refine_sampson(const Points& p, const double* w, const RefineOptions& opt, Pose* pose) {
+  return refine(p, w, opt, 0, pose);
+}
+
+RefineStats refine_ligt(const Points& p, const double* w, const RefineOptions& opt, int normalization, Pose* pose) {
+  if (normalization < 0 || normalization > 2) normalization = 0;
+  return refine(p, w, opt, 1 + normalization, pose);
+}
+
+void refine_residuals(const Points& p, const double* w, const Pose& start, const double x[5], int kind,
+                      std::vector<double>* r, std::vector<double>* J) {
+  const Chart chart(start);
+  Frame F;
+  chart.eval(x, true, &F.R, &F.t, &F.Jl, &F.Jt);
+  const Problem pr{p, w, kind, RefineLoss::Linear, 1.0, chart};
+  const int m = pr.dim();
+  r->assign(static_cast<size_t>(p.n) * m, 0.0);
+  J->assign(static_cast<size_t>(p.n) * m * 5, 0.0);
+  double ri[3], Ji[3][5];
+  for (int i = 0; i < p.n; ++i) {
+    pr.point(F, i, true, ri, Ji);
+    const double sw = w ? std::sqrt(w[i]) : 1.0;
+    for (int c = 0; c < m; ++c) {
+      (*r)[static_cast<size_t>(i) * m + c] = sw * ri[c];
+      for (int k = 0; k < 5; ++k) (*J)[(static_cast<size_t>(i) * m + c) * 5 + k] = sw * Ji[c][k];
+    }
+  }
+}
+
+}  // namespace poseonly

@@ -1,0 +1,62 @@
+// Levenberg-Marquardt refinements of a relative pose on SO(3) x S^2 (5 parameters), the compact LM of
+// poseonly.refine.ligt._lm (solver="lm"), in the same chart and with the same rules:
+//   chart   R(x) = exp([w]x) R0, t(x) = normalize(t0 + B v), x = (w, v), B an orthonormal basis of
+//           the tangent plane at t0 (poseonly.refine._manifold.PoseChart; exact Jacobians at any x:
+//           d(R p)/dw = -[R p]x J_l(w), dt/dv = (I - t t^T) B / |t0 + B v|);
+//   robust  cost s^2 sum_i rho(|r_i|^2 / s^2) (scipy's loss semantics applied to each point's squared
+//           residual norm), normal equations in IRLS form H = sum rho'_i J_i^T J_i, g = sum rho'_i J_i^T r_i
+//           (no rho'' term);
+//   LM      (H + lam diag(d)) dx = -g, d the largest diagonal of H seen (Marquardt / MINPACK scaling),
+//           lam0 = 1e-3, a step is taken only if the cost decreases (lam / 3, floor 1e-15), else lam * 10;
+//   stops   (status codes of scipy.optimize.least_squares) 1 gtol: max|g| <= tol F (or g not finite)
+//           or an exact start (zero cost); 2 ftol: accepted dF <= tol F; 3 xtol: |dx| <= tol (tol + |x|);
+//           0: max_iterations cost evaluations; -1: lam > 1e16 without a decreasing step.
+// After the optimisation the sign of t is fixed by the weighted majority of positive pose-only depths
+// h_i^T t (poseonly.refine._common.fix_translation_sign); the objective is invariant to t -> -t.
+#pragma once
+
+#include "common.h"
+
+namespace poseonly {
+
+// scipy.optimize.least_squares losses rho(s) (poseonly.refine._common.LOSSES), codes as
+// poseonly.refine.ligt._LOSS_CODE. A separate enum from common.h's Loss (PoseLib's family: truncated
+// losses, no soft_l1/arctan).
+enum class RefineLoss : int { Linear = 0, SoftL1 = 1, Huber = 2, Cauchy = 3, Arctan = 4 };
+
+constexpr int kRefineMinPoints = 6;          // ligt_refine's minimum (5 parameters + 1)
+constexpr double kRefineMinTol = 2.3e-16;    // tol floor (as ligt_refine)
+constexpr double kMadFactor = 1.4826;        // default scale: 1.4826 median_i |sqrt(w_i) r_i|
+constexpr double kMinLossScale = 1e-12;
+
+struct RefineOptions {
+  int max_iterations = 50;           // cap on cost evaluations (scipy max_nfev)
+  RefineLoss loss = RefineLoss::Linear;
+  double loss_scale = 0.0;           // s; <= 0: the default 1.4826 median_{w_i > 0} |sqrt(w_i) r_i| at the start (>= 1e-12)
+  double tol = 1e-12;                // ftol = xtol = gtol
+};
+
+struct RefineStats {
+  int iterations = 0;                // Jacobian evaluations = accepted steps + 1 (0 for an exact start)
+  int evaluations = 0;               // cost evaluations
+  int status = 0;                    // see the header comment; -2: final cost above the start, start returned
+  double initial_cost = 0.0;
+  double final_cost = 0.0;
+  double loss_scale = 1.0;           // the scale used (1 for the linear loss)
+  double positive_depth_fraction = 0.0;  // weighted fraction of h_i^T t > 0 at the returned pose
+};
+
+// Sampson refinement: r_i = sqrt(w_i) (f2^T E f1) / sqrt(|P_f2 E f1|^2 + |P_f1 E^T f2|^2) (residuals.h
+// sampson, radians), minimising s^2 sum_i rho(r_i^2 / s^2). pose: start in, result out (unit t).
+RefineStats refine_sampson(const Points& p, const double* w, const RefineOptions& opt, Pose* pose);
+
+// LiGTopt (poseonly.refine.ligt): r_i = sqrt(w_i) L~_i t / N_i with normalization 0 "none" (N = 1),
+// 1 "theta2" (N = theta_i^2, floored at 1e-30), 2 "angular" (N = theta_i^2 |z_i R f1_i + t|).
+RefineStats refine_ligt(const Points& p, const double* w, const RefineOptions& opt, int normalization, Pose* pose);
+
+// Residual (1 for Sampson, 3 for LiGT) and its Jacobian w.r.t. the chart at x, exposed for tests:
+// r (n * dim), J (n * dim * 5, row-major per residual component). kind 0 Sampson, 1 + norm LiGT.
+void refine_residuals(const Points& p, const double* w, const Pose& start, const double x[5], int kind,
+                      std::vector<double>* r, std::vector<double>* J);
+
+}  // namespace poseonly
