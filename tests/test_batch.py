@@ -63,7 +63,7 @@ def test_seed_from_key_not_position():
 
 
 def test_bad_pair_reported_bad_options_raise():
-    pairs = [dict(x1=np.zeros((3, 2)), x2=np.zeros((3, 2)), K1=np.eye(3)), *_pairs(1)]
+    pairs = [{"x1": np.zeros((3, 2)), "x2": np.zeros((3, 2)), "K1": np.eye(3)}, *_pairs(1)]
     res = sorted(poseonly.estimate_relative_poses(pairs, progress=False), key=lambda r: r.index)
     assert res[0].result is None and "at least 6" in res[0].error and res[0].key == 0
     assert res[1].result is not None
@@ -72,4 +72,4 @@ def test_bad_pair_reported_bad_options_raise():
     with pytest.raises(ValueError, match="n_jobs"):
         poseonly.estimate_relative_poses(pairs, n_jobs=0)
     with pytest.raises(ValueError, match="unknown keys"):
-        list(poseonly.estimate_relative_poses([dict(x1=1, x2=2, foo=3)], progress=False))
+        list(poseonly.estimate_relative_poses([{"x1": 1, "x2": 2, "foo": 3}], progress=False))

@@ -184,8 +184,7 @@ def _generate(pairs, n_jobs, client, chunk_size, progress, retries, options, tot
         else:
             runner = _pool(pairs, (os.cpu_count() or 1) if n_jobs == -1 else n_jobs, chunk_size or POOL_CHUNK, options)
         for results in runner:
-            for r in results:
-                yield r
+            yield from results
             if bar is not None:
                 bar.update(len(results))
     finally:
