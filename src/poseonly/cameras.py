@@ -194,12 +194,15 @@ class Camera:
 
     # -- public mapping ----------------------------------------------------------------------------
 
-    def unproject(self, uv: np.ndarray) -> np.ndarray:
+    def unproject(self, uv: np.ndarray, invalid: str = "raise") -> np.ndarray:
         """Pixels ``(n, 2)`` -> unit bearing vectors ``(n, 3)`` (camera frame, ``z`` forward).
 
-        Raises :class:`ValueError` for bad shapes / non-finite values and for points where the
-        undistortion does not converge."""
+        Raises :class:`ValueError` for bad shapes / non-finite values, and for points where the
+        undistortion does not converge unless ``invalid="nan"`` (their rows are then NaN)."""
+        if invalid not in ("raise", "nan"):
+            raise InputError(f"invalid must be 'raise' or 'nan', got {invalid!r}")
         uv = _check_points(uv, 2, "uv")
+        ok = np.ones(len(uv), bool)
         (fx, fy), (cx, cy) = self.focal_xy, self.principal_point
         xd = (uv[:, 0] - cx) / fx
         yd = (uv[:, 1] - cy) / fy
@@ -217,7 +220,6 @@ class Camera:
                     break
             g, dg = self._fisheye_poly(theta)
             ok = done & np.isfinite(theta) & (theta >= 0) & (dg > 0) & (np.abs(g - rd) <= 1e-9 * np.maximum(1.0, rd))
-            _raise_unconverged(ok, uv, self.model)
             with np.errstate(divide="ignore", invalid="ignore"):
                 s = np.where(rd > _FISHEYE_EPS, np.sin(theta) / rd, 1.0)
             b = np.column_stack([xd * s, yd * s, np.cos(theta)])
@@ -226,9 +228,12 @@ class Camera:
                 u, v = xd, yd
             else:
                 u, v, ok = self._undistort_brown(xd, yd)
-                _raise_unconverged(ok, uv, self.model)
             b = np.column_stack([u, v, np.ones_like(u)])
-        return b / np.linalg.norm(b, axis=1)[:, None]
+        if invalid == "raise":
+            _raise_unconverged(ok, uv, self.model)
+        b[~ok] = np.nan
+        with np.errstate(invalid="ignore"):
+            return b / np.linalg.norm(b, axis=1)[:, None]
 
     def project(self, X: np.ndarray) -> np.ndarray:
         """Camera-frame points or bearings ``(n, 3)`` -> pixels ``(n, 2)``. Points with ``z <= 0`` give
