@@ -7,7 +7,8 @@ pair is the same serially, on any number of processes and on any cluster (each e
 single-threaded BLAS, see :mod:`poseonly.api`).
 
 Work is sent in chunks (``chunk_size`` pairs per task; default :data:`POOL_CHUNK` on a process
-pool, :data:`DASK_CHUNK` on Dask) with a bounded number of chunks in flight, so an iterable of
+pool, :data:`DASK_CHUNK` on Dask, fewer when a sized batch would otherwise give a worker fewer than
+:data:`MIN_CHUNKS_PER_WORKER` chunks) with a bounded number of chunks in flight, so an iterable of
 100k pairs is streamed, not loaded at once. On Dask, a chunk lost with its worker is recomputed by
 the scheduler, and a chunk whose task fails is retried ``retries`` times.
 
@@ -32,6 +33,7 @@ __all__ = ["DASK_CHUNK", "POOL_CHUNK", "Pair", "PairResult", "estimate_relative_
 
 POOL_CHUNK = 16  # pairs per task on a local process pool (small: early results, even load)
 DASK_CHUNK = 256  # pairs per task on Dask (amortises the scheduler's per-task overhead)
+MIN_CHUNKS_PER_WORKER = 4  # a known-size batch is cut finer when it would give fewer chunks per worker
 IN_FLIGHT_PER_WORKER = 2  # chunks queued per worker: keeps workers busy without loading everything
 DASK_RETRIES = 3
 _SEED_BITS = 63
@@ -178,11 +180,12 @@ def _generate(pairs, n_jobs, client, chunk_size, progress, retries, options, tot
     bar = _progress(total, progress)
     try:
         if client is not None:
-            runner = _dask(pairs, client, chunk_size or DASK_CHUNK, retries, options)
+            runner = _dask(pairs, client, chunk_size, total, retries, options)
         elif n_jobs == 1:
             runner = (_run_chunk(c, options) for c in _chunks(pairs, chunk_size or 1))
         else:
-            runner = _pool(pairs, (os.cpu_count() or 1) if n_jobs == -1 else n_jobs, chunk_size or POOL_CHUNK, options)
+            n = (os.cpu_count() or 1) if n_jobs == -1 else n_jobs
+            runner = _pool(pairs, n, chunk_size or _auto_chunk(POOL_CHUNK, total, n), options)
         for results in runner:
             yield from results
             if bar is not None:
@@ -190,6 +193,14 @@ def _generate(pairs, n_jobs, client, chunk_size, progress, retries, options, tot
     finally:
         if bar is not None:
             bar.close()
+
+
+def _auto_chunk(default: int, total: int | None, workers: int) -> int:
+    """``default``, or fewer pairs per chunk when the batch is known to be too small to give every
+    worker :data:`MIN_CHUNKS_PER_WORKER` chunks (load balance)."""
+    if total is None:
+        return default
+    return max(1, min(default, -(-total // (MIN_CHUNKS_PER_WORKER * workers))))
 
 
 def _pool(pairs, n_jobs: int, chunk_size: int, options) -> Iterator[list[PairResult]]:
@@ -215,14 +226,14 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options) -> Iterator[list[PairRes
                     pending.add(ex.submit(_run_chunk, nxt, options))
 
 
-def _dask(pairs, client, chunk_size: int, retries: int, options) -> Iterator[list[PairResult]]:
+def _dask(pairs, client, chunk_size: int | None, total: int | None, retries: int, options) -> Iterator[list[PairResult]]:
     from dask.distributed import Client, as_completed
 
     own = isinstance(client, str)
     cl = Client(client) if own else client
     try:
         nworkers = max(1, sum(int(w.get("nthreads", 1)) for w in cl.scheduler_info()["workers"].values()))
-        chunks = _chunks(pairs, chunk_size)
+        chunks = _chunks(pairs, chunk_size or _auto_chunk(DASK_CHUNK, total, nworkers))
         futs = []
         for c in chunks:
             futs.append(cl.submit(_run_chunk, c, options, pure=False, retries=retries))
