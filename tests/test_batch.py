@@ -73,3 +73,25 @@ def test_bad_pair_reported_bad_options_raise():
         poseonly.estimate_relative_poses(pairs, n_jobs=0)
     with pytest.raises(ValueError, match="unknown keys"):
         list(poseonly.estimate_relative_poses([{"x1": 1, "x2": 2, "foo": 3}], progress=False))
+
+
+def test_dask_lost_worker():
+    """A worker is SIGKILLed mid-run: its chunk is recomputed elsewhere, nothing lost."""
+    import os
+    import signal
+
+    distributed = pytest.importorskip("dask.distributed")
+    pairs = _pairs(8)
+    serial = _summary(poseonly.estimate_relative_poses(pairs, progress=False))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc, \
+            distributed.Client(lc) as client:
+        out = []
+        for k, r in enumerate(poseonly.estimate_relative_poses(pairs, client=client, chunk_size=1, progress=False)):
+            out.append(r)
+            if k == 0:
+                busy = [w for w, ts in client.processing().items() if ts]
+                assert busy
+                pid = client.run(os.getpid, workers=busy[:1])[busy[0]]
+                os.kill(pid, signal.SIGKILL)  # a worker process of this test's own cluster
+        assert busy[0] not in client.scheduler_info()["workers"]  # the worker was really lost
+    _same(serial, _summary(out))
