@@ -131,8 +131,8 @@ def main(argv: list[str] | None = None) -> int:
             print(scene.name, verifier, json.dumps(row[verifier]), flush=True)
         results[scene.name] = row
     (out / "roundtrip.json").write_text(json.dumps(results, indent=2))
-    lines = ["| scene | verification | verified pairs (CALIBRATED / all) | inlier matches | verify s | mapper | registered "
-             "| rot. median / max (deg) | position median / max (m) |", "|---|---|---|---|---|---|---|---|---|"]
+    lines = [("| scene | verification | verified pairs (CALIBRATED / all) | inlier matches | verify s | mapper | registered "
+             "| rot. median / max (deg) | position median / max (m) |"), "|---|---|---|---|---|---|---|---|---|"]
     for sc, row in results.items():
         for ver, r in row.items():
             for mp in ("incremental", "global"):
