@@ -130,10 +130,12 @@ class _Source:
             yield Pair(b1[m[:, 0]], b2[m[:, 1]], key=pid, options={"focal_px": 0.5 * (c1.focal_px + c2.focal_px)})
 
     def row(self, pr: PairResult) -> GeometryRow:
-        i1, i2, m = self.pending.pop(int(pr.key))  # type: ignore[arg-type]
+        pid = pr.key
+        assert isinstance(pid, int)  # the keys of _Source's pairs are pair ids
+        i1, i2, m = self.pending.pop(pid)
         r = pr.result
         if r is None:
-            self.errors[int(pr.key)] = str(pr.error)  # type: ignore[arg-type]
+            self.errors[pid] = str(pr.error)
             return GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2)))
         config = STATUS_CONFIG.get(r.status, ERROR_CONFIG)
         if config not in _WITH_INLIERS:

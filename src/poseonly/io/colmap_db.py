@@ -80,7 +80,10 @@ class ColmapDatabase:
         self.path = p
         self._pc = _pycolmap()
         self.db = self._pc.Database.open(str(p))
-        self._pairs = [(pid, *map(int, self._pc.pair_id_to_image_pair(pid))) for pid in pair_ids]
+        self._pairs: list[tuple[int, int, int]] = []
+        for pid in pair_ids:
+            i1, i2 = self._pc.pair_id_to_image_pair(pid)
+            self._pairs.append((pid, int(i1), int(i2)))
         self._kp: OrderedDict[int, np.ndarray] = OrderedDict()
         images = self.db.read_all_images()
         cams = {c.camera_id: c for c in self.db.read_all_cameras()}
