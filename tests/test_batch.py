@@ -95,3 +95,10 @@ def test_dask_lost_worker():
                 os.kill(pid, signal.SIGKILL)  # a worker process of this test's own cluster
         assert busy[0] not in client.scheduler_info()["workers"]  # the worker was really lost
     _same(serial, _summary(out))
+
+
+def test_other_methods_accepted():
+    pairs = _pairs(1)
+    for method in ("gnc-ransac", "lirp"):
+        (r,) = poseonly.estimate_relative_poses(pairs, method=method, progress=False)
+        assert r.error is None and r.result.method == method

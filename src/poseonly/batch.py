@@ -37,6 +37,7 @@ MIN_CHUNKS_PER_WORKER = 4  # a known-size batch is cut finer when it would give 
 IN_FLIGHT_PER_WORKER = 2  # chunks queued per worker: keeps workers busy without loading everything
 DASK_RETRIES = 3
 _SEED_BITS = 63
+_CHECK_POINTS = 100
 
 
 @dataclass
@@ -123,12 +124,13 @@ def _chunks(pairs: Iterable[Any], size: int) -> Iterator[list[tuple[int, Pair]]]
 
 
 def _check_options(options: dict[str, Any]) -> None:
-    """Fail fast on invalid options: run them once on a fixed, well-posed 12-point problem."""
+    """Fail fast on invalid options: run them once on a fixed, well-posed problem of
+    :data:`_CHECK_POINTS` points (enough for the methods' sample sizes)."""
     seed = options.get("seed", 0)
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
         raise InputError(f"seed must be an int for a batch (each pair's seed is derived from it), got {options['seed']!r}")
     rng = np.random.default_rng(0)
-    X = rng.uniform(-1, 1, (12, 3)) + [0, 0, 5]
+    X = rng.uniform(-1, 1, (_CHECK_POINTS, 3)) + [0, 0, 5]
     f1 = X / np.linalg.norm(X, axis=1)[:, None]
     X2 = X + [0.3, 0.0, 0.0]
     f2 = X2 / np.linalg.norm(X2, axis=1)[:, None]
