@@ -232,6 +232,8 @@ def run_cli(args: argparse.Namespace) -> int:
                         client=args.dask, chunk_size=args.chunk, write_every=args.write_every,
                         progress=not args.no_progress, method=args.method, threshold_px=args.threshold, seed=args.seed)
     print(f"{s.selected} pairs selected, {s.skipped} already verified (kept), {s.written} written in {s.time_s:.1f} s")
+    if s.skipped and not s.written:
+        print("  every selected pair already had a two-view geometry: pass --overwrite to replace them with poseonly's")
     for cfg, k in sorted(s.configs.items()):
         print(f"  {cfg}: {k}")
     if s.errors:
