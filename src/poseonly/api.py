@@ -555,8 +555,8 @@ def estimate_relative_pose(
     if camera1 is not None or camera2 is not None:
         from .cameras import lift_pair
 
-        if K1 is not None or camera1 is None:
-            raise InputError("give camera1 (and optionally camera2) or K1/K2, not both")
+        if camera1 is None or K1 is not None:
+            raise InputError("camera2 given without camera1" if camera1 is None else "give K1/K2 or camera1/camera2, not both")
         f1, f2, cam_focal = lift_pair(x1, x2, camera1, camera2)
     else:
         f1 = as_bearings(x1, K1, "x1")
