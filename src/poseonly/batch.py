@@ -209,8 +209,9 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options) -> Iterator[list[PairRes
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-    # forkserver: workers start from a clean process (no inherited threads of the caller)
-    ctx = mp.get_context("forkserver" if "forkserver" in mp.get_all_start_methods() else "spawn")
+    # spawn: workers start from a clean interpreter (no inherited threads or locks of the caller, the
+    # same on every platform) and are children of this process (their CPU time is accounted to it)
+    ctx = mp.get_context("spawn")
     chunks = _chunks(pairs, chunk_size)
     limit = IN_FLIGHT_PER_WORKER * n_jobs
     with ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx) as ex:
