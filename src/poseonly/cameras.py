@@ -121,10 +121,8 @@ class Camera:
     @property
     def is_undistorted(self) -> bool:
         """True when the distortion parameters are all zero (a pinhole camera)."""
-        return not any(self.params[len(MODELS[self.model]) - self._num_extra():])
-
-    def _num_extra(self) -> int:
-        return len(MODELS[self.model]) - (3 if MODELS[self.model][0] == "f" else 4)
+        n_base = 3 if MODELS[self.model][0] == "f" else 4  # focal(s) and principal point
+        return not any(self.params[n_base:])
 
     def to_dict(self) -> dict[str, Any]:
         """PoseLib/COLMAP-style ``{"model", "width", "height", "params"}``."""
