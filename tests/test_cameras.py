@@ -64,7 +64,7 @@ def test_specs_agree():
     assert as_camera((K, d)) == Camera("OPENCV", 0, 0, a.params)
     assert as_camera({"K": K, "dist": d, "width": 640, "height": 480}) == a
     assert as_camera(a.to_dict()) == a
-    assert from_opencv(K).model == "PINHOLE"
+    assert from_opencv(K).model == "PINHOLE" and from_opencv(K).is_undistorted and not a.is_undistorted
     assert from_opencv(K, d + [0.01]).model == "FULL_OPENCV"
     assert from_opencv(K, [0.1, 0, 0, 0], fisheye=True).model == "OPENCV_FISHEYE"
 
