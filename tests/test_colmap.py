@@ -177,3 +177,16 @@ def test_kill_and_resume(tmp_path):
     assert f"{written} already verified" in rr.stdout
     _check_consistent(path)
     assert _rows(path) == _rows(ref)
+
+
+def test_cli_errors(tmp_path, capsys):
+    from poseonly.cli import main
+
+    assert main(["colmap", "verify", str(tmp_path / "missing.db"), "--no-progress"]) == 2
+    assert "COLMAP database not found" in capsys.readouterr().err
+    path = tmp_path / "db.db"
+    make_db(path, n_images=2)
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 0
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "1 already verified" in out and "--overwrite" in out

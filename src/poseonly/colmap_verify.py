@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from .api import DEFAULT_METHOD, METHODS
 from .batch import Pair, PairResult, estimate_relative_poses
 from .geometry import InputError
 from .io.colmap_db import ColmapDatabase, GeometryRow
@@ -217,7 +218,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="replace the selected pairs' existing two-view geometries (default: keep them and verify "
                         "only the others, which also resumes an interrupted run)")
     p.add_argument("--threshold", type=float, default=2.0, help="inlier threshold in pixels (default 2.0)")
-    p.add_argument("--method", default="poseonly", help="estimation method (default poseonly)")
+    p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"estimation method (default {DEFAULT_METHOD})")
     p.add_argument("--seed", type=int, default=0, help="base seed; each pair's seed derives from it and the pair id")
     p.add_argument("--jobs", type=int, default=1, help="local worker processes (-1: all cores; default 1)")
     p.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS instead of local processes")
