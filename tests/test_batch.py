@@ -102,3 +102,10 @@ def test_other_methods_accepted():
     for method in ("gnc-ransac", "lirp"):
         (r,) = poseonly.estimate_relative_poses(pairs, method=method, progress=False)
         assert r.error is None and r.result.method == method
+
+
+def test_early_stop_pool():
+    gen = poseonly.estimate_relative_poses(_pairs(6), n_jobs=2, chunk_size=1, progress=False)
+    first = next(gen)
+    gen.close()  # the pool shuts down without running the queued chunks
+    assert first.error is None

@@ -214,7 +214,8 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options) -> Iterator[list[PairRes
     ctx = mp.get_context("spawn")
     chunks = _chunks(pairs, chunk_size)
     limit = IN_FLIGHT_PER_WORKER * n_jobs
-    with ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx) as ex:
+    ex = ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx)
+    try:
         pending = set()
         for c in chunks:
             pending.add(ex.submit(_run_chunk, c, options))
@@ -227,6 +228,8 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options) -> Iterator[list[PairRes
                 nxt = next(chunks, None)
                 if nxt is not None:
                     pending.add(ex.submit(_run_chunk, nxt, options))
+    finally:  # also when the caller stops iterating early: queued chunks are dropped, not run
+        ex.shutdown(wait=True, cancel_futures=True)
 
 
 def _dask(pairs, client, chunk_size: int | None, total: int | None, retries: int, options) -> Iterator[list[PairResult]]:
