@@ -7,11 +7,13 @@ from .geometry import InputError, rotation_error_deg, translation_error_deg
 from .residuals import v_BA, v_E, v_LiGT, v_OpenGV, v_PPO
 from .solvers.lirp import LiRPResult, lirp
 from .api import RelativePoseResult, estimate_relative_pose, gnc_irls, gnc_ransac
+from .batch import estimate_relative_poses
 
 __version__ = "0.1.0"
 
 __all__ = [
     "estimate_relative_pose",
+    "estimate_relative_poses",
     "RelativePoseResult",
     "gnc_irls",
     "gnc_ransac",

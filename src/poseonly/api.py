@@ -511,6 +511,8 @@ def estimate_relative_pose(
     K2: np.ndarray | None = None,
     *,
     method: str = DEFAULT_METHOD,
+    camera1: Any = None,
+    camera2: Any = None,
     **options: Any,
 ) -> RelativePoseResult:
     """Estimate the relative pose ``X2 = R X1 + t`` from point matches.
@@ -523,7 +525,10 @@ def estimate_relative_pose(
     reports it as ``result.threshold_px``), ``min_inliers`` (15, for status ``ok``),
     ``focal_px`` (focal for the pixel conversion when no ``K`` is given; default 800), ``seed``
     (int or ``numpy.random.Generator``; default 0), ``refine`` (LiGTopt on the inliers; default
-    True). Method options are listed in the error raised for an unknown one. Raises
+    True). ``camera1``/``camera2`` (instead of ``K1``/``K2``; ``camera2`` defaults to ``camera1``): any
+    camera of :func:`poseonly.cameras.as_camera` (pycolmap.Camera, ``{"model", "width", "height",
+    "params"}``, ``(K, dist)``); pixels are lifted through the distortion model and the threshold uses
+    the cameras' mean focal length. Method options are listed in the error raised for an unknown one. Raises
     :class:`ValueError` (:class:`poseonly.InputError`) for invalid input or options; degenerate
     input returns a result whose ``status`` says so.
     """
@@ -536,14 +541,22 @@ def estimate_relative_pose(
         K2 = K1 if K2 is None else check_intrinsics(K2, "K2")
     elif K2 is not None:
         raise InputError("K2 given without K1")
-    f1 = as_bearings(x1, K1, "x1")
-    f2 = as_bearings(x2, K2, "x2")
+    cam_focal = None
+    if camera1 is not None or camera2 is not None:
+        from .cameras import lift_pair
+
+        if camera1 is None or K1 is not None:
+            raise InputError("camera2 given without camera1" if camera1 is None else "give K1/K2 or camera1/camera2, not both")
+        f1, f2, cam_focal = lift_pair(x1, x2, camera1, camera2)
+    else:
+        f1 = as_bearings(x1, K1, "x1")
+        f2 = as_bearings(x2, K2, "x2")
     if f1.shape != f2.shape:
         raise InputError(f"x1 and x2 differ in length: {len(f1)} vs {len(f2)}")
     n = len(f1)
     if n < 6:
         raise InputError(f"at least 6 correspondences are needed, got {n}")
-    focal = _focal(K1, K2, o["focal_px"])
+    focal = _focal(K1, K2, o["focal_px"]) if cam_focal is None or o["focal_px"] is not None else cam_focal
     thr_px = float(o["threshold_px"])
     tau = thr_px / focal
     # degenerate-but-valid input: the epipolar matrix has rank < 6

@@ -5,6 +5,7 @@
     poseonly relpose --matches matches.npz [--K ...]
     poseonly experiment NAME [--trials N] [--quick] [--out DIR] [...]
     poseonly bench NAME [...]
+    poseonly colmap verify DATABASE [--pairs FILE] [--overwrite] [--jobs N | --dask ADDRESS]
 """
 
 from __future__ import annotations
@@ -130,6 +131,12 @@ def cmd_experiment(args) -> int:
     return int(mod.run(args) or 0)
 
 
+def cmd_colmap_verify(args) -> int:
+    from .colmap_verify import run_cli
+
+    return run_cli(args)
+
+
 BENCHES = {"speed": "poseonly.bench_speed", "robust": "poseonly.bench_robust"}  # modules with main(argv)
 
 
@@ -169,6 +176,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--json", action="store_true")
     r.add_argument("--draw", help="write a match drawing (PNG)")
     r.set_defaults(func=cmd_relpose)
+
+    c = sub.add_parser("colmap", help="COLMAP database tools")
+    csub = c.add_subparsers(dest="colmap_cmd", required=True)
+    cv = csub.add_parser("verify", help="two-view verification of a COLMAP database's matches with poseonly")
+    from .colmap_verify import add_arguments as colmap_verify_arguments
+
+    colmap_verify_arguments(cv)
+    cv.set_defaults(func=cmd_colmap_verify)
 
     b = sub.add_parser("bench", help="benchmarks: speed (issue 6) or robust (issue 3)")
     b.add_argument("name", choices=sorted(BENCHES))

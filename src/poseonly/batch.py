@@ -1,0 +1,258 @@
+"""Many pairs: :func:`estimate_relative_poses` over an iterable of pairs, serially, on a local
+process pool or on a Dask cluster, yielding each pair's result as its chunk finishes.
+
+Determinism: the seed of a pair is derived from the base ``seed`` option and the pair's key
+(:func:`pair_seed`, a BLAKE2b hash), never from its position in the schedule, so the result of a
+pair is the same serially, on any number of processes and on any cluster (each estimate runs
+single-threaded BLAS, see :mod:`poseonly.api`).
+
+Work is sent in chunks (``chunk_size`` pairs per task; default :data:`POOL_CHUNK` on a process
+pool, :data:`DASK_CHUNK` on Dask, fewer when a sized batch would otherwise give a worker fewer than
+:data:`MIN_CHUNKS_PER_WORKER` chunks) with a bounded number of chunks in flight, so an iterable of
+100k pairs is streamed, not loaded at once. On Dask, a chunk lost with its worker is recomputed by
+the scheduler, and a chunk whose task fails is retried ``retries`` times.
+
+A pair whose input is invalid does not stop the batch: its :class:`PairResult` carries the error
+message (``result is None``). Invalid options do: they are checked once before any work is sent.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from collections.abc import Hashable, Iterable, Iterator, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .api import RelativePoseResult, estimate_relative_pose
+from .geometry import InputError
+
+__all__ = ["DASK_CHUNK", "POOL_CHUNK", "Pair", "PairResult", "estimate_relative_poses", "pair_seed"]
+
+POOL_CHUNK = 16  # pairs per task on a local process pool (small: early results, even load)
+DASK_CHUNK = 256  # pairs per task on Dask (amortises the scheduler's per-task overhead)
+MIN_CHUNKS_PER_WORKER = 4  # a known-size batch is cut finer when it would give fewer chunks per worker
+IN_FLIGHT_PER_WORKER = 2  # chunks queued per worker: keeps workers busy without loading everything
+DASK_RETRIES = 3
+_SEED_BITS = 63
+_CHECK_POINTS = 100
+
+
+@dataclass
+class Pair:
+    """One image pair: matched points ``x1, x2`` (``(n, 2)`` pixels with ``camera1/2`` or ``K1/K2``,
+    or ``(n, 3)`` bearings), a hashable ``key`` (default: the position in the iterable) and per-pair
+    ``options`` overriding the batch's (e.g. ``threshold_px``)."""
+
+    x1: np.ndarray
+    x2: np.ndarray
+    key: Hashable = None
+    camera1: Any = None
+    camera2: Any = None
+    K1: np.ndarray | None = None
+    K2: np.ndarray | None = None
+    options: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class PairResult:
+    """The outcome of one pair: ``result`` (or ``None`` and ``error`` when the input was invalid),
+    the pair's ``key``, its ``index`` in the input iterable and the ``seed`` it was run with."""
+
+    index: int
+    key: Hashable
+    seed: int
+    result: RelativePoseResult | None
+    error: str | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.result is not None and self.result.ok
+
+
+def pair_seed(base_seed: int, key: Hashable) -> int:
+    """Seed of the pair ``key``: the first 63 bits of ``BLAKE2b(repr((base_seed, key)))``. Keys should
+    be ints, strings or tuples of them (their ``repr`` is stable across processes and runs)."""
+    h = hashlib.blake2b(repr((int(base_seed), key)).encode(), digest_size=8).digest()
+    return int.from_bytes(h, "little") >> (64 - _SEED_BITS)
+
+
+def _as_pair(p: Any, index: int) -> Pair:
+    if isinstance(p, Pair):
+        pair = p
+    elif isinstance(p, Mapping):
+        extra = set(p) - set(Pair.__dataclass_fields__)
+        if extra:
+            raise InputError(f"pair {index}: unknown keys {sorted(extra)}; valid: {sorted(Pair.__dataclass_fields__)}")
+        if "x1" not in p or "x2" not in p:
+            raise InputError(f"pair {index}: needs x1 and x2")
+        pair = Pair(**p)
+    else:
+        raise InputError(f"pair {index} must be a poseonly.batch.Pair or a dict with x1, x2, ...; got {type(p).__name__}")
+    if pair.key is None:
+        pair = Pair(**{**pair.__dict__, "key": index})
+    return pair
+
+
+def _run_one(index: int, pair: Pair, options: dict[str, Any]) -> PairResult:
+    opts = {**options, **pair.options}
+    seed = pair_seed(int(opts.pop("seed", 0)), pair.key)
+    try:
+        r = estimate_relative_pose(pair.x1, pair.x2, pair.K1, pair.K2, camera1=pair.camera1, camera2=pair.camera2,
+                                   seed=seed, **opts)
+    except ValueError as exc:  # invalid input of this pair (InputError is a ValueError)
+        return PairResult(index, pair.key, seed, None, str(exc))
+    return PairResult(index, pair.key, seed, r)
+
+
+def _run_chunk(chunk: list[tuple[int, Pair]], options: dict[str, Any]) -> list[PairResult]:
+    """Worker task: the pairs of one chunk, in order."""
+    return [_run_one(i, p, options) for i, p in chunk]
+
+
+def _chunks(pairs: Iterable[Any], size: int) -> Iterator[list[tuple[int, Pair]]]:
+    buf: list[tuple[int, Pair]] = []
+    for i, p in enumerate(pairs):
+        buf.append((i, _as_pair(p, i)))
+        if len(buf) >= size:
+            yield buf
+            buf = []
+    if buf:
+        yield buf
+
+
+def _check_options(options: dict[str, Any]) -> None:
+    """Fail fast on invalid options: run them once on a fixed, well-posed problem of
+    :data:`_CHECK_POINTS` points (enough for the methods' sample sizes)."""
+    seed = options.get("seed", 0)
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
+        raise InputError(f"seed must be an int for a batch (each pair's seed is derived from it), got {options['seed']!r}")
+    rng = np.random.default_rng(0)
+    X = rng.uniform(-1, 1, (_CHECK_POINTS, 3)) + [0, 0, 5]
+    f1 = X / np.linalg.norm(X, axis=1)[:, None]
+    X2 = X + [0.3, 0.0, 0.0]
+    f2 = X2 / np.linalg.norm(X2, axis=1)[:, None]
+    estimate_relative_pose(f1, f2, **{"focal_px": 800.0, **options, "seed": 0})
+
+
+def _progress(total: int | None, enabled: bool):
+    if enabled:
+        try:
+            from tqdm.auto import tqdm
+        except ImportError:  # optional dependency
+            enabled = False
+        else:
+            return tqdm(total=total, unit="pair", desc="poseonly pairs")
+    return None
+
+
+def estimate_relative_poses(
+    pairs: Iterable[Any],
+    *,
+    n_jobs: int = 1,
+    client: Any = None,
+    chunk_size: int | None = None,
+    progress: bool = True,
+    retries: int = DASK_RETRIES,
+    **options: Any,
+) -> Iterator[PairResult]:
+    """Estimate the relative pose of every pair; yields :class:`PairResult` as chunks finish (not in
+    input order: sort by ``index`` or use ``key``).
+
+    ``pairs``: an iterable of :class:`Pair` or dicts with its fields (``x1, x2`` ``(n, 2)`` or
+    ``(n, 3)``, ``camera1/camera2`` or ``K1/K2``, ``key``, ``options``). ``n_jobs``: local processes
+    (1 = in this process, -1 = all cores); ``client``: a ``dask.distributed.Client`` or a scheduler
+    address (then ``n_jobs`` is ignored). ``options``: those of
+    :func:`poseonly.estimate_relative_pose` (``method``, ``threshold_px``, ...); ``seed`` is the base
+    seed of :func:`pair_seed`. ``progress``: a tqdm bar (if tqdm is installed)."""
+    if not isinstance(n_jobs, (int, np.integer)) or isinstance(n_jobs, bool) or n_jobs == 0 or n_jobs < -1:
+        raise InputError(f"n_jobs must be a positive int or -1 (all cores), got {n_jobs!r}")
+    if chunk_size is not None and (not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1):
+        raise InputError(f"chunk_size must be a positive int, got {chunk_size!r}")
+    if not isinstance(retries, (int, np.integer)) or retries < 0:
+        raise InputError(f"retries must be an int >= 0, got {retries!r}")
+    _check_options(options)
+    total = len(pairs) if hasattr(pairs, "__len__") else None  # type: ignore[arg-type]
+    return _generate(pairs, int(n_jobs), client, chunk_size, progress, int(retries), options, total)
+
+
+def _generate(pairs, n_jobs, client, chunk_size, progress, retries, options, total) -> Iterator[PairResult]:
+    bar = _progress(total, progress)
+    try:
+        if client is not None:
+            runner = _dask(pairs, client, chunk_size, total, retries, options)
+        elif n_jobs == 1:
+            runner = (_run_chunk(c, options) for c in _chunks(pairs, chunk_size or 1))
+        else:
+            n = (os.cpu_count() or 1) if n_jobs == -1 else n_jobs
+            runner = _pool(pairs, n, chunk_size or _auto_chunk(POOL_CHUNK, total, n), options)
+        for results in runner:
+            yield from results
+            if bar is not None:
+                bar.update(len(results))
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def _auto_chunk(default: int, total: int | None, workers: int) -> int:
+    """``default``, or fewer pairs per chunk when the batch is known to be too small to give every
+    worker :data:`MIN_CHUNKS_PER_WORKER` chunks (load balance)."""
+    if total is None:
+        return default
+    return max(1, min(default, -(-total // (MIN_CHUNKS_PER_WORKER * workers))))
+
+
+def _pool(pairs, n_jobs: int, chunk_size: int, options) -> Iterator[list[PairResult]]:
+    import multiprocessing as mp
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    # spawn: workers start from a clean interpreter (no inherited threads or locks of the caller, the
+    # same on every platform) and are children of this process (their CPU time is accounted to it)
+    ctx = mp.get_context("spawn")
+    chunks = _chunks(pairs, chunk_size)
+    limit = IN_FLIGHT_PER_WORKER * n_jobs
+    ex = ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx)
+    try:
+        pending = set()
+        for c in chunks:
+            pending.add(ex.submit(_run_chunk, c, options))
+            if len(pending) >= limit:
+                break
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                yield fut.result()
+                nxt = next(chunks, None)
+                if nxt is not None:
+                    pending.add(ex.submit(_run_chunk, nxt, options))
+    finally:  # also when the caller stops iterating early: queued chunks are dropped, not run
+        ex.shutdown(wait=True, cancel_futures=True)
+
+
+def _dask(pairs, client, chunk_size: int | None, total: int | None, retries: int, options) -> Iterator[list[PairResult]]:
+    from dask.distributed import Client, as_completed
+
+    own = isinstance(client, str)
+    cl = Client(client) if own else client
+    try:
+        nworkers = max(1, sum(int(w.get("nthreads", 1)) for w in cl.scheduler_info()["workers"].values()))
+        chunks = _chunks(pairs, chunk_size or _auto_chunk(DASK_CHUNK, total, nworkers))
+        futs = []
+        for c in chunks:
+            futs.append(cl.submit(_run_chunk, c, options, pure=False, retries=retries))
+            if len(futs) >= IN_FLIGHT_PER_WORKER * nworkers:
+                break
+        ac = as_completed(futs)
+        for fut in ac:
+            res = fut.result()
+            fut.release()
+            nxt = next(chunks, None)
+            if nxt is not None:
+                ac.add(cl.submit(_run_chunk, nxt, options, pure=False, retries=retries))
+            yield res
+    finally:
+        if own:
+            cl.close()

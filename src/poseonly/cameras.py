@@ -1,0 +1,351 @@
+"""Camera models: pixels <-> unit bearing vectors for real, distorted cameras.
+
+A :class:`Camera` holds a COLMAP camera model (the same names, parameter orders and distortion
+equations as COLMAP's ``src/colmap/sensor/models.h``) and lifts pixels ``(n, 2)`` to unit bearings
+``(n, 3)`` (:meth:`Camera.unproject`) or projects camera-frame points ``(n, 3)`` to pixels
+(:meth:`Camera.project`). Supported natively, vectorised in numpy:
+
+========================  ==========================================================
+``SIMPLE_PINHOLE``        ``f, cx, cy``
+``PINHOLE``               ``fx, fy, cx, cy``
+``SIMPLE_RADIAL``         ``f, cx, cy, k``
+``RADIAL``                ``f, cx, cy, k1, k2``
+``OPENCV``                ``fx, fy, cx, cy, k1, k2, p1, p2``
+``OPENCV_FISHEYE``        ``fx, fy, cx, cy, k1, k2, k3, k4`` (equidistant, ``theta_d(theta)``)
+``FULL_OPENCV``           ``fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6``
+========================  ==========================================================
+
+Undistortion is Newton's method with the analytic Jacobian (2-D for the Brown-Conrady models,
+1-D in ``theta`` for the fisheye), started at the distorted point, stopped when every point's step
+is below :data:`NEWTON_TOL` (relative). Points where it does not converge (outside the region
+where the distortion is invertible) raise :class:`ValueError` naming how many and the first index.
+
+Pixel convention: COLMAP's (the centre of the top-left pixel is ``(0.5, 0.5)``); the principal
+point is wherever the parameters put it, so any consistent convention works.
+
+:func:`as_camera` accepts a :class:`Camera`, a ``pycolmap.Camera`` (duck-typed: ``model_name``,
+``width``, ``height``, ``params``; pycolmap is not imported), a PoseLib/COLMAP-style dict
+``{"model", "width", "height", "params"}``, a dict ``{"K", "dist"}`` or a tuple ``(K, dist)`` with
+OpenCV distortion coefficients ``(k1, k2, p1, p2[, k3[, k4, k5, k6]])``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .geometry import InputError
+
+__all__ = ["MODELS", "NEWTON_TOL", "Camera", "as_camera", "from_opencv", "lift_pair"]
+
+# model name -> parameter names (COLMAP order)
+MODELS: dict[str, tuple[str, ...]] = {
+    "SIMPLE_PINHOLE": ("f", "cx", "cy"),
+    "PINHOLE": ("fx", "fy", "cx", "cy"),
+    "SIMPLE_RADIAL": ("f", "cx", "cy", "k"),
+    "RADIAL": ("f", "cx", "cy", "k1", "k2"),
+    "OPENCV": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2"),
+    "OPENCV_FISHEYE": ("fx", "fy", "cx", "cy", "k1", "k2", "k3", "k4"),
+    "FULL_OPENCV": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"),
+}
+NEWTON_TOL = 1e-12  # relative step size at which Newton's undistortion stops
+NEWTON_MAX_ITER = 100
+_FISHEYE_EPS = 1e-12  # below this normalized radius a fisheye point is on the axis (no distortion)
+
+
+def _brown_params(model: str, p: np.ndarray) -> tuple[float, ...]:
+    """``(k1, k2, p1, p2, k3, k4, k5, k6)`` of a Brown-Conrady model (zeros where absent)."""
+    z = 0.0
+    if model == "SIMPLE_RADIAL":
+        return (p[3], z, z, z, z, z, z, z)
+    if model == "RADIAL":
+        return (p[3], p[4], z, z, z, z, z, z)
+    if model == "OPENCV":
+        return (p[4], p[5], p[6], p[7], z, z, z, z)
+    if model == "FULL_OPENCV":
+        return tuple(float(v) for v in p[4:12])  # type: ignore[return-value]
+    return (z,) * 8
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A calibrated camera: ``model`` (a key of :data:`MODELS`), image ``width``/``height`` (pixels,
+    0 when unknown) and ``params`` in COLMAP order."""
+
+    model: str
+    width: int
+    height: int
+    params: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        if self.model not in MODELS:
+            raise InputError(f"unsupported camera model {self.model!r}; supported: {sorted(MODELS)}")
+        names = MODELS[self.model]
+        if len(self.params) != len(names):
+            raise InputError(f"camera model {self.model} takes {len(names)} parameters ({', '.join(names)}), got {len(self.params)}")
+        p = np.asarray(self.params, dtype=float)
+        if not np.all(np.isfinite(p)):
+            raise InputError(f"camera parameters contain NaN or inf: {list(self.params)}")
+        if self.focal_xy[0] <= 0 or self.focal_xy[1] <= 0:
+            raise InputError(f"camera focal length must be > 0, got {self.focal_xy}")
+        if self.width < 0 or self.height < 0:
+            raise InputError(f"camera width/height must be >= 0, got {self.width}x{self.height}")
+
+    # -- parameters ------------------------------------------------------------------------------
+
+    @property
+    def focal_xy(self) -> tuple[float, float]:
+        p = self.params
+        return (p[0], p[0]) if MODELS[self.model][0] == "f" else (p[0], p[1])
+
+    @property
+    def principal_point(self) -> tuple[float, float]:
+        p = self.params
+        return (p[1], p[2]) if MODELS[self.model][0] == "f" else (p[2], p[3])
+
+    @property
+    def focal_px(self) -> float:
+        """Mean focal length in pixels: converts a pixel threshold to an angle (``tau = px / f``)."""
+        fx, fy = self.focal_xy
+        return 0.5 * (fx + fy)
+
+    @property
+    def K(self) -> np.ndarray:
+        """The ``(3, 3)`` calibration matrix (without the distortion)."""
+        (fx, fy), (cx, cy) = self.focal_xy, self.principal_point
+        return np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+
+    @property
+    def is_undistorted(self) -> bool:
+        """True when the distortion parameters are all zero (a pinhole camera)."""
+        n_base = 3 if MODELS[self.model][0] == "f" else 4  # focal(s) and principal point
+        return not any(self.params[n_base:])
+
+    def to_dict(self) -> dict[str, Any]:
+        """PoseLib/COLMAP-style ``{"model", "width", "height", "params"}``."""
+        return {"model": self.model, "width": self.width, "height": self.height, "params": list(self.params)}
+
+    # -- distortion in normalized coordinates ------------------------------------------------------
+
+    def _distort_brown(self, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        k1, k2, p1, p2, k3, k4, k5, k6 = _brown_params(self.model, np.asarray(self.params))
+        r2 = u * u + v * v
+        num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+        rad = num / den
+        uv = u * v
+        return u * rad + 2.0 * p1 * uv + p2 * (r2 + 2.0 * u * u), v * rad + 2.0 * p2 * uv + p1 * (r2 + 2.0 * v * v)
+
+    def _undistort_brown(self, xd: np.ndarray, yd: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Newton on ``distort(u, v) = (xd, yd)`` with the analytic 2x2 Jacobian; returns ``u, v`` and a
+        converged mask."""
+        k1, k2, p1, p2, k3, k4, k5, k6 = _brown_params(self.model, np.asarray(self.params))
+        u, v = xd.copy(), yd.copy()
+        done = np.zeros(len(u), bool)
+        for _ in range(NEWTON_MAX_ITER):
+            r2 = u * u + v * v
+            num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+            den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+            dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)  # d num / d r2
+            dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
+            rad = num / den
+            drad = (dnum * den - num * dden) / (den * den)  # d rad / d r2
+            uv = u * v
+            fu = u * rad + 2.0 * p1 * uv + p2 * (r2 + 2.0 * u * u) - xd
+            fv = v * rad + 2.0 * p2 * uv + p1 * (r2 + 2.0 * v * v) - yd
+            # d r2/du = 2u, d r2/dv = 2v
+            j11 = rad + 2.0 * u * u * drad + 2.0 * p1 * v + 6.0 * p2 * u
+            j12 = 2.0 * u * v * drad + 2.0 * p1 * u + 2.0 * p2 * v
+            j21 = 2.0 * u * v * drad + 2.0 * p2 * v + 2.0 * p1 * u
+            j22 = rad + 2.0 * v * v * drad + 2.0 * p2 * u + 6.0 * p1 * v
+            det = j11 * j22 - j12 * j21
+            with np.errstate(divide="ignore", invalid="ignore"):
+                du = (j22 * fu - j12 * fv) / det
+                dv = (j11 * fv - j21 * fu) / det
+            du = np.where(done, 0.0, du)
+            dv = np.where(done, 0.0, dv)
+            u, v = u - du, v - dv
+            step = np.hypot(du, dv)
+            done |= step <= NEWTON_TOL * np.maximum(1.0, np.hypot(u, v))
+            if done.all():
+                break
+        ok = done & np.isfinite(u) & np.isfinite(v)
+        # a root is the physical one only where the map is locally invertible and preserves
+        # orientation (det J > 0) and the radial factor does not flip the point through the centre
+        # (Newton can reach a spurious root of the polynomial beyond the distortion's fold)
+        ok &= (rad > 0) & (det > 0)
+        # a converged root must reproduce the distorted point
+        ru, rv = self._distort_brown(u, v)
+        ok &= np.hypot(ru - xd, rv - yd) <= 1e-9 * np.maximum(1.0, np.hypot(xd, yd))
+        return u, v, ok
+
+    def _fisheye_poly(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``theta_d(theta) = theta (1 + k1 t^2 + k2 t^4 + k3 t^6 + k4 t^8)`` and its derivative."""
+        k1, k2, k3, k4 = (float(c) for c in self.params[4:8])
+        t2 = theta * theta
+        poly = 1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4)))
+        dpoly = 1.0 + t2 * (3.0 * k1 + t2 * (5.0 * k2 + t2 * (7.0 * k3 + t2 * 9.0 * k4)))
+        return theta * poly, dpoly
+
+    # -- public mapping ----------------------------------------------------------------------------
+
+    def unproject(self, uv: np.ndarray, invalid: str = "raise") -> np.ndarray:
+        """Pixels ``(n, 2)`` -> unit bearing vectors ``(n, 3)`` (camera frame, ``z`` forward).
+
+        Raises :class:`ValueError` for bad shapes / non-finite values, and for points where the
+        undistortion does not converge unless ``invalid="nan"`` (their rows are then NaN)."""
+        if invalid not in ("raise", "nan"):
+            raise InputError(f"invalid must be 'raise' or 'nan', got {invalid!r}")
+        uv = _check_points(uv, 2, "uv")
+        ok = np.ones(len(uv), bool)
+        (fx, fy), (cx, cy) = self.focal_xy, self.principal_point
+        xd = (uv[:, 0] - cx) / fx
+        yd = (uv[:, 1] - cy) / fy
+        if self.model == "OPENCV_FISHEYE":
+            rd = np.hypot(xd, yd)
+            theta = rd.copy()
+            done = np.zeros(len(rd), bool)
+            for _ in range(NEWTON_MAX_ITER):
+                g, dg = self._fisheye_poly(theta)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    step = np.where(done, 0.0, (g - rd) / dg)
+                theta = theta - step
+                done |= np.abs(step) <= NEWTON_TOL * np.maximum(1.0, theta)
+                if done.all():
+                    break
+            g, dg = self._fisheye_poly(theta)
+            ok = done & np.isfinite(theta) & (theta >= 0) & (dg > 0) & (np.abs(g - rd) <= 1e-9 * np.maximum(1.0, rd))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                s = np.where(rd > _FISHEYE_EPS, np.sin(theta) / rd, 1.0)
+            b = np.column_stack([xd * s, yd * s, np.cos(theta)])
+        else:
+            if self.is_undistorted:
+                u, v = xd, yd
+            else:
+                u, v, ok = self._undistort_brown(xd, yd)
+            b = np.column_stack([u, v, np.ones_like(u)])
+        if invalid == "raise":
+            _raise_unconverged(ok, uv, self.model)
+        b[~ok] = np.nan
+        with np.errstate(invalid="ignore"):
+            return b / np.linalg.norm(b, axis=1)[:, None]
+
+    def project(self, X: np.ndarray) -> np.ndarray:
+        """Camera-frame points or bearings ``(n, 3)`` -> pixels ``(n, 2)``. Points with ``z <= 0`` give
+        NaN for the perspective models; the fisheye model maps any direction off the ``-z`` axis."""
+        X = _check_points(X, 3, "X")
+        (fx, fy), (cx, cy) = self.focal_xy, self.principal_point
+        if self.model == "OPENCV_FISHEYE":
+            r = np.hypot(X[:, 0], X[:, 1])
+            theta = np.arctan2(r, X[:, 2])
+            g, _ = self._fisheye_poly(theta)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                s = np.where(r > _FISHEYE_EPS * np.abs(X[:, 2]), g / r, 1.0 / X[:, 2])
+            xd, yd = X[:, 0] * s, X[:, 1] * s
+        else:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                z = np.where(X[:, 2] > 0, X[:, 2], np.nan)
+            xd, yd = self._distort_brown(X[:, 0] / z, X[:, 1] / z)
+        return np.column_stack([fx * xd + cx, fy * yd + cy])
+
+
+def _check_points(a: Any, d: int, name: str) -> np.ndarray:
+    try:
+        a = np.asarray(a, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a numeric (n, {d}) array") from None
+    if a.ndim != 2 or a.shape[1] != d:
+        raise InputError(f"{name} must have shape (n, {d}), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{name} contains NaN or inf values")
+    return a
+
+
+def _raise_unconverged(ok: np.ndarray, uv: np.ndarray, model: str) -> None:
+    if not ok.all():
+        bad = np.nonzero(~ok)[0]
+        raise InputError(f"undistortion ({model}) did not converge for {len(bad)} of {len(uv)} points (first: index "
+                         f"{bad[0]}, pixel {uv[bad[0]].tolist()}): the points lie outside the region where the "
+                         "distortion model is invertible")
+
+
+def from_opencv(K: Any, dist: Any = None, width: int = 0, height: int = 0, *, fisheye: bool = False) -> Camera:
+    """``K (3, 3)`` + OpenCV distortion coefficients -> :class:`Camera`.
+
+    ``dist``: ``(k1, k2, p1, p2[, k3[, k4, k5, k6]])`` (``cv2.undistortPoints``' order; 4 -> ``OPENCV``,
+    5 or 8 -> ``FULL_OPENCV``), or with ``fisheye=True`` ``(k1, k2, k3, k4)`` (``cv2.fisheye``) ->
+    ``OPENCV_FISHEYE``. ``None`` or all zeros -> ``PINHOLE``. ``K`` must have zero skew."""
+    try:
+        Kf = np.asarray(K, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError("K must be a numeric 3x3 matrix") from None
+    if Kf.shape != (3, 3) or not np.all(np.isfinite(Kf)):
+        raise InputError(f"K must be a finite 3x3 matrix, got shape {Kf.shape}")
+    if abs(Kf[0, 1]) > 1e-12 * abs(Kf[0, 0]) or np.any(np.abs(Kf[2] - [0, 0, 1]) > 1e-12) or Kf[1, 0] != 0:
+        raise InputError(f"K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew), got {Kf.tolist()}")
+    base = (Kf[0, 0], Kf[1, 1], Kf[0, 2], Kf[1, 2])
+    d = np.zeros(0) if dist is None else np.asarray(dist, dtype=float).ravel()
+    if not np.all(np.isfinite(d)):
+        raise InputError("distortion coefficients contain NaN or inf values")
+    if fisheye:
+        if len(d) != 4:
+            raise InputError(f"fisheye distortion takes 4 coefficients (k1, k2, k3, k4), got {len(d)}")
+        return Camera("OPENCV_FISHEYE", int(width), int(height), tuple(float(v) for v in (*base, *d)))
+    if len(d) == 0 or not np.any(d):
+        return Camera("PINHOLE", int(width), int(height), tuple(float(v) for v in base))
+    if len(d) == 4:
+        return Camera("OPENCV", int(width), int(height), tuple(float(v) for v in (*base, *d)))
+    if len(d) in (5, 8):
+        full = np.zeros(8)
+        full[: len(d)] = d  # OpenCV order k1 k2 p1 p2 k3 k4 k5 k6 = FULL_OPENCV's
+        return Camera("FULL_OPENCV", int(width), int(height), tuple(float(v) for v in (*base, *full)))
+    raise InputError(f"OpenCV distortion takes 4, 5 or 8 coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6]]), got {len(d)} "
+                     "(thin-prism / tilt coefficients are not supported)")
+
+
+def as_camera(spec: Any, name: str = "camera") -> Camera:
+    """A :class:`Camera` from any accepted camera description (see the module docstring)."""
+    if isinstance(spec, Camera):
+        return spec
+    if hasattr(spec, "model_name") and hasattr(spec, "params") and hasattr(spec, "width"):  # pycolmap.Camera
+        model = str(spec.model_name)
+        if model not in MODELS:
+            raise InputError(f"{name}: pycolmap camera model {model} is not supported; supported: {sorted(MODELS)}")
+        return Camera(model, int(spec.width), int(spec.height), tuple(float(v) for v in np.asarray(spec.params)))
+    if isinstance(spec, Mapping):
+        if "K" in spec:
+            extra = set(spec) - {"K", "dist", "width", "height", "fisheye"}
+            if extra:
+                raise InputError(f"{name}: unknown keys {sorted(extra)} (K-style camera keys: K, dist, width, height, fisheye)")
+            return from_opencv(spec["K"], spec.get("dist"), spec.get("width", 0), spec.get("height", 0),
+                               fisheye=bool(spec.get("fisheye", False)))
+        missing = {"model", "params"} - set(spec)
+        if missing:
+            raise InputError(f"{name}: a camera dict needs keys model, width, height, params (or K, dist); missing {sorted(missing)}")
+        model = spec["model"]
+        if not isinstance(model, str):
+            raise InputError(f"{name}: camera model must be a string, got {type(model).__name__}")
+        try:
+            params = tuple(float(v) for v in np.asarray(spec["params"], dtype=float).ravel())
+        except (TypeError, ValueError):
+            raise InputError(f"{name}: camera params must be numeric") from None
+        return Camera(model.upper(), int(spec.get("width", 0)), int(spec.get("height", 0)), params)
+    if isinstance(spec, tuple) and len(spec) == 2:
+        return from_opencv(spec[0], spec[1])
+    raise InputError(f"{name} must be a poseonly Camera, a pycolmap.Camera, a dict {{model, width, height, params}}, "
+                     f"a dict {{K, dist}} or a tuple (K, dist); got {type(spec).__name__}")
+
+
+def lift_pair(x1: Any, x2: Any, camera1: Any, camera2: Any = None) -> tuple[np.ndarray, np.ndarray, float]:
+    """Pixels ``(n, 2)`` of two views -> bearings ``(n, 3), (n, 3)`` and the mean focal length (pixels)
+    of the two cameras for the threshold conversion. ``camera2`` defaults to ``camera1``."""
+    c1 = as_camera(camera1, "camera1")
+    c2 = c1 if camera2 is None else as_camera(camera2, "camera2")
+    for x, nm in ((x1, "x1"), (x2, "x2")):
+        a = np.asarray(x)
+        if a.ndim == 2 and a.shape[1] == 3:
+            raise InputError(f"{nm} has shape (n, 3) (bearing vectors) but a camera was given; pass pixels (n, 2)")
+    return c1.unproject(x1), c2.unproject(x2), 0.5 * (c1.focal_px + c2.focal_px)

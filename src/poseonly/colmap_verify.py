@@ -1,0 +1,243 @@
+"""``poseonly colmap verify``: two-view verification of a COLMAP database's matches with poseonly.
+
+For every matched image pair (or those of ``--pairs``) the keypoints are lifted to bearings through
+the image's COLMAP camera (:mod:`poseonly.cameras`; once per image), the pair is estimated with
+:func:`poseonly.estimate_relative_poses` (seed from the pair id, so reruns and schedules agree) and
+a ``two_view_geometries`` row is written:
+
+=====================  ======================  =====================================================
+our status             COLMAP configuration    row content
+=====================  ======================  =====================================================
+``ok``                 ``CALIBRATED``          inliers, E, F (pinhole cameras only), cam2_from_cam1
+``planar_ambiguous``   ``PLANAR_OR_PANORAMIC`` same + H (DLT on the inlier keypoints)
+``pure_rotation``      ``PANORAMIC``           inliers, H, cam2_from_cam1 with ``t = 0``
+``too_few_inliers``,   ``DEGENERATE``          no inliers (also: fewer than :data:`MIN_MATCHES`
+``degenerate``                                 matches with valid keypoints)
+invalid input          ``UNDEFINED``           no inliers
+=====================  ======================  =====================================================
+
+Rows are written in transactions of ``write_every`` pairs, so a killed run leaves every pair either
+complete or absent. A rerun skips pairs that already have a geometry (it resumes); ``overwrite=True``
+first deletes the selected pairs' geometries (one transaction), e.g. those of COLMAP's own verifier.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections import Counter
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .api import DEFAULT_METHOD, METHODS
+from .batch import Pair, PairResult, estimate_relative_poses
+from .geometry import InputError
+from .io.colmap_db import ColmapDatabase, GeometryRow
+
+__all__ = ["MIN_MATCHES", "STATUS_CONFIG", "VerifySummary", "add_arguments", "run_cli", "verify_database"]
+
+STATUS_CONFIG = {
+    "ok": "CALIBRATED",
+    "planar_ambiguous": "PLANAR_OR_PANORAMIC",
+    "pure_rotation": "PANORAMIC",
+    "too_few_inliers": "DEGENERATE",
+    "degenerate": "DEGENERATE",
+}
+ERROR_CONFIG = "UNDEFINED"
+MIN_MATCHES = 6  # fewer valid matches cannot determine a pose: DEGENERATE without estimating
+WRITE_EVERY = 256  # pairs per write transaction
+_WITH_INLIERS = ("CALIBRATED", "PLANAR_OR_PANORAMIC", "PANORAMIC")
+
+
+@dataclass
+class VerifySummary:
+    """Counts of a run: ``selected`` pairs, ``skipped`` (already verified), ``written`` rows,
+    ``configs`` (rows per configuration), ``errors`` (pair id -> message), ``time_s``."""
+
+    selected: int = 0
+    skipped: int = 0
+    written: int = 0
+    configs: Counter = field(default_factory=Counter)
+    errors: dict[int, str] = field(default_factory=dict)
+    time_s: float = 0.0
+
+
+def homography_dlt(u1: np.ndarray, u2: np.ndarray) -> np.ndarray | None:
+    """Normalized DLT homography ``u2 ~ H u1`` of pixel matches ``(n, 2)``, ``n >= 4`` (Hartley &
+    Zisserman Alg. 4.2); ``None`` when degenerate. ``H (3, 3)`` with ``H[2, 2] = 1`` when possible."""
+    if len(u1) < 4:
+        return None
+
+    def norm(u: np.ndarray) -> np.ndarray:
+        c = u.mean(axis=0)
+        s = np.sqrt(2.0) / max(float(np.mean(np.linalg.norm(u - c, axis=1))), 1e-12)
+        return np.array([[s, 0, -s * c[0]], [0, s, -s * c[1]], [0, 0, 1.0]])
+
+    T1, T2 = norm(u1), norm(u2)
+    a = np.column_stack([u1, np.ones(len(u1))]) @ T1.T
+    b = np.column_stack([u2, np.ones(len(u2))]) @ T2.T
+    z = np.zeros((len(a), 3))
+    A = np.concatenate([np.hstack([z, -b[:, 2:3] * a, b[:, 1:2] * a]), np.hstack([b[:, 2:3] * a, z, -b[:, 0:1] * a])])
+    _, s, Vt = np.linalg.svd(A, full_matrices=False)
+    if s[-2] < 1e-12 * s[0]:
+        return None
+    H = np.linalg.inv(T2) @ Vt[-1].reshape(3, 3) @ T1
+    return H / H[2, 2] if abs(H[2, 2]) > 1e-12 * np.abs(H).max() else H / np.abs(H).max()
+
+
+class _Source:
+    """Builds the batch's pairs from the database (bearings cached per image) and keeps, for each
+    pair in flight, what is needed to turn its result into a row."""
+
+    def __init__(self, db: ColmapDatabase, todo: list[tuple[int, int, int]], errors: dict[int, str]) -> None:
+        self.db, self.todo, self.errors = db, todo, errors
+        self.pending: dict[int, tuple[int, int, np.ndarray]] = {}
+        self.direct: list[GeometryRow] = []  # rows decided without estimating
+        self._bear: dict[int, np.ndarray] = {}
+
+    def bearings(self, image_id: int) -> np.ndarray:
+        b = self._bear.get(image_id)
+        if b is None:
+            b = self.db.cameras[image_id].unproject(self.db.keypoints(image_id), invalid="nan")
+            if len(self._bear) > 512:
+                self._bear.pop(next(iter(self._bear)))
+            self._bear[image_id] = b
+        return b
+
+    def __iter__(self) -> Iterator[Pair]:
+        for pid, i1, i2 in self.todo:
+            if i1 in self.db.unsupported or i2 in self.db.unsupported:
+                msg = self.db.unsupported.get(i1) or self.db.unsupported[i2]
+                self.direct.append(GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2))))
+                self.errors[pid] = msg
+                continue
+            m = self.db.matches(i1, i2)
+            b1, b2 = self.bearings(i1), self.bearings(i2)
+            if len(m) and (m[:, 0].max() >= len(b1) or m[:, 1].max() >= len(b2) or m.min() < 0):
+                self.direct.append(GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2))))
+                self.errors[pid] = "matches index keypoints that do not exist"
+                continue
+            valid = np.isfinite(b1[m[:, 0], 0]) & np.isfinite(b2[m[:, 1], 0])
+            m = m[valid]
+            if len(m) < MIN_MATCHES:
+                self.direct.append(GeometryRow(i1, i2, "DEGENERATE", np.zeros((0, 2))))
+                continue
+            self.pending[pid] = (i1, i2, m)
+            c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
+            yield Pair(b1[m[:, 0]], b2[m[:, 1]], key=pid, options={"focal_px": 0.5 * (c1.focal_px + c2.focal_px)})
+
+    def row(self, pr: PairResult) -> GeometryRow:
+        pid = pr.key
+        assert isinstance(pid, int)  # the keys of _Source's pairs are pair ids
+        i1, i2, m = self.pending.pop(pid)
+        r = pr.result
+        if r is None:
+            self.errors[pid] = str(pr.error)
+            return GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2)))
+        config = STATUS_CONFIG.get(r.status, ERROR_CONFIG)
+        if config not in _WITH_INLIERS:
+            return GeometryRow(i1, i2, config, np.zeros((0, 2)))
+        inl = m[r.inliers]
+        c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
+        F = None
+        if c1.is_undistorted and c2.is_undistorted:
+            F = np.linalg.inv(c2.K).T @ r.E @ np.linalg.inv(c1.K)
+            F = F / np.linalg.norm(F)
+        H = None
+        if config != "CALIBRATED":
+            H = homography_dlt(self.db.keypoints(i1)[inl[:, 0]], self.db.keypoints(i2)[inl[:, 1]])
+        t = np.zeros(3) if config == "PANORAMIC" else r.t
+        E = None if config == "PANORAMIC" else r.E
+        return GeometryRow(i1, i2, config, inl, E=E, F=None if config == "PANORAMIC" else F, H=H, R=r.R, t=t)
+
+
+def verify_database(
+    path: str | Path,
+    *,
+    pairs_file: str | Path | None = None,
+    overwrite: bool = False,
+    n_jobs: int = 1,
+    client: Any = None,
+    chunk_size: int | None = None,
+    write_every: int = WRITE_EVERY,
+    progress: bool = True,
+    **options: Any,
+) -> VerifySummary:
+    """Verify the matched pairs of the COLMAP database ``path`` and write their two-view geometries
+    (module docstring). ``options``: those of :func:`poseonly.estimate_relative_pose`
+    (``threshold_px``, ``method``, ``seed`` ...). Returns a :class:`VerifySummary`."""
+    t0 = time.perf_counter()
+    if not isinstance(write_every, int) or write_every < 1:
+        raise InputError(f"write_every must be a positive int, got {write_every!r}")
+    summary = VerifySummary()
+    with ColmapDatabase(path) as db:
+        pairs = db.matched_pairs()
+        if pairs_file is not None:
+            pf = Path(pairs_file)
+            if not pf.is_file():
+                raise InputError(f"pairs file not found: {pairs_file}")
+            wanted = db.pair_ids_from_names(pf.read_text().splitlines(), str(pf))
+            pairs = [p for p in pairs if p[0] in wanted]
+        summary.selected = len(pairs)
+        if overwrite:
+            db.delete_geometries([(i1, i2) for _, i1, i2 in pairs])
+            todo = pairs
+        else:
+            todo = [p for p in pairs if not db.has_geometry(p[1], p[2])]
+        summary.skipped = len(pairs) - len(todo)
+        src = _Source(db, todo, summary.errors)
+        buf: list[GeometryRow] = []
+
+        def flush() -> None:
+            rows = buf + src.direct
+            if rows:
+                summary.written += db.write_geometries(rows)
+                summary.configs.update(r.config for r in rows)
+            buf.clear()
+            src.direct.clear()
+
+        for pr in estimate_relative_poses(src, n_jobs=n_jobs, client=client, chunk_size=chunk_size, progress=progress,
+                                          **options):
+            buf.append(src.row(pr))
+            if len(buf) + len(src.direct) >= write_every:
+                flush()
+        flush()
+    summary.time_s = time.perf_counter() - t0
+    return summary
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``poseonly colmap verify``."""
+    p.add_argument("database", help="COLMAP database file (database.db) with cameras, keypoints and matches")
+    p.add_argument("--pairs", help="only these pairs: a text file of 'IMAGE_NAME1 IMAGE_NAME2' lines")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace the selected pairs' existing two-view geometries (default: keep them and verify "
+                        "only the others, which also resumes an interrupted run)")
+    p.add_argument("--threshold", type=float, default=2.0, help="inlier threshold in pixels (default 2.0)")
+    p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"estimation method (default {DEFAULT_METHOD})")
+    p.add_argument("--seed", type=int, default=0, help="base seed; each pair's seed derives from it and the pair id")
+    p.add_argument("--jobs", type=int, default=1, help="local worker processes (-1: all cores; default 1)")
+    p.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS instead of local processes")
+    p.add_argument("--chunk", type=int, default=None, help="pairs per task (default 16 local, 256 on Dask)")
+    p.add_argument("--write-every", type=int, default=WRITE_EVERY, help=f"pairs per database transaction (default {WRITE_EVERY})")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def run_cli(args: argparse.Namespace) -> int:
+    """Run ``poseonly colmap verify`` from parsed arguments; prints a summary, returns the exit code."""
+    s = verify_database(args.database, pairs_file=args.pairs, overwrite=args.overwrite, n_jobs=args.jobs,
+                        client=args.dask, chunk_size=args.chunk, write_every=args.write_every,
+                        progress=not args.no_progress, method=args.method, threshold_px=args.threshold, seed=args.seed)
+    print(f"{s.selected} pairs selected, {s.skipped} already verified (kept), {s.written} written in {s.time_s:.1f} s")
+    if s.skipped and not s.written:
+        print("  every selected pair already had a two-view geometry: pass --overwrite to replace them with poseonly's")
+    for cfg, k in sorted(s.configs.items()):
+        print(f"  {cfg}: {k}")
+    if s.errors:
+        print(f"  {len(s.errors)} pairs with invalid input (UNDEFINED), e.g. pair {next(iter(s.errors))}: "
+              f"{next(iter(s.errors.values()))}")
+    return 0

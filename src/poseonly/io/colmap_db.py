@@ -1,0 +1,192 @@
+"""Reading matches and writing two-view geometries in a COLMAP database (pycolmap, optional).
+
+Reads go through ``pycolmap.Database`` except the schema check and the list of matched pairs: one
+read-only SQL query on the ``matches`` table before pycolmap opens the file (pycolmap only reads
+all matches at once). Writes are
+``pycolmap.Database.write_two_view_geometry`` inside one ``pycolmap.DatabaseTransaction`` per batch
+of pairs: SQLite's journal makes every batch all-or-nothing, so a process killed at any moment
+leaves each pair either fully written or absent.
+
+Pair convention (COLMAP's): ``pair_id = image_pair_to_pair_id(id1, id2)`` with ``id1 < id2``; match
+columns are keypoint indices of ``id1`` and ``id2``; ``cam2_from_cam1`` maps camera-1 coordinates
+to camera 2 (our ``X2 = R X1 + t``).
+"""
+
+from __future__ import annotations
+
+import sqlite3
+from collections import OrderedDict
+from collections.abc import Iterable
+from contextlib import closing
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Self
+
+import numpy as np
+
+from ..cameras import Camera, as_camera
+from ..geometry import InputError
+
+__all__ = ["KEYPOINT_CACHE_IMAGES", "ColmapDatabase", "GeometryRow"]
+
+KEYPOINT_CACHE_IMAGES = 512  # images whose keypoints (and bearings) are kept in memory (LRU)
+
+
+@dataclass
+class GeometryRow:
+    """One ``two_view_geometries`` row: ``config`` (a ``pycolmap.TwoViewGeometryConfiguration``
+    name), ``inlier_matches (k, 2)`` keypoint indices, ``E, F, H (3, 3)`` or ``None``, ``R (3, 3)``,
+    ``t (3,)`` or ``None`` (cam2_from_cam1)."""
+
+    image_id1: int
+    image_id2: int
+    config: str
+    inlier_matches: np.ndarray
+    E: np.ndarray | None = None
+    F: np.ndarray | None = None
+    H: np.ndarray | None = None
+    R: np.ndarray | None = None
+    t: np.ndarray | None = None
+
+
+def _pycolmap():
+    try:
+        import pycolmap
+    except ImportError:
+        raise ImportError("reading a COLMAP database needs pycolmap (pip install pycolmap)") from None
+    return pycolmap
+
+
+class ColmapDatabase:
+    """An existing COLMAP database file (never created here: a wrong path is an error)."""
+
+    def __init__(self, path: str | Path) -> None:
+        p = Path(path)
+        if not p.is_file():
+            raise InputError(f"COLMAP database not found: {path}")
+        # Python's sqlite3 is a different SQLite library from pycolmap's: both must never have the
+        # file open in one process (closing one connection drops the other's POSIX locks, which
+        # corrupts the database: sqlite.org/howtocorrupt.html 2.2.1). So every SQL read happens
+        # here, and the connection is closed before pycolmap opens the file.
+        try:
+            with closing(sqlite3.connect(f"file:{p}?mode=ro", uri=True)) as con:
+                tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+                missing = {"cameras", "images", "keypoints", "matches", "two_view_geometries"} - tables
+                if missing:
+                    raise InputError(f"{path} is not a COLMAP database (missing tables {sorted(missing)})")
+                pair_ids = [int(r[0]) for r in con.execute("SELECT pair_id FROM matches WHERE rows > 0 ORDER BY pair_id")]
+        except sqlite3.DatabaseError as exc:
+            raise InputError(f"{path} is not an SQLite database: {exc}") from None
+        self.path = p
+        self._pc = _pycolmap()
+        self.db = self._pc.Database.open(str(p))
+        self._pairs: list[tuple[int, int, int]] = []
+        for pid in pair_ids:
+            i1, i2 = self._pc.pair_id_to_image_pair(pid)
+            self._pairs.append((pid, int(i1), int(i2)))
+        self._kp: OrderedDict[int, np.ndarray] = OrderedDict()
+        images = self.db.read_all_images()
+        cams = {c.camera_id: c for c in self.db.read_all_cameras()}
+        self.image_names = {int(im.image_id): str(im.name) for im in images}
+        self.cameras: dict[int, Camera] = {}
+        self.unsupported: dict[int, str] = {}
+        for im in images:
+            c = cams[im.camera_id]
+            try:
+                self.cameras[int(im.image_id)] = as_camera(c, f"camera {im.camera_id}")
+            except InputError as exc:
+                self.unsupported[int(im.image_id)] = str(exc)
+
+    def close(self) -> None:
+        self.db.close()
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- reading --------------------------------------------------------------------------------------
+
+    def matched_pairs(self) -> list[tuple[int, int, int]]:
+        """``(pair_id, image_id1, image_id2)`` of every pair with at least one match, by pair id."""
+        return list(self._pairs)
+
+    def pair_ids_from_names(self, lines: Iterable[str], source: str = "pairs file") -> set[int]:
+        """Pair ids of ``name1 name2`` lines (COLMAP's match-list format; ``#`` comments)."""
+        by_name = {n: i for i, n in self.image_names.items()}
+        out = set()
+        for k, line in enumerate(lines, 1):
+            s = line.split("#", 1)[0].strip()
+            if not s:
+                continue
+            parts = s.split()
+            if len(parts) != 2:
+                raise InputError(f"{source} line {k}: expected 'IMAGE_NAME1 IMAGE_NAME2', got {line.strip()!r}")
+            for nm in parts:
+                if nm not in by_name:
+                    raise InputError(f"{source} line {k}: image {nm!r} is not in the database")
+            out.add(int(self._pc.image_pair_to_pair_id(by_name[parts[0]], by_name[parts[1]])))
+        return out
+
+    def has_geometry(self, image_id1: int, image_id2: int) -> bool:
+        return bool(self.db.exists_two_view_geometry(image_id1, image_id2))
+
+    def matches(self, image_id1: int, image_id2: int) -> np.ndarray:
+        """``(m, 2)`` keypoint indices (int64)."""
+        return np.asarray(self.db.read_matches(image_id1, image_id2), dtype=np.int64).reshape(-1, 2)
+
+    def keypoints(self, image_id: int) -> np.ndarray:
+        """``(k, 2)`` keypoint pixel positions (float64), LRU-cached."""
+        kp = self._kp.get(image_id)
+        if kp is None:
+            kp = np.asarray(self.db.read_keypoints(image_id), dtype=np.float64)[:, :2].copy()
+            self._kp[image_id] = kp
+            if len(self._kp) > KEYPOINT_CACHE_IMAGES:
+                self._kp.popitem(last=False)
+        else:
+            self._kp.move_to_end(image_id)
+        return kp
+
+    def read_geometry(self, image_id1: int, image_id2: int) -> dict[str, Any]:
+        """The stored row as a dict (``config`` as a name, arrays as numpy)."""
+        g = self.db.read_two_view_geometry(image_id1, image_id2)
+        d = g.todict()
+        d["config"] = self._pc.TwoViewGeometryConfiguration(d["config"]).name
+        return d
+
+    # -- writing --------------------------------------------------------------------------------------
+
+    def write_geometries(self, rows: Iterable[GeometryRow]) -> int:
+        """Write (replacing) the rows in one transaction; returns how many."""
+        pc = self._pc
+        k = 0
+        with pc.DatabaseTransaction(self.db):
+            for r in rows:
+                kw: dict[str, Any] = {
+                    "config": pc.TwoViewGeometryConfiguration.__members__[r.config],
+                    "inlier_matches": np.ascontiguousarray(r.inlier_matches, dtype=np.uint32).reshape(-1, 2),
+                }
+                for name in ("E", "F", "H"):
+                    m = getattr(r, name)
+                    if m is not None:
+                        kw[name] = np.asarray(m, dtype=float)
+                if r.R is not None and r.t is not None:
+                    kw["cam2_from_cam1"] = pc.Rigid3d(pc.Rotation3d(np.asarray(r.R, float)), np.asarray(r.t, float))
+                if self.db.exists_two_view_geometry(r.image_id1, r.image_id2):
+                    self.db.delete_two_view_geometry(r.image_id1, r.image_id2)
+                self.db.write_two_view_geometry(r.image_id1, r.image_id2, pc.TwoViewGeometry(**kw))
+                k += 1
+        return k
+
+    def delete_geometries(self, pairs: Iterable[tuple[int, int]]) -> int:
+        """Delete the stored geometries of ``(image_id1, image_id2)`` pairs in one transaction."""
+        k = 0
+        with self._pc.DatabaseTransaction(self.db):
+            for i1, i2 in pairs:
+                if self.db.exists_two_view_geometry(i1, i2):
+                    self.db.delete_two_view_geometry(i1, i2)
+                    k += 1
+        return k
+
+

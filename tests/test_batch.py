@@ -1,0 +1,111 @@
+"""Batch API (issue 13 item 2): per-pair results identical serially, on a process pool and on a
+Dask LocalCluster; seeds from keys; bad pairs reported, bad options rejected."""
+
+import numpy as np
+import pytest
+
+import poseonly
+from poseonly.batch import Pair, pair_seed
+from poseonly.cameras import Camera
+from poseonly.sim import make_scene
+
+CAM = Camera("OPENCV", 640, 480, (800.0, 800.0, 320.0, 240.0, -0.1, 0.01, 0.0, 0.0))
+
+
+def _pairs(m=6):
+    out = []
+    for s in range(m):
+        sc = make_scene(80, camera="pinhole", noise_px=0.5, outlier_fraction=0.2, seed=s)
+        out.append(Pair(CAM.project(sc.f1), CAM.project(sc.f2), key=f"img{s}-img{s + 1}", camera1=CAM))
+    return out
+
+
+def _summary(results):
+    d = {}
+    for r in results:
+        assert r.error is None, r.error
+        d[r.key] = (r.index, r.seed, r.result.R.copy(), r.result.inliers.copy(), r.result.status)
+    return d
+
+
+def _same(a, b):
+    assert a.keys() == b.keys()
+    for k in a:
+        assert a[k][:2] == b[k][:2]
+        assert np.array_equal(a[k][2], b[k][2]) and np.array_equal(a[k][3], b[k][3]) and a[k][4] == b[k][4]
+
+
+def test_serial_pool_dask_identical():
+    pairs = _pairs()
+    serial = _summary(poseonly.estimate_relative_poses(pairs, progress=False, seed=7))
+    assert len(serial) == 6
+    pooled = _summary(poseonly.estimate_relative_poses(pairs, n_jobs=2, chunk_size=2, progress=False, seed=7))
+    _same(serial, pooled)
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc, \
+            distributed.Client(lc) as client:
+        on_dask = _summary(poseonly.estimate_relative_poses(iter(pairs), client=client, chunk_size=2, progress=False, seed=7))
+    _same(serial, on_dask)
+
+
+def test_seed_from_key_not_position():
+    pairs = _pairs(3)
+    fwd = _summary(poseonly.estimate_relative_poses(pairs, progress=False))
+    rev = _summary(poseonly.estimate_relative_poses(pairs[::-1], progress=False))
+    for k in fwd:
+        assert fwd[k][1] == rev[k][1] == pair_seed(0, k)
+        assert np.array_equal(fwd[k][2], rev[k][2])
+    assert pair_seed(0, "a") != pair_seed(1, "a") and pair_seed(0, "a") != pair_seed(0, "b")
+    # the same as a single call with the derived seed
+    p = pairs[0]
+    r = poseonly.estimate_relative_pose(p.x1, p.x2, camera1=CAM, seed=pair_seed(0, p.key))
+    assert np.array_equal(r.R, fwd[p.key][2])
+
+
+def test_bad_pair_reported_bad_options_raise():
+    pairs = [{"x1": np.zeros((3, 2)), "x2": np.zeros((3, 2)), "K1": np.eye(3)}, *_pairs(1)]
+    res = sorted(poseonly.estimate_relative_poses(pairs, progress=False), key=lambda r: r.index)
+    assert res[0].result is None and "at least 6" in res[0].error and res[0].key == 0
+    assert res[1].result is not None
+    with pytest.raises(ValueError, match="unknown option"):
+        poseonly.estimate_relative_poses(pairs, bogus=1)
+    with pytest.raises(ValueError, match="n_jobs"):
+        poseonly.estimate_relative_poses(pairs, n_jobs=0)
+    with pytest.raises(ValueError, match="unknown keys"):
+        list(poseonly.estimate_relative_poses([{"x1": 1, "x2": 2, "foo": 3}], progress=False))
+
+
+def test_dask_lost_worker():
+    """A worker is SIGKILLed mid-run: its chunk is recomputed elsewhere, nothing lost."""
+    import os
+    import signal
+
+    distributed = pytest.importorskip("dask.distributed")
+    pairs = _pairs(8)
+    serial = _summary(poseonly.estimate_relative_poses(pairs, progress=False))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc, \
+            distributed.Client(lc) as client:
+        out = []
+        for k, r in enumerate(poseonly.estimate_relative_poses(pairs, client=client, chunk_size=1, progress=False)):
+            out.append(r)
+            if k == 0:
+                busy = [w for w, ts in client.processing().items() if ts]
+                assert busy
+                pid = client.run(os.getpid, workers=busy[:1])[busy[0]]
+                os.kill(pid, signal.SIGKILL)  # a worker process of this test's own cluster
+        assert busy[0] not in client.scheduler_info()["workers"]  # the worker was really lost
+    _same(serial, _summary(out))
+
+
+def test_other_methods_accepted():
+    pairs = _pairs(1)
+    for method in ("gnc-ransac", "lirp"):
+        (r,) = poseonly.estimate_relative_poses(pairs, method=method, progress=False)
+        assert r.error is None and r.result.method == method
+
+
+def test_early_stop_pool():
+    gen = poseonly.estimate_relative_poses(_pairs(6), n_jobs=2, chunk_size=1, progress=False)
+    first = next(gen)
+    gen.close()  # the pool shuts down without running the queued chunks
+    assert first.error is None

@@ -1,0 +1,192 @@
+"""COLMAP database verification (issue 13 item 3): rows written with the right content, the
+status -> configuration mapping, resume after SIGKILL with the same rows as an uninterrupted run."""
+
+import os
+import shutil
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from contextlib import closing
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pycolmap = pytest.importorskip("pycolmap")
+
+from poseonly import rotation_error_deg
+from poseonly.cameras import Camera
+from poseonly.colmap_verify import homography_dlt, verify_database
+
+SRC = str(Path(__file__).resolve().parents[1] / "src")
+CAM = Camera("OPENCV", 640, 480, (600.0, 600.0, 320.0, 240.0, -0.15, 0.02, 0.001, 0.0))
+
+
+def _look_at(C, target=(0.0, 0.0, 8.0)):
+    target = np.asarray(target)
+    z = (target - C) / np.linalg.norm(target - C)
+    x = np.cross([0.0, -1.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    return np.stack([x, np.cross(z, x), z])  # rows: camera axes -> R_cw
+
+
+def make_db(path, n_images=6, n_points=150, seed=0):
+    """Images around a point cloud; image 1 is image 0 rotated in place (a pure-rotation pair)."""
+    rng = np.random.default_rng(seed)
+    X = rng.uniform([-3, -2, 6], [3, 2, 10], (n_points, 3))
+    poses = []
+    for k in range(n_images):
+        C = np.array([0.6 * (k - n_images / 2), 0.1 * k, 0.0])
+        if k == 1:
+            C = poses[0][1]
+            R = pycolmap.Rotation3d(np.array([0.0, 0.05, 0.02])).matrix() @ poses[0][0]
+        else:
+            R = _look_at(C)
+        poses.append((R, C))
+    db = pycolmap.Database.open(str(path))
+    cid = db.write_camera(pycolmap.Camera(model=CAM.model, width=640, height=480, params=list(CAM.params)))
+    perms, ids = [], []
+    for k, (R, C) in enumerate(poses):
+        iid = db.write_image(pycolmap.Image(name=f"im{k}.jpg", camera_id=cid))
+        ids.append(iid)
+        perm = rng.permutation(n_points)  # keypoint j of the image is point perm[j]
+        u = CAM.project((X[perm] - C) @ R.T) + rng.normal(0, 0.5, (n_points, 2))
+        db.write_keypoints(iid, u.astype(np.float32))
+        perms.append(perm)
+    for a in range(n_images):
+        for b in range(a + 1, n_images):
+            inv_b = np.argsort(perms[b])
+            m = np.column_stack([np.arange(n_points), inv_b[perms[a]]])
+            bad = rng.choice(n_points, n_points // 5, replace=False)  # 20 % wrong matches
+            m[bad, 1] = rng.integers(0, n_points, len(bad))
+            db.write_matches(ids[a], ids[b], m.astype(np.uint32))
+    db.close()
+    return poses, ids
+
+
+def _rows(path):
+    with closing(sqlite3.connect(path)) as con:  # closed before pycolmap opens the file (two SQLite copies)
+        return con.execute("SELECT pair_id, rows, cols, data, config, F, E, H, qvec, tvec FROM two_view_geometries "
+                           "ORDER BY pair_id").fetchall()
+
+
+def _check_consistent(path):
+    with closing(sqlite3.connect(path)) as con:
+        assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+    for pid, rows, cols, data, config, F, E, H, q, t in _rows(path):
+        assert (rows == 0 or cols == 2) and len(data or b"") == rows * cols * 4, pid
+        if config == int(pycolmap.TwoViewGeometryConfiguration.CALIBRATED):
+            assert rows >= 15 and len(E) == 72 and len(q) == 32 and len(t) == 24
+    db = pycolmap.Database.open(str(path))
+    db.read_two_view_geometries()  # pycolmap reads every row
+    db.close()
+
+
+def test_verify_rows_and_mapping(tmp_path):
+    path = tmp_path / "db.db"
+    poses, ids = make_db(path)
+    s = verify_database(path, progress=False)
+    assert s.selected == s.written == 15 and s.skipped == 0 and not s.errors
+    assert s.configs["CALIBRATED"] >= 13 and s.configs["PANORAMIC"] == 1, s.configs
+    _check_consistent(path)
+    db = pycolmap.Database.open(str(path))
+    g = db.read_two_view_geometry(ids[0], ids[1])
+    assert g.config == pycolmap.TwoViewGeometryConfiguration.PANORAMIC
+    assert np.allclose(g.cam2_from_cam1.translation, 0.0) and g.H is not None
+    R_true = poses[1][0] @ poses[0][0].T
+    assert rotation_error_deg(R_true, g.cam2_from_cam1.rotation.matrix()) < 0.2
+    g = db.read_two_view_geometry(ids[2], ids[4])
+    assert g.config == pycolmap.TwoViewGeometryConfiguration.CALIBRATED
+    (R2, C2), (R4, C4) = poses[2], poses[4]
+    R_true = R4 @ R2.T
+    assert rotation_error_deg(R_true, g.cam2_from_cam1.rotation.matrix()) < 0.2
+    t_true = -R4 @ C4 + R_true @ R2 @ C2
+    assert np.degrees(np.arccos(g.cam2_from_cam1.translation @ t_true / np.linalg.norm(t_true))) < 2.0
+    inl = g.inlier_matches
+    m = db.read_matches(ids[2], ids[4])
+    assert len(inl) >= 0.7 * len(m) and set(map(tuple, inl)) <= set(map(tuple, m))
+    db.close()
+    # a rerun keeps everything; --overwrite rewrites the same rows
+    before = _rows(path)
+    assert verify_database(path, progress=False).written == 0
+    assert verify_database(path, progress=False, overwrite=True).written == 15
+    assert _rows(path) == before
+    assert verify_database(path, progress=False, overwrite=True, n_jobs=2, write_every=4).written == 15
+    assert _rows(path) == before  # the same rows from 2 processes and other transaction sizes
+
+
+def test_pairs_file_and_errors(tmp_path):
+    path = tmp_path / "db.db"
+    make_db(path, n_images=3)
+    pf = tmp_path / "pairs.txt"
+    pf.write_text("# comment\nim0.jpg im2.jpg\n")
+    s = verify_database(path, pairs_file=pf, progress=False)
+    assert s.selected == s.written == 1
+    pf.write_text("im0.jpg nope.jpg\n")
+    with pytest.raises(ValueError, match="not in the database"):
+        verify_database(path, pairs_file=pf, progress=False)
+    with pytest.raises(ValueError, match="not found"):
+        verify_database(tmp_path / "missing.db", progress=False)
+    (tmp_path / "junk.db").write_text("not sqlite")
+    with pytest.raises(ValueError, match="not an SQLite database|not a COLMAP database"):
+        verify_database(tmp_path / "junk.db", progress=False)
+
+
+def test_homography_dlt():
+    rng = np.random.default_rng(0)
+    H = np.array([[1.1, 0.02, 5.0], [-0.03, 0.95, -3.0], [1e-4, -2e-4, 1.0]])
+    u1 = rng.uniform(0, 640, (20, 2))
+    h = np.column_stack([u1, np.ones(20)]) @ H.T
+    assert np.allclose(homography_dlt(u1, h[:, :2] / h[:, 2:]), H, atol=1e-8)
+    assert homography_dlt(u1[:3], u1[:3]) is None
+
+
+def test_kill_and_resume(tmp_path):
+    path = tmp_path / "db.db"
+    make_db(path, n_images=8, n_points=120)
+    ref = tmp_path / "ref.db"
+    shutil.copy(path, ref)
+    verify_database(ref, progress=False, seed=3)
+    total = len(_rows(ref))
+    assert total == 28
+    env = {**os.environ, "PYTHONPATH": SRC, "POSEONLY_NUMBA": "0"}
+    cmd = [sys.executable, "-c", "import sys; from poseonly.cli import main; sys.exit(main())", "colmap", "verify", str(path),
+           "--seed", "3", "--write-every", "2", "--no-progress"]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    n = 0
+    deadline = time.time() + 120
+    while time.time() < deadline and proc.poll() is None:
+        try:
+            with closing(sqlite3.connect(f"file:{path}?mode=ro", uri=True, timeout=0.01)) as con:
+                n = con.execute("SELECT COUNT(*) FROM two_view_geometries").fetchone()[0]
+        except sqlite3.OperationalError:  # locked by the writer
+            continue
+        if n >= 4:
+            break
+        time.sleep(0.005)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    assert proc.returncode == -signal.SIGKILL, proc.stderr.read().decode()
+    written = len(_rows(path))
+    assert 4 <= written < total, written  # killed mid-run
+    _check_consistent(path)
+    rr = subprocess.run(cmd, check=False, env=env, capture_output=True, text=True, timeout=300)
+    assert rr.returncode == 0, rr.stderr
+    assert f"{written} already verified" in rr.stdout
+    _check_consistent(path)
+    assert _rows(path) == _rows(ref)
+
+
+def test_cli_errors(tmp_path, capsys):
+    from poseonly.cli import main
+
+    assert main(["colmap", "verify", str(tmp_path / "missing.db"), "--no-progress"]) == 2
+    assert "COLMAP database not found" in capsys.readouterr().err
+    path = tmp_path / "db.db"
+    make_db(path, n_images=2)
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 0
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "1 already verified" in out and "--overwrite" in out
