@@ -4,6 +4,7 @@
 
 #include "arrays.h"
 #include "estimators.h"
+#include "ml_refine.h"
 #include "ransac.h"
 #include "register.h"
 #include "sampling.h"
@@ -76,7 +77,8 @@ nb::dict stats_dict(const RansacStats& st) {
 
 nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double threshold, uint64_t seed, int solver, int scoring,
                          int max_iterations, int min_iterations, double confidence, int max_lo, double lo_mu0, int lo_iterations,
-                         int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order) {
+                         int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order,
+                         int lo) {
   const Points P = points_of(f1, f2);
   if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
   const RansacOptions ro = ransac_options(max_iterations, min_iterations, confidence, true, max_lo);
@@ -86,6 +88,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   eo.lo_mu0 = lo_mu0;
   eo.lo_iterations = lo_iterations;
   eo.lo_residual = static_cast<Residual>(lo_residual);
+  eo.lo = static_cast<LocalOpt>(lo);
   const std::vector<int> ord = order_of(order, P.n);
   Pose best;
   RansacStats st;
@@ -100,7 +103,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
 }
 
 nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double threshold,
-                     double lo_mu0, int lo_iterations, int lo_residual) {
+                     double lo_mu0, int lo_iterations, int lo_residual, int lo) {
   const Points P = points_of(f1, f2);
   Pose p = pose_of(R, t);
   RelativePoseEstimator::Options eo;
@@ -109,6 +112,7 @@ nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, c
   eo.lo_mu0 = lo_mu0;
   eo.lo_iterations = lo_iterations;
   eo.lo_residual = static_cast<Residual>(lo_residual);
+  eo.lo = static_cast<LocalOpt>(lo);
   bool ok;
   {
     nb::gil_scoped_release release;
@@ -122,6 +126,32 @@ nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, c
   std::vector<double> Ro(9), to(3);
   put_pose(p, Ro.data(), to.data());
   return nb::make_tuple(to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}), ok);
+}
+
+nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double range, int rounds,
+                      int lm_iterations) {
+  const Points P = points_of(f1, f2);
+  if (!(range > 0.0 && std::isfinite(range))) throw std::invalid_argument("range must be finite and > 0");
+  MlOptions mo;
+  mo.range = range;
+  mo.rounds = rounds;
+  mo.lm_iterations = lm_iterations;
+  MlResult r;
+  {
+    nb::gil_scoped_release release;
+    ml_refine(P, pose_of(R, t), mo, &r);
+  }
+  std::vector<double> Ro(9), to(3);
+  put_pose(r.pose, Ro.data(), to.data());
+  nb::dict d;
+  d["R"] = to_numpy(std::move(Ro), {3, 3});
+  d["t"] = to_numpy(std::move(to), {3});
+  d["sigma"] = r.sigma;
+  d["inlier_fraction"] = r.inlier_fraction;
+  d["decision"] = r.decision;
+  d["rounds"] = r.rounds;
+  d["posterior"] = to_numpy(std::move(r.posterior), {static_cast<size_t>(P.n)});
+  return d;
 }
 
 nb::tuple gnc_ransac(const BearingsIn& f1, const BearingsIn& f2, double theta, uint64_t seed, int sample_size,
@@ -177,13 +207,17 @@ POSEONLY_BIND(robust) {
   m.def("ransac_relpose", &ransac_relpose, nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"), nb::arg("seed"), nb::arg("solver") = 0,
         nb::arg("scoring") = 1, nb::arg("max_iterations") = 100000, nb::arg("min_iterations") = 50, nb::arg("confidence") = 0.999,
         nb::arg("max_lo") = 8, nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1,
-        nb::arg("order") = Order(),
+        nb::arg("order") = Order(), nb::arg("lo") = 0,
         "LO-RANSAC of minimal hypotheses (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
         "Sampson error against `threshold` (radians); scoring 0 msac, 1 multi-scale msac, 2 count; `order` "
-        "(a permutation, best match first) switches to PROSAC. Returns (R, t, stats).");
+        "(a permutation, best match first) switches to PROSAC; lo 0: LiRP GNC-IRLS, 1: Sampson LM. Returns (R, t, stats).");
   m.def("relpose_lo", &relpose_lo, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"),
-        nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1,
+        nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1, nb::arg("lo") = 0,
         "The default method's LO step at `threshold` from the pose's cheirality-consistent inliers: (R, t, ok).");
+  m.def("ml_refine", &ml_refine_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("range"),
+        nb::arg("rounds") = 6, nb::arg("lm_iterations") = 10,
+        "ML pose under a Gaussian-uniform mixture of Sampson errors (EM + weighted Sampson LM; outlier range "
+        "`range`, radians): dict R, t, sigma, inlier_fraction, decision, rounds, posterior (n,).");
   m.def("gnc_ransac", &gnc_ransac, nb::arg("f1"), nb::arg("f2"), nb::arg("theta"), nb::arg("seed"), nb::arg("sample_size") = 30,
         nb::arg("max_iterations") = 50, nb::arg("adaptive") = false, nb::arg("confidence") = 0.99, nb::arg("gnc") = nb::dict(),
         "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats).");

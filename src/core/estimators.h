@@ -9,11 +9,16 @@
 #include "common.h"
 #include "gnc.h"
 #include "lirp.h"
+#include "refine.h"
 #include "residuals.h"
 
 namespace poseonly {
 
 enum class MinimalSolver : int { FivePoint = 0, LiRP6 = 1 };
+// Local optimisation of a new best model: warm-started TLS IRLS on all-candidate LiRP (the pose-only
+// LO), or Levenberg-Marquardt on the Sampson error with a Cauchy loss at the threshold (PoseLib's
+// choice of a non-minimal refinement, with a smooth loss).
+enum class LocalOpt : int { LiRPGnc = 0, SampsonLM = 1 };
 
 // The five-point solver (fivept.cpp): poses whose sample points all have positive depths.
 void fivept_poses(const Points& p, std::vector<Pose>* out);
@@ -30,6 +35,8 @@ class RelativePoseEstimator {
     double lo_mu0 = 1e3;         // start at (near) hard TLS
     int lo_iterations = 10;
     Residual lo_residual = Residual::SampsonChiral;
+    LocalOpt lo = LocalOpt::LiRPGnc;
+    int lm_iterations = 25;
   };
   using Model = Pose;
   using Terms = PoseTerms;
@@ -69,6 +76,18 @@ class RelativePoseEstimator {
       w0_.push_back(in ? 1.0 : 0.0);
     }
     if (buf_.view().n < kLirpMinPoints) return false;
+    if (o_.lo == LocalOpt::SampsonLM) {
+      RefineOptions ro;
+      ro.loss = RefineLoss::Cauchy;
+      ro.loss_scale = thr;
+      ro.max_iterations = o_.lm_iterations;
+      ro.tol = 1e-10;
+      Pose p = *m;
+      refine_sampson(buf_.view(), nullptr, ro, &p);  // every point in the window; the loss bounds outliers
+      if (!(p.R.allFinite() && p.t.allFinite())) return false;
+      *m = p;
+      return true;
+    }
     GncOptions g;
     g.noise_bound = thr;
     g.max_iterations = o_.lo_iterations;

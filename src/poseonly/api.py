@@ -87,6 +87,9 @@ _OPTS: dict[str, dict[str, tuple]] = {
         "lo_iterations": ((int, np.integer), lambda v: v >= 1, 10),
         "adaptive_threshold": ((bool,), None, True),
         "noise_factor": ((int, float), lambda v: v > 0, 2.5),
+        "lo": ((str,), lambda v: v in ("lirp", "sampson"), "lirp"),
+        "final": ((str,), lambda v: v in ("ml", "ligt"), "ml"),
+        "ml_range": ((int, float), lambda v: 1.0 < v < 100.0, 3.0),
     },
     "gnc-ransac": {
         "max_iterations": ((int, np.integer), lambda v: v >= 1, 50),
@@ -438,36 +441,52 @@ def _noise_threshold(R, t, f1, f2, tau, o) -> float:
     return thr
 
 
-def _run_poseonly(f1, f2, o, tau):
+_LO_CODES = {"lirp": 0, "sampson": 1}
+
+
+def _run_poseonly(f1, f2, o, tau, scores=None):
     if o["solver"] not in ("5pt", "lirp"):
         raise InputError(f"option 'solver' must be '5pt' or 'lirp', got {o['solver']!r}")
     lo_res = get_residual(o["lo_residual"])
+    lo_code = _LO_CODES[o["lo"]]
     seed = core_seed(o["seed"])
 
     def lo(R, t, thr):
-        # the core's LO step: warm-started TLS IRLS on all-candidate LiRP from the cheirality-consistent
-        # inliers at thr, on the points within 4 thresholds
-        Rl, tl, ok = _core.relpose_lo(R, t, f1, f2, thr, float(o["lo_mu0"]), int(o["lo_iterations"]), lo_res.code)
+        # the core's LO step from the cheirality-consistent inliers at thr, on the points within 4 thresholds
+        Rl, tl, ok = _core.relpose_lo(R, t, f1, f2, thr, float(o["lo_mu0"]), int(o["lo_iterations"]), lo_res.code, lo_code)
         return (Rl, tl) if ok else (R, t)
 
     r = ransac_relpose(
         f1, f2, tau, seed, solver=o["solver"], scoring=o["scoring"], max_iterations=o["max_iterations"],
         min_iterations=o["min_iterations"], confidence=o["confidence"], max_lo=o["max_lo"], lo_mu0=o["lo_mu0"],
-        lo_iterations=o["lo_iterations"], lo_residual=lo_res,
+        lo_iterations=o["lo_iterations"], lo_residual=lo_res, scores=scores, lo=o["lo"],
     )
-    # final stage: the pose-only choice among the RANSAC model (re-identified on its inliers), its
-    # homography twin and the LiRP candidates of its consensus set, by cheirality-consistent
-    # support (the Sampson score of RANSAC cannot tell a planar scene's twin from the truth; depth
-    # signs can); then, at the noise-matched threshold, IRLS from that model's support and LiGTopt,
-    # each kept only if the cheirality-aware MSAC score does not drop
+    diag = {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored}
+    # the pose-only choice among the RANSAC model (re-identified on its inliers), its homography twin
+    # and the LiRP candidates of its consensus set, by cheirality-consistent support (the Sampson score
+    # cannot tell a planar scene's twin from the truth; depth signs can)
     R, t = _select_by_support(r.R, r.t, f1, f2, tau)
+    if o["final"] == "ml":
+        if o["refine"]:
+            # the ML pose under a Gaussian-uniform mixture of Sampson errors (EM with the noise scale
+            # estimated, outliers uniform up to ml_range thresholds): least squares when every match is
+            # an inlier; the returned inliers are those more likely inliers than not
+            m = _core.ml_refine(R, t, f1, f2, float(o["ml_range"]) * tau)
+            if m["rounds"] > 0 and m["decision"] > 0:
+                cand = (m["R"], m["t"])
+                if _msac_chiral(*cand, f1, f2, tau) >= 0.98 * _msac_chiral(R, t, f1, f2, tau):
+                    R, t = cand
+                    diag.update(tau_effective=float(m["decision"]), sigma=float(m["sigma"]), ml_rounds=int(m["rounds"]))
+        return R, t, None, r.num_iterations, diag
+    # "ligt": at the noise-matched threshold, IRLS from that model's support and LiGTopt, each kept only
+    # if the cheirality-aware MSAC score does not drop
     thr = _noise_threshold(R, t, f1, f2, tau, o)
     R, t = _keep_better((R, t), lo(R, t, thr), f1, f2, thr)
     if o["refine"]:
         ref = _refine(R, t, f1, f2, _support(R[None], t[None], f1, f2, thr)[0], thr, normalization="angular")
         R, t = _keep_better((R, t), ref, f1, f2, thr, tol=0.98)
-    return R, t, None, r.num_iterations, {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored,
-                                          "tau_effective": thr}
+    diag["tau_effective"] = thr
+    return R, t, None, r.num_iterations, diag
 
 
 def _run_gnc_ransac(f1, f2, o, tau):
@@ -513,6 +532,7 @@ def estimate_relative_pose(
     method: str = DEFAULT_METHOD,
     camera1: Any = None,
     camera2: Any = None,
+    scores: np.ndarray | None = None,
     **options: Any,
 ) -> RelativePoseResult:
     """Estimate the relative pose ``X2 = R X1 + t`` from point matches.
@@ -528,7 +548,9 @@ def estimate_relative_pose(
     True). ``camera1``/``camera2`` (instead of ``K1``/``K2``; ``camera2`` defaults to ``camera1``): any
     camera of :func:`poseonly.cameras.as_camera` (pycolmap.Camera, ``{"model", "width", "height",
     "params"}``, ``(K, dist)``); pixels are lifted through the distortion model and the threshold uses
-    the cameras' mean focal length. Method options are listed in the error raised for an unknown one. Raises
+    the cameras' mean focal length. ``scores (n,)``: match quality, higher is better (e.g. ``1 - ratio``
+    of the ratio test, or a matcher's confidence); the default method then samples PROSAC-style, the
+    best matches first (PoseLib's ``progressive_sampling``, OpenCV's ``SAMPLING_PROSAC``). Method options are listed in the error raised for an unknown one. Raises
     :class:`ValueError` (:class:`poseonly.InputError`) for invalid input or options; degenerate
     input returns a result whose ``status`` says so.
     """
@@ -556,6 +578,13 @@ def estimate_relative_pose(
     n = len(f1)
     if n < 6:
         raise InputError(f"at least 6 correspondences are needed, got {n}")
+    if scores is not None:
+        scores = np.asarray(scores)
+        if scores.shape != (n,) or not np.issubdtype(scores.dtype, np.number) or np.iscomplexobj(scores):
+            raise InputError(f"scores must be a real array of shape ({n},), got {scores.dtype} {scores.shape}")
+        scores = scores.astype(float)
+        if not np.all(np.isfinite(scores)):
+            raise InputError("scores must be finite")
     focal = _focal(K1, K2, o["focal_px"]) if cam_focal is None or o["focal_px"] is not None else cam_focal
     thr_px = float(o["threshold_px"])
     tau = thr_px / focal
@@ -573,7 +602,7 @@ def estimate_relative_pose(
             method=method, threshold_px=thr_px, focal_px=focal, time_s=time.perf_counter() - t0, diagnostics={"rank": rank},
         )
     with _blas_single_thread():
-        R, t, w, iters, diag = _RUN[method](f1, f2, o, tau)
+        R, t, w, iters, diag = _run_poseonly(f1, f2, o, tau, scores) if method == "poseonly" else _RUN[method](f1, f2, o, tau)
     diag["rank"] = rank
     return _finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, o["min_inliers"])
 

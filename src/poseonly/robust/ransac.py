@@ -29,6 +29,7 @@ __all__ = ["RansacResult", "ransac_relpose", "gnc_ransac", "sample_indices", "co
 
 SCORINGS = {"msac": 0, "msac-multi": 1, "count": 2}
 _MINIMAL = {"5pt": 0, "lirp": 1}
+_LO = {"lirp": 0, "sampson": 1}
 _SEED_MASK = (1 << 64) - 1
 
 
@@ -92,12 +93,17 @@ def ransac_relpose(
     lo_iterations: int = 10,
     lo_residual: str | Residual = "sampson-chiral",
     scores: np.ndarray | None = None,
+    lo: str = "lirp",
 ) -> RansacResult:
     """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
     ``scores (n,)`` (higher is better) switch to PROSAC sampling in that order. Returns a
-    :class:`RansacResult` whose inliers are the Sampson inliers of the returned model.
+    :class:`RansacResult` whose inliers are the Sampson inliers of the returned model. ``lo``: the
+    local optimisation, ``"lirp"`` (warm-started TLS IRLS on all-candidate LiRP with ``lo_residual``)
+    or ``"sampson"`` (Levenberg-Marquardt on the Sampson error, Cauchy loss at the threshold).
     """
+    if lo not in _LO:
+        raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(_LO)}")
     if solver not in _MINIMAL:
         raise ValueError(f"unknown minimal solver {solver!r}; choose one of {sorted(_MINIMAL)}")
     if scoring not in SCORINGS:
@@ -106,7 +112,7 @@ def ransac_relpose(
     order = None if scores is None else prosac_order(scores)
     R, t, st = _core.ransac_relpose(f1, f2, float(threshold), core_seed(seed), _MINIMAL[solver], SCORINGS[scoring],
                                     int(max_iterations), int(min_iterations), float(confidence), int(max_lo), float(lo_mu0),
-                                    int(lo_iterations), get_residual(lo_residual).code, order)
+                                    int(lo_iterations), get_residual(lo_residual).code, order, _LO[lo])
     v = get_residual("sampson")(R, t, f1, f2)
     return RansacResult(R=R, t=t, inliers=v < threshold, residuals=v, score=float(st["cost"]), num_iterations=int(st["iterations"]),
                         num_lo=int(st["num_lo"]), num_scored=int(st["num_models"]), stats=dict(st))

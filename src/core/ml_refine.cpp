@@ -1,0 +1,89 @@
+// EM + weighted Sampson LM; see ml_refine.h.
+#include "ml_refine.h"
+
+#include <algorithm>
+
+#include "refine.h"
+#include "residuals.h"
+
+namespace poseonly {
+namespace {
+
+constexpr double kSqrt2OverPi = 0.7978845608028654;
+constexpr int kMinInliers = 6;
+
+void sampson_all(const Points& P, const Pose& pose, std::vector<double>* r) {
+  const PoseTerms T(pose);
+  r->resize(P.n);
+  for (int i = 0; i < P.n; ++i) (*r)[i] = sampson(T.E, P.a(i), P.b(i));
+}
+
+}  // namespace
+
+void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResult* out) {
+  const double Tr = opt.range;
+  out->pose = start;
+  std::vector<double> r, p(P.n, 0.0);
+  sampson_all(P, out->pose, &r);
+  // start: sigma from the median of the errors within half the range, g from their share
+  std::vector<double> in;
+  for (double x : r)
+    if (x < 0.5 * Tr) in.push_back(x);
+  if (static_cast<int>(in.size()) < kMinInliers) {
+    out->sigma = 0.0;
+    out->inlier_fraction = 0.0;
+    out->posterior.assign(P.n, 0.0);
+    return;
+  }
+  std::nth_element(in.begin(), in.begin() + in.size() / 2, in.end());
+  double sigma = std::max(1.4826 * in[in.size() / 2], opt.sigma_floor);
+  double g = std::min(static_cast<double>(in.size()) / P.n, 0.99);
+  RefineOptions ro;
+  ro.loss = RefineLoss::Linear;
+  ro.max_iterations = opt.lm_iterations;
+  ro.tol = 1e-10;
+  for (int k = 0; k < opt.rounds; ++k) {
+    int nT = 0;
+    double sp = 0.0, spr2 = 0.0;
+    for (int i = 0; i < P.n; ++i) {
+      if (!(r[i] < Tr)) {
+        p[i] = 0.0;
+        continue;
+      }
+      ++nT;
+      const double z = r[i] / sigma;
+      const double lin = g * kSqrt2OverPi / sigma * std::exp(-0.5 * z * z);
+      const double lout = (1.0 - g) / Tr;
+      p[i] = lin / (lin + lout);
+      sp += p[i];
+      spr2 += p[i] * r[i] * r[i];
+    }
+    if (sp < kMinInliers) break;
+    sigma = std::clamp(std::sqrt(spr2 / sp), opt.sigma_floor, Tr);
+    g = std::clamp(sp / std::max(nT, 1), 1e-6, 1.0 - 1e-9);
+    Pose next = out->pose;
+    refine_sampson(P, p.data(), ro, &next);
+    if (!(next.R.allFinite() && next.t.allFinite())) break;
+    out->pose = next;
+    out->rounds = k + 1;
+    sampson_all(P, out->pose, &r);
+  }
+  // final posteriors at the returned pose
+  for (int i = 0; i < P.n; ++i) {
+    if (!(r[i] < Tr)) {
+      p[i] = 0.0;
+      continue;
+    }
+    const double z = r[i] / sigma;
+    const double lin = g * kSqrt2OverPi / sigma * std::exp(-0.5 * z * z);
+    p[i] = lin / (lin + (1.0 - g) / Tr);
+  }
+  out->sigma = sigma;
+  out->inlier_fraction = g;
+  // p = 1/2 where g N+(r) = (1 - g) / T: r = sigma sqrt(2 ln(g T sqrt(2/pi) / ((1 - g) sigma)))
+  const double arg = g * Tr * kSqrt2OverPi / ((1.0 - g) * sigma);
+  out->decision = arg > 1.0 ? std::min(sigma * std::sqrt(2.0 * std::log(arg)), Tr) : 0.0;
+  out->posterior = p;
+}
+
+}  // namespace poseonly
