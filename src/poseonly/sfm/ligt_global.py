@@ -61,6 +61,29 @@ def _skew_batch(v: np.ndarray) -> np.ndarray:
     return np.stack([np.stack([z, -v[:, 2], v[:, 1]], 1), np.stack([v[:, 2], z, -v[:, 0]], 1), np.stack([-v[:, 1], v[:, 0], z], 1)], 1)
 
 
+def _smallest_eigvec(H: sp.csc_matrix, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvector of the smallest eigenvalue of the PSD ``H`` and up to 3 smallest eigenvalues
+    (shift-invert Lanczos around ``-SHIFT_REL * mean(diag H)``)."""
+    shift = SHIFT_REL * float(H.diagonal().mean())
+    k = min(3, m - 1)
+    vals, vecs = eigsh(H, k=k, sigma=-shift, which="LM", tol=0.0)
+    o = np.argsort(vals)
+    return vecs[:, o[0]], vals[o]
+
+
+def _centres(x: np.ndarray, cols: np.ndarray, n: int) -> np.ndarray:
+    c = np.zeros(3 * n)
+    c[cols] = x
+    return c.reshape(n, 3)
+
+
+def _non_base(tracks: Tracks, l_obs: np.ndarray) -> np.ndarray:
+    """Observation indices ``i != l`` in the row order of :func:`build_ligt_matrix`."""
+    other = np.ones(tracks.num_observations, dtype=bool)
+    other[l_obs] = False
+    return np.flatnonzero(other)
+
+
 def build_ligt_matrix(
     num_views: int, tracks: Tracks, wb: np.ndarray, l_obs: np.ndarray, r_obs: np.ndarray
 ) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
@@ -69,9 +92,7 @@ def build_ligt_matrix(
     bearings, ``l_obs, r_obs (T,)`` base observation indices."""
     views = tracks.views
     tr = tracks.track_of_observation
-    other = np.ones(len(views), dtype=bool)
-    other[l_obs] = False
-    oi = np.flatnonzero(other)  # observations i != l
+    oi = _non_base(tracks, l_obs)  # observations i != l
     t_i = tr[oi]
     wl, wr = wb[l_obs], wb[r_obs]
     g = g_vectors(wl, wr)
@@ -99,9 +120,14 @@ def ligt_positions(
     *,
     min_parallax_deg: float = MIN_PARALLAX_DEG,
     reference: int | None = None,
+    reweight_iterations: int = 0,
 ) -> LiGTResult:
     """Camera centres ``(N, 3)`` from global ``rotations (N, 3, 3)`` (world -> camera, NaN for
-    views without one), ``tracks`` and their unit camera-frame ``bearings (M, 3)``."""
+    views without one), ``tracks`` and their unit camera-frame ``bearings (M, 3)``.
+
+    ``reweight_iterations > 0`` re-solves with every row triple divided by ``theta^2 ||X - c_i||``
+    of the previous solution (its residual becomes the angular error of the observation; openMVG's
+    LiGT is ``0``)."""
     times: dict[str, float] = {}
     t0 = time.perf_counter()
     Rg = np.asarray(rotations, dtype=np.float64)
@@ -182,22 +208,36 @@ def ligt_positions(
     t0 = time.perf_counter()
     if len(cols) < 3:
         raise InputError("LiGT needs at least two views joined by usable tracks")
-    shift = SHIFT_REL * float(H.diagonal().mean())
-    k = min(3, len(cols) - 1)
-    vals, vecs = eigsh(H, k=k, sigma=-shift, which="LM", tol=0.0)
-    o = np.argsort(vals)
-    vals, vecs = vals[o], vecs[:, o]
-    x = vecs[:, 0]
+    x, vals = _smallest_eigvec(H, len(cols))
+    # optional reweighting: row triple i of track t scaled by 1 / (theta_t^2 ||X_t - c_i||) so its
+    # residual becomes the sine of the angular error of observation i (IRLS on the same system)
+    oi = _non_base(sub4, l4)
+    tr_oi = sub4.track_of_observation[oi]
+    th2 = np.sum(np.cross(wb4[l4], wb4[r4]) ** 2, axis=1)
+    for _ in range(int(reweight_iterations)):
+        C_cur = _centres(x, cols, n)
+        d = np.sum(g * (C_cur[lr[:, 0]] - C_cur[lr[:, 1]]), axis=1) / th2
+        if np.sum(d > 0) < np.sum(d <= 0):
+            d = -d
+        X = C_cur[lr[:, 0]] + d[:, None] * wb4[l4]
+        dist = np.linalg.norm(X[tr_oi] - C_cur[sub4.views[oi]], axis=1)
+        good = np.isfinite(dist) & (dist > 0)
+        med = float(np.median(dist[good])) if np.any(good) else 1.0
+        dist = np.where(good, np.maximum(dist, 1e-3 * med), med)
+        w = 1.0 / (th2[tr_oi] * dist)
+        w /= np.median(w)
+        Lw = sp.diags(np.repeat(w, 3)) @ Lr
+        H = (Lw.T @ Lw).tocsc()
+        x, vals = _smallest_eigvec(H, len(cols))
+    info["reweight_iterations"] = int(reweight_iterations)
     info["eigenvalues"] = [float(v) for v in vals]
-    if k >= 2:
+    if len(vals) >= 2:
         info["eig_ratio"] = float(vals[0] / vals[1]) if vals[1] > 0 else float("nan")
-    if k >= 3:
+    if len(vals) >= 3:
         info["eig_ratio_23"] = float(vals[1] / vals[2]) if vals[2] > 0 else float("nan")
     times["solve"] = time.perf_counter() - t0
 
-    c = np.zeros(3 * n)
-    c[cols] = x
-    C = c.reshape(n, 3)
+    C = _centres(x, cols, n)
     depth = np.sum(g * (C[lr[:, 0]] - C[lr[:, 1]]), axis=1)
     npos = int(np.sum(depth > 0))
     if npos < len(depth) - npos:
