@@ -10,7 +10,7 @@ import numpy as np
 from ..geometry import InputError
 from .so3 import angle_deg, project_so3
 
-__all__ = ["Similarity", "align_similarity", "evaluate_poses"]
+__all__ = ["AUC_THRESHOLDS_DEG", "Similarity", "align_similarity", "evaluate_poses", "pose_auc", "relative_pose_errors"]
 
 
 @dataclass(frozen=True)
@@ -90,3 +90,44 @@ def evaluate_poses(rotations: np.ndarray, centres: np.ndarray, R_gt: np.ndarray,
         "pos_mean_frac": float(pos.mean() / extent),
         "scale": sim.s,
     }
+
+
+AUC_THRESHOLDS_DEG = (0.5, 1.0, 5.0, 10.0)
+
+
+def relative_pose_errors(rotations: np.ndarray, centres: np.ndarray, R_gt: np.ndarray, C_gt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation and translation-direction errors (deg), ``(P,)`` each, of all pairs ``i < j``
+    (``P = N (N - 1) / 2``); a pair with an unestimated view gets ``inf`` (COLMAP's benchmark)."""
+    n = len(R_gt)
+    i, j = np.triu_indices(n, 1)
+    est = np.all(np.isfinite(rotations), axis=(1, 2)) & np.all(np.isfinite(centres), axis=1)
+    Rs = np.where(est[:, None, None], rotations, np.eye(3))
+    Cs = np.where(est[:, None], centres, 0.0)
+    def rel(R, C):
+        Rij = R[j] @ np.transpose(R[i], (0, 2, 1))
+        t = np.einsum("pab,pb->pa", R[j], C[i] - C[j])
+        return Rij, t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
+    Re, te = rel(Rs, Cs)
+    Rg, tg = rel(R_gt, C_gt)
+    dR = angle_deg(np.einsum("pji,pjk->pik", Rg, Re))
+    dt = np.degrees(np.arccos(np.clip(np.sum(te * tg, axis=1), -1.0, 1.0)))
+    bad = ~(est[i] & est[j])
+    dR[bad] = np.inf
+    dt[bad] = np.inf
+    return dR, dt
+
+
+def pose_auc(errors_deg: np.ndarray, thresholds: tuple[float, ...] = AUC_THRESHOLDS_DEG) -> dict[str, float]:
+    """Area under the recall-vs-error curve up to each threshold, normalised to [0, 1]
+    (the SuperGlue / COLMAP benchmark definition), of ``(P,)`` errors (inf counts as a miss)."""
+    e = np.sort(np.asarray(errors_deg, dtype=np.float64))
+    recall = np.arange(1, len(e) + 1) / len(e)
+    e = np.concatenate([[0.0], e])
+    recall = np.concatenate([[0.0], recall])
+    out = {}
+    for t in thresholds:
+        last = int(np.searchsorted(e, t))
+        x = np.concatenate([e[:last], [t]])
+        y = np.concatenate([recall[:last], [recall[last - 1]]])
+        out[f"auc@{t:g}"] = float(np.trapezoid(y, x) / t)
+    return out

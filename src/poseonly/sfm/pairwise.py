@@ -87,7 +87,7 @@ def _matches(fa: Features, fb: Features, da: str, db: str, opt: PairwiseOptions,
             try:
                 with np.load(f) as z:
                     return z["idx"]
-            except Exception:  # noqa: BLE001 - unreadable cache entry: recompute
+            except Exception:  # noqa: BLE001, S110 - unreadable cache entry: recompute
                 pass
     idx = match_features(fa.descriptors, fb.descriptors, ratio=opt.ratio, mutual=opt.mutual)
     if f is not None:
@@ -120,7 +120,7 @@ def _two_view(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, op
             try:
                 with np.load(f) as z:
                     return TwoView(z["R"], z["t"], z["inliers"], int(z["num_inliers"]), str(z["status"]))
-            except Exception:  # noqa: BLE001 - unreadable cache entry: recompute
+            except Exception:  # noqa: BLE001, S110 - unreadable cache entry: recompute
                 pass
     r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, threshold_px=opt.threshold_px, seed=seed)
     out = TwoView(np.asarray(r.R), np.asarray(r.t), np.asarray(r.inliers, dtype=bool), int(r.num_inliers), str(r.status))

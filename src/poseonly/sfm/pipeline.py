@@ -31,7 +31,7 @@ __all__ = ["BearingsFn", "GlobalOptions", "GlobalResult", "filter_observations",
 @dataclass(frozen=True)
 class GlobalOptions:
     """``min_track_length``, track ``conflicts`` policy, rotation averaging outlier thresholds,
-    LiGT ``min_parallax_deg``, reconstruction ``max_error_px`` and ``filter_rounds``."""
+    LiGT ``min_parallax_deg`` and ``ligt_reweight`` iterations, reconstruction ``max_error_px`` and ``filter_rounds``."""
 
     min_track_length: int = 2
     conflicts: str = "split"
@@ -40,6 +40,7 @@ class GlobalOptions:
     min_parallax_deg: float = MIN_PARALLAX_DEG
     max_error_px: float = MAX_ERROR_PX
     filter_rounds: int = 2
+    ligt_reweight: int = 0
 
 
 @dataclass
@@ -92,7 +93,8 @@ def run_global(
     info: dict[str, object] = {"tracks_built": len(tracks), "observations_built": tracks.num_observations,
                                "tracks_conflicting": tracks.num_conflicting}
     t0 = time.perf_counter()
-    lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg)
+    lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg,
+                            reweight_iterations=opt.ligt_reweight)
     times["ligt"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     rec = reconstruct_points(ra.rotations, lg.centres, tracks, f, focal=focal, max_error_px=opt.max_error_px)
@@ -103,7 +105,8 @@ def run_global(
             break
         t0 = time.perf_counter()
         tracks, f, _ = filter_observations(tracks, f, keep, opt.min_track_length)
-        lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg)
+        lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg,
+                            reweight_iterations=opt.ligt_reweight)
         times["ligt"] += time.perf_counter() - t0
         t0 = time.perf_counter()
         rec = reconstruct_points(ra.rotations, lg.centres, tracks, f, focal=focal, max_error_px=opt.max_error_px)

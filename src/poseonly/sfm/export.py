@@ -1,0 +1,148 @@
+"""Writers of a global reconstruction: a COLMAP model through ``pycolmap.Reconstruction``
+(optional dependency; COLMAP, GLOMAP and their viewers open it) and a PLY point cloud. Both are
+written atomically (a temporary file / folder renamed into place)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..geometry import InputError
+from .tracks import Tracks
+
+__all__ = ["build_colmap_reconstruction", "point_colors", "write_colmap_model", "write_ply"]
+
+
+def point_colors(image_paths: Sequence[str | os.PathLike], keypoints: Sequence[np.ndarray], tracks: Tracks,
+                 base_obs: np.ndarray) -> np.ndarray:
+    """``(T, 3)`` uint8 RGB of every track, sampled at its base observation's keypoint
+    (``base_obs (T,)`` observation indices, -1: grey)."""
+    import cv2
+
+    out = np.full((len(tracks), 3), 128, dtype=np.uint8)
+    ok = base_obs >= 0
+    views = np.where(ok, tracks.views[np.maximum(base_obs, 0)], -1)
+    for v in np.unique(views[ok]):
+        img = cv2.imread(str(image_paths[v]), cv2.IMREAD_COLOR)
+        if img is None:
+            continue
+        sel = np.flatnonzero(views == v)
+        uv = keypoints[v][tracks.keypoints[base_obs[sel]]]
+        x = np.clip(np.round(uv[:, 0]).astype(int), 0, img.shape[1] - 1)
+        y = np.clip(np.round(uv[:, 1]).astype(int), 0, img.shape[0] - 1)
+        out[sel] = img[y, x, ::-1]
+    return out
+
+
+def build_colmap_reconstruction(
+    names: Sequence[str],
+    K: np.ndarray,
+    image_sizes: Sequence[tuple[int, int]],
+    keypoints: Sequence[np.ndarray],
+    rotations: np.ndarray,
+    centres: np.ndarray,
+    tracks: Tracks,
+    points: np.ndarray,
+    point_valid: np.ndarray,
+    obs_valid: np.ndarray,
+    colors: np.ndarray | None = None,
+) -> Any:
+    """A ``pycolmap.Reconstruction``: one PINHOLE camera per image (``K (N, 3, 3)``), the posed
+    images (world -> camera ``rotations (N, 3, 3)``, ``centres (N, 3)``; NaN rows are left out)
+    with all their keypoints as 2D points, and every valid track as a 3D point over its valid
+    observations (``points (T, 3)``, ``point_valid (T,)``, ``obs_valid (M,)``)."""
+    import pycolmap
+
+    n = len(names)
+    rec = pycolmap.Reconstruction()
+    posed = np.all(np.isfinite(rotations), axis=(1, 2)) & np.all(np.isfinite(centres), axis=1)
+    for k in range(n):
+        fx, fy, cx, cy = K[k][0, 0], K[k][1, 1], K[k][0, 2], K[k][1, 2]
+        w, h = image_sizes[k]
+        cam = pycolmap.Camera(model="PINHOLE", width=int(w), height=int(h), params=[fx, fy, cx, cy], camera_id=k + 1)
+        rec.add_camera_with_trivial_rig(cam)
+        img = pycolmap.Image(name=str(names[k]), keypoints=np.asarray(keypoints[k], dtype=np.float64), camera_id=k + 1, image_id=k + 1)
+        if posed[k]:
+            R = rotations[k]
+            pose = pycolmap.Rigid3d(np.concatenate([R, (-R @ centres[k])[:, None]], axis=1))
+            rec.add_image_with_trivial_frame(img, pose)
+        else:
+            rec.add_image_with_trivial_frame(img)
+    col = np.full((len(tracks), 3), 128, dtype=np.uint8) if colors is None else np.asarray(colors, dtype=np.uint8)
+    for t in np.flatnonzero(point_valid):
+        s = slice(tracks.ptr[t], tracks.ptr[t + 1])
+        keep = obs_valid[s] & posed[tracks.views[s]]
+        if keep.sum() < 2:
+            continue
+        track = pycolmap.Track()
+        for v, kp in zip(tracks.views[s][keep].tolist(), tracks.keypoints[s][keep].tolist()):
+            track.add_element(v + 1, kp)
+        rec.add_point3D(np.asarray(points[t], dtype=np.float64), track, col[t])
+    return rec
+
+
+def _replace_dir(tmp: Path, dst: Path) -> None:
+    """Move the finished folder ``tmp`` to ``dst`` (an older ``dst`` is replaced only after)."""
+    if dst.exists():
+        old = Path(tempfile.mkdtemp(dir=dst.parent, prefix=dst.name + ".old"))
+        old.rmdir()  # a fresh unused name
+        os.replace(dst, old)
+        os.replace(tmp, dst)
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        os.replace(tmp, dst)
+
+
+def write_colmap_model(rec: Any, folder: str | os.PathLike, binary: bool = True) -> Path:
+    """Write ``rec`` as a COLMAP model (``cameras``, ``images``, ``points3D``, ``rigs``, ``frames``;
+    binary or text) into ``folder``, atomically."""
+    dst = Path(folder)
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(dir=dst.parent, prefix=dst.name + ".tmp"))
+    try:
+        (rec.write_binary if binary else rec.write_text)(str(tmp))
+        _replace_dir(tmp, dst)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return dst
+
+
+def write_ply(path: str | os.PathLike, points: np.ndarray, colors: np.ndarray | None = None,
+              cameras: np.ndarray | None = None) -> Path:
+    """Binary little-endian PLY of ``points (P, 3)`` with uint8 RGB ``colors (P, 3)``; camera
+    centres ``(N, 3)`` (optional) are appended as red vertices. Written atomically."""
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if not np.all(np.isfinite(P)):
+        raise InputError("write_ply: points contain NaN or inf (pass only the valid points)")
+    col = np.full((len(P), 3), 200, np.uint8) if colors is None else np.asarray(colors, dtype=np.uint8).reshape(-1, 3)
+    if cameras is not None:
+        cams = np.asarray(cameras, dtype=np.float64).reshape(-1, 3)
+        cams = cams[np.all(np.isfinite(cams), axis=1)]
+        P = np.concatenate([P, cams])
+        col = np.concatenate([col, np.tile(np.array([[255, 0, 0]], np.uint8), (len(cams), 1))])
+    rec = np.empty(len(P), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("r", "u1"), ("g", "u1"), ("b", "u1")])
+    rec["x"], rec["y"], rec["z"] = P[:, 0], P[:, 1], P[:, 2]
+    rec["r"], rec["g"], rec["b"] = col[:, 0], col[:, 1], col[:, 2]
+    header = ("ply\nformat binary_little_endian 1.0\n"
+              f"element vertex {len(P)}\nproperty float x\nproperty float y\nproperty float z\n"
+              "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n").encode()
+    dst = Path(path)
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=dst.parent, suffix=".ply.tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(header)
+            fh.write(rec.tobytes())
+        os.replace(tmp, dst)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return dst
