@@ -11,7 +11,7 @@ with weights. Steps (global_sfm notes, section 3; as openMVG / COLMAP build them
    every solve factors one sparse ``(N-1) x (N-1)`` weighted Laplacian (root column dropped) with
    ``scipy.sparse.linalg.splu`` and solves three right-hand sides.
 3. L1RA: ``min sum_e w_e ||D x - b||_1`` by scaled ADMM (``rho = 1``, cached factorisation of
-   ``D^T D``), relinearised each outer step (``l1_outer`` times or until ``max |x| < l1_tol``).
+   ``D^T D``), relinearised each outer step (``l1_outer`` = 5 times as COLMAP and Theia, at most 300 ADMM steps each or until ``max |x| < l1_tol``).
 4. IRLS with Geman-McClure weights per edge, ``w_e sigma^2 / (e^2 + sigma^2)^2`` with
    ``e = ||b_ij||`` (COLMAP's per-edge form), ``sigma = 5 deg``, relinearised every iteration,
    until ``max |x| < irls_tol``.
@@ -43,7 +43,7 @@ SIGMA_DEG = 5.0  # Geman-McClure scale (Chatterjee-Govindu, openMVG, COLMAP)
 X84_FACTOR = 5.2  # median + 5.2 MAD (openMVG)
 MAD_TO_SIGMA = 1.4826
 ADMM_RHO = 1.0
-ADMM_TOL = 1e-6  # rad: primal residual and change of z (L1RA only initialises the IRLS)
+ADMM_TOL = 1e-5  # rad: primal residual and change of z (L1RA only initialises the IRLS)
 
 
 @dataclass
@@ -203,8 +203,8 @@ def average_rotations(
     *,
     init: np.ndarray | None = None,
     l1: bool = True,
-    l1_outer: int = 10,
-    l1_admm_iterations: int = 1000,
+    l1_outer: int = 5,
+    l1_admm_iterations: int = 300,
     l1_tol: float = 1e-3,
     irls_iterations: int = 100,
     irls_tol: float = 1e-13,
