@@ -31,6 +31,7 @@ def test_sfm_command_writes_outputs(sfm_run):
     n_vertex = int(head.split("element vertex ")[1].split()[0])
     assert n_vertex > 100 + N_IMAGES
     assert (out / "poses.json").is_file()
+    assert (out / "reconstruction.png").stat().st_size > 1000
 
 
 def test_sfm_colmap_model_reads_back_and_matches_ground_truth(sfm_run):

@@ -5,7 +5,8 @@ the library, print; hooked into :mod:`poseonly.cli` by :func:`add_parsers`).
                  [--cache DIR] [--text] [--seed S]
 
 Writes ``DIR/sparse/0`` (COLMAP binary model, or text with ``--text``; needs pycolmap),
-``DIR/points.ply`` (valid points, coloured, camera centres in red) and ``DIR/poses.json``.
+``DIR/points.ply`` (valid points, coloured, camera centres in red), ``DIR/poses.json`` and
+``DIR/reconstruction.png`` (cameras and points, as the paper's last figure; needs matplotlib).
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ def _read_K(path: str) -> np.ndarray:
 def cmd_sfm(args: argparse.Namespace) -> int:
     from .export import (
         build_colmap_reconstruction,
+        plot_reconstruction,
         point_colors,
         write_colmap_model,
         write_ply,
@@ -81,6 +83,9 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     colors = point_colors(images, [f.keypoints for f in ig.features], res.tracks, rec.base[:, 0])
     out.mkdir(parents=True, exist_ok=True)
     write_ply(out / "points.ply", rec.points[rec.valid], colors[rec.valid], res.centres)
+    fig = plot_reconstruction(out / "reconstruction.png", rec.points[rec.valid], res.centres, res.rotations, colors[rec.valid])
+    if fig is not None:
+        print(f"figure: {fig}")
     poses: dict[str, Any] = {"convention": "X_cam = R (X_world - c)", "images": []}
     for k, p in enumerate(images):
         poses["images"].append({"name": p.name, "R": None if not est[k] else res.rotations[k].tolist(),

@@ -16,7 +16,7 @@ import numpy as np
 from ..geometry import InputError
 from .tracks import Tracks
 
-__all__ = ["build_colmap_reconstruction", "point_colors", "write_colmap_model", "write_ply"]
+__all__ = ["build_colmap_reconstruction", "plot_reconstruction", "point_colors", "write_colmap_model", "write_ply"]
 
 
 def point_colors(image_paths: Sequence[str | os.PathLike], keypoints: Sequence[np.ndarray], tracks: Tracks,
@@ -145,4 +145,42 @@ def write_ply(path: str | os.PathLike, points: np.ndarray, colors: np.ndarray | 
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+    return dst
+
+
+def plot_reconstruction(path: str | os.PathLike, points: np.ndarray, centres: np.ndarray, rotations: np.ndarray,
+                        colors: np.ndarray | None = None, max_points: int = 50000, seed: int = 0) -> Path | None:
+    """Figure of the cameras (centres and optical axes) and points, as the paper's last figure
+    (3D view, matplotlib; ``None`` when matplotlib is missing). ``points (P, 3)``, ``centres
+    (N, 3)``, ``rotations (N, 3, 3)`` world -> camera; at most ``max_points`` points drawn
+    (a seeded subsample)."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:  # pragma: no cover
+        return None
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    col = None if colors is None else np.asarray(colors)[: len(P)] / 255.0
+    if len(P) > max_points:
+        sel = np.random.default_rng(seed).choice(len(P), max_points, replace=False)
+        P = P[sel]
+        col = None if col is None else col[sel]
+    ok = np.all(np.isfinite(centres), axis=1)
+    C, R = centres[ok], rotations[ok]
+    fig = plt.figure(figsize=(8, 6))
+    ax = fig.add_subplot(111, projection="3d")
+    ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=0.3, c=col if col is not None else "0.4", depthshade=False)
+    scale = 0.05 * float(np.ptp(P, axis=0).max()) if len(P) else 1.0
+    axes = R[:, 2, :]  # optical axes in world coordinates
+    ax.quiver(C[:, 0], C[:, 1], C[:, 2], axes[:, 0], axes[:, 1], axes[:, 2], length=scale, color="r")
+    ax.scatter(C[:, 0], C[:, 1], C[:, 2], s=12, c="r")
+    ax.set_title(f"{len(C)} cameras, {len(points)} points (rotation averaging + LiGT, no BA)")
+    dst = Path(path)
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    tmp = dst.with_name(dst.stem + ".tmp" + dst.suffix)
+    fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    os.replace(tmp, dst)
     return dst
