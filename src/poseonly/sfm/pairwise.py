@@ -63,7 +63,7 @@ def _atomic_save(path: Path, **arrays: np.ndarray) -> None:
     os.close(fd)
     try:
         with open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)
+            np.savez(fh, **arrays)  # type: ignore[arg-type]
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

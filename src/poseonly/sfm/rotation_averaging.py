@@ -276,8 +276,8 @@ def average_rotations(
         bad = emask & (res > thr)
         if not np.any(bad):
             break
-        for k in np.flatnonzero(bad):
-            outliers.append((int(p[k, 0]), int(p[k, 1]), float(res[k])))
+        for e in np.flatnonzero(bad).tolist():
+            outliers.append((int(p[e, 0]), int(p[e, 1]), float(res[e])))
         edge_ok &= ~bad
         old_views = views
         vmask, emask = component(edge_ok)
