@@ -1,15 +1,23 @@
-"""pycolmap's (GLOMAP's) rotation averaging and global positioning on the same relative poses and
-tracks as ours: the side-by-side anchor of ``poseonly experiment global``.
+"""pycolmap anchors of ``poseonly experiment global``.
 
-Input is exactly what our pipeline consumed: the view graph's relative poses (as
-``PoseGraphEdge(cam2_from_cam1, num_matches = inliers)``) and our tracks (as points3D of a
-``pycolmap.Reconstruction`` with one PINHOLE camera per image). pycolmap's defaults are used, with
-a fixed random seed; no bundle adjustment.
+* :func:`run`: pycolmap's (GLOMAP's) rotation averaging and global positioning on exactly what our
+  global stages consumed: the view graph's relative poses (``PoseGraphEdge(cam2_from_cam1,
+  num_matches = inliers)``) and our tracks (points3D of a ``pycolmap.Reconstruction`` with one
+  PINHOLE camera per image); pycolmap's defaults, fixed seed, no bundle adjustment.
+* :func:`run_mappers`: pycolmap's own end-to-end pipelines, the global mapper (GLOMAP) and the
+  incremental mapper, with their defaults (bundle adjustment included, focal refinement on), on the
+  same images, SIFT keypoints and putative matches as ours, written to a fresh COLMAP database; their
+  own two-view verification (``pycolmap.verify_matches``) replaces ours.
 """
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
 import time
+from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -17,7 +25,7 @@ import numpy as np
 from .pairwise import ImageGraph
 from .tracks import Tracks
 
-__all__ = ["SEED", "run"]
+__all__ = ["SEED", "run", "run_mappers"]
 
 SEED = 0
 
@@ -86,3 +94,67 @@ def run(ig: ImageGraph, tracks: Tracks) -> dict[str, dict[str, Any]]:
     R, C = _poses(rec, n)
     return {"rotation averaging + global positioning": {"rotations": R, "centres": C, "time_s": t_ra + t_gp,
                                                         "rotation_averaging_rotations": R_ra}}
+
+
+def _write_database(db_path: Path, names: Sequence[str], ig: ImageGraph) -> None:
+    import pycolmap
+
+    with pycolmap.Database.open(str(db_path)) as db:
+        for k, (name, f) in enumerate(zip(names, ig.features)):
+            K = ig.K[k]
+            cam = pycolmap.Camera(model="PINHOLE", width=int(f.image_size[0]), height=int(f.image_size[1]),
+                                  params=[K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
+            cid = db.write_camera(cam)
+            sensor = pycolmap.sensor_t(pycolmap.SensorType.CAMERA, cid)
+            rig = pycolmap.Rig()
+            rig.add_ref_sensor(sensor)
+            rid = db.write_rig(rig)
+            iid = db.write_image(pycolmap.Image(name=str(name), camera_id=cid))
+            frame = pycolmap.Frame()
+            frame.rig_id = rid
+            frame.add_data_id(pycolmap.data_t(sensor, iid))
+            db.write_frame(frame)
+            db.write_keypoints(iid, np.asarray(f.keypoints, dtype=np.float32))
+        for (i, j), idx in sorted(ig.putative.items()):
+            db.write_matches(i + 1, j + 1, np.asarray(idx, dtype=np.uint32))
+
+
+def run_mappers(ig: ImageGraph, image_paths: Sequence[str | os.PathLike]) -> dict[str, dict[str, Any]]:
+    """``{"global mapper (GLOMAP)": ..., "incremental mapper": ...}`` with ``rotations``, ``centres``
+    (NaN where not registered; the largest model) and ``time_s`` (verification included)."""
+    import pycolmap
+
+    paths = [Path(p) for p in image_paths]
+    if len({p.parent for p in paths}) != 1:
+        raise ValueError("run_mappers needs all images in one folder")
+    names = [p.name for p in paths]
+    n = len(paths)
+    work = Path(tempfile.mkdtemp(prefix="poseonly_colmap_"))
+    try:
+        db = work / "database.db"
+        _write_database(db, names, ig)
+        pairs = work / "pairs.txt"
+        pairs.write_text("".join(f"{names[i]} {names[j]}\n" for (i, j) in sorted(ig.putative)))
+        t0 = time.perf_counter()
+        pycolmap.verify_matches(str(db), str(pairs))
+        t_verify = time.perf_counter() - t0
+        out: dict[str, dict[str, Any]] = {}
+        for label, fn in (("global mapper (GLOMAP)", pycolmap.global_mapping), ("incremental mapper", pycolmap.incremental_mapping)):
+            sub = work / label.split()[0]
+            sub.mkdir()
+            t0 = time.perf_counter()
+            recs = fn(str(db), str(paths[0].parent), str(sub))
+            dt = time.perf_counter() - t0 + t_verify
+            R = np.full((n, 3, 3), np.nan)
+            C = np.full((n, 3), np.nan)
+            if recs:
+                best = max(recs.values(), key=lambda r: r.num_reg_images())
+                for img in best.images.values():
+                    if img.has_pose:
+                        T = img.cam_from_world().matrix()
+                        k = names.index(img.name)
+                        R[k], C[k] = T[:, :3], -T[:, :3].T @ T[:, 3]
+            out[label] = {"rotations": R, "centres": C, "time_s": dt}
+        return out
+    finally:
+        shutil.rmtree(work, ignore_errors=True)

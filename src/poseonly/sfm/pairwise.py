@@ -48,13 +48,15 @@ class PairwiseOptions:
 @dataclass
 class ImageGraph:
     """``features`` per image, the :class:`ViewGraph` and per-stage ``times_s``; ``K`` per image
-    ``(N, 3, 3)``; ``pair_stats`` ``(i, j, putative, inliers, status)``."""
+    ``(N, 3, 3)``; ``pair_stats`` ``(i, j, putative, inliers, status)``; ``putative[(i, j)]`` the
+    ``(k, 2)`` putative keypoint matches of every pair that was matched."""
 
     features: list[Features]
     K: np.ndarray
     graph: ViewGraph
     pair_stats: list[tuple[int, int, int, int, str]] = field(default_factory=list)
     times_s: dict[str, float] = field(default_factory=dict)
+    putative: dict[tuple[int, int], np.ndarray] = field(default_factory=dict)
 
 
 def _atomic_save(path: Path, **arrays: np.ndarray) -> None:
@@ -159,12 +161,14 @@ def image_view_graph(
     times["features"] = time.perf_counter() - t0
     plist = [(i, j) for i in range(n) for j in range(i + 1, n)] if pairs is None else [(min(a, b), max(a, b)) for a, b in pairs]
     graph = ViewGraph(n)
+    putative: dict[tuple[int, int], np.ndarray] = {}
     stats: list[tuple[int, int, int, int, str]] = []
     tm = te = 0.0
     for k, (i, j) in enumerate(wrap(plist, desc="pairs", total=len(plist))):
         t1 = time.perf_counter()
         idx = _matches(feats[i], feats[j], digests[i], digests[j], opt, cache)
         tm += time.perf_counter() - t1
+        putative[(i, j)] = idx
         if len(idx) < opt.min_matches:
             graph.rejected.append((i, j, f"{len(idx)} putative matches"))
             stats.append((i, j, len(idx), 0, "few_matches"))
@@ -176,7 +180,7 @@ def image_view_graph(
         stats.append((i, j, len(idx), int(r.num_inliers), r.status))
     times["matching"] = tm
     times["two_view"] = te
-    return ImageGraph(feats, Ks, graph, stats, times)
+    return ImageGraph(feats, Ks, graph, stats, times, putative)
 
 
 def observation_bearings(tracks: Tracks, features: Sequence[Features], K: np.ndarray) -> np.ndarray:
