@@ -62,3 +62,26 @@ def test_sfm_colmap_model_reads_back_and_matches_ground_truth(sfm_run):
 def test_sfm_command_bad_input(tmp_path, capsys):
     assert main(["sfm", str(tmp_path / "nope"), "--K", "K.txt", "--out", str(tmp_path / "o")]) == 2
     assert "image folder not found" in capsys.readouterr().err
+
+
+def test_sfm_command_from_colmap_database(tmp_path):
+    """`poseonly sfm --database`: keypoints and matches read from a COLMAP database (written here
+    from our own features of 4 images), the model read back by pycolmap."""
+    pycolmap = pytest.importorskip("pycolmap")
+    if not (SCENE / "images" / "K.txt").is_file():
+        pytest.skip("shared Strecha data not available")
+    from poseonly.io.strecha import load_scene
+    from poseonly.sfm.colmap_anchor import write_database
+    from poseonly.sfm.pairwise import PairwiseOptions, image_view_graph
+
+    sc = load_scene(SCENE)
+    paths = sc.image_paths[:N_IMAGES]
+    ig = image_view_graph(paths, sc.K, options=PairwiseOptions(max_features=2000), cache_dir=tmp_path / "cache")
+    db = tmp_path / "database.db"
+    write_database(db, [p.name for p in paths], ig)
+    out = tmp_path / "out"
+    assert main(["sfm", str(SCENE / "images"), "--database", str(db), "--out", str(out), "--no-progress"]) == 0
+    rec = pycolmap.Reconstruction(str(out / "sparse" / "0"))
+    assert rec.num_reg_images() == N_IMAGES
+    assert rec.num_points3D() > 100
+    assert rec.compute_mean_reprojection_error() < 2.0

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..io.strecha import find_scenes, load_scene
 from ..sfm.align import evaluate_poses, pose_auc, relative_pose_errors
-from ..sfm.pairwise import PairwiseOptions, image_view_graph, observation_bearings
+from ..sfm.pairwise import PairwiseOptions, image_view_graph
 from ..sfm.pipeline import GlobalOptions, run_global
 from ..sfm.so3 import angle_deg
 from ._common import code_version, machine, markdown_table, progress, write_outputs
@@ -85,7 +85,7 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
                           progress=lambda it, **kw: progress(it, **kw))
     t_pairs = time.perf_counter() - t0
     gopt = GlobalOptions(ligt_reweight=args.reweight)
-    res = run_global(ig.graph, lambda tr: observation_bearings(tr, ig.features, ig.K), float(sc.K[0, 0]), gopt)
+    res = run_global(ig.graph, ig.bearings, float(sc.K[0, 0]), gopt)
     ev = _scores(res.rotations, res.centres, R_gt, C_gt)
     out: dict[str, Any] = {
         "scene": sc.name,

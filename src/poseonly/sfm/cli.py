@@ -3,6 +3,7 @@ the library, print; hooked into :mod:`poseonly.cli` by :func:`add_parsers`).
 
     poseonly sfm IMAGES_DIR --K K.txt --out DIR [--max-features N] [--max-images N] [--threshold-px T]
                  [--cache DIR] [--text] [--seed S]
+    poseonly sfm IMAGES_DIR --database colmap.db --out DIR      (keypoints and matches from COLMAP)
 
 Writes ``DIR/sparse/0`` (COLMAP binary model, or text with ``--text``; needs pycolmap),
 ``DIR/points.ply`` (valid points, coloured, camera centres in red), ``DIR/poses.json`` and
@@ -55,26 +56,39 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         write_colmap_model,
         write_ply,
     )
-    from .pairwise import PairwiseOptions, image_view_graph, observation_bearings
+    from .pairwise import PairwiseOptions, image_view_graph
     from .pipeline import run_global
 
     d = Path(args.images)
     if not d.is_dir():
         raise InputError(f"image folder not found: {d}")
-    images = sorted(p for p in d.iterdir() if p.is_file() and p.suffix in IMAGE_EXTS)
-    if args.max_images:
-        images = images[: args.max_images]
-    if len(images) < 3:
-        raise InputError(f"{d} holds {len(images)} images; global SfM needs at least 3")
-    K = _read_K(args.K)
     out = Path(args.out)
     t0 = time.perf_counter()
     opt = PairwiseOptions(max_features=args.max_features, threshold_px=args.threshold_px, seed=args.seed)
     cache = args.cache if args.cache else out / "cache"
-    ig = image_view_graph(images, K, options=opt, cache_dir=cache, progress=None if args.no_progress else _progress)
+    prog = None if args.no_progress else _progress
+    if args.database:
+        from .colmap_db import database_view_graph
+
+        ig, names = database_view_graph(args.database, options=opt, cache_dir=cache, progress=prog)
+        images = [d / nm for nm in names]
+        missing = [str(p) for p in images if not p.is_file()]
+        if missing:
+            raise InputError(f"images of the database not found in {d}: {missing[:3]}")
+        K = ig.K[0]
+    else:
+        if not args.K:
+            raise InputError("give --K K.txt (or --database colmap.db, which holds the cameras)")
+        images = sorted(p for p in d.iterdir() if p.is_file() and p.suffix in IMAGE_EXTS)
+        if args.max_images:
+            images = images[: args.max_images]
+        if len(images) < 3:
+            raise InputError(f"{d} holds {len(images)} images; global SfM needs at least 3")
+        K = _read_K(args.K)
+        ig = image_view_graph(images, K, options=opt, cache_dir=cache, progress=prog)
     print(f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
           f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)")
-    res = run_global(ig.graph, lambda tr: observation_bearings(tr, ig.features, ig.K), float(K[0, 0]))
+    res = run_global(ig.graph, ig.bearings, float(0.5 * (K[0, 0] + K[1, 1])))
     est = np.all(np.isfinite(res.centres), axis=1)
     rec = res.reconstruction
     print(f"cameras: {int(est.sum())}/{len(images)} posed; outlier edges: {len(res.rotation.outlier_edges)}; "
@@ -118,7 +132,8 @@ def add_parsers(sub: Any, esub: Any) -> None:
     """Add ``sfm`` to the command subparsers ``sub`` and ``global`` to the experiment ones ``esub``."""
     s = sub.add_parser("sfm", help="global SfM of an image folder (rotation averaging + LiGT + analytical points)")
     s.add_argument("images", help="folder of images (.jpg / .png), one calibrated camera")
-    s.add_argument("--K", required=True, help="text file with the 3x3 calibration matrix")
+    s.add_argument("--K", help="text file with the 3x3 calibration matrix (not needed with --database)")
+    s.add_argument("--database", help="COLMAP database with cameras, keypoints and matches (replaces our features and matching)")
     s.add_argument("--out", required=True, help="output folder")
     s.add_argument("--max-features", type=int, default=8000)
     s.add_argument("--max-images", type=int, help="use only the first N images (sorted by name)")

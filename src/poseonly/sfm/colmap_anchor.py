@@ -25,7 +25,7 @@ import numpy as np
 from .pairwise import ImageGraph
 from .tracks import Tracks
 
-__all__ = ["SEED", "run", "run_mappers"]
+__all__ = ["SEED", "run", "run_mappers", "write_database"]
 
 SEED = 0
 
@@ -96,7 +96,9 @@ def run(ig: ImageGraph, tracks: Tracks) -> dict[str, dict[str, Any]]:
                                                         "rotation_averaging_rotations": R_ra}}
 
 
-def _write_database(db_path: Path, names: Sequence[str], ig: ImageGraph) -> None:
+def write_database(db_path: Path, names: Sequence[str], ig: ImageGraph) -> None:
+    """A new COLMAP database at ``db_path``: one PINHOLE camera, trivial rig and frame per image
+    (``names``), the keypoints and the putative matches of ``ig``."""
     import pycolmap
 
     with pycolmap.Database.open(str(db_path)) as db:
@@ -132,7 +134,7 @@ def run_mappers(ig: ImageGraph, image_paths: Sequence[str | os.PathLike]) -> dic
     work = Path(tempfile.mkdtemp(prefix="poseonly_colmap_"))
     try:
         db = work / "database.db"
-        _write_database(db, names, ig)
+        write_database(db, names, ig)
         pairs = work / "pairs.txt"
         pairs.write_text("".join(f"{names[i]} {names[j]}\n" for (i, j) in sorted(ig.putative)))
         t0 = time.perf_counter()

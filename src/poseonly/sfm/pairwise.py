@@ -21,11 +21,11 @@ import numpy as np
 
 from ..api import estimate_relative_pose
 from ..features import Features, extract_features, match_features
-from ..geometry import InputError, bearings_from_pixels
+from ..geometry import InputError, bearings_from_normalized, bearings_from_pixels
 from .tracks import Tracks
 from .viewgraph import ViewGraph
 
-__all__ = ["ImageGraph", "PairwiseOptions", "image_view_graph", "observation_bearings"]
+__all__ = ["ImageGraph", "PairwiseOptions", "TwoView", "image_view_graph", "observation_bearings", "two_view"]
 
 MIN_PUTATIVE = 30
 
@@ -57,6 +57,12 @@ class ImageGraph:
     pair_stats: list[tuple[int, int, int, int, str]] = field(default_factory=list)
     times_s: dict[str, float] = field(default_factory=dict)
     putative: dict[tuple[int, int], np.ndarray] = field(default_factory=dict)
+    normalized: list[np.ndarray] | None = None
+
+    def bearings(self, tracks: Tracks) -> np.ndarray:
+        """Unit camera-frame bearings ``(M, 3)`` of the tracks' observations (from the undistorted
+        normalized keypoints when present, else from the pixels and ``K``)."""
+        return observation_bearings(tracks, self.features, self.K, self.normalized)
 
 
 def _atomic_save(path: Path, **arrays: np.ndarray) -> None:
@@ -109,14 +115,17 @@ class TwoView:
     status: str
 
 
-def _two_view(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, opt: PairwiseOptions, seed: int, cache: Path | None) -> TwoView:
-    """:func:`poseonly.estimate_relative_pose` of one pair, cached by the inputs and options."""
+def two_view(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray | None, K2: np.ndarray | None, opt: PairwiseOptions,
+             seed: int, cache: Path | None, focal_px: float | None = None) -> TwoView:
+    """:func:`poseonly.estimate_relative_pose` of one pair (pixels ``(n, 2)`` with ``K1, K2``, or
+    normalized coordinates with ``K = None`` and ``focal_px``), cached by the inputs and options."""
     f = None
     if cache is not None:
         h = hashlib.sha1()
         for a in (u1, u2, K1, K2):
-            h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
-        h.update(f"{opt.method}-{opt.threshold_px}-{seed}".encode())
+            if a is not None:
+                h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+        h.update(f"{opt.method}-{opt.threshold_px}-{seed}-{focal_px}".encode())
         f = cache / "twoview" / f"r_{h.hexdigest()[:24]}.npz"
         if f.is_file():
             try:
@@ -124,7 +133,8 @@ def _two_view(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, op
                     return TwoView(z["R"], z["t"], z["inliers"], int(z["num_inliers"]), str(z["status"]))
             except Exception:  # noqa: BLE001, S110 - unreadable cache entry: recompute
                 pass
-    r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, threshold_px=opt.threshold_px, seed=seed)
+    extra = {} if focal_px is None else {"focal_px": float(focal_px)}
+    r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, threshold_px=opt.threshold_px, seed=seed, **extra)
     out = TwoView(np.asarray(r.R), np.asarray(r.t), np.asarray(r.inliers, dtype=bool), int(r.num_inliers), str(r.status))
     if f is not None:
         _atomic_save(f, R=out.R, t=out.t, inliers=out.inliers, num_inliers=np.array(out.num_inliers), status=np.array(out.status))
@@ -174,7 +184,7 @@ def image_view_graph(
             stats.append((i, j, len(idx), 0, "few_matches"))
             continue
         t1 = time.perf_counter()
-        r = _two_view(feats[i].keypoints[idx[:, 0]], feats[j].keypoints[idx[:, 1]], Ks[i], Ks[j], opt, opt.seed + k, cache)
+        r = two_view(feats[i].keypoints[idx[:, 0]], feats[j].keypoints[idx[:, 1]], Ks[i], Ks[j], opt, opt.seed + k, cache)
         te += time.perf_counter() - t1
         graph.add_result(i, j, r, idx)
         stats.append((i, j, len(idx), int(r.num_inliers), r.status))
@@ -183,10 +193,15 @@ def image_view_graph(
     return ImageGraph(feats, Ks, graph, stats, times, putative)
 
 
-def observation_bearings(tracks: Tracks, features: Sequence[Features], K: np.ndarray) -> np.ndarray:
-    """Unit camera-frame bearings ``(M, 3)`` of every track observation (``K (N, 3, 3)``)."""
+def observation_bearings(tracks: Tracks, features: Sequence[Features], K: np.ndarray,
+                         normalized: Sequence[np.ndarray] | None = None) -> np.ndarray:
+    """Unit camera-frame bearings ``(M, 3)`` of every track observation: from the pixels and
+    ``K (N, 3, 3)``, or from undistorted ``normalized`` keypoints ``(m_k, 2)`` per image when given."""
     out = np.empty((tracks.num_observations, 3))
     for v in np.unique(tracks.views):
         sel = np.flatnonzero(tracks.views == v)
-        out[sel] = bearings_from_pixels(features[v].keypoints[tracks.keypoints[sel]], K[v])
+        if normalized is not None:
+            out[sel] = bearings_from_normalized(normalized[v][tracks.keypoints[sel]])
+        else:
+            out[sel] = bearings_from_pixels(features[v].keypoints[tracks.keypoints[sel]], K[v])
     return out
