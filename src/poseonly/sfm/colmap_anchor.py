@@ -5,9 +5,10 @@
   num_matches = inliers)``) and our tracks (points3D of a ``pycolmap.Reconstruction`` with one
   PINHOLE camera per image); pycolmap's defaults, fixed seed, no bundle adjustment.
 * :func:`run_mappers`: pycolmap's own end-to-end pipelines, the global mapper (GLOMAP) and the
-  incremental mapper, with their defaults (bundle adjustment included, focal refinement on), on the
-  same images, SIFT keypoints and putative matches as ours, written to a fresh COLMAP database; their
-  own two-view verification (``pycolmap.verify_matches``) replaces ours.
+  incremental mapper, with their defaults (bundle adjustment included) except that the known
+  calibration is a focal prior and is kept fixed (as in ours), seed 0, on the same images, SIFT
+  keypoints and putative matches as ours, written to a fresh COLMAP database; their own two-view
+  verification (``pycolmap.verify_matches``) replaces ours.
 """
 
 from __future__ import annotations
@@ -106,6 +107,7 @@ def write_database(db_path: Path, names: Sequence[str], ig: ImageGraph) -> None:
             K = ig.K[k]
             cam = pycolmap.Camera(model="PINHOLE", width=int(f.image_size[0]), height=int(f.image_size[1]),
                                   params=[K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
+            cam.has_prior_focal_length = True  # the calibration is known, as for our pipeline
             cid = db.write_camera(cam)
             sensor = pycolmap.sensor_t(pycolmap.SensorType.CAMERA, cid)
             rig = pycolmap.Rig()
@@ -141,11 +143,20 @@ def run_mappers(ig: ImageGraph, image_paths: Sequence[str | os.PathLike]) -> dic
         pycolmap.verify_matches(str(db), str(pairs))
         t_verify = time.perf_counter() - t0
         out: dict[str, dict[str, Any]] = {}
-        for label, fn in (("global mapper (GLOMAP)", pycolmap.global_mapping), ("incremental mapper", pycolmap.incremental_mapping)):
+        gopt = pycolmap.GlobalPipelineOptions()
+        gopt.random_seed = SEED
+        gopt.mapper.bundle_adjustment.refine_focal_length = False  # known calibration, as ours
+        gopt.mapper.bundle_adjustment.refine_extra_params = False
+        iopt = pycolmap.IncrementalPipelineOptions()
+        iopt.random_seed = SEED
+        iopt.ba_refine_focal_length = False
+        iopt.ba_refine_extra_params = False
+        for label, fn, o in (("global mapper (GLOMAP)", pycolmap.global_mapping, gopt),
+                             ("incremental mapper", pycolmap.incremental_mapping, iopt)):
             sub = work / label.split()[0]
             sub.mkdir()
             t0 = time.perf_counter()
-            recs = fn(str(db), str(paths[0].parent), str(sub))
+            recs = fn(str(db), str(paths[0].parent), str(sub), o)  # type: ignore[arg-type]
             dt = time.perf_counter() - t0 + t_verify
             R = np.full((n, 3, 3), np.nan)
             C = np.full((n, 3), np.nan)
