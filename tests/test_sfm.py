@@ -291,3 +291,19 @@ def test_run_global_on_synthetic_view_graph_exact():
     assert np.radians(ev["rot_max_deg"]) < EXACT
     assert ev["pos_max"] / ev["extent"] < EXACT
     assert res.reconstruction.num_valid == len(res.tracks)
+
+
+def test_pose_auc_and_relative_errors():
+    from poseonly.sfm.align import pose_auc, relative_pose_errors
+
+    assert pose_auc(np.zeros(10))["auc@1"] == pytest.approx(1.0)
+    assert pose_auc(np.full(10, np.inf))["auc@10"] == 0.0
+    # errors uniform on [0, 10]: AUC@10 = 1/2
+    assert pose_auc(np.linspace(0, 10, 100001))["auc@10"] == pytest.approx(0.5, abs=1e-4)
+    s = make_scene(6, 300, seed=13)
+    dR, dt = relative_pose_errors(s.rotations, s.centres, s.rotations, s.centres)
+    assert len(dR) == 15 and dR.max() < 1e-9 and dt.max() < 1e-9
+    C = s.centres.copy()
+    C[2] = np.nan
+    dR, _ = relative_pose_errors(s.rotations, C, s.rotations, s.centres)
+    assert np.sum(np.isinf(dR)) == 5

@@ -110,7 +110,7 @@ def relative_pose_errors(rotations: np.ndarray, centres: np.ndarray, R_gt: np.nd
     Re, te = rel(Rs, Cs)
     Rg, tg = rel(R_gt, C_gt)
     dR = angle_deg(np.einsum("pji,pjk->pik", Rg, Re))
-    dt = np.degrees(np.arccos(np.clip(np.sum(te * tg, axis=1), -1.0, 1.0)))
+    dt = np.degrees(np.arctan2(np.linalg.norm(np.cross(te, tg), axis=1), np.sum(te * tg, axis=1)))  # accurate near 0
     bad = ~(est[i] & est[j])
     dR[bad] = np.inf
     dt[bad] = np.inf
