@@ -182,10 +182,10 @@ def _pos_rel_err(C, C_gt):
     return np.linalg.norm(sim.apply(C[ok]) - C_gt[ok], axis=1).max() / ext
 
 
-@pytest.mark.parametrize("reweight", [0, 2])
-def test_ligt_noise_free_exact(reweight):
+@pytest.mark.parametrize(("reweight", "scale"), [(0, "unit"), (2, "unit"), (0, "z")])
+def test_ligt_noise_free_exact(reweight, scale):
     s = make_scene(25, 2000, seed=5)
-    lg = ligt_positions(s.rotations, s.tracks, s.bearings, reweight_iterations=reweight)
+    lg = ligt_positions(s.rotations, s.tracks, s.bearings, reweight_iterations=reweight, bearing_scale=scale)
     assert lg.estimated.all()
     assert _pos_rel_err(lg.centres, s.centres) < EXACT
     assert lg.info["positive_depth_fraction"] == 1.0

@@ -121,13 +121,16 @@ def ligt_positions(
     min_parallax_deg: float = MIN_PARALLAX_DEG,
     reference: int | None = None,
     reweight_iterations: int = 0,
+    bearing_scale: str = "unit",
 ) -> LiGTResult:
     """Camera centres ``(N, 3)`` from global ``rotations (N, 3, 3)`` (world -> camera, NaN for
     views without one), ``tracks`` and their unit camera-frame ``bearings (M, 3)``.
 
     ``reweight_iterations > 0`` re-solves with every row triple divided by ``theta^2 ||X - c_i||``
     of the previous solution (its residual becomes the angular error of the observation; openMVG's
-    LiGT is ``0``)."""
+    LiGT is ``0``). ``bearing_scale``: ``"unit"`` bearings (the paper) or ``"z"`` normalized image
+    coordinates ``(x, y, 1)`` (openMVG); the rows are homogeneous in the bearings, so this changes the
+    implicit weighting only."""
     times: dict[str, float] = {}
     t0 = time.perf_counter()
     Rg = np.asarray(rotations, dtype=np.float64)
@@ -141,7 +144,14 @@ def ligt_positions(
         raise InputError("bearings contain NaN or inf")
     if len(tracks) and tracks.views.max() >= n:
         raise InputError(f"tracks reference view {tracks.views.max()} but only {n} rotations are given")
-    f = f / np.linalg.norm(f, axis=1, keepdims=True)
+    if bearing_scale == "unit":
+        f = f / np.linalg.norm(f, axis=1, keepdims=True)
+    elif bearing_scale == "z":  # normalized image coordinates (x, y, 1), openMVG's input
+        if np.any(f[:, 2] <= 0):
+            raise InputError("bearing_scale='z' needs every bearing in front of its camera (z > 0)")
+        f = f / f[:, 2:3]
+    else:
+        raise InputError(f"bearing_scale must be 'unit' or 'z', got {bearing_scale!r}")
     info: dict[str, object] = {}
     has_R = np.all(np.isfinite(Rg), axis=(1, 2))
     obs_ok = has_R[tracks.views]
