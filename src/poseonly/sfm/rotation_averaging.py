@@ -11,7 +11,10 @@ with weights. Steps (global_sfm notes, section 3; as openMVG / COLMAP build them
    every solve factors one sparse ``(N-1) x (N-1)`` weighted Laplacian (root column dropped) with
    ``scipy.sparse.linalg.splu`` and solves three right-hand sides.
 3. L1RA: ``min sum_e w_e ||D x - b||_1`` by scaled ADMM (``rho = 1``, cached factorisation of
-   ``D^T D``), relinearised each outer step (``l1_outer`` = 5 times as COLMAP and Theia, at most 300 ADMM steps each or until ``max |x| < l1_tol``).
+   ``D^T D``), relinearised after every ``l1_admm_iterations`` (100) steps, up to ``l1_outer`` (50)
+   times or until ``max |x| < l1_tol``. Frequent relinearisation matters: on a 1000-view ring with 10 %
+   random outlier edges, 5 x 300 and 10 x 1000 steps left a block of views 115 deg off (its true edges
+   then rejected as outliers), 20 x 300 and 50 x 100 (converged after 26) found exactly the 952 outliers.
 4. IRLS with Geman-McClure weights per edge, ``w_e sigma^2 / (e^2 + sigma^2)^2`` with
    ``e = ||b_ij||`` (COLMAP's per-edge form), ``sigma = 5 deg``, relinearised every iteration,
    until ``max |x| < irls_tol``.
@@ -203,8 +206,8 @@ def average_rotations(
     *,
     init: np.ndarray | None = None,
     l1: bool = True,
-    l1_outer: int = 5,
-    l1_admm_iterations: int = 300,
+    l1_outer: int = 50,
+    l1_admm_iterations: int = 100,
     l1_tol: float = 1e-3,
     irls_iterations: int = 100,
     irls_tol: float = 1e-13,
