@@ -3,6 +3,7 @@ writes (read back by pycolmap). Skips when the data or pycolmap are absent."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +33,10 @@ def test_sfm_command_writes_outputs(sfm_run):
     assert n_vertex > 100 + N_IMAGES
     assert (out / "poses.json").is_file()
     assert (out / "reconstruction.png").stat().st_size > 1000
+    mask = os.umask(0)
+    os.umask(mask)
+    assert (out / "points.ply").stat().st_mode & 0o777 == 0o666 & ~mask  # atomic writers keep the default mode
+    assert (out / "sparse" / "0").stat().st_mode & 0o777 == 0o777 & ~mask
 
 
 def test_sfm_colmap_model_reads_back_and_matches_ground_truth(sfm_run):

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from .._fileutil import publish
 from ..geometry import InputError
 from .tracks import Tracks
 
@@ -107,6 +108,9 @@ def write_colmap_model(rec: Any, folder: str | os.PathLike, binary: bool = True)
     tmp = Path(tempfile.mkdtemp(dir=dst.parent, prefix=dst.name + ".tmp"))
     try:
         (rec.write_binary if binary else rec.write_text)(str(tmp))
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o777 & ~mask)  # mkdtemp makes 0700; a plain mkdir would not
         _replace_dir(tmp, dst)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -140,7 +144,7 @@ def write_ply(path: str | os.PathLike, points: np.ndarray, colors: np.ndarray | 
         with os.fdopen(fd, "wb") as fh:
             fh.write(header)
             fh.write(rec.tobytes())
-        os.replace(tmp, dst)
+        publish(tmp, dst)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
@@ -176,6 +180,8 @@ def plot_reconstruction(path: str | os.PathLike, points: np.ndarray, centres: np
     axes = R[:, 2, :]  # optical axes in world coordinates
     ax.quiver(C[:, 0], C[:, 1], C[:, 2], axes[:, 0], axes[:, 1], axes[:, 2], length=scale, color="r")
     ax.scatter(C[:, 0], C[:, 1], C[:, 2], s=12, c="r")
+    span = np.ptp(np.concatenate([P, C]), axis=0) if len(P) + len(C) else np.ones(3)
+    ax.set_box_aspect(tuple(np.maximum(span, 1e-3 * max(float(span.max()), 1e-12))))  # true proportions
     ax.set_title(f"{len(C)} cameras, {len(points)} points (rotation averaging + LiGT, no BA)")
     dst = Path(path)
     dst.parent.mkdir(parents=True, exist_ok=True)

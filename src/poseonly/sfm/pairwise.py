@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._fileutil import publish
 from ..api import estimate_relative_pose
 from ..features import Features, extract_features, match_features
 from ..geometry import InputError, bearings_from_normalized, bearings_from_pixels
@@ -72,7 +73,7 @@ def _atomic_save(path: Path, **arrays: np.ndarray) -> None:
     try:
         with open(tmp, "wb") as fh:
             np.savez(fh, **arrays)  # type: ignore[arg-type]
-        os.replace(tmp, path)
+        publish(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
