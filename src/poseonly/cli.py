@@ -205,6 +205,12 @@ def build_parser() -> argparse.ArgumentParser:
         except ImportError:
             pass
         ep.set_defaults(func=cmd_experiment)
+
+    # --- sfm hook (issue 15): `poseonly sfm` and `poseonly experiment global`; logic in poseonly.sfm.cli ---
+    from .sfm.cli import add_parsers as add_sfm_parsers
+
+    add_sfm_parsers(sub, esub)
+    # --- end sfm hook ---
     return p
 
 

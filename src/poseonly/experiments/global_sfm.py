@@ -1,0 +1,184 @@
+"""Global SfM on Strecha scenes (issue 15): the paper's pipeline without bundle adjustment.
+
+``poseonly experiment global PATH [--scenes NAME ...] [--cache DIR] [--max-features N]
+[--threshold-px T] [--reweight K] [--no-anchor] [--ba]``
+
+For every scene folder at or below ``PATH`` (:func:`poseonly.io.strecha.find_scenes`): SIFT
+features (strongest ``--max-features``), mutual ratio-test matches of all pairs, the two-view
+poses of :func:`poseonly.estimate_relative_pose` (default method), then rotation averaging (L1RA +
+IRLS), tracks, LiGT and the analytical reconstruction (:func:`poseonly.sfm.pipeline.run_global`).
+
+Reported per scene: per-camera rotation error and position error after a 7-DoF similarity fitted
+on the camera centres (openMVG's ``main_evalQuality``: the rotation error uses that similarity's
+rotation), the rotation error after the best rotation-only alignment beside it, the mean error of
+the relative rotations of all pairs (alignment-free), position errors in
+ground-truth units (metres) and as a fraction of the extent (largest distance of a ground-truth
+centre from their mean), the AUC of max(dR, dt) over all pairs at 0.5 / 1 / 5 / 10 deg (COLMAP's
+benchmark), the mean error of the input two-view rotations, and the runtime of every stage.
+When pycolmap is installed, its rotation averaging and global positioning on the same relative poses
+and tracks, and its own global (GLOMAP) and incremental mappers (bundle adjustment included) on the
+same images, keypoints and putative matches, are reported beside ours (:mod:`poseonly.sfm.colmap_anchor`). With
+``--ba`` our result after an optional pycolmap bundle adjustment (:mod:`poseonly.sfm.colmap_ba`) is
+reported as a separate row; it is not part of the pipeline's figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..io.strecha import find_scenes, load_scene
+from ..sfm.align import evaluate_poses, pose_auc, relative_pose_errors
+from ..sfm.pairwise import PairwiseOptions, image_view_graph
+from ..sfm.pipeline import GlobalOptions, run_global
+from ..sfm.so3 import angle_deg
+from ._common import code_version, machine, markdown_table, progress, write_outputs
+
+# openMVG GlobalSfM (bundle adjustment included), mean rotation error in degrees, as published by
+# the LiGT authors (PoSDK benchmark data; docs/SFM.md)
+OPENMVG_ROT_DEG = {"Herz-Jesus-P8": 0.0228, "fountain-P11": 0.0297, "entry-P10": 0.0321, "Herz-Jesus-P25": 0.0546,
+                   "castle-P30": 0.0843, "castle-P19": 0.0695}
+DEFAULT_CACHE = "/tmp/sfm_cache"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("path", help="a Strecha scene folder, or a folder holding scene folders")
+    p.add_argument("--scenes", nargs="+", help="only these scene names")
+    p.add_argument("--cache", default=DEFAULT_CACHE, help=f"feature / match / two-view cache (default {DEFAULT_CACHE})")
+    p.add_argument("--max-features", type=int, default=8000, help="strongest SIFT features per image (default 8000)")
+    p.add_argument("--threshold-px", type=float, default=2.0, help="two-view RANSAC threshold in pixels")
+    p.add_argument("--reweight", type=int, default=0, help="LiGT reweighting iterations (default 0 = openMVG's LiGT)")
+    p.add_argument("--no-anchor", action="store_true", help="skip pycolmap's rotation averaging / global positioning")
+    p.add_argument("--ba", action="store_true", help="also report our result after an optional pycolmap bundle adjustment")
+
+
+def _gt(scene) -> tuple[np.ndarray, np.ndarray]:
+    R = np.array([c.R_cw.T for c in scene.cameras])  # world -> camera
+    C = np.array([c.C for c in scene.cameras])
+    return R, C
+
+
+def _input_rotation_error(graph, R_gt: np.ndarray) -> float:
+    p = graph.pairs()
+    Rg = R_gt[p[:, 1]] @ np.transpose(R_gt[p[:, 0]], (0, 2, 1))
+    return float(angle_deg(np.einsum("eji,ejk->eik", Rg, graph.rotations())).mean())
+
+
+def _scores(R: np.ndarray, C: np.ndarray, R_gt: np.ndarray, C_gt: np.ndarray) -> dict[str, Any]:
+    ev = evaluate_poses(R, C, R_gt, C_gt)
+    dR, dt = relative_pose_errors(R, C, R_gt, C_gt)
+    ev.update(pose_auc(np.maximum(dR, dt)))
+    ev["rel_rot_mean_deg"] = float(dR[np.isfinite(dR)].mean()) if np.any(np.isfinite(dR)) else float("nan")
+    return ev
+
+
+def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
+    sc = load_scene(path)
+    R_gt, C_gt = _gt(sc)
+    opt = PairwiseOptions(max_features=args.max_features, threshold_px=args.threshold_px, seed=args.seed)
+    t0 = time.perf_counter()
+    ig = image_view_graph(sc.image_paths, sc.K, options=opt, cache_dir=args.cache,
+                          progress=lambda it, **kw: progress(it, **kw))
+    t_pairs = time.perf_counter() - t0
+    gopt = GlobalOptions(ligt_reweight=args.reweight)
+    res = run_global(ig.graph, ig.bearings, float(sc.K[0, 0]), gopt)
+    ev = _scores(res.rotations, res.centres, R_gt, C_gt)
+    out: dict[str, Any] = {
+        "scene": sc.name,
+        "views": len(sc),
+        "edges": len(ig.graph),
+        "pairs_rejected": len(ig.graph.rejected),
+        "outlier_edges": res.rotation.outlier_edges,
+        "input_rotation_error_deg": _input_rotation_error(ig.graph, R_gt),
+        "tracks": len(res.tracks),
+        "observations": res.tracks.num_observations,
+        "points_valid": res.reconstruction.num_valid,
+        "ours": ev,
+        "times_s": {"pairwise (cached parts excluded)": t_pairs, **ig.times_s, **res.times_s},
+        "ligt_info": res.ligt.info,
+    }
+    if args.ba:
+        from ..sfm.colmap_ba import bundle_adjust, poses_from_reconstruction
+        from ..sfm.export import build_colmap_reconstruction
+
+        rc = res.reconstruction
+        model = build_colmap_reconstruction([p.name for p in sc.image_paths], ig.K, [f.image_size for f in ig.features],
+                                            [f.keypoints for f in ig.features], res.rotations, res.centres, res.tracks,
+                                            rc.points, rc.valid, rc.obs_valid)
+        model, t_ba = bundle_adjust(model)
+        R_ba, C_ba = poses_from_reconstruction(model, len(sc))
+        out["ba"] = _scores(R_ba, C_ba, R_gt, C_gt) | {"time_s": t_ba}
+    if not args.no_anchor:
+        try:
+            from ..sfm import colmap_anchor
+        except ImportError as exc:  # pragma: no cover - pycolmap missing
+            out["pycolmap"] = {"error": str(exc)}
+        else:
+            out["pycolmap"] = {}
+            for fn in (lambda: colmap_anchor.run(ig, res.tracks), lambda: colmap_anchor.run_mappers(ig, sc.image_paths)):
+                try:
+                    a = fn()
+                except Exception as exc:  # noqa: BLE001 - an anchor failure must not lose our numbers
+                    out["pycolmap"]["error"] = f"{type(exc).__name__}: {exc}"
+                    continue
+                out["pycolmap"].update({k: _scores(v["rotations"], v["centres"], R_gt, C_gt) | {"time_s": v["time_s"]}
+                                        for k, v in a.items()})
+    return out
+
+
+def _table(results: list[dict[str, Any]]) -> str:
+    hdr = ["scene", "method", "cams", "rot mean (deg)", "rot median", "rot mean, rot-only align", "rel rot mean, all pairs", "pos mean (m)",
+           "pos mean / extent", "AUC@1", "AUC@5", "time (s)"]
+    rows = []
+    for r in results:
+        ev = r["ours"]
+        t = sum(v for k, v in r["times_s"].items() if k in ("rotation_averaging", "tracks", "ligt", "reconstruction"))
+        rows.append([r["scene"], "poseonly (RA + LiGT, no BA)", f"{ev['num_estimated']}/{r['views']}", ev["rot_mean_deg"],
+                     ev["rot_median_deg"], ev["rot_mean_deg_rotalign"], ev["rel_rot_mean_deg"], ev["pos_mean"], ev["pos_mean_frac"],
+                     ev["auc@1"], ev["auc@5"], t])
+        if "ba" in r:
+            b = r["ba"]
+            rows.append([r["scene"], "poseonly + optional pycolmap BA", f"{b['num_estimated']}/{r['views']}", b["rot_mean_deg"],
+                         b["rot_median_deg"], b["rot_mean_deg_rotalign"], b["rel_rot_mean_deg"], b["pos_mean"], b["pos_mean_frac"],
+                         b["auc@1"], b["auc@5"], t + b["time_s"]])
+        for k, a in (r.get("pycolmap") or {}).items():
+            if k == "error":
+                rows.append([r["scene"], f"pycolmap: {a}", "", "", "", "", "", "", "", "", "", ""])
+                continue
+            rows.append([r["scene"], f"pycolmap {k}", f"{a['num_estimated']}/{r['views']}", a["rot_mean_deg"],
+                         a["rot_median_deg"], a["rot_mean_deg_rotalign"], a["rel_rot_mean_deg"], a["pos_mean"], a["pos_mean_frac"],
+                         a["auc@1"], a["auc@5"], a["time_s"]])
+        if r["scene"] in OPENMVG_ROT_DEG:
+            rows.append([r["scene"], "openMVG GlobalSfM + BA (published)", "", OPENMVG_ROT_DEG[r["scene"]], "", "", "", "", "", "", "", ""])
+    return markdown_table(hdr, rows)
+
+
+def _stage_table(results: list[dict[str, Any]]) -> str:
+    keys = ["features", "matching", "two_view", "rotation_averaging", "tracks", "ligt", "reconstruction"]
+    rows = [[r["scene"], r["edges"], len(r["outlier_edges"]), r["input_rotation_error_deg"], r["tracks"], r["points_valid"]]
+            + [r["times_s"].get(k, float("nan")) for k in keys] for r in results]
+    return markdown_table(["scene", "edges", "outlier edges", "two-view rot err (deg)", "tracks", "points"]
+                          + [f"{k} (s)" for k in keys], rows)
+
+
+def run(args: argparse.Namespace) -> int:
+    root = Path(args.path)
+    scenes = find_scenes(root)
+    if args.scenes:
+        scenes = [s for s in scenes if s.name in set(args.scenes)]
+    if not scenes:
+        raise ValueError(f"no Strecha scene folders at or below {root}" + (f" named {args.scenes}" if args.scenes else ""))
+    t0 = time.perf_counter()
+    results = [run_scene(s, args) for s in scenes]
+    res = {"results": results, "config": {k: v for k, v in vars(args).items() if k != "func"},
+           "wall_s": time.perf_counter() - t0, "machine": machine(), "code_version": code_version()}
+    md = ("# Global SfM on Strecha (rotation averaging + LiGT + analytical points, no bundle adjustment)\n\n"
+          + _table(results) + "\nStages (times measured on a shared machine, under load; features / matching / two-view "
+          "are 0 when cached):\n\n" + _stage_table(results)
+          + f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n")
+    write_outputs(args.out, "global_sfm", md, res)
+    return 0

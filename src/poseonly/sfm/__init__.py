@@ -1,0 +1,37 @@
+"""Global structure from motion on top of the two-view API (issue 15; the paper's last figure).
+
+Pipeline: pairwise :func:`poseonly.estimate_relative_pose` results -> :class:`ViewGraph`
+(:mod:`.viewgraph`) -> multi-view tracks (:mod:`.tracks`) -> Chatterjee-Govindu rotation averaging
+(:mod:`.rotation_averaging`) -> LiGT global translation (:mod:`.ligt_global`) -> pose-only analytical
+reconstruction of the points (:mod:`.reconstruct`). No bundle adjustment.
+
+Global convention (as the notes and openMVG): ``R_k`` maps world to camera ``k``, ``c_k`` is its
+centre, ``X_k = R_k (X - c_k)``. A pair ``(i, j)`` in poseonly's two-view convention
+``X_j = R_ij X_i + t_ij`` then has ``R_ij = R_j R_i^T`` and ``t_ij ~ R_j (c_i - c_j)``.
+"""
+
+from __future__ import annotations
+
+from .align import Similarity, align_similarity, evaluate_poses
+from .ligt_global import LiGTResult, ligt_positions
+from .reconstruct import Reconstruction, reconstruct_points
+from .rotation_averaging import RotationAveragingResult, average_rotations
+from .tracks import Tracks, build_tracks
+from .viewgraph import Edge, ViewGraph, edge_from_result
+
+__all__ = [
+    "Edge",
+    "LiGTResult",
+    "Reconstruction",
+    "RotationAveragingResult",
+    "Similarity",
+    "Tracks",
+    "ViewGraph",
+    "align_similarity",
+    "average_rotations",
+    "build_tracks",
+    "edge_from_result",
+    "evaluate_poses",
+    "ligt_positions",
+    "reconstruct_points",
+]

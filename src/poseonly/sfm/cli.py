@@ -1,0 +1,155 @@
+"""The ``poseonly sfm`` command and the ``poseonly experiment global`` entry (thin: parse, call
+the library, print; hooked into :mod:`poseonly.cli` by :func:`add_parsers`).
+
+    poseonly sfm IMAGES_DIR --K K.txt --out DIR [--max-features N] [--max-images N] [--threshold-px T]
+                 [--cache DIR] [--text] [--seed S]
+    poseonly sfm IMAGES_DIR --database colmap.db --out DIR      (keypoints and matches from COLMAP)
+
+Writes ``DIR/sparse/0`` (COLMAP binary model, or text with ``--text``; needs pycolmap),
+``DIR/points.ply`` (valid points, coloured, camera centres in red), ``DIR/poses.json`` and
+``DIR/reconstruction.png`` (cameras and points, as the paper's last figure; needs matplotlib).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..geometry import InputError, check_intrinsics
+
+__all__ = ["IMAGE_EXTS", "add_parsers", "cmd_sfm"]
+
+IMAGE_EXTS = (".jpg", ".jpeg", ".png", ".JPG", ".JPEG", ".PNG")
+
+
+def _progress(it, **kw):
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover
+        return it
+    return tqdm(it, leave=False, dynamic_ncols=True, **kw)
+
+
+def _read_K(path: str) -> np.ndarray:
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"calibration file not found: {path}")
+    try:
+        K = np.loadtxt(p, dtype=float)
+    except ValueError as exc:
+        raise InputError(f"could not read a 3x3 matrix from {path}: {exc}") from None
+    if K.shape != (3, 3):
+        raise InputError(f"{path} must contain a 3x3 matrix, found shape {K.shape}")
+    return check_intrinsics(K, f"K in {path}")
+
+
+def cmd_sfm(args: argparse.Namespace) -> int:
+    from .export import (
+        build_colmap_reconstruction,
+        plot_reconstruction,
+        point_colors,
+        write_colmap_model,
+        write_ply,
+    )
+    from .pairwise import PairwiseOptions, image_view_graph
+    from .pipeline import run_global
+
+    d = Path(args.images)
+    if not d.is_dir():
+        raise InputError(f"image folder not found: {d}")
+    out = Path(args.out)
+    t0 = time.perf_counter()
+    opt = PairwiseOptions(max_features=args.max_features, threshold_px=args.threshold_px, seed=args.seed)
+    cache = args.cache if args.cache else out / "cache"
+    prog = None if args.no_progress else _progress
+    if args.database:
+        from .colmap_db import database_view_graph
+
+        ig, names = database_view_graph(args.database, options=opt, cache_dir=cache, progress=prog)
+        images = [d / nm for nm in names]
+        missing = [str(p) for p in images if not p.is_file()]
+        if missing:
+            raise InputError(f"images of the database not found in {d}: {missing[:3]}")
+        K = ig.K[0]
+    else:
+        if not args.K:
+            raise InputError("give --K K.txt (or --database colmap.db, which holds the cameras)")
+        images = sorted(p for p in d.iterdir() if p.is_file() and p.suffix in IMAGE_EXTS)
+        if args.max_images:
+            images = images[: args.max_images]
+        if len(images) < 3:
+            raise InputError(f"{d} holds {len(images)} images; global SfM needs at least 3")
+        K = _read_K(args.K)
+        ig = image_view_graph(images, K, options=opt, cache_dir=cache, progress=prog)
+    print(f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
+          f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)")
+    res = run_global(ig.graph, ig.bearings, float(0.5 * (K[0, 0] + K[1, 1])))
+    est = np.all(np.isfinite(res.centres), axis=1)
+    rec = res.reconstruction
+    print(f"cameras: {int(est.sum())}/{len(images)} posed; outlier edges: {len(res.rotation.outlier_edges)}; "
+          f"points: {rec.num_valid}/{len(res.tracks)} valid")
+    print("stages: " + ", ".join(f"{k} {v:.2f} s" for k, v in res.times_s.items()))
+    colors = point_colors(images, [f.keypoints for f in ig.features], res.tracks, rec.base[:, 0])
+    out.mkdir(parents=True, exist_ok=True)
+    write_ply(out / "points.ply", rec.points[rec.valid], colors[rec.valid], res.centres)
+    fig = plot_reconstruction(out / "reconstruction.png", rec.points[rec.valid], res.centres, res.rotations, colors[rec.valid])
+    if fig is not None:
+        print(f"figure: {fig}")
+    poses: dict[str, Any] = {"convention": "X_cam = R (X_world - c)", "images": []}
+    for k, p in enumerate(images):
+        poses["images"].append({"name": p.name, "R": None if not est[k] else res.rotations[k].tolist(),
+                                "c": None if not est[k] else res.centres[k].tolist()})
+    poses["outlier_edges"] = res.rotation.outlier_edges
+    poses["times_s"] = {**ig.times_s, **res.times_s}
+    (out / "poses.json.tmp").write_text(json.dumps(poses, indent=1))
+    (out / "poses.json.tmp").replace(out / "poses.json")
+    try:
+        import pycolmap  # noqa: F401
+    except ImportError:
+        print("pycolmap is not installed: COLMAP model not written (points.ply and poses.json are)")
+    else:
+        model = build_colmap_reconstruction([p.name for p in images], ig.K, [f.image_size for f in ig.features],
+                                            [f.keypoints for f in ig.features], res.rotations, res.centres,
+                                            res.tracks, rec.points, rec.valid, rec.obs_valid, colors)
+        write_colmap_model(model, out / "sparse" / "0", binary=not args.text)
+        print(f"COLMAP model: {out / 'sparse' / '0'} ({model.num_reg_images()} images, {model.num_points3D()} points)")
+    print(f"total {time.perf_counter() - t0:.1f} s; outputs in {out}")
+    return 0
+
+
+def _cmd_global(args: argparse.Namespace) -> int:
+    from ..experiments import global_sfm
+
+    return int(global_sfm.run(args) or 0)
+
+
+def add_parsers(sub: Any, esub: Any) -> None:
+    """Add ``sfm`` to the command subparsers ``sub`` and ``global`` to the experiment ones ``esub``."""
+    s = sub.add_parser("sfm", help="global SfM of an image folder (rotation averaging + LiGT + analytical points)")
+    s.add_argument("images", help="folder of images (.jpg / .png), one calibrated camera")
+    s.add_argument("--K", help="text file with the 3x3 calibration matrix (not needed with --database)")
+    s.add_argument("--database", help="COLMAP database with cameras, keypoints and matches (replaces our features and matching)")
+    s.add_argument("--out", required=True, help="output folder")
+    s.add_argument("--max-features", type=int, default=8000)
+    s.add_argument("--max-images", type=int, help="use only the first N images (sorted by name)")
+    s.add_argument("--threshold-px", type=float, default=2.0, help="two-view inlier threshold (px)")
+    s.add_argument("--cache", help="feature / match cache (default OUT/cache)")
+    s.add_argument("--text", action="store_true", help="write the COLMAP model as text")
+    s.add_argument("--no-progress", action="store_true")
+    s.add_argument("--seed", type=int, default=0)
+    s.set_defaults(func=cmd_sfm)
+
+    from ..experiments import global_sfm
+
+    e = esub.add_parser("global", help="global SfM on Strecha scenes against the ground truth (issue 15)")
+    e.add_argument("--trials", type=int, default=None, help=argparse.SUPPRESS)
+    e.add_argument("--quick", action="store_true", help=argparse.SUPPRESS)
+    e.add_argument("--out", default="docs/results", help="output directory for the table and JSON")
+    e.add_argument("--seed", type=int, default=0)
+    global_sfm.add_arguments(e)
+    e.set_defaults(func=_cmd_global)

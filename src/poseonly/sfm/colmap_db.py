@@ -1,0 +1,83 @@
+"""A view graph from a COLMAP database (``poseonly sfm --database colmap.db``; needs pycolmap).
+
+Read: cameras (any COLMAP model; keypoints are undistorted to normalized coordinates by
+``Camera.cam_from_img``), images (sorted by name; view ``k`` is the ``k``-th name), keypoints and
+the putative ``matches`` table. Every pair with at least ``min_matches`` matches is estimated by
+:func:`poseonly.estimate_relative_pose` on the normalized coordinates (threshold in pixels at the
+mean focal of the two cameras); COLMAP's own two-view geometries are not used.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from ..features import Features
+from ..geometry import InputError
+from .pairwise import ImageGraph, PairwiseOptions, two_view
+from .viewgraph import ViewGraph
+
+__all__ = ["database_view_graph"]
+
+
+def database_view_graph(db_path: str | os.PathLike, *, options: PairwiseOptions | None = None,
+                        cache_dir: str | os.PathLike | None = None, progress: Callable | None = None) -> tuple[ImageGraph, list[str]]:
+    """``(ImageGraph, image names)`` from the COLMAP database ``db_path``."""
+    import pycolmap
+
+    p = Path(db_path)
+    if not p.is_file():
+        raise InputError(f"COLMAP database not found: {p}")
+    opt = options or PairwiseOptions()
+    wrap = progress or (lambda it, **_: it)
+    t0 = time.perf_counter()
+    with pycolmap.Database.open(str(p)) as db:
+        images = sorted(db.read_all_images(), key=lambda im: im.name)
+        if len(images) < 2:
+            raise InputError(f"{p} holds {len(images)} images; need at least two")
+        cams = {c.camera_id: c for c in db.read_all_cameras()}
+        index = {im.image_id: k for k, im in enumerate(images)}
+        feats, normalized, Ks, focal = [], [], [], []
+        for im in images:
+            cam = cams[im.camera_id]
+            kp = np.asarray(db.read_keypoints(im.image_id), dtype=np.float64)[:, :2]
+            feats.append(Features(kp, np.zeros((len(kp), 0), np.float32), (int(cam.width), int(cam.height))))
+            normalized.append(np.asarray(cam.cam_from_img(kp), dtype=np.float64).reshape(-1, 2) if len(kp) else np.zeros((0, 2)))
+            K = np.asarray(cam.calibration_matrix(), dtype=np.float64)
+            Ks.append(K)
+            focal.append(0.5 * (K[0, 0] + K[1, 1]))
+        pair_ids, matches = db.read_all_matches()
+    times = {"features": time.perf_counter() - t0, "matching": 0.0}
+    pairs = []
+    for pid, m in zip(pair_ids, matches):
+        a, b = pycolmap.pair_id_to_image_pair(pid)
+        if a not in index or b not in index:
+            continue
+        i, j = index[a], index[b]
+        mm = np.asarray(m, dtype=np.int64).reshape(-1, 2)
+        if i > j:
+            i, j, mm = j, i, mm[:, ::-1]
+        pairs.append((i, j, mm))
+    pairs.sort(key=lambda x: (x[0], x[1]))
+    graph = ViewGraph(len(images))
+    stats: list[tuple[int, int, int, int, str]] = []
+    putative: dict[tuple[int, int], np.ndarray] = {}
+    cache = Path(cache_dir) if cache_dir is not None else None
+    t0 = time.perf_counter()
+    for k, (i, j, m) in enumerate(wrap(pairs, desc="pairs", total=len(pairs))):
+        putative[(i, j)] = m
+        if len(m) < opt.min_matches:
+            graph.rejected.append((i, j, f"{len(m)} putative matches"))
+            stats.append((i, j, len(m), 0, "few_matches"))
+            continue
+        r = two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, opt.seed + k, cache,
+                     focal_px=0.5 * (focal[i] + focal[j]))
+        graph.add_result(i, j, r, m)
+        stats.append((i, j, len(m), int(r.num_inliers), r.status))
+    times["two_view"] = time.perf_counter() - t0
+    ig = ImageGraph(feats, np.array(Ks), graph, stats, times, putative, normalized)
+    return ig, [im.name for im in images]

@@ -1,0 +1,192 @@
+"""Writers of a global reconstruction: a COLMAP model through ``pycolmap.Reconstruction``
+(optional dependency; COLMAP, GLOMAP and their viewers open it) and a PLY point cloud. Both are
+written atomically (a temporary file / folder renamed into place)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._fileutil import publish
+from ..geometry import InputError
+from .tracks import Tracks
+
+__all__ = ["build_colmap_reconstruction", "plot_reconstruction", "point_colors", "write_colmap_model", "write_ply"]
+
+
+def point_colors(image_paths: Sequence[str | os.PathLike], keypoints: Sequence[np.ndarray], tracks: Tracks,
+                 base_obs: np.ndarray) -> np.ndarray:
+    """``(T, 3)`` uint8 RGB of every track, sampled at its base observation's keypoint
+    (``base_obs (T,)`` observation indices, -1: grey)."""
+    import cv2
+
+    out = np.full((len(tracks), 3), 128, dtype=np.uint8)
+    ok = base_obs >= 0
+    views = np.where(ok, tracks.views[np.maximum(base_obs, 0)], -1)
+    for v in np.unique(views[ok]):
+        img = cv2.imread(str(image_paths[v]), cv2.IMREAD_COLOR)
+        if img is None:
+            continue
+        sel = np.flatnonzero(views == v)
+        uv = keypoints[v][tracks.keypoints[base_obs[sel]]]
+        x = np.clip(np.round(uv[:, 0]).astype(int), 0, img.shape[1] - 1)
+        y = np.clip(np.round(uv[:, 1]).astype(int), 0, img.shape[0] - 1)
+        out[sel] = img[y, x, ::-1]
+    return out
+
+
+def build_colmap_reconstruction(
+    names: Sequence[str],
+    K: np.ndarray,
+    image_sizes: Sequence[tuple[int, int]],
+    keypoints: Sequence[np.ndarray],
+    rotations: np.ndarray,
+    centres: np.ndarray,
+    tracks: Tracks,
+    points: np.ndarray,
+    point_valid: np.ndarray,
+    obs_valid: np.ndarray,
+    colors: np.ndarray | None = None,
+) -> Any:
+    """A ``pycolmap.Reconstruction``: one PINHOLE camera per image (``K (N, 3, 3)``), the posed
+    images (world -> camera ``rotations (N, 3, 3)``, ``centres (N, 3)``; NaN rows are left out)
+    with all their keypoints as 2D points, and every valid track as a 3D point over its valid
+    observations (``points (T, 3)``, ``point_valid (T,)``, ``obs_valid (M,)``)."""
+    import pycolmap
+
+    n = len(names)
+    rec = pycolmap.Reconstruction()
+    posed = np.all(np.isfinite(rotations), axis=(1, 2)) & np.all(np.isfinite(centres), axis=1)
+    for k in range(n):
+        fx, fy, cx, cy = K[k][0, 0], K[k][1, 1], K[k][0, 2], K[k][1, 2]
+        w, h = image_sizes[k]
+        cam = pycolmap.Camera(model="PINHOLE", width=int(w), height=int(h), params=[fx, fy, cx, cy], camera_id=k + 1)
+        rec.add_camera_with_trivial_rig(cam)
+        img = pycolmap.Image(name=str(names[k]), keypoints=np.asarray(keypoints[k], dtype=np.float64), camera_id=k + 1, image_id=k + 1)
+        if posed[k]:
+            R = rotations[k]
+            pose = pycolmap.Rigid3d(np.concatenate([R, (-R @ centres[k])[:, None]], axis=1))
+            rec.add_image_with_trivial_frame(img, pose)
+        else:
+            rec.add_image_with_trivial_frame(img)
+    col = np.full((len(tracks), 3), 128, dtype=np.uint8) if colors is None else np.asarray(colors, dtype=np.uint8)
+    for t in np.flatnonzero(point_valid):
+        s = slice(tracks.ptr[t], tracks.ptr[t + 1])
+        keep = obs_valid[s] & posed[tracks.views[s]]
+        if keep.sum() < 2:
+            continue
+        track = pycolmap.Track()
+        for v, kp in zip(tracks.views[s][keep].tolist(), tracks.keypoints[s][keep].tolist()):
+            track.add_element(v + 1, kp)
+        rec.add_point3D(np.asarray(points[t], dtype=np.float64), track, col[t])
+    return rec
+
+
+def _replace_dir(tmp: Path, dst: Path) -> None:
+    """Move the finished folder ``tmp`` to ``dst`` (an older ``dst`` is replaced only after)."""
+    if dst.exists():
+        old = Path(tempfile.mkdtemp(dir=dst.parent, prefix=dst.name + ".old"))
+        old.rmdir()  # a fresh unused name
+        os.replace(dst, old)
+        os.replace(tmp, dst)
+        shutil.rmtree(old, ignore_errors=True)
+    else:
+        os.replace(tmp, dst)
+
+
+def write_colmap_model(rec: Any, folder: str | os.PathLike, binary: bool = True) -> Path:
+    """Write ``rec`` as a COLMAP model (``cameras``, ``images``, ``points3D``, ``rigs``, ``frames``;
+    binary or text) into ``folder``, atomically."""
+    dst = Path(folder)
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(dir=dst.parent, prefix=dst.name + ".tmp"))
+    try:
+        (rec.write_binary if binary else rec.write_text)(str(tmp))
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(tmp, 0o777 & ~mask)  # mkdtemp makes 0700; a plain mkdir would not
+        _replace_dir(tmp, dst)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return dst
+
+
+def write_ply(path: str | os.PathLike, points: np.ndarray, colors: np.ndarray | None = None,
+              cameras: np.ndarray | None = None) -> Path:
+    """Binary little-endian PLY of ``points (P, 3)`` with uint8 RGB ``colors (P, 3)``; camera
+    centres ``(N, 3)`` (optional) are appended as red vertices. Written atomically."""
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if not np.all(np.isfinite(P)):
+        raise InputError("write_ply: points contain NaN or inf (pass only the valid points)")
+    col = np.full((len(P), 3), 200, np.uint8) if colors is None else np.asarray(colors, dtype=np.uint8).reshape(-1, 3)
+    if cameras is not None:
+        cams = np.asarray(cameras, dtype=np.float64).reshape(-1, 3)
+        cams = cams[np.all(np.isfinite(cams), axis=1)]
+        P = np.concatenate([P, cams])
+        col = np.concatenate([col, np.tile(np.array([[255, 0, 0]], np.uint8), (len(cams), 1))])
+    rec = np.empty(len(P), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("r", "u1"), ("g", "u1"), ("b", "u1")])
+    rec["x"], rec["y"], rec["z"] = P[:, 0], P[:, 1], P[:, 2]
+    rec["r"], rec["g"], rec["b"] = col[:, 0], col[:, 1], col[:, 2]
+    header = ("ply\nformat binary_little_endian 1.0\n"
+              f"element vertex {len(P)}\nproperty float x\nproperty float y\nproperty float z\n"
+              "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n").encode()
+    dst = Path(path)
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=dst.parent, suffix=".ply.tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(header)
+            fh.write(rec.tobytes())
+        publish(tmp, dst)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return dst
+
+
+def plot_reconstruction(path: str | os.PathLike, points: np.ndarray, centres: np.ndarray, rotations: np.ndarray,
+                        colors: np.ndarray | None = None, max_points: int = 50000, seed: int = 0) -> Path | None:
+    """Figure of the cameras (centres and optical axes) and points, as the paper's last figure
+    (3D view, matplotlib; ``None`` when matplotlib is missing). ``points (P, 3)``, ``centres
+    (N, 3)``, ``rotations (N, 3, 3)`` world -> camera; at most ``max_points`` points drawn
+    (a seeded subsample)."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:  # pragma: no cover
+        return None
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    col = None if colors is None else np.asarray(colors)[: len(P)] / 255.0
+    if len(P) > max_points:
+        sel = np.random.default_rng(seed).choice(len(P), max_points, replace=False)
+        P = P[sel]
+        col = None if col is None else col[sel]
+    ok = np.all(np.isfinite(centres), axis=1)
+    C, R = centres[ok], rotations[ok]
+    fig = plt.figure(figsize=(8, 6))
+    ax = fig.add_subplot(111, projection="3d")
+    ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=0.3, c=col if col is not None else "0.4", depthshade=False)
+    scale = 0.05 * float(np.ptp(P, axis=0).max()) if len(P) else 1.0
+    axes = R[:, 2, :]  # optical axes in world coordinates
+    ax.quiver(C[:, 0], C[:, 1], C[:, 2], axes[:, 0], axes[:, 1], axes[:, 2], length=scale, color="r")
+    ax.scatter(C[:, 0], C[:, 1], C[:, 2], s=12, c="r")
+    span = np.ptp(np.concatenate([P, C]), axis=0) if len(P) + len(C) else np.ones(3)
+    ax.set_box_aspect(tuple(np.maximum(span, 1e-3 * max(float(span.max()), 1e-12))))  # true proportions
+    ax.set_title(f"{len(C)} cameras, {len(points)} points (rotation averaging + LiGT, no BA)")
+    dst = Path(path)
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    tmp = dst.with_name(dst.stem + ".tmp" + dst.suffix)
+    fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    os.replace(tmp, dst)
+    return dst

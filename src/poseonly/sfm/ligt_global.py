@@ -1,0 +1,258 @@
+"""LiGT global translation (Cai et al.; the global_sfm notes, section 1), built sparse.
+
+For fixed rotations, every observation ``i != l`` of a track gives three rows (rank 2), in world
+frame (the notes' rows left-multiplied by the orthogonal ``R_i^T``, which leaves ``L^T L``
+unchanged)::
+
+    (w_i x w_l) g^T (c_r - c_l) + theta^2 [w_i]x (c_i - c_l) = 0
+
+(``w`` world bearings, ``g``, ``theta``, ``l``, ``r`` of :mod:`.posegeom`). ``L`` is assembled as a
+``scipy.sparse`` matrix with at most 27 non-zeros per row triple, so memory and time are linear in
+the observations; ``H = L^T L`` is sparse with the co-visibility pattern. Gauge: the reference view
+(most observations) has ``c = 0`` (its columns dropped); scale: unit norm of the eigenvector of the
+smallest eigenvalue of ``H``, found by ``eigsh`` in shift-invert mode around a small negative shift
+(``H - sigma I`` is then positive definite, factorised once by SuperLU). Sign: the majority of the
+depth rows ``g^T (c_l - c_r) = d_l theta^2`` must be positive (openMVG's vote).
+
+What cannot constrain the solution is removed explicitly and reported: observations in views
+without a rotation, tracks left with fewer than two views, tracks whose base parallax is below
+``min_parallax_deg`` (pure rotation / far points carry no translation), and views not joined to the
+reference's component by the remaining tracks. ``info["eig_ratio"] = lambda_2 / lambda_3`` near 1
+(or ``lambda_2`` at noise level) flags a solution that is not unique (e.g. two groups of views
+sharing a single camera).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+from scipy.sparse.linalg import eigsh
+
+from ..geometry import InputError
+from .posegeom import base_views, g_vectors, world_bearings
+from .tracks import Tracks
+
+__all__ = ["MIN_PARALLAX_DEG", "LiGTResult", "build_ligt_matrix", "ligt_positions"]
+
+MIN_PARALLAX_DEG = 1.0
+SHIFT_REL = 1e-10  # shift-invert shift, relative to the mean diagonal of H
+
+
+@dataclass
+class LiGTResult:
+    """``centres (N, 3)`` (NaN where not estimated; reference view at 0, unit norm overall),
+    ``estimated (N,)``, ``track_used (T,)``, ``reference`` view, ``times_s`` and ``info``
+    (eigenvalues, counts of what was dropped and why)."""
+
+    centres: np.ndarray
+    estimated: np.ndarray
+    track_used: np.ndarray
+    reference: int
+    times_s: dict[str, float] = field(default_factory=dict)
+    info: dict[str, object] = field(default_factory=dict)
+
+
+def _skew_batch(v: np.ndarray) -> np.ndarray:
+    z = np.zeros(len(v))
+    return np.stack([np.stack([z, -v[:, 2], v[:, 1]], 1), np.stack([v[:, 2], z, -v[:, 0]], 1), np.stack([-v[:, 1], v[:, 0], z], 1)], 1)
+
+
+def _smallest_eigvec(H: sp.csc_matrix, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvector of the smallest eigenvalue of the PSD ``H`` and up to 3 smallest eigenvalues
+    (shift-invert Lanczos around ``-SHIFT_REL * mean(diag H)``)."""
+    shift = SHIFT_REL * float(H.diagonal().mean())
+    k = min(3, m - 1)
+    vals, vecs = eigsh(H, k=k, sigma=-shift, which="LM", tol=0.0)
+    o = np.argsort(vals)
+    return vecs[:, o[0]], vals[o]
+
+
+def _centres(x: np.ndarray, cols: np.ndarray, n: int) -> np.ndarray:
+    c = np.zeros(3 * n)
+    c[cols] = x
+    return c.reshape(n, 3)
+
+
+def _non_base(tracks: Tracks, l_obs: np.ndarray) -> np.ndarray:
+    """Observation indices ``i != l`` in the row order of :func:`build_ligt_matrix`."""
+    other = np.ones(tracks.num_observations, dtype=bool)
+    other[l_obs] = False
+    return np.flatnonzero(other)
+
+
+def build_ligt_matrix(
+    num_views: int, tracks: Tracks, wb: np.ndarray, l_obs: np.ndarray, r_obs: np.ndarray
+) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+    """The sparse LiGT matrix ``L (3 (M - T), 3 N)`` and the depth rows: ``g (T, 3)`` with the
+    ``(l, r)`` views ``(T, 2)`` (depth of track t: ``g_t^T (c_l - c_r)``). ``wb (M, 3)`` world
+    bearings, ``l_obs, r_obs (T,)`` base observation indices."""
+    views = tracks.views
+    tr = tracks.track_of_observation
+    oi = _non_base(tracks, l_obs)  # observations i != l
+    t_i = tr[oi]
+    wl, wr = wb[l_obs], wb[r_obs]
+    g = g_vectors(wl, wr)
+    th2 = np.sum(np.cross(wl, wr) ** 2, axis=1)
+    wi = wb[oi]
+    M1 = np.cross(wi, wl[t_i])[:, :, None] * g[t_i][:, None, :]  # (K, 3, 3)
+    M2 = th2[t_i][:, None, None] * _skew_batch(wi)
+    vl, vr, vi = views[l_obs][t_i], views[r_obs][t_i], views[oi]
+    K = len(oi)
+    rows = (3 * np.arange(K)[:, None] + np.arange(3)[None, :])  # (K, 3)
+    blocks = ((M1, vr), (M2, vi), (-(M1 + M2), vl))
+    R_idx, C_idx, V = [], [], []
+    for Mb, vb in blocks:
+        R_idx.append(np.repeat(rows, 3, axis=1).ravel())
+        C_idx.append((3 * vb[:, None, None] + np.arange(3)[None, None, :]).repeat(3, axis=1).ravel())
+        V.append(Mb.ravel())
+    L = sp.csr_matrix((np.concatenate(V), (np.concatenate(R_idx), np.concatenate(C_idx))), shape=(3 * K, 3 * num_views))
+    return L, g, np.stack([views[l_obs], views[r_obs]], axis=1)
+
+
+def ligt_positions(
+    rotations: np.ndarray,
+    tracks: Tracks,
+    bearings: np.ndarray,
+    *,
+    min_parallax_deg: float = MIN_PARALLAX_DEG,
+    reference: int | None = None,
+    reweight_iterations: int = 0,
+    bearing_scale: str = "unit",
+) -> LiGTResult:
+    """Camera centres ``(N, 3)`` from global ``rotations (N, 3, 3)`` (world -> camera, NaN for
+    views without one), ``tracks`` and their unit camera-frame ``bearings (M, 3)``.
+
+    ``reweight_iterations > 0`` re-solves with every row triple divided by ``theta^2 ||X - c_i||``
+    of the previous solution (its residual becomes the angular error of the observation; openMVG's
+    LiGT is ``0``). ``bearing_scale``: ``"unit"`` bearings (the paper) or ``"z"`` normalized image
+    coordinates ``(x, y, 1)`` (openMVG); the rows are homogeneous in the bearings, so this changes the
+    implicit weighting only."""
+    times: dict[str, float] = {}
+    t0 = time.perf_counter()
+    Rg = np.asarray(rotations, dtype=np.float64)
+    if Rg.ndim != 3 or Rg.shape[1:] != (3, 3):
+        raise InputError(f"rotations must have shape (N, 3, 3), got {Rg.shape}")
+    n = len(Rg)
+    f = np.asarray(bearings, dtype=np.float64)
+    if f.shape != (tracks.num_observations, 3):
+        raise InputError(f"bearings must have shape ({tracks.num_observations}, 3), got {f.shape}")
+    if not np.all(np.isfinite(f)):
+        raise InputError("bearings contain NaN or inf")
+    if len(tracks) and tracks.views.max() >= n:
+        raise InputError(f"tracks reference view {tracks.views.max()} but only {n} rotations are given")
+    if bearing_scale == "unit":
+        f = f / np.linalg.norm(f, axis=1, keepdims=True)
+    elif bearing_scale == "z":  # normalized image coordinates (x, y, 1), openMVG's input
+        if np.any(f[:, 2] <= 0):
+            raise InputError("bearing_scale='z' needs every bearing in front of its camera (z > 0)")
+        f = f / f[:, 2:3]
+    else:
+        raise InputError(f"bearing_scale must be 'unit' or 'z', got {bearing_scale!r}")
+    info: dict[str, object] = {}
+    has_R = np.all(np.isfinite(Rg), axis=(1, 2))
+    obs_ok = has_R[tracks.views]
+    info["observations_without_rotation"] = int(np.sum(~obs_ok))
+    # drop observations of views without a rotation, then tracks with < 2 views
+    tr_all = tracks.track_of_observation
+    cnt = np.bincount(tr_all[obs_ok], minlength=len(tracks))
+    ptr = np.concatenate([[0], np.cumsum(cnt)]).astype(np.int64)
+    sub = Tracks(ptr, tracks.views[obs_ok], tracks.keypoints[obs_ok])
+    fsub = f[obs_ok]
+    long_enough = cnt >= 2
+    info["tracks_too_short"] = int(np.sum(~long_enough))
+    Rsafe = np.where(has_R[:, None, None], Rg, np.eye(3))
+    wb = world_bearings(Rsafe, sub.views, fsub)
+    track_used = long_enough.copy()
+    keep_obs = np.repeat(long_enough, cnt)
+    sub2 = Tracks(np.concatenate([[0], np.cumsum(cnt[long_enough])]).astype(np.int64), sub.views[keep_obs], sub.keypoints[keep_obs])
+    wb2 = wb[keep_obs]
+    _l_obs, _r_obs, theta = base_views(sub2, wb2)
+    par_ok = theta > np.sin(np.radians(min_parallax_deg))
+    info["tracks_low_parallax"] = int(np.sum(~par_ok))
+    ids = np.flatnonzero(long_enough)
+    track_used[ids[~par_ok]] = False
+    keep2 = np.repeat(par_ok, sub2.lengths)
+    sub3 = sub2.subset(par_ok)
+    wb3 = wb2[keep2]
+    # views joined by the remaining tracks: connected components of the track-view incidence
+    tr3 = sub3.track_of_observation
+    T3 = len(sub3)
+    if T3 == 0:
+        raise InputError("LiGT: no track constrains the translations (all too short or without parallax)")
+    inc = sp.coo_matrix((np.ones(len(tr3)), (sub3.views, n + tr3)), shape=(n + T3, n + T3))
+    _, lab = connected_components(inc, directed=False)
+    nobs = np.bincount(sub3.views, minlength=n)
+    if reference is None:
+        reference = int(np.argmax(nobs))
+    elif not (0 <= reference < n and nobs[reference] > 0):
+        raise InputError(f"reference view {reference} is not observed by any usable track")
+    comp = lab[reference]
+    view_in = (lab[:n] == comp) & (nobs > 0)
+    tr_in = lab[n + np.arange(T3)] == comp
+    info["views_disconnected"] = int(np.sum((nobs > 0) & ~view_in))
+    info["tracks_disconnected"] = int(np.sum(~tr_in))
+    used_ids = np.flatnonzero(track_used)
+    track_used[used_ids[~tr_in]] = False
+    keep3 = np.repeat(tr_in, sub3.lengths)
+    sub4 = sub3.subset(tr_in)
+    wb4 = wb3[keep3]
+    l4, r4, _ = base_views(sub4, wb4)
+    times["setup"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    L, g, lr = build_ligt_matrix(n, sub4, wb4, l4, r4)
+    cols = np.flatnonzero(np.repeat(view_in, 3))
+    ref_cols = np.arange(3 * reference, 3 * reference + 3)
+    cols = cols[~np.isin(cols, ref_cols)]
+    Lr = L[:, cols].tocsc()
+    H = (Lr.T @ Lr).tocsc()
+    info["rows"] = int(L.shape[0])
+    info["unknowns"] = len(cols)
+    info["nnz_H"] = int(H.nnz)
+    times["build"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    if len(cols) < 3:
+        raise InputError("LiGT needs at least two views joined by usable tracks")
+    x, vals = _smallest_eigvec(H, len(cols))
+    # optional reweighting: row triple i of track t scaled by 1 / (theta_t^2 ||X_t - c_i||) so its
+    # residual becomes the sine of the angular error of observation i (IRLS on the same system)
+    oi = _non_base(sub4, l4)
+    tr_oi = sub4.track_of_observation[oi]
+    th2 = np.sum(np.cross(wb4[l4], wb4[r4]) ** 2, axis=1)
+    for _ in range(int(reweight_iterations)):
+        C_cur = _centres(x, cols, n)
+        d = np.sum(g * (C_cur[lr[:, 0]] - C_cur[lr[:, 1]]), axis=1) / th2
+        if np.sum(d > 0) < np.sum(d <= 0):
+            d = -d
+        X = C_cur[lr[:, 0]] + d[:, None] * wb4[l4]
+        dist = np.linalg.norm(X[tr_oi] - C_cur[sub4.views[oi]], axis=1)
+        good = np.isfinite(dist) & (dist > 0)
+        med = float(np.median(dist[good])) if np.any(good) else 1.0
+        dist = np.where(good, np.maximum(dist, 1e-3 * med), med)
+        w = 1.0 / (th2[tr_oi] * dist)
+        w /= np.median(w)
+        Lw = sp.diags(np.repeat(w, 3)) @ Lr
+        H = (Lw.T @ Lw).tocsc()
+        x, vals = _smallest_eigvec(H, len(cols))
+    info["reweight_iterations"] = int(reweight_iterations)
+    info["eigenvalues"] = [float(v) for v in vals]
+    if len(vals) >= 2:
+        info["eig_ratio"] = float(vals[0] / vals[1]) if vals[1] > 0 else float("nan")
+    if len(vals) >= 3:
+        info["eig_ratio_23"] = float(vals[1] / vals[2]) if vals[2] > 0 else float("nan")
+    times["solve"] = time.perf_counter() - t0
+
+    C = _centres(x, cols, n)
+    depth = np.sum(g * (C[lr[:, 0]] - C[lr[:, 1]]), axis=1)
+    npos = int(np.sum(depth > 0))
+    if npos < len(depth) - npos:
+        C = -C
+        npos = len(depth) - npos
+    info["positive_depth_fraction"] = npos / max(len(depth), 1)
+    C[~view_in] = np.nan
+    return LiGTResult(C, view_in, track_used, int(reference), times, info)

@@ -1,0 +1,208 @@
+"""From images to a view graph: SIFT features, all-pairs matching and two-view estimation.
+
+Only the public two-view API is used (:func:`poseonly.estimate_relative_pose`); features and
+matching are :mod:`poseonly.features`. Putative matches are cached per pair (``cache_dir/matches``,
+written atomically, keyed by the two feature caches' content and the matching parameters), so a
+repeated run only re-estimates. Pairs are estimated in a fixed order with a seed per pair
+(``seed + pair index``): the graph never depends on scheduling.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .._fileutil import publish
+from ..api import estimate_relative_pose
+from ..features import Features, extract_features, match_features
+from ..geometry import InputError, bearings_from_normalized, bearings_from_pixels
+from .tracks import Tracks
+from .viewgraph import ViewGraph
+
+__all__ = ["ImageGraph", "PairwiseOptions", "TwoView", "image_view_graph", "observation_bearings", "two_view"]
+
+MIN_PUTATIVE = 30
+
+
+@dataclass(frozen=True)
+class PairwiseOptions:
+    """Feature, matching and two-view options: ``max_features`` per image, Lowe ``ratio``,
+    ``mutual`` nearest neighbours, minimum putative matches per pair, ``threshold_px`` and ``method``
+    of :func:`poseonly.estimate_relative_pose`, base ``seed``."""
+
+    max_features: int | None = 8000
+    ratio: float = 0.8
+    mutual: bool = True
+    min_matches: int = MIN_PUTATIVE
+    threshold_px: float = 2.0
+    method: str = "poseonly"
+    seed: int = 0
+
+
+@dataclass
+class ImageGraph:
+    """``features`` per image, the :class:`ViewGraph` and per-stage ``times_s``; ``K`` per image
+    ``(N, 3, 3)``; ``pair_stats`` ``(i, j, putative, inliers, status)``; ``putative[(i, j)]`` the
+    ``(k, 2)`` putative keypoint matches of every pair that was matched."""
+
+    features: list[Features]
+    K: np.ndarray
+    graph: ViewGraph
+    pair_stats: list[tuple[int, int, int, int, str]] = field(default_factory=list)
+    times_s: dict[str, float] = field(default_factory=dict)
+    putative: dict[tuple[int, int], np.ndarray] = field(default_factory=dict)
+    normalized: list[np.ndarray] | None = None
+
+    def bearings(self, tracks: Tracks) -> np.ndarray:
+        """Unit camera-frame bearings ``(M, 3)`` of the tracks' observations (from the undistorted
+        normalized keypoints when present, else from the pixels and ``K``)."""
+        return observation_bearings(tracks, self.features, self.K, self.normalized)
+
+
+def _atomic_save(path: Path, **arrays: np.ndarray) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz.tmp")
+    os.close(fd)
+    try:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)  # type: ignore[arg-type]
+        publish(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _digest(f: Features) -> str:
+    h = hashlib.sha1()
+    h.update(np.ascontiguousarray(f.keypoints).tobytes())
+    h.update(np.ascontiguousarray(f.descriptors).tobytes())
+    return h.hexdigest()
+
+
+def _matches(fa: Features, fb: Features, da: str, db: str, opt: PairwiseOptions, cache: Path | None) -> np.ndarray:
+    f = None
+    if cache is not None:
+        key = f"{da}-{db}-{opt.ratio}-{int(opt.mutual)}".encode()
+        f = cache / "matches" / f"m_{hashlib.sha1(key).hexdigest()[:24]}.npz"
+        if f.is_file():
+            try:
+                with np.load(f) as z:
+                    return z["idx"]
+            except Exception:  # noqa: BLE001, S110 - unreadable cache entry: recompute
+                pass
+    idx = match_features(fa.descriptors, fb.descriptors, ratio=opt.ratio, mutual=opt.mutual)
+    if f is not None:
+        _atomic_save(f, idx=idx)
+    return idx
+
+
+@dataclass(frozen=True)
+class TwoView:
+    """The fields of a two-view result the view graph uses (``R (3, 3)``, ``t (3,)``, ``inliers (n,)``,
+    ``num_inliers``, ``status``); what the two-view cache stores."""
+
+    R: np.ndarray
+    t: np.ndarray
+    inliers: np.ndarray
+    num_inliers: int
+    status: str
+
+
+def two_view(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray | None, K2: np.ndarray | None, opt: PairwiseOptions,
+             seed: int, cache: Path | None, focal_px: float | None = None) -> TwoView:
+    """:func:`poseonly.estimate_relative_pose` of one pair (pixels ``(n, 2)`` with ``K1, K2``, or
+    normalized coordinates with ``K = None`` and ``focal_px``), cached by the inputs and options."""
+    f = None
+    if cache is not None:
+        h = hashlib.sha1()
+        for a in (u1, u2, K1, K2):
+            if a is not None:
+                h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+        h.update(f"{opt.method}-{opt.threshold_px}-{seed}-{focal_px}".encode())
+        f = cache / "twoview" / f"r_{h.hexdigest()[:24]}.npz"
+        if f.is_file():
+            try:
+                with np.load(f) as z:
+                    return TwoView(z["R"], z["t"], z["inliers"], int(z["num_inliers"]), str(z["status"]))
+            except Exception:  # noqa: BLE001, S110 - unreadable cache entry: recompute
+                pass
+    extra = {} if focal_px is None else {"focal_px": float(focal_px)}
+    r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, threshold_px=opt.threshold_px, seed=seed, **extra)
+    out = TwoView(np.asarray(r.R), np.asarray(r.t), np.asarray(r.inliers, dtype=bool), int(r.num_inliers), str(r.status))
+    if f is not None:
+        _atomic_save(f, R=out.R, t=out.t, inliers=out.inliers, num_inliers=np.array(out.num_inliers), status=np.array(out.status))
+    return out
+
+
+def image_view_graph(
+    images: Sequence[str | os.PathLike],
+    K: np.ndarray,
+    *,
+    options: PairwiseOptions | None = None,
+    cache_dir: str | os.PathLike | None = None,
+    pairs: Sequence[tuple[int, int]] | None = None,
+    progress: Callable | None = None,
+) -> ImageGraph:
+    """Features of ``images``, matches and two-view poses of ``pairs`` (default: all ``i < j``),
+    as an :class:`ImageGraph`. ``K`` is ``(3, 3)`` shared or ``(N, 3, 3)`` per image; ``progress``
+    wraps an iterable (e.g. tqdm)."""
+    opt = options or PairwiseOptions()
+    n = len(images)
+    if n < 2:
+        raise InputError(f"need at least two images, got {n}")
+    Ks = np.asarray(K, dtype=np.float64)
+    Ks = np.broadcast_to(Ks, (n, 3, 3)).copy() if Ks.shape == (3, 3) else Ks
+    if Ks.shape != (n, 3, 3):
+        raise InputError(f"K must be (3, 3) or ({n}, 3, 3), got {Ks.shape}")
+    wrap = progress or (lambda it, **_: it)
+    cache = Path(cache_dir) if cache_dir is not None else None
+    times: dict[str, float] = {}
+    t0 = time.perf_counter()
+    feats = [extract_features(p, max_features=opt.max_features, cache_dir=None if cache is None else cache / "features")
+             for p in wrap(list(images), desc="features", total=n)]
+    digests = [_digest(f) for f in feats]
+    times["features"] = time.perf_counter() - t0
+    plist = [(i, j) for i in range(n) for j in range(i + 1, n)] if pairs is None else [(min(a, b), max(a, b)) for a, b in pairs]
+    graph = ViewGraph(n)
+    putative: dict[tuple[int, int], np.ndarray] = {}
+    stats: list[tuple[int, int, int, int, str]] = []
+    tm = te = 0.0
+    for k, (i, j) in enumerate(wrap(plist, desc="pairs", total=len(plist))):
+        t1 = time.perf_counter()
+        idx = _matches(feats[i], feats[j], digests[i], digests[j], opt, cache)
+        tm += time.perf_counter() - t1
+        putative[(i, j)] = idx
+        if len(idx) < opt.min_matches:
+            graph.rejected.append((i, j, f"{len(idx)} putative matches"))
+            stats.append((i, j, len(idx), 0, "few_matches"))
+            continue
+        t1 = time.perf_counter()
+        r = two_view(feats[i].keypoints[idx[:, 0]], feats[j].keypoints[idx[:, 1]], Ks[i], Ks[j], opt, opt.seed + k, cache)
+        te += time.perf_counter() - t1
+        graph.add_result(i, j, r, idx)
+        stats.append((i, j, len(idx), int(r.num_inliers), r.status))
+    times["matching"] = tm
+    times["two_view"] = te
+    return ImageGraph(feats, Ks, graph, stats, times, putative)
+
+
+def observation_bearings(tracks: Tracks, features: Sequence[Features], K: np.ndarray,
+                         normalized: Sequence[np.ndarray] | None = None) -> np.ndarray:
+    """Unit camera-frame bearings ``(M, 3)`` of every track observation: from the pixels and
+    ``K (N, 3, 3)``, or from undistorted ``normalized`` keypoints ``(m_k, 2)`` per image when given."""
+    out = np.empty((tracks.num_observations, 3))
+    for v in np.unique(tracks.views):
+        sel = np.flatnonzero(tracks.views == v)
+        if normalized is not None:
+            out[sel] = bearings_from_normalized(normalized[v][tracks.keypoints[sel]])
+        else:
+            out[sel] = bearings_from_pixels(features[v].keypoints[tracks.keypoints[sel]], K[v])
+    return out

@@ -1,0 +1,119 @@
+"""The global pipeline on a view graph: rotation averaging -> LiGT -> reconstruction, with a
+track filter between two LiGT solves.
+
+LiGT is a linear least-squares solve, so wrong track observations (matches that passed a two-view
+check by chance) bias it. After the first solve every point is reconstructed analytically; the
+observations whose reprojection error exceeds ``max_error_px`` (or that are behind the camera) are
+removed and LiGT is solved again (``filter_rounds`` times). Translation-untrusted edges
+(``pure_rotation``) still give rotations; their tracks' parallax decides if they join LiGT.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..geometry import InputError
+from .ligt_global import MIN_PARALLAX_DEG, LiGTResult, ligt_positions
+from .reconstruct import MAX_ERROR_PX, Reconstruction, reconstruct_points
+from .rotation_averaging import RotationAveragingResult, average_rotations
+from .tracks import Tracks, build_tracks
+from .viewgraph import ViewGraph
+
+BearingsFn = Callable[[Tracks], np.ndarray]
+
+__all__ = ["BearingsFn", "GlobalOptions", "GlobalResult", "filter_observations", "run_global"]
+
+
+@dataclass(frozen=True)
+class GlobalOptions:
+    """``min_track_length``, track ``conflicts`` policy, rotation averaging outlier thresholds,
+    LiGT ``min_parallax_deg`` and ``ligt_reweight`` iterations, reconstruction ``max_error_px`` and ``filter_rounds``."""
+
+    min_track_length: int = 2
+    conflicts: str = "split"
+    max_rotation_error_deg: float = 5.0
+    min_rotation_error_deg: float = 1.0
+    min_parallax_deg: float = MIN_PARALLAX_DEG
+    max_error_px: float = MAX_ERROR_PX
+    filter_rounds: int = 2
+    ligt_reweight: int = 0
+
+
+@dataclass
+class GlobalResult:
+    """``rotations (N, 3, 3)``, ``centres (N, 3)`` (NaN: not estimated), the ``tracks`` with their
+    ``bearings (M, 3)``, the final ``reconstruction``, the stage results and ``times_s``."""
+
+    rotations: np.ndarray
+    centres: np.ndarray
+    tracks: Tracks
+    bearings: np.ndarray
+    reconstruction: Reconstruction
+    rotation: RotationAveragingResult
+    ligt: LiGTResult
+    times_s: dict[str, float] = field(default_factory=dict)
+    info: dict[str, object] = field(default_factory=dict)
+
+
+def filter_observations(tracks: Tracks, bearings: np.ndarray, keep_obs: np.ndarray, min_length: int = 2) -> tuple[Tracks, np.ndarray, np.ndarray]:
+    """Drop observations (``keep_obs (M,)`` False) and then tracks shorter than ``min_length``;
+    returns the new tracks, their bearings and the kept old-track indices."""
+    tr = tracks.track_of_observation
+    cnt = np.bincount(tr[keep_obs], minlength=len(tracks))
+    ok = cnt >= min_length
+    obs = keep_obs & ok[tr]
+    ptr = np.concatenate([[0], np.cumsum(cnt[ok])]).astype(np.int64)
+    return Tracks(ptr, tracks.views[obs], tracks.keypoints[obs]), bearings[obs], np.flatnonzero(ok)
+
+
+def run_global(
+    graph: ViewGraph,
+    bearings_of: BearingsFn,
+    focal: float,
+    options: GlobalOptions | None = None,
+) -> GlobalResult:
+    """Global poses and points of ``graph``. ``bearings_of(tracks) -> (M, 3)`` gives the unit
+    camera-frame bearings of the tracks' observations; ``focal`` (px) scales reprojection errors."""
+    opt = options or GlobalOptions()
+    if len(graph) == 0:
+        raise InputError("the view graph has no edges")
+    times: dict[str, float] = {}
+    t0 = time.perf_counter()
+    ra = average_rotations(graph.num_views, graph.pairs(), graph.rotations(), graph.weights(),
+                           max_error_deg=opt.max_rotation_error_deg, min_error_deg=opt.min_rotation_error_deg)
+    times["rotation_averaging"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    tracks = build_tracks(graph, min_length=opt.min_track_length, conflicts=opt.conflicts, edge_mask=ra.inlier_edges)
+    f = bearings_of(tracks)
+    times["tracks"] = time.perf_counter() - t0
+    info: dict[str, object] = {"tracks_built": len(tracks), "observations_built": tracks.num_observations,
+                               "tracks_conflicting": tracks.num_conflicting}
+    t0 = time.perf_counter()
+    lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg,
+                            reweight_iterations=opt.ligt_reweight)
+    times["ligt"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    rec = reconstruct_points(ra.rotations, lg.centres, tracks, f, focal=focal, max_error_px=opt.max_error_px)
+    times["reconstruction"] = time.perf_counter() - t0
+    for rnd in range(opt.filter_rounds):
+        keep = rec.obs_valid
+        if np.all(keep[np.isfinite(rec.error_px)]):
+            break
+        t0 = time.perf_counter()
+        tracks, f, _ = filter_observations(tracks, f, keep, opt.min_track_length)
+        lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg,
+                            reweight_iterations=opt.ligt_reweight)
+        times["ligt"] += time.perf_counter() - t0
+        t0 = time.perf_counter()
+        rec = reconstruct_points(ra.rotations, lg.centres, tracks, f, focal=focal, max_error_px=opt.max_error_px)
+        times["reconstruction"] += time.perf_counter() - t0
+        info[f"filter_round_{rnd + 1}_observations"] = tracks.num_observations
+    R = ra.rotations.copy()
+    R[~lg.estimated] = np.nan
+    info["points_valid"] = rec.num_valid
+    return GlobalResult(R, lg.centres, tracks, f, rec, ra, lg, times, info)
+

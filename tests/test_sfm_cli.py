@@ -1,0 +1,92 @@
+"""`poseonly sfm` end to end on a small subset of a shared Strecha scene, and the COLMAP model it
+writes (read back by pycolmap). Skips when the data or pycolmap are absent."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from poseonly.cli import main
+
+SCENE = Path("/work/shared/data/strecha/Herz-Jesus-P8")
+N_IMAGES = 4
+
+
+@pytest.fixture(scope="module")
+def sfm_run(tmp_path_factory):
+    if not (SCENE / "images" / "K.txt").is_file():
+        pytest.skip("shared Strecha data not available")
+    out = tmp_path_factory.mktemp("sfm")
+    rc = main(["sfm", str(SCENE / "images"), "--K", str(SCENE / "images" / "K.txt"), "--out", str(out),
+               "--max-images", str(N_IMAGES), "--max-features", "2000", "--no-progress"])
+    return rc, out
+
+
+def test_sfm_command_writes_outputs(sfm_run):
+    rc, out = sfm_run
+    assert rc == 0
+    head = (out / "points.ply").read_bytes().split(b"end_header\n")[0].decode()
+    n_vertex = int(head.split("element vertex ")[1].split()[0])
+    assert n_vertex > 100 + N_IMAGES
+    assert (out / "poses.json").is_file()
+    assert (out / "reconstruction.png").stat().st_size > 1000
+    mask = os.umask(0)
+    os.umask(mask)
+    assert (out / "points.ply").stat().st_mode & 0o777 == 0o666 & ~mask  # atomic writers keep the default mode
+    assert (out / "sparse" / "0").stat().st_mode & 0o777 == 0o777 & ~mask
+
+
+def test_sfm_colmap_model_reads_back_and_matches_ground_truth(sfm_run):
+    pycolmap = pytest.importorskip("pycolmap")
+    from poseonly.io.strecha import load_scene
+    from poseonly.sfm import evaluate_poses
+
+    rc, out = sfm_run
+    assert rc == 0
+    rec = pycolmap.Reconstruction(str(out / "sparse" / "0"))
+    assert rec.num_reg_images() == N_IMAGES
+    assert rec.num_points3D() > 100
+    assert rec.compute_mean_reprojection_error() < 2.0
+    sc = load_scene(SCENE)
+    R_gt = np.array([c.R_cw.T for c in sc.cameras[:N_IMAGES]])
+    C_gt = np.array([c.C for c in sc.cameras[:N_IMAGES]])
+    R = np.zeros((N_IMAGES, 3, 3))
+    C = np.zeros((N_IMAGES, 3))
+    for img in rec.images.values():
+        k = [p.name for p in sc.image_paths].index(img.name)
+        T = img.cam_from_world().matrix()
+        R[k], C[k] = T[:, :3], -T[:, :3].T @ T[:, 3]
+    ev = evaluate_poses(R, C, R_gt, C_gt)
+    assert ev["rot_mean_deg_rotalign"] < 0.1
+    assert ev["pos_mean_frac"] < 0.01
+
+
+def test_sfm_command_bad_input(tmp_path, capsys):
+    assert main(["sfm", str(tmp_path / "nope"), "--K", "K.txt", "--out", str(tmp_path / "o")]) == 2
+    assert "image folder not found" in capsys.readouterr().err
+
+
+def test_sfm_command_from_colmap_database(tmp_path):
+    """`poseonly sfm --database`: keypoints and matches read from a COLMAP database (written here
+    from our own features of 4 images), the model read back by pycolmap."""
+    pycolmap = pytest.importorskip("pycolmap")
+    if not (SCENE / "images" / "K.txt").is_file():
+        pytest.skip("shared Strecha data not available")
+    from poseonly.io.strecha import load_scene
+    from poseonly.sfm.colmap_anchor import write_database
+    from poseonly.sfm.pairwise import PairwiseOptions, image_view_graph
+
+    sc = load_scene(SCENE)
+    paths = sc.image_paths[:N_IMAGES]
+    ig = image_view_graph(paths, sc.K, options=PairwiseOptions(max_features=2000), cache_dir=tmp_path / "cache")
+    db = tmp_path / "database.db"
+    write_database(db, [p.name for p in paths], ig)
+    out = tmp_path / "out"
+    assert main(["sfm", str(SCENE / "images"), "--database", str(db), "--out", str(out), "--no-progress"]) == 0
+    rec = pycolmap.Reconstruction(str(out / "sparse" / "0"))
+    assert rec.num_reg_images() == N_IMAGES
+    assert rec.num_points3D() > 100
+    assert rec.compute_mean_reprojection_error() < 2.0
