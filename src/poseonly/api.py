@@ -46,10 +46,9 @@ import numpy as np
 
 from . import _core
 from .estimator import lirp_estimator
-from .residuals import get_residual
-from .identify import identify_poses
 from .geometry import InputError, as_bearings, check_intrinsics, essential_from_pose, rotation_error_deg
-from .residuals import v_sampson, v_sampson_chiral
+from .identify import identify_poses
+from .residuals import get_residual, v_sampson, v_sampson_chiral
 from .robust.gnc import GNCOptions, gnc_irls_batch
 from .robust.ransac import core_seed, ransac_relpose
 from .robust.ransac import gnc_ransac as _gnc_ransac

@@ -59,6 +59,7 @@ def _twin_R(sc):
 
 def _methods():
     import poseonly
+
     from .anchors import available_anchors, opencv_relpose, poselib_relpose
 
     def ours(sc, s):

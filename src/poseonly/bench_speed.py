@@ -103,9 +103,8 @@ def lirp_rows(scenes: int, repeats: int) -> dict:
     for n in (30, 300):
         scs = [sim.make_scene(n, noise_px=NOISE_PX, seed=s) for s in range(scenes)] * repeats
         out[f"lirp_public_n{n}"] = _median_time(lambda sc: lirp(sc.f1, sc.f2), scs)
-        F1 = np.ascontiguousarray(np.stack([sc.f1 for sc in scs[:scenes]] * 20))
-        F2 = np.ascontiguousarray(np.stack([sc.f2 for sc in scs[:scenes]] * 20))
-        out[f"lirp_core_n{n}"] = _median_time(lambda _: lirp_batch(F1, F2, all_costs=False), [None] * repeats) / len(F1)
+        F = (np.ascontiguousarray(np.stack([sc.f1 for sc in scs[:scenes]] * 20)), np.ascontiguousarray(np.stack([sc.f2 for sc in scs[:scenes]] * 20)))
+        out[f"lirp_core_n{n}"] = _median_time(lambda F: lirp_batch(F[0], F[1], all_costs=False), [F] * repeats) / len(F[0])
     return out
 
 

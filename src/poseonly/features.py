@@ -27,7 +27,6 @@ from typing import Any
 import numpy as np
 
 from ._fileutil import publish
-
 from .geometry import InputError, check_intrinsics, essential_from_pose
 
 __all__ = [

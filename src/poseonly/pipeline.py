@@ -52,9 +52,9 @@ def relpose_images(img1, img2, K1, K2=None, *, ratio: float = 0.8, mutual: bool 
 
 def draw_matches(img1, img2, u1, u2, inliers, out: str | Path, max_lines: int = 400, seed: int = 0) -> Path:
     """Side-by-side drawing: inliers green, outliers red (a random subset of ``max_lines``)."""
-    from .features import read_image
-
     import cv2
+
+    from .features import read_image
 
     a = read_image(img1, grayscale=False)
     b = read_image(img2, grayscale=False)

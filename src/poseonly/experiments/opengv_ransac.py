@@ -39,11 +39,11 @@ import numpy as np
 
 from ..geometry import four_poses
 from ..residuals import RESIDUALS
-
-v_OpenGV_symmetric = RESIDUALS["opengv-symmetric"]
 from ..robust.ransac import sample_indices
 from ..solvers.fivept import fivept_batch
 from ._common import code_version  # noqa: F401  (re-exported: older imports)
+
+v_OpenGV_symmetric = RESIDUALS["opengv-symmetric"]
 
 __all__ = ["OPENGV_THRESHOLD", "OpenGVRansacResult", "opengv_ransac_5pt", "opengv_ransac_nonlinear", "get_refiner", "code_version"]
 

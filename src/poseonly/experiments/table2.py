@@ -18,7 +18,7 @@ import numpy as np
 from ..geometry import rotation_error_deg
 from ..sim import make_scene
 from ..solvers.lirp import lirp_batch
-from ._common import pyplot, write_outputs, markdown_table, progress
+from ._common import markdown_table, progress, pyplot, write_outputs
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

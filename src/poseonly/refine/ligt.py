@@ -42,6 +42,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
+from .. import _core
 from ..geometry import check_correspondences, cross, normalize
 from ._common import LOSSES, RefineResult, check_pose, fix_translation_sign, grouped_loss
 from ._manifold import PoseChart
@@ -151,73 +152,6 @@ _LOSS_CODE = {"linear": 0, "soft_l1": 1, "huber": 2, "cauchy": 3, "arctan": 4}
 _NORM_CODE = {"none": 0, "theta2": 1, "angular": 2}
 
 
-def _normal_equations_numpy(chart, x, f1, f2, sw, norm, loss, scale, want):
-    """Robust cost ``scale^2 sum rho(|r_i|^2 / scale^2)`` and, when ``want``, the Gauss-Newton normal
-    equations ``H = sum rho'_i J_i^T J_i``, ``g = sum rho'_i J_i^T r_i`` (IRLS form of the robust
-    loss: no second-order ``rho''`` term, so ``H`` stays positive semi-definite)."""
-    r, J = _residual_and_jacobian(chart, x, f1, f2, sw, want, norm)
-    r = r.reshape(-1, 3)
-    s2 = scale * scale
-    rho, drho, _ = LOSSES[loss](np.einsum("ij,ij->i", r, r) / s2)
-    cost = float(s2 * np.sum(rho))
-    if not want:
-        return cost, None, None
-    J = J.reshape(-1, 3, 5)
-    Jw = J * drho[:, None, None]
-    return cost, np.einsum("nip,niq->pq", Jw, J), np.einsum("nip,ni->p", Jw, r)
-
-
-def _normal_equations(chart, x, f1, f2, sw, norm, loss, scale, want=True):
-    return _normal_equations_numpy(chart, x, f1, f2, sw, norm, loss, scale, want)
-
-
-def _lm(chart, f1, f2, sw, norm, loss, scale, max_iter, tol):
-    """Levenberg-Marquardt on the chart with IRLS-weighted robust normal equations.
-
-    Step ``(H + lam diag(H)) dx = -g``; a step is taken only when the robust cost decreases
-    (``lam / 3``), else ``lam * 10``. Stops when the relative cost decrease or the step falls below
-    ``tol``, the gradient vanishes, ``lam`` explodes, or after ``max_iter`` cost evaluations.
-    Returns ``(x, nfev, njev, status, message)`` with scipy's status codes (1 gtol, 2 ftol, 3 xtol,
-    0 max evaluations, -1 no decreasing step).
-    """
-    x = chart.x0()
-    F, H, g = _normal_equations(chart, x, f1, f2, sw, norm, loss, scale)
-    nfev = njev = 1
-    d = np.maximum(np.diag(H), 1e-300)
-    lam = 1e-3
-    status, msg = 0, "maximum number of cost evaluations reached"
-    while nfev < max_iter:
-        if not np.all(np.isfinite(g)) or np.max(np.abs(g)) <= tol * max(F, 1e-300):
-            status, msg = 1, "gradient vanished (gtol)"
-            break
-        try:
-            dx = np.linalg.solve(H + lam * np.diag(d), -g)
-        except np.linalg.LinAlgError:
-            lam *= 10.0
-            continue
-        xn = x + dx
-        Fn, Hn, gn = _normal_equations(chart, xn, f1, f2, sw, norm, loss, scale)
-        nfev += 1
-        if np.isfinite(Fn) and Fn < F:
-            dF = F - Fn
-            x, F, H, g = xn, Fn, Hn, gn
-            njev += 1
-            d = np.maximum(d, np.diag(H))  # Marquardt scaling by the largest diagonal seen (as MINPACK)
-            lam = max(lam / 3.0, 1e-15)
-            if dF <= tol * F:
-                status, msg = 2, "relative cost decrease below tol (ftol)"
-                break
-            if np.linalg.norm(dx) <= tol * (tol + np.linalg.norm(x)):
-                status, msg = 3, "step below tol (xtol)"
-                break
-        else:
-            lam *= 10.0
-            if lam > 1e16:
-                status, msg = -1, "no decreasing step"
-                break
-    return x, nfev, njev, status, msg
-
-
 def _objective(r: np.ndarray, loss: str, scale: float) -> float:
     s = np.sum(r.reshape(-1, 3) ** 2, axis=1)
     if loss == "linear":
@@ -316,16 +250,25 @@ def ligt_refine(
     if cost0 == 0.0:
         x, nfev, njev, status, ok, msg = x0, 1, 0, 1, True, "exact start (zero residual)"
     elif solver == "lm":
-        x, nfev, njev, status, msg = _lm(chart, f1, f2, sw, norm, key, scale, int(max_iter), tol)
-        ok = status > 0
+        # the core's LM (src/core/refine.cpp): the same chart, losses and rules as the numpy LM kept in
+        # tests/reference/ligt_lm.py (the tests compare the two)
+        Rc, tc, st = _core.refine_ligt(R0, t0, np.ascontiguousarray(f1), np.ascontiguousarray(f2),
+                                       None if w is None else np.ascontiguousarray(w, dtype=float), normalization=norm, loss=key,
+                                       loss_scale=scale if key != "linear" else None, max_iterations=int(max_iter), tol=tol)
+        x = None
+        nfev, njev, status = int(st["evaluations"]), int(st["iterations"]), int(st["status"])
+        msg, ok = f"core LM status {status}", status > 0
     else:
         res = least_squares(
             fun, x0, jac=jac, method="lm" if key == "linear" else "trf",
             loss=grouped_loss(key, 3), f_scale=scale, ftol=tol, xtol=tol, gtol=tol, max_nfev=int(max_iter),
         )
         x, nfev, njev, status, ok, msg = res.x, int(res.nfev), int(res.njev or 0), int(res.status), bool(res.status > 0), res.message
-    R1, t1 = chart.retract(x)
-    r1, _ = _residual_and_jacobian(chart, x, f1, f2, sw, False, norm)
+    if x is None:  # the core's LM returned the pose itself
+        R1, t1 = Rc, tc
+    else:
+        R1, t1 = chart.retract(x)
+    r1 = (sw[:, None] * _ligt_terms(R1, t1, f1, f2, norm)[0]).ravel()
     cost1 = _objective(r1, key, scale)
     if not cost1 <= cost0:  # never return a worse pose (LM/TRF only accept decreasing steps; guard)
         R1, t1, cost1, msg = R0, t0, cost0, msg + "; cost increased, start pose returned"
