@@ -5,6 +5,7 @@
     poseonly relpose --matches matches.npz [--K ...]
     poseonly experiment NAME [--trials N] [--quick] [--out DIR] [...]
     poseonly bench NAME [...]
+    poseonly bench real DIR... [--seeds K] [--methods ...] [--out DIR] [--cache DIR] [--max-pairs N]
 """
 
 from __future__ import annotations
@@ -131,6 +132,9 @@ def cmd_experiment(args) -> int:
 
 
 BENCHES = {"speed": "poseonly.bench_speed", "robust": "poseonly.bench_robust"}  # modules with main(argv)
+# --- issue 12: `poseonly bench real DIR...` (real-data benchmark; logic in experiments/real_bench.py)
+BENCHES["real"] = "poseonly.experiments.real_bench"
+# --- end issue 12
 
 
 def cmd_bench(args) -> int:
@@ -170,7 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--draw", help="write a match drawing (PNG)")
     r.set_defaults(func=cmd_relpose)
 
-    b = sub.add_parser("bench", help="benchmarks: speed (issue 6) or robust (issue 3)")
+    b = sub.add_parser("bench", help="benchmarks: speed (issue 6), robust (issue 3) or real (issue 12)")
     b.add_argument("name", choices=sorted(BENCHES))
     b.add_argument("rest", nargs=argparse.REMAINDER, help="options of the benchmark (see poseonly bench NAME --help)")
     b.set_defaults(func=cmd_bench)
