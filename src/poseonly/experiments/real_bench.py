@@ -44,14 +44,30 @@ import hashlib
 import json
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..geometry import InputError, check_intrinsics, rotation_error_deg, translation_error_deg
-from ._common import atomic_write_text, code_version, fmt, machine, markdown_table, progress, pyplot, savefig, single_thread, write_json
+from ..geometry import (
+    InputError,
+    check_intrinsics,
+    rotation_error_deg,
+    translation_error_deg,
+)
+from ._common import (
+    atomic_write_text,
+    code_version,
+    machine,
+    markdown_table,
+    progress,
+    pyplot,
+    savefig,
+    single_thread,
+    write_json,
+)
 
 RATIO = 0.8  # Lowe's ratio of the SIFT matching
 MIN_MATCHES = 30  # Strecha "all pairs": more than this many matches
@@ -335,19 +351,28 @@ def ratio_matches(d1: np.ndarray, d2: np.ndarray, ratio: float = RATIO) -> tuple
     return np.stack([i1, nn[keep, 0].astype(np.int64)], axis=1), r
 
 
+def _read_match_cache(f: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Cached ``(u1, u2, ratio)``; ``None`` when absent, unreadable or inconsistent (recomputed)."""
+    if not f.is_file():
+        return None
+    try:
+        with np.load(f, allow_pickle=False) as z:
+            u1, u2, r = np.asarray(z["u1"], float), np.asarray(z["u2"], float), np.asarray(z["ratio"], float)
+    except Exception:  # noqa: BLE001 - any unreadable cache file is recomputed
+        return None
+    if u1.ndim == 2 and u1.shape[1:] == (2,) and u1.shape == u2.shape and r.shape == (len(u1),):
+        return u1, u2, r
+    return None
+
+
 def pair_matches(pair: Pair, cache: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``u1, u2 (k, 2)`` pixels and ``ratio (k,)`` of the pair's SIFT matches (cached)."""
     from ..features import _atomic_savez, extract_features
 
     f = _match_cache_file(cache, pair.im1, pair.im2)
-    if f.is_file():
-        try:
-            with np.load(f, allow_pickle=False) as z:
-                u1, u2, r = np.asarray(z["u1"], float), np.asarray(z["u2"], float), np.asarray(z["ratio"], float)
-            if u1.ndim == 2 and u1.shape[1:] == (2,) and u1.shape == u2.shape and r.shape == (len(u1),):
-                return u1, u2, r
-        except Exception:  # noqa: BLE001 - unreadable cache: recompute
-            pass
+    hit = _read_match_cache(f)
+    if hit is not None:
+        return hit
     a = extract_features(pair.im1, cache_dir=cache)
     b = extract_features(pair.im2, cache_dir=cache)
     idx, r = ratio_matches(a.descriptors, b.descriptors)
