@@ -202,16 +202,23 @@ METHODS: dict[str, MethodFn] = {
     "poselib-2px": poselib(2.0),
     "opencv-magsac": opencv_magsac(1.0),
     "superansac": superansac(),
+    # ablations of the default (issue 12's suspects); not run unless asked for with --methods
+    "poseonly@1px": ours(threshold_px=1.0),
+    "poseonly-fixed-thr": ours(adaptive_threshold=False),
+    "poseonly@1px-fixed-thr": ours(threshold_px=1.0, adaptive_threshold=False),
+    "poseonly-no-refine": ours(refine=False),
 }
+DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")
 # the library each method needs (a missing one skips the method with a note)
 _REQUIRES = {"poselib-1px": "poselib", "poselib-2px": "poselib", "opencv-magsac": "cv2", "superansac": "pysuperansac"}
 
 
 def available_methods(names: list[str] | None) -> tuple[list[str], list[str]]:
-    """The requested method names (default: all) whose libraries import, and notes on the others."""
+    """The requested method names (default: :data:`DEFAULT_METHODS`) whose libraries import, and notes
+    on the others."""
     import importlib.util
 
-    names = list(names or METHODS)
+    names = list(names or DEFAULT_METHODS)
     bad = [n for n in names if n not in METHODS]
     if bad:
         raise InputError(f"unknown method(s) {bad}; choose from {sorted(METHODS)}")
@@ -665,29 +672,124 @@ def _clean(o: Any) -> Any:
     return o
 
 
+# ------------------------------------------------------------------------------------------------
+# diagnosis of the pairs the default loses
+
+FAR_PX = 3.0  # an inlier farther than this (Sampson, px) from the GT epipolar geometry is a wrong one
+MSAC_PX = 1.0  # truncation of the MSAC cost used to compare poses
+
+
+def _msac_cost(u1: np.ndarray, u2: np.ndarray, p: Pair, R: np.ndarray, t: np.ndarray, thr: float = MSAC_PX) -> float:
+    """Truncated quadratic cost ``sum min(e^2, thr^2)`` of the Sampson distances (px) of all matches."""
+    from ..features import sampson_error_px
+
+    e = sampson_error_px(u1, u2, p.K1, p.K2, R, t)
+    return float(np.sum(np.minimum(e * e, thr * thr)))
+
+
+def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly", seeds: int = 4) -> list[dict]:
+    """Re-run the ``n_worst`` pairs where ``method`` loses most to :data:`REFERENCE` (rotation error
+    difference, seed 0) and report for each: the default's final (noise-matched) threshold and inliers,
+    its inliers farther than ``FAR_PX`` from the GT geometry against the reference's, the MSAC cost at
+    ``MSAC_PX`` of both poses and of the truth, the rotation error over ``seeds`` seeds, and the errors
+    of the ablations (1 px threshold, fixed threshold, no refinement)."""
+    from ..anchors import poselib_relpose
+    from ..api import estimate_relative_pose
+    from ..features import sampson_error_px
+
+    pairs = {(p.dataset, p.pid): p for d in load_datasets(res["config"]["dirs"]).values() for p in d}
+
+    def loss(r: dict) -> float:
+        a, b = r["methods"][method][0]["R_err"], r["methods"][REFERENCE][0]["R_err"]
+        a = 180.0 if a is None else a
+        b = 180.0 if b is None else b
+        return a - b
+
+    recs = sorted((r for r in res["pairs"] if r["matches"] >= MIN_SOLVE), key=loss, reverse=True)[:n_worst]
+    out = []
+    for r in recs:
+        p = pairs[(r["dataset"], r["id"])]
+        u1, u2, _ = pair_matches(p, cache)
+        e_gt = sampson_error_px(u1, u2, p.K1, p.K2, p.R, p.t)
+        o = estimate_relative_pose(u1, u2, p.K1, p.K2, seed=0)
+        Rp, tp, inlp, _ = poselib_relpose(u1, u2, p.K1, p.K2, threshold_px=1.0, seed=0)
+        d: dict[str, Any] = {
+            "dataset": p.dataset, "id": p.pid, "matches": len(u1), "gt_1px": int(np.count_nonzero(e_gt < GT_PX)),
+            "R_err": float(rotation_error_deg(p.R, o.R)), "status": o.status, "final_thr_px": float(o.threshold_px),
+            "inliers": int(o.num_inliers), "inliers_far": int(np.count_nonzero(o.inliers & (e_gt > FAR_PX))),
+            "msac": _msac_cost(u1, u2, p, o.R, o.t), "msac_gt": _msac_cost(u1, u2, p, p.R, p.t),
+        }
+        if Rp is not None:
+            d.update(ref_R_err=float(rotation_error_deg(p.R, Rp)), ref_inliers=int(np.count_nonzero(inlp)),
+                     ref_inliers_far=int(np.count_nonzero(inlp & (e_gt > FAR_PX))), ref_msac=_msac_cost(u1, u2, p, Rp, tp))
+        d["R_err_seeds"] = [float(rotation_error_deg(p.R, estimate_relative_pose(u1, u2, p.K1, p.K2, seed=s).R))
+                            for s in range(seeds)]
+        for name, opts in (("@1px", {"threshold_px": 1.0}), ("fixed-thr", {"adaptive_threshold": False}),
+                           ("no-refine", {"refine": False})):
+            d[f"R_err_{name}"] = float(rotation_error_deg(p.R, estimate_relative_pose(u1, u2, p.K1, p.K2, seed=0, **opts).R))
+        out.append(d)
+    return out
+
+
+def diagnosis_markdown(diag: list[dict]) -> str:
+    """Table of :func:`diagnose`."""
+    header = ["dataset", "pair", "matches", "GT<1px", "R err", "status", "final thr px", "inliers", f"far>{FAR_PX:g}px",
+              f"MSAC@{MSAC_PX:g}", "MSAC GT", "PL R err", "PL inliers", "PL far", "PL MSAC", "R err seeds 0-3",
+              "@1px", "fixed thr", "no refine"]
+    rows = [[d["dataset"], d["id"], d["matches"], d["gt_1px"], d["R_err"], d["status"], d["final_thr_px"], d["inliers"],
+             d["inliers_far"], d["msac"], d["msac_gt"], d.get("ref_R_err", float("nan")), d.get("ref_inliers", "-"),
+             d.get("ref_inliers_far", "-"), d.get("ref_msac", float("nan")), " / ".join(f"{e:.3g}" for e in d["R_err_seeds"]),
+             d["R_err_@1px"], d["R_err_fixed-thr"], d["R_err_no-refine"]] for d in diag]
+    return ("# Pairs where the default loses most to PoseLib (1 px), seed 0\n\n"
+            f"R errors in degrees. far = inliers more than {FAR_PX:g} px (Sampson) from the GT epipolar geometry; "
+            f"MSAC@{MSAC_PX:g} = sum over all matches of min(e^2, {MSAC_PX:g}) (px^2) of the pose (lower is better); "
+            "the last three columns are the default with threshold_px=1, adaptive_threshold=False, refine=False.\n\n"
+            + markdown_table(header, rows))
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="poseonly bench real", description=__doc__.split("\n\n")[0])
-    p.add_argument("dirs", nargs="+", metavar="DIR", help="realpairs dataset folders and/or Strecha scene folders")
+    p.add_argument("dirs", nargs="*", metavar="DIR", help="realpairs dataset folders and/or Strecha scene folders")
     p.add_argument("--seeds", type=int, default=1, help="run seeds 0..K-1 (AUC@10 spread; default 1)")
-    p.add_argument("--methods", nargs="+", metavar="METHOD", help=f"default: all of {', '.join(METHODS)}")
+    p.add_argument("--methods", nargs="+", metavar="METHOD", help=f"default: {' '.join(DEFAULT_METHODS)}; registered: {' '.join(METHODS)}")
     p.add_argument("--out", default="docs/results/real", help="output folder (default docs/results/real)")
     p.add_argument("--cache", help="feature/match cache folder (default <out>/cache)")
     p.add_argument("--max-pairs", type=int, help="at most N pairs per dataset, in file order")
+    p.add_argument("--diagnose", type=int, metavar="N", default=0,
+                   help="also re-run the N pairs where the default loses most to PoseLib and write real_bench_diagnosis.md")
+    p.add_argument("--from-json", metavar="PATH", help="skip the run: read the results of an earlier run (for --diagnose)")
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     out = Path(args.out)
-    res = compute(args.dirs, methods=args.methods, seeds=args.seeds, cache=Path(args.cache) if args.cache else out / "cache",
-                  max_pairs=args.max_pairs)
+    cache = Path(args.cache) if args.cache else out / "cache"
     cmd = "poseonly bench real " + " ".join(argv if argv is not None else sys.argv[1:])
+    if args.from_json:
+        try:
+            res = json.loads(Path(args.from_json).read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            raise InputError(f"cannot read {args.from_json}: {exc}") from None
+        if args.diagnose:
+            single_thread()
+            md = diagnosis_markdown(diagnose(res, cache, args.diagnose)) + f"\nCommand: `{cmd}`\n"
+            atomic_write_text(out / "real_bench_diagnosis.md", md)
+            print(md)
+        return 0
+    if not args.dirs:
+        raise InputError("give at least one dataset folder (DIR), or --from-json PATH")
+    res = compute(args.dirs, methods=args.methods, seeds=args.seeds, cache=cache, max_pairs=args.max_pairs)
     res["command"] = cmd
     md = to_markdown(res, cmd)
     atomic_write_text(out / "real_bench.md", md)
     write_json(out / "real_bench.json", _clean(res))
     figure(res, out / "real_bench.png")
     print(md)
+    if args.diagnose:
+        dmd = diagnosis_markdown(diagnose(res, cache, args.diagnose)) + f"\nCommand: `{cmd}`\n"
+        atomic_write_text(out / "real_bench_diagnosis.md", dmd)
+        print(dmd)
     return 0
 
 
