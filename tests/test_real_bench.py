@@ -100,3 +100,20 @@ def test_small_run_on_temple(tmp_path):
     assert [p["matches"] for p in again["pairs"]] == [p["matches"] for p in res["pairs"]]
     assert [p["methods"]["poseonly"][0]["R_err"] for p in again["pairs"]] == pytest.approx(
         [p["methods"]["poseonly"][0]["R_err"] for p in res["pairs"]])
+
+
+@pytest.mark.parametrize("name", ["superansac", "opencv-magsac", "poselib-1px"])
+def test_anchor_adapters_return_poses_and_inlier_masks_in_input_order(name):
+    lib = {"superansac": "pysuperansac", "opencv-magsac": "cv2", "poselib-1px": "poselib"}[name]
+    pytest.importorskip(lib)
+    from poseonly.sim import make_scene
+
+    sc = make_scene(200, camera="pinhole", noise_px=0.3, outlier_fraction=0.3, seed=3)
+    scores = np.where(sc.inliers, 0.5, 0.1) + 0.01 * np.arange(sc.n) / sc.n  # PROSAC order != input order
+    for seed in range(3):
+        o = rb.METHODS[name](sc.u1, sc.u2, sc.K, sc.K, scores, seed)
+        assert o.R is not None and o.status is None
+        er, _ = rb._errors(rb.Pair("s", "0", Path("a"), Path("b"), sc.K, sc.K, sc.R, sc.t, "realpairs"), o)
+        assert er < 0.5
+        assert np.count_nonzero(o.inliers & sc.inliers) >= 0.9 * np.count_nonzero(sc.inliers)
+        assert np.count_nonzero(o.inliers & ~sc.inliers) <= 5
