@@ -582,8 +582,28 @@ _SUBSET_TITLE = {
 }
 
 
+def overview_markdown(res: dict) -> str:
+    """One row per dataset (Strecha: overlapping pairs) and method: the headline numbers."""
+    ms, S = res["methods"], res["summary"]
+    header = ["dataset", "pairs", "method", "med / mean R err", "AUC@5 / @10 / @20", "med time x", "ok>5", "good-not-ok",
+              "ref-good-not-ok"]
+    rows = []
+    for ds, subs in S.items():
+        sub = "overlap" if "overlap" in subs else "all"
+        st = subs[sub]
+        for m in ms:
+            s = st[m]
+            a = s["auc"]
+            rows.append([ds if sub == "all" else f"{ds} (overlap)", s["pairs"], m,
+                         f"{s['median_R_err']:.3f} / {s['mean_R_err']:.3f}", f"{a['5']:.1f} / {a['10']:.1f} / {a['20']:.1f}",
+                         f"{s.get('median_time_ratio', float('nan')):.2f}",
+                         f"{s['ok_wrong']} / {s['ok']}" if "ok" in s else "-", s.get("good_not_ok", "-"),
+                         f"{s['ref_good_not_ok']} / {s['ref_good']}" if "ref_good" in s else "-"])
+    return markdown_table(header, rows)
+
+
 def to_markdown(res: dict, command: str | None = None) -> str:
-    """The report: one accuracy/time table and one status table per dataset and pair set."""
+    """The report: an overview, then one accuracy/time table and one status table per dataset and pair set."""
     ms, S, cfg = res["methods"], res["summary"], res["config"]
     lines = ["# Real-data benchmark (issue 12)", ""]
     if command:
@@ -605,6 +625,8 @@ def to_markdown(res: dict, command: str | None = None) -> str:
         "",
     ]
     lines += [f"Note: {n}." for n in res["notes"]]
+    lines += ["", "## Overview (seed 0; Strecha: overlapping pairs; ok>5 = wrong `ok` poses / `ok` poses)", "",
+              overview_markdown(res)]
     for ds, subs in S.items():
         for sub, st in subs.items():
             n = st[ms[0]]["pairs"]
@@ -759,7 +781,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-pairs", type=int, help="at most N pairs per dataset, in file order")
     p.add_argument("--diagnose", type=int, metavar="N", default=0,
                    help="also re-run the N pairs where the default loses most to PoseLib and write real_bench_diagnosis.md")
-    p.add_argument("--from-json", metavar="PATH", help="skip the run: read the results of an earlier run (for --diagnose)")
+    p.add_argument("--from-json", metavar="PATH", help="skip the run: read the results of an earlier run and re-render its report (or, with --diagnose, "
+                        "diagnose its losing pairs)")
     return p
 
 
@@ -777,6 +800,11 @@ def main(argv: list[str] | None = None) -> int:
             single_thread()
             md = diagnosis_markdown(diagnose(res, cache, args.diagnose)) + f"\nCommand: `{cmd}`\n"
             atomic_write_text(out / "real_bench_diagnosis.md", md)
+            print(md)
+        else:  # re-render the report and the figure from the stored results
+            md = to_markdown(res, res.get("command"))
+            atomic_write_text(out / "real_bench.md", md)
+            figure(res, out / "real_bench.png")
             print(md)
         return 0
     if not args.dirs:
