@@ -209,6 +209,7 @@ METHODS: dict[str, MethodFn] = {
     "poseonly-fixed-thr": ours(adaptive_threshold=False),
     "poseonly@1px-fixed-thr": ours(threshold_px=1.0, adaptive_threshold=False),
     "poseonly-no-refine": ours(refine=False),
+    "poseonly-min1000": ours(min_iterations=1000, confidence=0.9999),  # PoseLib's min_iterations / success_prob
 }
 DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")
 # the library each method needs (a missing one skips the method with a note)
@@ -711,12 +712,14 @@ def _msac_cost(u1: np.ndarray, u2: np.ndarray, p: Pair, R: np.ndarray, t: np.nda
     return float(np.sum(np.minimum(e * e, thr * thr)))
 
 
-def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly", seeds: int = 4) -> list[dict]:
+def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly", seeds: int = 4,
+             datasets: list[str] | None = None, overlap_only: bool = False) -> list[dict]:
     """Re-run the ``n_worst`` pairs where ``method`` loses most to :data:`REFERENCE` (rotation error
     difference, seed 0) and report for each: the default's final (noise-matched) threshold and inliers,
     its inliers farther than ``FAR_PX`` from the GT geometry against the reference's, the MSAC cost at
     ``MSAC_PX`` of both poses and of the truth, the rotation error over ``seeds`` seeds, and the errors
-    of the ablations (1 px threshold, fixed threshold, no refinement)."""
+    of the ablations (1 px threshold, fixed threshold, no refinement). ``datasets`` restricts the
+    candidates to those datasets, ``overlap_only`` to pairs with at least ``GT_MIN`` GT-consistent matches."""
     from ..anchors import poselib_relpose
     from ..api import estimate_relative_pose
     from ..features import sampson_error_px
@@ -729,7 +732,9 @@ def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly",
         b = 180.0 if b is None else b
         return a - b
 
-    recs = sorted((r for r in res["pairs"] if r["matches"] >= MIN_SOLVE), key=loss, reverse=True)[:n_worst]
+    cand = [r for r in res["pairs"] if r["matches"] >= MIN_SOLVE and (not datasets or r["dataset"] in datasets)
+            and (not overlap_only or r["gt_matches"] >= GT_MIN)]
+    recs = sorted(cand, key=loss, reverse=True)[:n_worst]
     out = []
     for r in recs:
         p = pairs[(r["dataset"], r["id"])]
@@ -781,6 +786,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-pairs", type=int, help="at most N pairs per dataset, in file order")
     p.add_argument("--diagnose", type=int, metavar="N", default=0,
                    help="also re-run the N pairs where the default loses most to PoseLib and write real_bench_diagnosis.md")
+    p.add_argument("--diagnose-datasets", nargs="+", metavar="NAME", help="diagnose only pairs of these datasets")
+    p.add_argument("--diagnose-overlap", action="store_true",
+                   help=f"diagnose only pairs with >= {GT_MIN} matches within {GT_PX:g} px of the GT geometry")
+    p.add_argument("--diagnose-name", default="real_bench_diagnosis", help="file name (no suffix) of the diagnosis")
     p.add_argument("--from-json", metavar="PATH", help="skip the run: read the results of an earlier run and re-render its report (or, with --diagnose, "
                         "diagnose its losing pairs)")
     return p
@@ -798,8 +807,9 @@ def main(argv: list[str] | None = None) -> int:
             raise InputError(f"cannot read {args.from_json}: {exc}") from None
         if args.diagnose:
             single_thread()
-            md = diagnosis_markdown(diagnose(res, cache, args.diagnose)) + f"\nCommand: `{cmd}`\n"
-            atomic_write_text(out / "real_bench_diagnosis.md", md)
+            diag = diagnose(res, cache, args.diagnose, datasets=args.diagnose_datasets, overlap_only=args.diagnose_overlap)
+            md = diagnosis_markdown(diag) + f"\nCommand: `{cmd}`\n"
+            atomic_write_text(out / f"{args.diagnose_name}.md", md)
             print(md)
         else:  # re-render the report and the figure from the stored results
             md = to_markdown(res, res.get("command"))
@@ -817,8 +827,9 @@ def main(argv: list[str] | None = None) -> int:
     figure(res, out / "real_bench.png")
     print(md)
     if args.diagnose:
-        dmd = diagnosis_markdown(diagnose(res, cache, args.diagnose)) + f"\nCommand: `{cmd}`\n"
-        atomic_write_text(out / "real_bench_diagnosis.md", dmd)
+        diag = diagnose(res, cache, args.diagnose, datasets=args.diagnose_datasets, overlap_only=args.diagnose_overlap)
+        dmd = diagnosis_markdown(diag) + f"\nCommand: `{cmd}`\n"
+        atomic_write_text(out / f"{args.diagnose_name}.md", dmd)
         print(dmd)
     return 0
 
