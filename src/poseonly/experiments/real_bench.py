@@ -712,6 +712,18 @@ def _msac_cost(u1: np.ndarray, u2: np.ndarray, p: Pair, R: np.ndarray, t: np.nda
     return float(np.sum(np.minimum(e * e, thr * thr)))
 
 
+def _poselib_iterations(u1: np.ndarray, u2: np.ndarray, p: Pair) -> int:
+    """RANSAC iterations PoseLib (1 px, seed 0) runs on the pair (``info["iterations"]``)."""
+    import poselib as pl
+
+    def cam(K: np.ndarray) -> dict:
+        return {"model": "PINHOLE", "width": int(2 * K[0, 2] + 1), "height": int(2 * K[1, 2] + 1),
+                "params": [float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2])]}
+
+    _, info = pl.estimate_relative_pose(u1, u2, cam(p.K1), cam(p.K2), {"max_epipolar_error": 1.0, "seed": 0}, {})
+    return int(info["iterations"])
+
+
 def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly", seeds: int = 4,
              datasets: list[str] | None = None, overlap_only: bool = False) -> list[dict]:
     """Re-run the ``n_worst`` pairs where ``method`` loses most to :data:`REFERENCE` (rotation error
@@ -747,6 +759,7 @@ def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly",
             "R_err": float(rotation_error_deg(p.R, o.R)), "status": o.status, "final_thr_px": float(o.threshold_px),
             "inliers": int(o.num_inliers), "inliers_far": int(np.count_nonzero(o.inliers & (e_gt > FAR_PX))),
             "msac": _msac_cost(u1, u2, p, o.R, o.t), "msac_gt": _msac_cost(u1, u2, p, p.R, p.t),
+            "iterations": int(o.num_iterations), "ref_iterations": _poselib_iterations(u1, u2, p),
         }
         if Rp is not None:
             d.update(ref_R_err=float(rotation_error_deg(p.R, Rp)), ref_inliers=int(np.count_nonzero(inlp)),
@@ -764,15 +777,17 @@ def diagnosis_markdown(diag: list[dict]) -> str:
     """Table of :func:`diagnose`."""
     header = ["dataset", "pair", "matches", "GT<1px", "R err", "status", "final thr px", "inliers", f"far>{FAR_PX:g}px",
               f"MSAC@{MSAC_PX:g}", "MSAC GT", "PL R err", "PL inliers", "PL far", "PL MSAC", "R err seeds 0-3",
-              "@1px", "fixed thr", "no refine"]
+              "@1px", "fixed thr", "no refine", "iters", "PL iters"]
     rows = [[d["dataset"], d["id"], d["matches"], d["gt_1px"], d["R_err"], d["status"], d["final_thr_px"], d["inliers"],
              d["inliers_far"], d["msac"], d["msac_gt"], d.get("ref_R_err", float("nan")), d.get("ref_inliers", "-"),
              d.get("ref_inliers_far", "-"), d.get("ref_msac", float("nan")), " / ".join(f"{e:.3g}" for e in d["R_err_seeds"]),
-             d["R_err_@1px"], d["R_err_fixed-thr"], d["R_err_no-refine"]] for d in diag]
+             d["R_err_@1px"], d["R_err_fixed-thr"], d["R_err_no-refine"], d["iterations"], d["ref_iterations"]]
+            for d in diag]
     return ("# Pairs where the default loses most to PoseLib (1 px), seed 0\n\n"
             f"R errors in degrees. far = inliers more than {FAR_PX:g} px (Sampson) from the GT epipolar geometry; "
             f"MSAC@{MSAC_PX:g} = sum over all matches of min(e^2, {MSAC_PX:g}) (px^2) of the pose (lower is better); "
-            "the last three columns are the default with threshold_px=1, adaptive_threshold=False, refine=False.\n\n"
+            "@1px / fixed thr / no refine = the default with threshold_px=1, adaptive_threshold=False, refine=False; "
+            "iters = RANSAC iterations of the default and of PoseLib (1 px, seed 0).\n\n"
             + markdown_table(header, rows))
 
 
