@@ -465,7 +465,8 @@ def compute(dirs: list[str | Path], *, methods: list[str] | None = None, seeds: 
     matches = [pair_matches(p, cache) for p in progress(plan, total=len(plan), desc="matching")]
     t_match = time.perf_counter() - t_start
     warm_up(plan, matches, ms)
-    records = [run_pair(p, *mt, ms, seeds) for p, mt in progress(zip(plan, matches), total=len(plan), desc="real pairs")]
+    records = [run_pair(p, mt[0], mt[1], mt[2], ms, seeds)
+               for p, mt in progress(zip(plan, matches), total=len(plan), desc="real pairs")]
     res = {
         "config": {"dirs": [str(d) for d in dirs], "datasets": {k: v[0].kind for k, v in data.items()}, "seeds": seeds,
                    "max_pairs": max_pairs, "ratio": RATIO, "min_matches": MIN_MATCHES, "gt_px": GT_PX, "gt_min": GT_MIN,
@@ -536,7 +537,8 @@ def _method_stats(recs: list[dict], m: str, seeds: int, ref: str | None) -> dict
         wrong = ok & ~(er <= WRONG_DEG)  # inf (no pose) counts as wrong when `ok`
         d["ok"] = int(np.count_nonzero(ok))
         d["ok_wrong"] = int(np.count_nonzero(wrong))
-        d["ok_wrong_pct"] = float(100.0 * np.count_nonzero(wrong) / max(1, np.count_nonzero(ok)))
+        n_ok = int(np.count_nonzero(ok))
+        d["ok_wrong_pct"] = 100.0 * int(np.count_nonzero(wrong)) / max(1, n_ok)
         if ref is not None:
             ref_good = _arr(recs, ref, "R_err") <= GOOD_DEG
             d["ref_good"] = int(np.count_nonzero(ref_good))
