@@ -658,7 +658,8 @@ def to_markdown(res: dict, command: str | None = None) -> str:
 
 
 def figure(res: dict, path: Path) -> Path | None:
-    """Cumulative curves of max(R err, t err) (seed 0), one panel per dataset and pair set."""
+    """Cumulative curves of max(R err, t err) (seed 0, 0.01-20 deg on a log axis), one panel per
+    dataset and pair set."""
     plt = pyplot()
     if plt is None:
         return None
@@ -668,7 +669,7 @@ def figure(res: dict, path: Path) -> Path | None:
     cols = min(3, len(panels))
     rows = (len(panels) + cols - 1) // cols
     fig, axs = plt.subplots(rows, cols, figsize=(5.2 * cols, 3.8 * rows), squeeze=False)
-    x = np.linspace(0, 20, 401)
+    x = np.logspace(-2, np.log10(20.0), 400)  # log axis: Strecha's errors are ~0.05 deg, temple's ~1 deg
     for a, (ds, sub) in zip(axs.ravel(), panels):
         pred = _subsets(res["config"]["datasets"][ds])[sub]
         recs = [r for r in res["pairs"] if r["dataset"] == ds and pred(r)]
@@ -676,7 +677,8 @@ def figure(res: dict, path: Path) -> Path | None:
             e = np.maximum(_arr(recs, m, "R_err"), _arr(recs, m, "t_err"))
             a.plot(x, 100 * np.mean(e[None, :] <= x[:, None], axis=1), label=m, lw=1.4 if m.startswith("poseonly") else 1.0)
         a.set_title(f"{ds}: {sub} ({len(recs)} pairs)", fontsize=9)
-        a.set_xlabel("max(R err, t err) (deg)")
+        a.set_xscale("log")
+        a.set_xlabel("max(R err, t err) (deg, log)")
         a.set_ylabel("pairs (%)")
         a.grid(alpha=0.3)
     for a in axs.ravel()[len(panels):]:
