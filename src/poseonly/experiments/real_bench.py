@@ -34,7 +34,12 @@ pose and PoseLib's are both within 2 deg yet the status is not ``ok``. With ``--
 method runs seeds ``0 .. K-1`` and AUC@10's spread over seeds is reported (tables: seed 0).
 
 Outputs in ``--out``: ``real_bench.md``, ``real_bench.json`` (config, summaries, per-pair records),
-``real_bench.png`` (cumulative error curves).
+``real_bench.png`` (cumulative error curves). ``--methods`` defaults to :data:`DEFAULT_METHODS`; the
+registry also holds ablations of the default (``poseonly@1px``, ``poseonly-fixed-thr``,
+``poseonly-no-refine``, ``poseonly-min1000``). ``--diagnose N`` re-runs the N pairs the default
+loses most to PoseLib and reports its final threshold, wrong inliers, MSAC cost against PoseLib's
+and the truth's, iterations, seed dependence and the ablations (``real_bench_diagnosis.md``);
+``--from-json`` skips the run and works on stored results (re-render or diagnose).
 """
 
 from __future__ import annotations
