@@ -6,6 +6,7 @@
     poseonly experiment NAME [--trials N] [--quick] [--out DIR] [...]
     poseonly bench NAME [...]
     poseonly colmap verify DATABASE [--pairs FILE] [--overwrite] [--jobs N | --dask ADDRESS]
+    poseonly bench real DIR... [--seeds K] [--methods ...] [--out DIR] [--cache DIR] [--max-pairs N]
 """
 
 from __future__ import annotations
@@ -138,6 +139,9 @@ def cmd_colmap_verify(args) -> int:
 
 
 BENCHES = {"speed": "poseonly.bench_speed", "robust": "poseonly.bench_robust"}  # modules with main(argv)
+# --- issue 12: `poseonly bench real DIR...` (real-data benchmark; logic in experiments/real_bench.py)
+BENCHES["real"] = "poseonly.experiments.real_bench"
+# --- end issue 12
 
 
 def cmd_bench(args) -> int:
@@ -185,7 +189,7 @@ def build_parser() -> argparse.ArgumentParser:
     colmap_verify_arguments(cv)
     cv.set_defaults(func=cmd_colmap_verify)
 
-    b = sub.add_parser("bench", help="benchmarks: speed (issue 6) or robust (issue 3)")
+    b = sub.add_parser("bench", help="benchmarks: speed, robust (synthetic) or real (real image pairs against the anchors)")
     b.add_argument("name", choices=sorted(BENCHES))
     b.add_argument("rest", nargs=argparse.REMAINDER, help="options of the benchmark (see poseonly bench NAME --help)")
     b.set_defaults(func=cmd_bench)
