@@ -103,17 +103,15 @@ class MethodOutput(NamedTuple):
 MethodFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int], MethodOutput]
 
 
-def ours(method: str = "poseonly", **options: Any) -> MethodFn:
-    """poseonly's :func:`~poseonly.estimate_relative_pose` with ``method`` and fixed ``options``.
-
-    ``scores`` are not passed (the API takes none yet); a variant that uses them is
-    ``lambda u1, u2, K1, K2, s, seed: ...`` with ``scores=s``.
-    """
+def ours(method: str = "poseonly", use_scores: bool = False, **options: Any) -> MethodFn:
+    """poseonly's :func:`~poseonly.estimate_relative_pose` with ``method`` and fixed ``options``;
+    ``use_scores`` passes the match scores (PROSAC sampling)."""
 
     def run(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, scores: np.ndarray, seed: int) -> MethodOutput:
         from ..api import estimate_relative_pose
 
-        r = estimate_relative_pose(u1, u2, K1, K2, method=method, seed=int(seed), **options)
+        extra = {"scores": scores} if use_scores else {}
+        r = estimate_relative_pose(u1, u2, K1, K2, method=method, seed=int(seed), **extra, **options)
         good = r.status not in ("degenerate", "failed") and np.all(np.isfinite(r.R))
         return MethodOutput(r.R if good else None, r.t if good else None, np.asarray(r.inliers, bool), r.status)
 
@@ -215,6 +213,13 @@ METHODS: dict[str, MethodFn] = {
     "poseonly@1px-fixed-thr": ours(threshold_px=1.0, adaptive_threshold=False),
     "poseonly-no-refine": ours(refine=False),
     "poseonly-min1000": ours(min_iterations=1000, confidence=0.9999),  # PoseLib's min_iterations / success_prob
+    # variants of the core-era default (C++ search, ML refinement)
+    "v-ml-2px": ours(final="ml", threshold_px=2.0),
+    "v-ml-1px-1000": ours(final="ml", threshold_px=1.0, min_iterations=1000, confidence=0.9999),
+    "v-ml-1px-1000-prosac": ours(use_scores=True, final="ml", threshold_px=1.0, min_iterations=1000, confidence=0.9999),
+    "v-ml-1px-1000-slo": ours(final="ml", lo="sampson", threshold_px=1.0, min_iterations=1000, confidence=0.9999),
+    "v-ml-1.5px-1000": ours(final="ml", threshold_px=1.5, min_iterations=1000, confidence=0.9999),
+    "v-ligt-1px-1000": ours(final="ligt", threshold_px=1.0, min_iterations=1000, confidence=0.9999),
 }
 DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")
 # the library each method needs (a missing one skips the method with a note)
