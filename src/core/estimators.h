@@ -15,6 +15,13 @@
 namespace poseonly {
 
 enum class MinimalSolver : int { FivePoint = 0, LiRP6 = 1 };
+
+// max(rotation angle of Ra^T Rb, angle between ta and tb), degrees
+inline double pose_distance_deg(const Pose& a, const Pose& b) {
+  const double c = std::clamp(0.5 * ((a.R.transpose() * b.R).trace() - 1.0), -1.0, 1.0);
+  const double ct = std::clamp(a.t.dot(b.t) / std::max(a.t.norm() * b.t.norm(), kTiny), -1.0, 1.0);
+  return 57.29577951308232 * std::max(std::acos(c), std::acos(ct));
+}
 // Local optimisation of a new best model: warm-started TLS IRLS on all-candidate LiRP (the pose-only
 // LO), or Levenberg-Marquardt on the Sampson error with a Cauchy loss at the threshold (PoseLib's
 // choice of a non-minimal refinement, with a smooth loss).
@@ -47,6 +54,8 @@ class RelativePoseEstimator {
   Terms terms(const Model& m) const { return PoseTerms(m); }
   double residual(const Terms& T, int i) const { return sampson(T.E, P_.a(i), P_.b(i)); }
   double success_probability(double r) const { return std::pow(r, sample_size()); }
+  // max(rotation angle, angle between the translation directions), degrees
+  double distance(const Model& a, const Model& b) const { return pose_distance_deg(a, b); }
 
   void generate(const std::vector<int>& s, std::vector<Model>* models) {
     buf_.clear();
@@ -130,6 +139,8 @@ class GncRansacEstimator {
                     (k ? k * std::log(r) : 0.0) + (ns_ - k ? (ns_ - k) * std::log1p(-r) : 0.0));
     return std::min(p, 1.0 - 1e-12);
   }
+  // max(rotation angle, angle between the translation directions), degrees
+  double distance(const Model& a, const Model& b) const { return pose_distance_deg(a, b); }
   void generate(const std::vector<int>& s, std::vector<Model>* models) {
     fit(s, nullptr);
     models->push_back(last_.pose);
@@ -170,6 +181,11 @@ class LineEstimator {
   Terms terms(const Model& m) const { return m; }
   double residual(const Terms& l, int i) const { return std::abs(l.a * xy_[2 * i] + l.b * xy_[2 * i + 1] + l.c); }
   double success_probability(double r) const { return r * r; }
+  // angle between the lines' normals (degrees, sign-free) plus their offset difference
+  double distance(const Model& p, const Model& q) const {
+    const double c = std::min(1.0, std::abs(p.a * q.a + p.b * q.b));
+    return std::acos(c) * 57.29577951308232 + std::abs(std::abs(p.c) - std::abs(q.c));
+  }
   void generate(const std::vector<int>& s, std::vector<Model>* models) {
     const double dx = xy_[2 * s[1]] - xy_[2 * s[0]], dy = xy_[2 * s[1] + 1] - xy_[2 * s[0] + 1];
     const double nrm = std::hypot(dx, dy);

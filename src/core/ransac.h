@@ -10,6 +10,7 @@
 //   Terms terms(const Model&) const;  double residual(const Terms&, int i) const; // the residual
 //   bool refine(Model* m, const std::vector<int>& inliers);       // local optimisation (LO) step
 //   double success_probability(double inlier_ratio) const;        // P(a sample is good)
+//   double distance(const Model&, const Model&) const;            // how different two models are
 // Scorer contract: double cost(const Estimator&, const Model&, double bail) const (lower is better;
 // may stop early once the partial cost exceeds `bail`: costs are sums of non-negative terms, so the
 // bail-out is exact), and bool inlier(double v) const.
@@ -27,6 +28,9 @@ struct RansacOptions {
   double confidence = 0.999;
   bool adaptive = true;
   int max_lo = 8;  // LO runs at most this often (on each new best model)
+  // > 0: also keep the best *rival*, the best-scoring model at least this far (estimator.distance)
+  // from the returned one; its cost says whether the data single out one model (a uniqueness test)
+  double rival_distance = 0.0;
 };
 
 struct RansacStats {
@@ -35,6 +39,7 @@ struct RansacStats {
   int num_lo = 0;
   int num_inliers = 0;
   double cost = std::numeric_limits<double>::infinity();
+  double rival_cost = std::numeric_limits<double>::infinity();  // inf: no rival tracked or found
 };
 
 // Samples needed to draw one good sample with `confidence` when one sample is good with probability p.
@@ -110,13 +115,26 @@ void inliers_of(const Est& est, const Model& m, const Scorer& sc, std::vector<in
 }
 
 template <class Est, class Scorer, class Sampler, class Model>
-RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const RansacOptions& opt, Model* best) {
+RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const RansacOptions& opt, Model* best, Model* rival = nullptr) {
   RansacStats st;
   const int n = est.num_data();
+  const bool track = opt.rival_distance > 0.0 && rival != nullptr;
   std::vector<int> sample, inl;
   std::vector<Model> models;
   double needed = opt.max_iterations;
   bool have = false;
+  // a model replacing `best`: the old best becomes the rival if it is far enough from the new one
+  auto promote = [&](const Model& m, double c) {
+    if (track && have && est.distance(*best, m) > opt.rival_distance) {
+      *rival = *best;
+      st.rival_cost = st.cost;
+    } else if (track && st.rival_cost < std::numeric_limits<double>::infinity() && !(est.distance(*rival, m) > opt.rival_distance)) {
+      st.rival_cost = std::numeric_limits<double>::infinity();  // the rival was this model's basin
+    }
+    *best = m;
+    st.cost = c;
+    have = true;
+  };
   while (st.iterations < opt.max_iterations && (st.iterations < needed || st.iterations < opt.min_iterations)) {
     ++st.iterations;
     sampler.sample(&sample);
@@ -124,21 +142,22 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
     est.generate(sample, &models);
     for (const Model& m : models) {
       ++st.num_models;
-      const double c = scorer.cost(est, m, st.cost);
-      if (!(c < st.cost)) continue;
-      *best = m;
-      st.cost = c;
-      have = true;
+      const double c = scorer.cost(est, m, track ? st.rival_cost : st.cost);
+      if (!(c < st.cost)) {
+        if (track && c < st.rival_cost && est.distance(*best, m) > opt.rival_distance) {
+          *rival = m;
+          st.rival_cost = c;
+        }
+        continue;
+      }
+      promote(m, c);
       if (st.num_lo < opt.max_lo) {
         inliers_of(est, *best, scorer, &inl);
         Model lo = *best;
         ++st.num_lo;
         if (est.refine(&lo, inl)) {
           const double c2 = scorer.cost(est, lo, st.cost);
-          if (c2 <= st.cost) {
-            *best = lo;
-            st.cost = c2;
-          }
+          if (c2 <= st.cost) promote(lo, c2);
         }
       }
       inliers_of(est, *best, scorer, &inl);

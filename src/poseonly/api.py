@@ -89,6 +89,7 @@ _OPTS: dict[str, dict[str, tuple]] = {
         "lo": ((str,), lambda v: v in ("lirp", "sampson"), "lirp"),
         "final": ((str,), lambda v: v in ("ml", "ligt"), "ml"),
         "ml_range": ((int, float), lambda v: 1.0 < v < 100.0, 3.0),
+        "rival_distance": ((int, float), lambda v: 0.0 <= v <= 180.0, 0.0),
     },
     "gnc-ransac": {
         "max_iterations": ((int, np.integer), lambda v: v >= 1, 50),
@@ -458,9 +459,15 @@ def _run_poseonly(f1, f2, o, tau, scores=None):
     r = ransac_relpose(
         f1, f2, tau, seed, solver=o["solver"], scoring=o["scoring"], max_iterations=o["max_iterations"],
         min_iterations=o["min_iterations"], confidence=o["confidence"], max_lo=o["max_lo"], lo_mu0=o["lo_mu0"],
-        lo_iterations=o["lo_iterations"], lo_residual=lo_res, scores=scores, lo=o["lo"],
+        lo_iterations=o["lo_iterations"], lo_residual=lo_res, scores=scores, lo=o["lo"], rival_distance=o["rival_distance"],
     )
     diag = {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored}
+    if o["rival_distance"] > 0:
+        # uniqueness: the support of the best model at least rival_distance degrees away, relative to
+        # the result's (support = the scorer's maximum minus its cost; 1 means an equally good rival)
+        full = 3.0 * len(f1) if o["scoring"] == "msac-multi" else (len(f1) * tau * tau if o["scoring"] == "msac" else float(len(f1)))
+        rc = r.stats.get("rival_cost", np.inf)
+        diag["rival_support_ratio"] = float(max(full - rc, 0.0) / max(full - r.score, 1e-300)) if np.isfinite(rc) else 0.0
     # the pose-only choice among the RANSAC model (re-identified on its inliers), its homography twin
     # and the LiRP candidates of its consensus set, by cheirality-consistent support (the Sampson score
     # cannot tell a planar scene's twin from the truth; depth signs can)

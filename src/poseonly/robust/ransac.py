@@ -94,6 +94,7 @@ def ransac_relpose(
     lo_residual: str | Residual = "sampson-chiral",
     scores: np.ndarray | None = None,
     lo: str = "lirp",
+    rival_distance: float = 0.0,
 ) -> RansacResult:
     """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
@@ -101,6 +102,9 @@ def ransac_relpose(
     :class:`RansacResult` whose inliers are the Sampson inliers of the returned model. ``lo``: the
     local optimisation, ``"lirp"`` (warm-started TLS IRLS on all-candidate LiRP with ``lo_residual``)
     or ``"sampson"`` (Levenberg-Marquardt on the Sampson error, Cauchy loss at the threshold).
+    ``rival_distance > 0`` (degrees) also keeps the best-scoring model at least that far from the
+    result in rotation or translation direction: ``stats["rival_cost"]`` (``inf`` if none),
+    ``stats["rival_R"]``, ``stats["rival_t"]`` (a uniqueness test of the result).
     """
     if lo not in _LO:
         raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(_LO)}")
@@ -112,7 +116,7 @@ def ransac_relpose(
     order = None if scores is None else prosac_order(scores)
     R, t, st = _core.ransac_relpose(f1, f2, float(threshold), core_seed(seed), _MINIMAL[solver], SCORINGS[scoring],
                                     int(max_iterations), int(min_iterations), float(confidence), int(max_lo), float(lo_mu0),
-                                    int(lo_iterations), get_residual(lo_residual).code, order, _LO[lo])
+                                    int(lo_iterations), get_residual(lo_residual).code, order, _LO[lo], float(rival_distance))
     v = get_residual("sampson")(R, t, f1, f2)
     return RansacResult(R=R, t=t, inliers=v < threshold, residuals=v, score=float(st["cost"]), num_iterations=int(st["iterations"]),
                         num_lo=int(st["num_lo"]), num_scored=int(st["num_models"]), stats=dict(st))
