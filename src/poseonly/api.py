@@ -38,167 +38,39 @@ whose error is within ``threshold_px`` (it is loose for low-parallax points).
 
 from __future__ import annotations
 
+import contextlib
 import time
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from .estimator import get_estimator, lirp_estimator
-from .identify import identify_poses
-from .geometry import InputError, as_bearings, check_intrinsics, essential_from_pose, rotation_error_deg
-from .residuals import v_sampson, v_sampson_chiral
+from .analysis import REFINE_SOLVER
+from .estimator import lirp_estimator
+from .geometry import InputError, as_bearings, check_correspondences, check_intrinsics
+from .options import OPTIONS, parse_options
+from .result import RelativePoseResult, degenerate_result, finish
+from .robust.default import make_rng
 from .robust.gnc import GNCOptions, gnc_irls_batch
-from .robust.ransac import gnc_ransac as _gnc_ransac
-from .robust.ransac import ransac
-from .solvers.lirp import lirp_batch
-from .twin import homography_twin
+from .robust.methods import RUNNERS
+from .robust.ransac import gnc_ransac as _gnc_ransac_loop
 
-__all__ = ["estimate_relative_pose", "RelativePoseResult", "gnc_irls", "gnc_ransac", "METHODS", "DEFAULT_METHOD"]
+__all__ = [
+    "DEFAULT_METHOD",
+    "METHODS",
+    "REFINE_SOLVER",
+    "RelativePoseResult",
+    "estimate_relative_pose",
+    "gnc_irls",
+    "gnc_ransac",
+]
 
 DEFAULT_METHOD = "poseonly"
-# LiGTopt's optimiser inside the robust methods: the compact LM of poseonly.refine.ligt (same
-# objective as scipy's least_squares, ~10-20x less time per call; docs/RESULTS.md section 2)
-REFINE_SOLVER = "lm"
-METHODS = ("poseonly", "gnc-ransac", "gnc-irls", "lirp")
-
-# allowed options per method: name -> (type(s), validator or None, default)
-_COMMON = {
-    "threshold_px": ((int, float), lambda v: v > 0, 2.0),
-    "focal_px": ((int, float), lambda v: v > 0, None),
-    "seed": ((int, np.integer, np.random.Generator), None, 0),
-    "refine": ((bool,), None, True),
-    "min_inliers": ((int, np.integer), lambda v: v >= 6, 15),
-}
-_OPTS: dict[str, dict[str, tuple]] = {
-    "poseonly": {
-        "max_iterations": ((int, np.integer), lambda v: v >= 1, 100000),
-        "min_iterations": ((int, np.integer), lambda v: v >= 0, 50),
-        "confidence": ((float,), lambda v: 0 < v < 1, 0.999),
-        "solver": ((str,), None, "5pt"),
-        "batch": ((int, np.integer), lambda v: v >= 1, 128),
-        "max_lo": ((int, np.integer), lambda v: v >= 0, 8),
-        "preemptive": ((int, np.integer), lambda v: v >= 0, 32),
-        "scoring": ((str,), lambda v: v in ("msac", "msac-multi", "count"), "msac-multi"),
-        "lo_residual": ((str,), None, "sampson-chiral"),
-        "lo_mu0": ((int, float), lambda v: v > 0, 1e3),
-        "lo_iterations": ((int, np.integer), lambda v: v >= 1, 10),
-        "adaptive_threshold": ((bool,), None, True),
-        "noise_factor": ((int, float), lambda v: v > 0, 2.5),
-    },
-    "gnc-ransac": {
-        "max_iterations": ((int, np.integer), lambda v: v >= 1, 50),
-        "sample_size": ((int, np.integer), lambda v: v >= 6, 30),
-        "adaptive": ((bool,), None, False),
-        "confidence": ((float,), lambda v: 0 < v < 1, 0.99),
-        "residual": ((str,), None, "ligt"),
-        "schedule": ((str,), None, "ms-tls"),
-        "scale": ((str, int, float), None, "median"),
-    },
-    "gnc-irls": {
-        "residual": ((str,), None, "ligt"),
-        "schedule": ((str,), None, "ms-tls"),
-        "scale": ((str, int, float), None, None),
-        "max_iterations": ((int, np.integer), lambda v: v >= 1, 100),
-    },
-    "lirp": {},
-}
-
-
-@dataclass
-class RelativePoseResult:
-    """Relative pose ``X2 = R X1 + t`` (unit ``t``) with inliers and an honest status.
-
-    ``status`` is one of
-
-    * ``"ok"`` -- a confident calibrated pose;
-    * ``"planar_ambiguous"`` -- the inliers are (near) planar and the homography twin (``R_twin``,
-      ``t_twin``) explains them about as well; the caller must decide (e.g. with a third view);
-    * ``"pure_rotation"`` -- rotation-only motion explains the inliers: ``R`` is reliable, the
-      translation direction is not (``parallax_deg`` says how much parallax there is);
-    * ``"too_few_inliers"`` -- fewer than 6 inliers (or fewer than ``min_inliers``); ``R, t`` are the
-      best guess and should not be trusted;
-    * ``"degenerate"`` -- the correspondences do not determine a pose (e.g. all points identical).
-    """
-
-    R: np.ndarray
-    t: np.ndarray
-    E: np.ndarray
-    inliers: np.ndarray
-    weights: np.ndarray
-    residuals_px: np.ndarray
-    num_inliers: int
-    num_iterations: int
-    status: str
-    message: str
-    method: str
-    threshold_px: float
-    focal_px: float
-    parallax_deg: float = float("nan")
-    R_twin: np.ndarray | None = None
-    t_twin: np.ndarray | None = None
-    twin_inliers: int = 0
-    time_s: float = 0.0
-    diagnostics: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def ok(self) -> bool:
-        return self.status == "ok"
-
-    @property
-    def inlier_ratio(self) -> float:
-        return self.num_inliers / max(len(self.inliers), 1)
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly summary."""
-        d = {
-            "R": self.R.tolist(),
-            "t": self.t.tolist(),
-            "num_inliers": self.num_inliers,
-            "num_points": int(len(self.inliers)),
-            "inlier_ratio": self.inlier_ratio,
-            "num_iterations": self.num_iterations,
-            "status": self.status,
-            "message": self.message,
-            "method": self.method,
-            "threshold_px": self.threshold_px,
-            "focal_px": self.focal_px,
-            "parallax_deg": self.parallax_deg,
-            "time_s": self.time_s,
-        }
-        if self.R_twin is not None:
-            d["R_twin"] = self.R_twin.tolist()
-            d["t_twin"] = self.t_twin.tolist()
-            d["twin_inliers"] = self.twin_inliers
-        return d
-
-
-# ------------------------------------------------------------------------------------------------
-# option handling
-
-
-def _validate_options(method: str, opts: dict[str, Any]) -> dict[str, Any]:
-    if method not in _OPTS:
-        raise InputError(f"unknown method {method!r}; choose one of {list(METHODS)}")
-    allowed = {**_COMMON, **_OPTS[method]}
-    out = {}
-    for k, v in opts.items():
-        if k not in allowed:
-            raise InputError(f"unknown option {k!r} for method {method!r}; valid options: {sorted(allowed)}")
-        types, check, _ = allowed[k]
-        if v is None:
-            continue
-        if isinstance(v, bool) and bool not in types:
-            raise InputError(f"option {k!r} must be of type {'/'.join(t.__name__ for t in types)}, got bool")
-        if not isinstance(v, types):
-            raise InputError(f"option {k!r} must be of type {'/'.join(t.__name__ for t in types)}, got {type(v).__name__}")
-        if check is not None and not check(v):
-            raise InputError(f"option {k!r} has an invalid value {v!r}")
-        out[k] = v
-    for k, (_, _, default) in allowed.items():
-        out.setdefault(k, default)
-    return out
-
+METHODS = tuple(OPTIONS)
+# focal length (pixels) of the pixel <-> angle conversion when neither K nor focal_px is given
+DEFAULT_FOCAL_PX = 800.0
+# the epipolar system of a pose needs rank >= 6 (relative singular-value cut-off below)
+MIN_EPIPOLAR_RANK = 6
+RANK_RTOL = 1e-9
 
 _CONTROLLER = None
 
@@ -210,308 +82,24 @@ def _blas_single_thread():
     try:
         from threadpoolctl import ThreadpoolController
     except ImportError:  # pragma: no cover - optional
-        import contextlib
-
         return contextlib.nullcontext()
     if _CONTROLLER is None:
         _CONTROLLER = ThreadpoolController()
     return _CONTROLLER.limit(limits=1, user_api="blas")
 
 
-def _rng(seed) -> np.random.Generator:
-    return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(int(seed))
-
-
 def _focal(K1, K2, focal_px):
     if focal_px is not None:
         return float(focal_px)
     fs = [0.5 * (K[0, 0] + K[1, 1]) for K in (K1, K2) if K is not None]
-    return float(np.mean(fs)) if fs else 800.0
+    return float(np.mean(fs)) if fs else DEFAULT_FOCAL_PX
 
 
-# ------------------------------------------------------------------------------------------------
-# analysis of the final model: planar twin, pure rotation
-
-
-def _parallax_deg(R, f1, f2, inl):
-    if not np.any(inl):
-        return float("nan")
-    Rf1 = f1[inl] @ R.T
-    c = np.clip(np.sum(Rf1 * f2[inl], axis=1), -1.0, 1.0)
-    return float(np.degrees(np.median(np.arccos(c))))
-
-
-def _analyse(R, t, f1, f2, tau, inl):
-    """Planar homography twin (:mod:`poseonly.twin`) and the pure-rotation test on the inliers."""
-    info: dict[str, Any] = {}
-    twin = None
-    sel = np.nonzero(inl)[0]
-    tw = homography_twin(R, t, f1[sel], f2[sel]) if len(sel) >= 6 else None
-    if tw is not None:
-        info["planarity"] = tw[2]
-    if tw is not None and _plausible_twin(R, t, tw, f1, f2, tau):
-        Rt, tt = _polish(tw[0], tw[1], f1, f2, tau)
-        sup = _support(np.stack([R, Rt]), np.stack([t, tt]), f1, f2, tau).sum(axis=1)
-        info["support"], info["twin_support"] = int(sup[0]), int(sup[1])
-        if sup[1] >= 0.9 * sup[0] and rotation_error_deg(R, Rt) > 0.1:
-            twin = (Rt, tt, int(sup[1]))
-    par = _parallax_deg(R, f1, f2, inl)
-    if len(sel) >= 3:
-        # pure-rotation model X2 ~ R_rot X1 fitted to the inliers (Kabsch, one re-selection)
-        Rr = _kabsch(f1[sel], f2[sel])
-        ang = np.arccos(np.clip(np.sum((f1[sel] @ Rr.T) * f2[sel], axis=1), -1, 1))
-        if np.count_nonzero(ang < 2.0 * tau) >= 3:
-            keep = sel[ang < 2.0 * tau]
-            Rr = _kabsch(f1[keep], f2[keep])
-            ang = np.arccos(np.clip(np.sum((f1[sel] @ Rr.T) * f2[sel], axis=1), -1, 1))
-        info["rotation_only_fraction"] = float(np.mean(ang < 2.0 * tau))
-        info["R_rotation_only"] = Rr
-        par = float(np.degrees(np.median(ang)))
-    return twin, par, info
-
-
-def _kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Rotation ``R`` minimising ``sum ||b_i - R a_i||^2`` (unit bearings)."""
-    U, _, Vt = np.linalg.svd(b.T @ a)
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
-    return U @ D @ Vt
-
-
-def _chance_inliers(R, t, f1, f2, tau, repeats: int = 3) -> float:
-    """Mean inlier count of the model on randomly re-paired matches (fixed seed): how many inliers
-    the model collects by chance. A pose whose support is not well above it is not trusted."""
-    rng = np.random.default_rng(20240611)
+def _epipolar_rank(f1: np.ndarray, f2: np.ndarray) -> int:
     n = len(f1)
-    perms = np.stack([rng.permutation(n) for _ in range(repeats)])
-    # one pose per re-pairing, so that the compiled residual takes the stacked points
-    v = v_sampson(np.broadcast_to(R, (repeats, 3, 3)), np.broadcast_to(t, (repeats, 3)),
-                  np.broadcast_to(f1, (repeats,) + f1.shape), f2[perms])  # (repeats, n)
-    return float(np.mean(np.count_nonzero(v < tau, axis=1)))
-
-
-def _finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inliers=15) -> RelativePoseResult:
-    if "tau_effective" in diag:  # the default method's noise-matched threshold (<= the user's)
-        tau = diag["tau_effective"]
-        thr_px = tau * focal
-    v = v_sampson(R, t, f1, f2)
-    inl = v < tau
-    n_in = int(inl.sum())
-    weights = inl.astype(float) if w is None else w
-    twin, par, info = (None, float("nan"), {})
-    if n_in >= 6:
-        twin, par, info = _analyse(R, t, f1, f2, tau, inl)
-    R_twin = t_twin = None
-    twin_n = 0
-    chance = _chance_inliers(R, t, f1, f2, tau) if n_in >= 6 else 0.0
-    diag["chance_inliers"] = chance
-    needed = max(6, min_inliers, int(np.ceil(chance + 4.0 * np.sqrt(chance) + 4.0)))
-    if n_in < needed:
-        status, msg = "too_few_inliers", (f"only {n_in} inliers within {thr_px:g} px (needed {needed}; the same "
-                                          f"model keeps {chance:.1f} of randomly re-paired matches): the pose is not reliable")
-    elif info.get("rotation_only_fraction", 0.0) > 0.9:
-        status = "pure_rotation"
-        R = info.pop("R_rotation_only")  # the rotation-only fit is the better estimate of R here
-        msg = (f"{100 * info['rotation_only_fraction']:.0f}% of the inliers fit a pure rotation within "
-               f"{2 * thr_px:g} px (median parallax {par:.3f} deg): R is reliable, the translation direction is not")
-    elif twin is not None:
-        status = "planar_ambiguous"
-        R_twin, t_twin, twin_n = twin
-        msg = (f"the inliers are explained by two poses {rotation_error_deg(R, R_twin):.2f} deg apart "
-               f"(planar scene: the homography twin keeps {twin_n} inliers in front of both cameras); see R_twin, t_twin")
-    else:
-        status, msg = "ok", f"{n_in} inliers within {thr_px:g} px"
-    info.pop("R_rotation_only", None)
-    diag.update(info)
-    return RelativePoseResult(
-        R=R, t=t, E=essential_from_pose(R, t), inliers=inl, weights=np.asarray(weights, float), residuals_px=v * focal,
-        num_inliers=n_in, num_iterations=int(iters), status=status, message=msg, method=method, threshold_px=float(thr_px),
-        focal_px=focal, parallax_deg=par, R_twin=R_twin, t_twin=t_twin, twin_inliers=twin_n,
-        time_s=time.perf_counter() - t0, diagnostics=diag,
-    )
-
-
-# ------------------------------------------------------------------------------------------------
-# methods
-
-
-def _support(R, t, f1, f2, tau):
-    """Inliers of stacked poses ``(h,3,3), (h,3)``: Sampson error below ``tau`` and positive depths
-    (``v_sampson_chiral`` is 1 where a depth is not positive, and ``tau`` is far below 1)."""
-    return v_sampson_chiral(R, t, f1, f2) < min(tau, 0.5)
-
-
-def _plausible_twin(R, t, tw, f1, f2, tau) -> bool:
-    """Cheap screen before polishing a twin: its raw support reaches 30 % of the pose's (the twin of
-    a non-planar scene keeps a few per cent; an unpolished planar twin measured 40-65 %)."""
-    sup = _support(np.stack([R, tw[0]]), np.stack([t, tw[1]]), f1, f2, tau * 1.5).sum(axis=1)
-    return bool(sup[1] >= 0.3 * max(sup[0], 1))
-
-
-def _polish(R, t, f1, f2, tau):
-    """Angular LiGTopt of a candidate on its cheirality-consistent inliers (twin comparison)."""
-    from .refine.ligt import ligt_refine
-
-    inl = _support(R[None], t[None], f1, f2, tau * 1.5)[0]
-    if inl.sum() < 6:
-        inl = v_sampson(R, t, f1, f2) < tau * 1.5
-        if inl.sum() < 6:
-            return R, t
-    try:
-        r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization="angular", max_iter=20, solver=REFINE_SOLVER)
-    except ValueError:  # a degenerate candidate: keep it unpolished
-        return R, t
-    if np.all(np.isfinite(r.R)) and np.all(np.isfinite(r.t)):
-        return r.R, r.t
-    return R, t
-
-
-def _msac_chiral(R, t, f1, f2, tau) -> float:
-    v = v_sampson_chiral(R, t, f1, f2)
-    return float(np.sum(tau * tau - np.minimum(v * v, tau * tau)))
-
-
-def _keep_better(a, b, f1, f2, tau, tol=1.0):
-    """``b`` if its cheirality-aware MSAC score reaches ``tol`` times ``a``'s, else ``a``."""
-    if not (np.all(np.isfinite(b[0])) and np.all(np.isfinite(b[1]))):
-        return a
-    return b if _msac_chiral(*b, f1, f2, tau) >= tol * _msac_chiral(*a, f1, f2, tau) else a
-
-
-def _select_by_support(R, t, f1, f2, tau):
-    """Best of ``(R, t)`` (re-identified on its Sampson inliers), its homography twin and the LiRP
-    candidates of its consensus set, by cheirality-consistent support."""
-    sel = np.nonzero(v_sampson(R, t, f1, f2) < tau)[0]
-    if len(sel) < 6:
-        return R, t
-    Ri, ti, _, _ = identify_poses(essential_from_pose(R, t)[None], f1[sel], f2[sel])
-    R, t = Ri[0], ti[0]
-    inl = _support(R[None], t[None], f1, f2, tau)[0]
-    o = lirp_batch(f1[sel][None], f2[sel][None])
-    cR = [R[None], o["cand_R"][0]]
-    ct = [t[None], o["cand_t"][0]]
-    tw = homography_twin(R, t, f1[sel], f2[sel])
-    if tw is not None and _plausible_twin(R, t, tw, f1, f2, tau):
-        Rt, tt = _polish(tw[0], tw[1], f1, f2, tau)
-        cR.append(Rt[None])
-        ct.append(tt[None])
-    cR, ct = np.concatenate(cR), np.concatenate(ct)
-    sup = _support(cR, ct, f1, f2, tau).sum(axis=1)
-    k = int(np.argmax(sup))
-    return (cR[k], ct[k]) if sup[k] > inl.sum() else (R, t)
-
-
-def _refine(R, t, f1, f2, inl, tau, normalization="none"):
-    """LiGTopt on the inliers with a robust Cauchy loss at the threshold scale.
-
-    ``normalization="none"`` is the paper's LiGTopt (Eq. 9 residual ``||L~_i t||``);
-    ``"angular"`` divides each residual by ``theta_i^2 ||z_i R f1_i + t||`` (the sine of the view-2
-    reprojection angle), which measured as accurate as Sampson/ML refinement while the paper's
-    weighting is not better than LiRP itself (docs/RESULTS.md).
-    """
-    from .refine.ligt import ligt_refine
-
-    if inl.sum() < 6:
-        return R, t
-    r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization=normalization, solver=REFINE_SOLVER)
-    if np.all(np.isfinite(r.R)) and np.all(np.isfinite(r.t)):
-        return r.R, r.t
-    return R, t
-
-
-def _noise_threshold(R, t, f1, f2, tau, o) -> float:
-    """Inlier threshold matched to the measured noise, for the final stages and the returned mask.
-
-    Fixed-point iteration ``thr <- clip(k sigma(thr), tau / 4, 3 tau)`` (3 steps from ``thr = tau``)
-    with ``sigma(thr) = 1.4826 median |v|`` over the Sampson errors below ``thr`` and ``k =
-    noise_factor`` (2.5 keeps ~99 % of Gaussian inliers; the truncation at ``thr`` biases sigma low,
-    which the iteration undoes). Real images (~0.3 px) get a tighter threshold than the 1 px default,
-    1 px synthetic noise a wider one. ``adaptive_threshold=False`` keeps ``tau``.
-    """
-    if not o["adaptive_threshold"]:
-        return tau
-    v_all = v_sampson(R, t, f1, f2)
-    thr = tau
-    for _ in range(3):
-        v = v_all[v_all < thr]
-        if len(v) < 15:
-            return tau
-        thr = float(np.clip(o["noise_factor"] * 1.4826 * float(np.median(v)), 0.25 * tau, 3.0 * tau))
-    return thr
-
-
-def _run_poseonly(f1, f2, o, tau):
-    rng = _rng(o["seed"])
-    est = get_estimator(o["solver"], "sampson")
-    lirp_all = get_estimator("lirp-all", o["lo_residual"])
-
-    def make_lo(thr):
-        gopts = GNCOptions(noise_bound=thr, max_iterations=o["lo_iterations"], mu0=o["lo_mu0"])
-
-        def lo(R, t, inl):
-            # warm-started TLS IRLS on the points within 4 thresholds of the model (the rest would
-            # get weight 0 at once), from the model's inliers
-            cand = np.nonzero(v_sampson(R, t, f1, f2) < 4.0 * thr)[0]
-            if inl.sum() < 6 or len(cand) < 6:
-                return R, t
-            g = gnc_irls_batch(f1[cand][None], f2[cand][None], lirp_all, gopts, w0=inl[cand][None].astype(float))
-            return g.R[0], g.t[0]
-
-        return lo
-
-    r = ransac(
-        f1, f2, est, tau, rng, max_iterations=o["max_iterations"], min_iterations=o["min_iterations"],
-        confidence=o["confidence"], batch=o["batch"], scoring=o["scoring"], local_optimization=make_lo(tau),
-        max_lo=o["max_lo"], preemptive=o["preemptive"],
-    )
-    # final stage: the pose-only choice among the RANSAC model (re-identified on its inliers), its
-    # homography twin and the LiRP candidates of its consensus set, by cheirality-consistent
-    # support (the Sampson score of RANSAC cannot tell a planar scene's twin from the truth; depth
-    # signs can); then, at the noise-matched threshold, IRLS from that model's support and LiGTopt,
-    # each kept only if the cheirality-aware MSAC score does not drop
-    R, t = _select_by_support(r.R, r.t, f1, f2, tau)
-    thr = _noise_threshold(R, t, f1, f2, tau, o)
-    lo = make_lo(thr)
-    R, t = _keep_better((R, t), lo(R, t, _support(R[None], t[None], f1, f2, thr)[0]), f1, f2, thr)
-    if o["refine"]:
-        ref = _refine(R, t, f1, f2, _support(R[None], t[None], f1, f2, thr)[0], thr, normalization="angular")
-        R, t = _keep_better((R, t), ref, f1, f2, thr, tol=0.98)
-    return R, t, None, r.num_iterations, {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored,
-                                          "tau_effective": thr}
-
-
-def _run_gnc_ransac(f1, f2, o, tau):
-    rng = _rng(o["seed"])
-    if o["sample_size"] > len(f1):
-        raise InputError(f"sample_size n_s = {o['sample_size']} is larger than the number of points {len(f1)}")
-    est = lirp_estimator(o["residual"])
-    gopts = GNCOptions(schedule=o["schedule"], scale=o["scale"])
-    r = _gnc_ransac(f1, f2, tau, rng, estimator=est, sample_size=o["sample_size"], max_iterations=o["max_iterations"],
-                    gnc_options=gopts, adaptive=o["adaptive"], confidence=o["confidence"])
-    R, t = r.R, r.t
-    if o["refine"]:
-        R, t = _refine(R, t, f1, f2, r.inliers, tau)
-    return R, t, r.weights, r.num_iterations, {"best_sample_inliers": int(r.score)}
-
-
-def _run_gnc_irls(f1, f2, o, tau):
-    est = lirp_estimator(o["residual"])
-    if o["scale"] is None:
-        gopts = GNCOptions(schedule=o["schedule"], noise_bound=tau, max_iterations=o["max_iterations"])
-    else:
-        gopts = GNCOptions(schedule=o["schedule"], scale=o["scale"], max_iterations=o["max_iterations"])
-    g = gnc_irls_batch(f1[None], f2[None], est, gopts)
-    R, t, w = g.R[0], g.t[0], g.weights[0]
-    if o["refine"]:
-        R, t = _refine(R, t, f1, f2, w > 0.5, tau)
-    return R, t, w, int(g.num_iterations[0]), {"converged": bool(g.converged[0]), "noise_bound": float(g.c[0])}
-
-
-def _run_lirp(f1, f2, o, tau):
-    out = lirp_batch(f1[None], f2[None])
-    return out["R"][0], out["t"][0], np.ones(len(f1)), 1, {"d_min": float(out["d_min"][0])}
-
-
-_RUN = {"poseonly": _run_poseonly, "gnc-ransac": _run_gnc_ransac, "gnc-irls": _run_gnc_irls, "lirp": _run_lirp}
+    A = (f1[:, :, None] * f2[:, None, :]).reshape(1, n, 9)
+    s = np.linalg.svd(np.linalg.qr(A, mode="r")[0] if n > 9 else A[0], compute_uv=False)
+    return int(np.count_nonzero(s > RANK_RTOL * s[0]))
 
 
 def estimate_relative_pose(
@@ -533,14 +121,12 @@ def estimate_relative_pose(
     reports it as ``result.threshold_px``), ``min_inliers`` (15, for status ``ok``),
     ``focal_px`` (focal for the pixel conversion when no ``K`` is given; default 800), ``seed``
     (int or ``numpy.random.Generator``; default 0), ``refine`` (LiGTopt on the inliers; default
-    True). Method options are listed in the error raised for an unknown one. Raises
-    :class:`ValueError` (:class:`poseonly.InputError`) for invalid input or options; degenerate
-    input returns a result whose ``status`` says so.
+    True). The options of each method are the fields of its dataclass in :mod:`poseonly.options`.
+    Raises :class:`ValueError` (:class:`poseonly.InputError`) for invalid input or options;
+    degenerate input returns a result whose ``status`` says so.
     """
     t0 = time.perf_counter()
-    if not isinstance(method, str):
-        raise InputError(f"method must be a string, got {type(method).__name__}")
-    o = _validate_options(method, options)
+    o = parse_options(method, options)
     if K1 is not None:
         K1 = check_intrinsics(K1, "K1")
         K2 = K1 if K2 is None else check_intrinsics(K2, "K2")
@@ -553,26 +139,17 @@ def estimate_relative_pose(
     n = len(f1)
     if n < 6:
         raise InputError(f"at least 6 correspondences are needed, got {n}")
-    focal = _focal(K1, K2, o["focal_px"])
-    thr_px = float(o["threshold_px"])
+    focal = _focal(K1, K2, o.focal_px)
+    thr_px = float(o.threshold_px)
     tau = thr_px / focal
-    # degenerate-but-valid input: the epipolar matrix has rank < 6
-    A = (f1[:, :, None] * f2[:, None, :]).reshape(1, n, 9)
     with _blas_single_thread():
-        s = np.linalg.svd(np.linalg.qr(A, mode="r")[0] if n > 9 else A[0], compute_uv=False)
-    rank = int(np.count_nonzero(s > 1e-9 * s[0]))
-    if rank < 6:
-        R, t = np.eye(3), np.zeros(3)
-        return RelativePoseResult(
-            R=R, t=t, E=np.zeros((3, 3)), inliers=np.zeros(n, bool), weights=np.zeros(n), residuals_px=np.full(n, np.nan),
-            num_inliers=0, num_iterations=0, status="degenerate",
-            message=f"the correspondences span a rank-{rank} epipolar system (< 6): the pose is not determined",
-            method=method, threshold_px=thr_px, focal_px=focal, time_s=time.perf_counter() - t0, diagnostics={"rank": rank},
-        )
+        rank = _epipolar_rank(f1, f2)
+    if rank < MIN_EPIPOLAR_RANK:
+        return degenerate_result(n, rank, method, thr_px, focal, t0)
     with _blas_single_thread():
-        R, t, w, iters, diag = _RUN[method](f1, f2, o, tau)
+        R, t, w, iters, diag = RUNNERS[method](f1, f2, o, tau)
     diag["rank"] = rank
-    return _finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, o["min_inliers"])
+    return finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, o.min_inliers)
 
 
 def gnc_irls(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, noise_bound: float | None = None,
@@ -585,8 +162,6 @@ def gnc_irls(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, 
     a number fixes ``c`` (recommended: ``threshold_px / focal``, see :mod:`poseonly.api`).
     ``weights`` are the initial weights (default ones).
     """
-    from .geometry import check_correspondences
-
     f1, f2, w = check_correspondences(f1, f2, weights)
     opts = GNCOptions(schedule=schedule, scale=scale, noise_bound=noise_bound, max_iterations=max_iterations, eps0=eps0)
     g = gnc_irls_batch(f1[None], f2[None], lirp_estimator(residual), opts, None if w is None else w[None])
@@ -600,13 +175,11 @@ def gnc_ransac(f1: np.ndarray, f2: np.ndarray, *, theta: float, seed: int | np.r
                scale: str | float = "median"):
     """The paper's GNC-RANSAC (Alg. 3) on bearing vectors with inlier threshold ``theta`` on
     ``v_LiGT`` (e.g. ``threshold_px / focal``). Returns :class:`poseonly.robust.RansacResult`."""
-    from .geometry import check_correspondences
-
     f1, f2, _ = check_correspondences(f1, f2)
     if not theta > 0:
         raise InputError(f"theta must be > 0, got {theta}")
     if sample_size > len(f1):
         raise InputError(f"sample_size n_s = {sample_size} is larger than the number of points {len(f1)}")
-    return _gnc_ransac(f1, f2, theta, _rng(seed), estimator=lirp_estimator(residual), sample_size=sample_size,
-                       max_iterations=max_iterations, gnc_options=GNCOptions(schedule=schedule, scale=scale),
-                       adaptive=adaptive)
+    return _gnc_ransac_loop(f1, f2, theta, make_rng(seed), estimator=lirp_estimator(residual), sample_size=sample_size,
+                            max_iterations=max_iterations, gnc_options=GNCOptions(schedule=schedule, scale=scale),
+                            adaptive=adaptive)
