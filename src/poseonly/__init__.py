@@ -5,8 +5,8 @@ Convention: ``X2 = R X1 + t`` (camera 1 -> camera 2), ``E = [t]x R``, ``f2^T E f
 
 from .geometry import InputError, rotation_error_deg, translation_error_deg
 from .residuals import v_BA, v_E, v_LiGT, v_OpenGV, v_PPO
-from .solvers.lirp import LiRPResult, lirp
-from .api import DEFAULT_METHOD, METHODS, RelativePoseResult, estimate_relative_pose, gnc_irls, gnc_ransac
+from .solvers.lirp import LiRPResult
+from .api import DEFAULT_METHOD, METHODS, RelativePoseResult, estimate_relative_pose, gnc_irls, gnc_ransac, lirp
 
 __version__ = "0.1.0"
 

@@ -47,12 +47,14 @@ import numpy as np
 from .analysis import REFINE_SOLVER
 from .estimator import lirp_estimator
 from .geometry import InputError, as_bearings, check_correspondences, check_intrinsics
-from .options import OPTIONS, parse_options
+from .options import OPTIONS, Spec, check_angle, check_value, parse_options
 from .result import RelativePoseResult, degenerate_result, finish
 from .robust.default import make_rng
 from .robust.gnc import GNCOptions, gnc_irls_batch
 from .robust.methods import RUNNERS
 from .robust.ransac import gnc_ransac as _gnc_ransac_loop
+from .solvers.lirp import LiRPResult
+from .solvers.lirp import lirp as _lirp
 
 __all__ = [
     "DEFAULT_METHOD",
@@ -62,6 +64,7 @@ __all__ = [
     "estimate_relative_pose",
     "gnc_irls",
     "gnc_ransac",
+    "lirp",
 ]
 
 DEFAULT_METHOD = "poseonly"
@@ -141,30 +144,54 @@ def estimate_relative_pose(
         raise InputError(f"at least 6 correspondences are needed, got {n}")
     focal = _focal(K1, K2, o.focal_px)
     thr_px = float(o.threshold_px)
-    tau = thr_px / focal
-    with _blas_single_thread():
+    tau = check_angle("the angular threshold threshold_px / focal", thr_px / focal,
+                      f" (threshold_px = {thr_px:g}, focal = {focal:g} px)")
+    with _blas_single_thread(), np.errstate(all="ignore"):
         rank = _epipolar_rank(f1, f2)
     if rank < MIN_EPIPOLAR_RANK:
         return degenerate_result(n, rank, method, thr_px, focal, t0)
-    with _blas_single_thread():
+    # overflow / invalid values inside the numerics end up as non-finite models, which finish()
+    # reports as status "degenerate"; no RuntimeWarning reaches the caller (errstate is
+    # thread-local and restored on exit)
+    with _blas_single_thread(), np.errstate(all="ignore"):
         R, t, w, iters, diag = RUNNERS[method](f1, f2, o, tau)
-    diag["rank"] = rank
-    return finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, o.min_inliers)
+        diag["rank"] = rank
+        return finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, o.min_inliers)
+
+
+_SPEC_NOISE = Spec("real", lo=0.0, lo_open=True)
+_SPEC_ITER = Spec("int", lo=1)
+_SPEC_EPS0 = Spec("real", lo=0.0)
+_SPEC_SCALE = Spec("scale", choices=("median", "mad"))
+_SPEC_SCHEDULE = Spec("str", choices=("ms-tls", "gnc-tls"))
+_SPEC_RESIDUAL = Spec("name", doc="residual")
+_SPEC_SAMPLE = Spec("int", lo=6)
+_SPEC_BOOL = Spec("bool")
+_SPEC_SEED = Spec("seed")
+_SPEC_RANK_TOL = Spec("real", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
 
 
 def gnc_irls(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, noise_bound: float | None = None,
              residual: str = "ligt", schedule: str = "ms-tls", scale: str | float = "median", max_iterations: int = 100,
              eps0: float = 1e-9):
-    """GNC-IRLS (Alg. 2) with LiRP on bearing vectors; returns :class:`poseonly.robust.GNCBatchResult`
-    for the single problem (``R (3, 3)``, ``t (3,)``, ``weights (n,)``...).
+    """GNC-IRLS (Alg. 2) with LiRP on bearing vectors ``f1, f2 (n, 3)`` (or normalized ``(n, 2)``);
+    returns :class:`poseonly.robust.GNCBatchResult` for the single problem (``R (3, 3)``, ``t (3,)``,
+    ``weights (n,)``...).
 
     ``noise_bound=None`` uses the paper's adaptive ``c = 5.54 * 1.4826 * median(v)`` (``scale``);
     a number fixes ``c`` (recommended: ``threshold_px / focal``, see :mod:`poseonly.api`).
-    ``weights`` are the initial weights (default ones).
+    ``weights (n,)`` are the initial weights (default ones). Raises :class:`InputError` for bad input.
     """
     f1, f2, w = check_correspondences(f1, f2, weights)
-    opts = GNCOptions(schedule=schedule, scale=scale, noise_bound=noise_bound, max_iterations=max_iterations, eps0=eps0)
-    g = gnc_irls_batch(f1[None], f2[None], lirp_estimator(residual), opts, None if w is None else w[None])
+    if noise_bound is not None:
+        noise_bound = check_angle("noise_bound", check_value("noise_bound", noise_bound, _SPEC_NOISE))
+    opts = GNCOptions(schedule=check_value("schedule", schedule, _SPEC_SCHEDULE),
+                      scale=check_value("scale", scale, _SPEC_SCALE), noise_bound=noise_bound,
+                      max_iterations=check_value("max_iterations", max_iterations, _SPEC_ITER),
+                      eps0=check_value("eps0", eps0, _SPEC_EPS0))
+    est = lirp_estimator(check_value("residual", residual, _SPEC_RESIDUAL))
+    with np.errstate(all="ignore"):
+        g = gnc_irls_batch(f1[None], f2[None], est, opts, None if w is None else w[None])
     g.R, g.t, g.weights, g.residuals = g.R[0], g.t[0], g.weights[0], g.residuals[0]
     g.c, g.num_iterations, g.converged = float(g.c[0]), int(g.num_iterations[0]), bool(g.converged[0])
     return g
@@ -173,13 +200,33 @@ def gnc_irls(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, 
 def gnc_ransac(f1: np.ndarray, f2: np.ndarray, *, theta: float, seed: int | np.random.Generator = 0, sample_size: int = 30,
                max_iterations: int = 50, adaptive: bool = False, residual: str = "ligt", schedule: str = "ms-tls",
                scale: str | float = "median"):
-    """The paper's GNC-RANSAC (Alg. 3) on bearing vectors with inlier threshold ``theta`` on
-    ``v_LiGT`` (e.g. ``threshold_px / focal``). Returns :class:`poseonly.robust.RansacResult`."""
+    """The paper's GNC-RANSAC (Alg. 3) on bearing vectors ``f1, f2 (n, 3)`` with inlier threshold
+    ``theta`` (radians) on ``v_LiGT`` (e.g. ``threshold_px / focal``). Returns
+    :class:`poseonly.robust.RansacResult` (``R (3, 3)``, ``t (3,)``, ``inliers (n,)``). Raises
+    :class:`InputError` for bad input."""
     f1, f2, _ = check_correspondences(f1, f2)
-    if not theta > 0:
-        raise InputError(f"theta must be > 0, got {theta}")
+    if theta is None or isinstance(theta, (bool, np.bool_)) or not isinstance(theta, (int, float, np.integer, np.floating)) \
+            or not theta > 0:
+        raise InputError(f"theta must be a finite angle > 0 (radians), got {type(theta).__name__} {theta!r}")
+    theta = check_angle("theta", float(theta))
+    sample_size = check_value("sample_size", sample_size, _SPEC_SAMPLE)
     if sample_size > len(f1):
         raise InputError(f"sample_size n_s = {sample_size} is larger than the number of points {len(f1)}")
-    return _gnc_ransac_loop(f1, f2, theta, make_rng(seed), estimator=lirp_estimator(residual), sample_size=sample_size,
-                            max_iterations=max_iterations, gnc_options=GNCOptions(schedule=schedule, scale=scale),
-                            adaptive=adaptive)
+    gopts = GNCOptions(schedule=check_value("schedule", schedule, _SPEC_SCHEDULE), scale=check_value("scale", scale, _SPEC_SCALE))
+    est = lirp_estimator(check_value("residual", residual, _SPEC_RESIDUAL))
+    rng = make_rng(check_value("seed", seed, _SPEC_SEED))
+    with np.errstate(all="ignore"):
+        return _gnc_ransac_loop(f1, f2, theta, rng, estimator=est, sample_size=sample_size,
+                                max_iterations=check_value("max_iterations", max_iterations, _SPEC_ITER),
+                                gnc_options=gopts, adaptive=check_value("adaptive", adaptive, _SPEC_BOOL))
+
+
+def lirp(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, rank_tol: float = 1e-9) -> LiRPResult:
+    """Weighted LiRP (Alg. 1) on ``n >= 6`` correspondences: :func:`poseonly.solvers.lirp.lirp` with
+    its arguments checked (``f1, f2 (n, 3)`` bearings or ``(n, 2)`` normalized coordinates,
+    ``weights (n,)`` non-negative, ``0 < rank_tol < 1``). Raises :class:`InputError` for bad input;
+    degenerate-but-valid input returns ``status == "degenerate"``."""
+    f1, f2, w = check_correspondences(f1, f2, weights)
+    rank_tol = check_value("rank_tol", rank_tol, _SPEC_RANK_TOL)
+    with np.errstate(all="ignore"):
+        return _lirp(f1, f2, w, rank_tol=rank_tol)

@@ -28,14 +28,15 @@ __all__ = [
     "LirpOptions",
     "PoseonlyOptions",
     "Spec",
+    "check_angle",
     "check_value",
     "parse_options",
 ]
 
-# the largest / smallest magnitudes an angle threshold (radians) may take: below 1e-12 rad no double
-# precision residual is meaningful, above pi every point is an inlier
+# the range an angular threshold (radians) must lie in: below 1e-12 rad no double-precision residual
+# of unit bearings is meaningful, above 1 rad (57 deg) nearly every match is an inlier of any pose
 MIN_ANGLE = 1e-12
-MAX_ANGLE = math.pi
+MAX_ANGLE = 1.0
 
 
 @dataclass(frozen=True)
@@ -235,6 +236,15 @@ OPTIONS: dict[str, type[CommonOptions]] = {
     "gnc-irls": GncIrlsOptions,
     "lirp": LirpOptions,
 }
+
+
+def check_angle(name: str, tau: float, how: str = "") -> float:
+    """An angular threshold (radians) within ``[MIN_ANGLE, MAX_ANGLE]``; ``how`` says how it was
+    derived (for the message)."""
+    if not (math.isfinite(tau) and MIN_ANGLE <= tau <= MAX_ANGLE):
+        raise InputError(f"{name} = {tau:.3g} rad{how} must lie in [{MIN_ANGLE:g}, {MAX_ANGLE:g}] rad "
+                         "(a smaller angle is below double precision, a larger one makes every match an inlier)")
+    return float(tau)
 
 
 def parse_options(method: Any, options: dict[str, Any]) -> CommonOptions:

@@ -34,6 +34,10 @@ __all__ = ["keep_better", "make_rng", "msac_chiral", "noise_threshold", "refine_
 NOISE_THRESHOLD_RANGE = (0.25, 3.0)
 NOISE_THRESHOLD_STEPS = 3
 MAD_TO_SIGMA = 1.4826
+# hypotheses counted for the a-contrario test (poseonly.analysis): every minimal sample may give up
+# to 10 essential matrices (the 5-point solver's bound), each LO and final-stage candidate counts
+MAX_ROOTS_PER_SAMPLE = 10
+FINAL_CANDIDATES = 20
 
 
 def make_rng(seed: int | np.random.Generator) -> np.random.Generator:
@@ -154,5 +158,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float)
     if o.refine:
         ref = refine_ligt(R, t, f1, f2, support(R[None], t[None], f1, f2, thr)[0], thr, normalization="angular")
         R, t = keep_better((R, t), ref, f1, f2, thr, tol=0.98)
-    diag: dict[str, Any] = {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored, "tau_effective": thr}
+    num_hyp = r.num_iterations * MAX_ROOTS_PER_SAMPLE + r.num_lo + FINAL_CANDIDATES
+    diag: dict[str, Any] = {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored, "tau_effective": thr,
+                            "num_hypotheses": num_hyp}
     return R, t, None, r.num_iterations, diag

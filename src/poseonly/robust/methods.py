@@ -36,7 +36,8 @@ def run_gnc_ransac(f1: np.ndarray, f2: np.ndarray, o: GncRansacOptions, tau: flo
     R, t = r.R, r.t
     if o.refine:
         R, t = refine_ligt(R, t, f1, f2, r.inliers, tau)
-    return R, t, r.weights, r.num_iterations, {"best_sample_inliers": int(r.score)}
+    return R, t, r.weights, r.num_iterations, {"best_sample_inliers": int(r.score),
+                                                          "num_hypotheses": r.num_iterations + 1}
 
 
 def run_gnc_irls(f1: np.ndarray, f2: np.ndarray, o: GncIrlsOptions, tau: float):
@@ -50,13 +51,14 @@ def run_gnc_irls(f1: np.ndarray, f2: np.ndarray, o: GncIrlsOptions, tau: float):
     R, t, w = g.R[0], g.t[0], g.weights[0]
     if o.refine:
         R, t = refine_ligt(R, t, f1, f2, w > 0.5, tau)
-    return R, t, w, int(g.num_iterations[0]), {"converged": bool(g.converged[0]), "noise_bound": float(g.c[0])}
+    return R, t, w, int(g.num_iterations[0]), {"converged": bool(g.converged[0]), "noise_bound": float(g.c[0]),
+                                             "num_hypotheses": 1}
 
 
 def run_lirp(f1: np.ndarray, f2: np.ndarray, o: CommonOptions, tau: float):
     """Algorithm 1 on all points (no robustness)."""
     out = lirp_batch(f1[None], f2[None])
-    return out["R"][0], out["t"][0], np.ones(len(f1)), 1, {"d_min": float(out["d_min"][0])}
+    return out["R"][0], out["t"][0], np.ones(len(f1)), 1, {"d_min": float(out["d_min"][0]), "num_hypotheses": 1}
 
 
 RUNNERS: dict[str, Runner] = {"poseonly": run_poseonly, "gnc-ransac": run_gnc_ransac, "gnc-irls": run_gnc_irls,
