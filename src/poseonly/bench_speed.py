@@ -42,6 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ._fileutil import atomic_write_text
+
 REPO = Path(__file__).resolve().parents[1]
 THRESHOLD_PX = 2.0
 NOISE_PX = 0.5
@@ -315,7 +317,7 @@ def _ratio(a, b):
 
 def write_report(data: dict, out: Path) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    (out / "speed.json").write_text(json.dumps(data, indent=1, default=float))
+    atomic_write_text(out / "speed.json", json.dumps(data, indent=1, default=float))
     m = data["machine"]
     L = ["# Speed: poseonly against OpenCV and PoseLib", ""]
     L.append(f"Machine: {m.get('cpu')} ({m.get('cpus')} logical CPUs, {m.get('mhz')} MHz, {m.get('simd')}), {m.get('platform')}; "
@@ -391,7 +393,7 @@ def write_report(data: dict, out: Path) -> None:
              "it is the per-point passes: besides the square roots/divisions ~120 flops per candidate-point in 4-wide code "
              "with reductions, and the LAPACK QR of the n x 9 system (~0.1 ms at n = 3000). The full profiles and the list "
              "of changes are in docs/speed_notes.md.")
-    (out / "speed.md").write_text("\n".join(L) + "\n")
+    atomic_write_text(out / "speed.md", "\n".join(L) + "\n")
 
 
 def main(argv: list[str] | None = None) -> int:
