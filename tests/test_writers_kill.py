@@ -24,11 +24,18 @@ KILLS = 4
 
 CHILD = {
     # reports (markdown / JSON tables of every benchmark and experiment, bench_speed.write_report)
+    # (written in flushed chunks, as a report that streams its rows: a single write() syscall
+    # completes before SIGKILL is delivered, so it could not show a non-atomic writer)
     "report": """
-        from poseonly._fileutil import atomic_write_text
-        body = "x" * 4_000_000
+        from poseonly._fileutil import atomic_open
+        chunk = "x" * 4096
         while True:
-            atomic_write_text(TARGET, "BEGIN\\n" + body + "\\nEND\\n")
+            with atomic_open(TARGET, "w") as fh:
+                fh.write("BEGIN\\n")
+                for _ in range(1000):
+                    fh.write(chunk)
+                    fh.flush()
+                fh.write("\\nEND\\n")
     """,
     # figures (experiments' savefig)
     "figure": """
@@ -65,7 +72,7 @@ SUFFIX = {"report": ".md", "figure": ".png", "cache": ".npz", "drawing": ".png"}
 def _complete(kind: str, p: Path) -> bool:
     if kind == "report":
         text = p.read_text()
-        return text.startswith("BEGIN\n") and text.endswith("\nEND\n") and len(text) == 4_000_011
+        return text.startswith("BEGIN\n") and text.endswith("\nEND\n") and len(text) == 4_096_011
     if kind == "cache":
         with np.load(p) as z:
             return z["keypoints"].shape == (200_000, 2) and float(z["keypoints"][-1, 1]) == 399_999.0
