@@ -27,7 +27,7 @@ import numpy as np
 
 from ._fileutil import atomic_open, clean_stale_temps
 
-from .geometry import InputError, check_intrinsics, essential_from_pose
+from .geometry import InputError, as_real_array, check_intrinsics, essential_from_pose
 
 __all__ = [
     "Features",
@@ -335,9 +335,9 @@ def match_images(
 
 def _check_pixels(a: Any, name: str, src: str) -> np.ndarray:
     try:
-        a = np.asarray(a, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"{src}: '{name}' must be a numeric (k, 2) array of pixel coordinates") from None
+        a = as_real_array(a, name)
+    except InputError as exc:
+        raise InputError(f"{src}: '{name}' must be a real numeric (k, 2) array of pixel coordinates ({exc})") from None
     if a.ndim != 2 or a.shape[1] != 2:
         raise InputError(f"{src}: '{name}' must have shape (k, 2) (pixel coordinates), got {a.shape}")
     if not np.all(np.isfinite(a)):

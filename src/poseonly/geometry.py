@@ -17,6 +17,7 @@ import numpy as np
 __all__ = [
     "InputError",
     "as_bearings",
+    "as_real_array",
     "bearings_from_normalized",
     "bearings_from_pixels",
     "check_correspondences",
@@ -108,8 +109,9 @@ ZERO_BEARING = 1e-12
 K_ZERO_RTOL = 1e-9
 
 
-def _as_real_array(a: object, name: str) -> np.ndarray:
-    """``a`` as a float array; complex, object, string or ragged input raises :class:`InputError`."""
+def as_real_array(a: object, name: str) -> np.ndarray:
+    """``a`` as a float array (any shape); complex, object, string or ragged input raises
+    :class:`InputError`."""
     try:
         raw = np.asarray(a)
     except (TypeError, ValueError) as exc:
@@ -127,7 +129,7 @@ def _as_real_array(a: object, name: str) -> np.ndarray:
 
 
 def _check_finite_2d(a: np.ndarray, name: str) -> np.ndarray:
-    a = _as_real_array(a, name)
+    a = as_real_array(a, name)
     if a.ndim != 2 or a.shape[1] not in (2, 3):
         raise InputError(f"{name} must have shape (n, 2) or (n, 3), got {a.shape}")
     if not np.isfinite(a).all():
@@ -142,7 +144,7 @@ def check_intrinsics(K: np.ndarray, name: str = "K") -> np.ndarray:
     Finite, real, upper triangular, ``K[2, 2] != 0`` (a scaled ``K`` is divided by it), positive
     focal lengths ``fx, fy`` and a finite inverse. Returns ``K / K[2, 2]`` as floats.
     """
-    K = _as_real_array(K, name)
+    K = as_real_array(K, name)
     if K.shape != (3, 3):
         raise InputError(f"{name} must be a 3x3 matrix, got shape {K.shape}")
     if not np.all(np.isfinite(K)):
