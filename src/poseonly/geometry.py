@@ -186,7 +186,7 @@ def _unit_rows(a: np.ndarray, name: str) -> np.ndarray:
         if zero.any():
             raise InputError(f"{name} contains {int(np.count_nonzero(zero))} zero-length bearing vectors")
         return a / nrm[:, None]
-    zero = m * np.sqrt(3.0) < ZERO_BEARING
+    zero = m < ZERO_BEARING / np.sqrt(3.0)  # |row| <= sqrt(3) m (no overflow for m near 1.8e308)
     if zero.any():
         raise InputError(f"{name} contains {int(np.count_nonzero(zero))} zero-length bearing vectors")
     out = np.empty_like(a)
