@@ -193,7 +193,7 @@ def gnc_irls(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, 
     with np.errstate(all="ignore"):
         g = gnc_irls_batch(f1[None], f2[None], est, opts, None if w is None else w[None])
     g.R, g.t, g.weights, g.residuals = g.R[0], g.t[0], g.weights[0], g.residuals[0]
-    g.c, g.num_iterations, g.converged = float(g.c[0]), int(g.num_iterations[0]), bool(g.converged[0])
+    g.c, g.num_iterations, g.converged = float(g.c[0]), int(g.num_iterations[0]), bool(g.converged[0])  # type: ignore[assignment]
     return g
 
 
