@@ -27,6 +27,13 @@ Methods
 ``"lirp"``
     Algorithm 1 on all points (no robustness).
 
+Layout: this module only validates, converts and dispatches. Options are the frozen dataclasses
+of :mod:`poseonly.options`; the runners live in :mod:`poseonly.robust.default` (the default method)
+and :mod:`poseonly.robust.methods`; the result type and the status decision in
+:mod:`poseonly.result`; the planar-twin, pure-rotation and chance-inlier (a-contrario) analysis in
+:mod:`poseonly.analysis`. The angular threshold ``threshold_px / focal`` must lie in
+``[1e-12, 1]`` rad (:func:`poseonly.options.check_angle`).
+
 Threshold conversion: ``threshold_px`` pixels at focal ``f`` is the angle ``tau = threshold_px / f``
 (``f`` = mean of the focal lengths of ``K1`` and ``K2``, or ``focal_px``). The Sampson residual on
 the sphere is compared with ``tau`` directly. For ``v_LiGT`` (unit baseline) the identity
