@@ -307,8 +307,7 @@ def main(argv: list[str] | None = None) -> int:
     rows.append(f"| **all** | {sum(total.values())} | {total['result']} | {total['error']} | {total['invalid']} | "
                 f"{total['crash']} | {total['hang']} |")
     cmd = "POSEONLY_NUMBA=0 PYTHONPATH=src python benchmarks/fuzz.py " + " ".join(argv if argv is not None else sys.argv[1:])
-    md = "\n".join(["## Fuzzing the public API and the CLI (benchmarks/fuzz.py)", "", f"Command: `{cmd}`; "
-                    f"{time.perf_counter() - t0:.0f} s.", "",
+    md = "\n".join(["## Fuzzing the public API and the CLI (benchmarks/fuzz.py)", "", f"Command: `{cmd}`; {time.perf_counter() - t0:.0f} s.", "",
                     "| family | cases | valid result | InputError | invalid result | crash | hang |",
                     "|---|---|---|---|---|---|---|", *rows, "", *(bad[:50] or ["No crash, hang or invalid result."]), ""])
     print(md)

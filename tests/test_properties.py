@@ -15,14 +15,14 @@ import numpy as np
 import pytest
 
 hypothesis = pytest.importorskip("hypothesis")
-from hypothesis import HealthCheck, given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-import poseonly  # noqa: E402
-from poseonly import InputError  # noqa: E402
-from poseonly.options import OPTIONS  # noqa: E402
-from poseonly.result import STATUSES  # noqa: E402
-from poseonly.sim import default_K, make_scene  # noqa: E402
+import poseonly
+from poseonly import InputError
+from poseonly.options import OPTIONS
+from poseonly.result import STATUSES
+from poseonly.sim import default_K, make_scene
 
 SETTINGS = settings(derandomize=True, max_examples=12, deadline=None, database=None,
                     suppress_health_check=list(HealthCheck))

@@ -68,8 +68,8 @@ def test_bad_intrinsics(edit, msg):
         estimate_relative_pose(sc.u1, sc.u2, K)
 
 
-@pytest.mark.parametrize("kw", [dict(threshold_px=1e157), dict(threshold_px=1e-300), dict(focal_px=1e300),
-                                dict(focal_px=1e-155), dict(threshold_px=np.inf), dict(threshold_px=np.nan)])
+@pytest.mark.parametrize("kw", [{"threshold_px": 1e157}, {"threshold_px": 1e-300}, {"focal_px": 1e300},
+                                {"focal_px": 1e-155}, {"threshold_px": np.inf}, {"threshold_px": np.nan}])
 def test_threshold_overflow_is_an_error(kw):
     sc = make_scene(30, seed=1)
     with pytest.raises(InputError, match="threshold|focal"):
@@ -77,12 +77,12 @@ def test_threshold_overflow_is_an_error(kw):
 
 
 @pytest.mark.parametrize("fn,kw", [
-    ("gnc_ransac", dict(theta=None)), ("gnc_ransac", dict(theta=2e-3, sample_size=0)),
-    ("gnc_ransac", dict(theta=2e-3, sample_size=6.5)), ("gnc_ransac", dict(theta=2e-3, max_iterations=None)),
-    ("gnc_ransac", dict(theta=2e-3, max_iterations=0)), ("gnc_ransac", dict(theta=2e-3, seed=None)),
-    ("gnc_ransac", dict(theta=2e-3, seed=-1)), ("gnc_ransac", dict(theta=np.inf)),
-    ("gnc_irls", dict(noise_bound="mad")), ("gnc_irls", dict(max_iterations=2.5)), ("lirp", dict(rank_tol="a")),
-    ("lirp", dict(rank_tol=np.nan)),
+    ("gnc_ransac", {"theta": None}), ("gnc_ransac", {"theta": 2e-3, "sample_size": 0}),
+    ("gnc_ransac", {"theta": 2e-3, "sample_size": 6.5}), ("gnc_ransac", {"theta": 2e-3, "max_iterations": None}),
+    ("gnc_ransac", {"theta": 2e-3, "max_iterations": 0}), ("gnc_ransac", {"theta": 2e-3, "seed": None}),
+    ("gnc_ransac", {"theta": 2e-3, "seed": -1}), ("gnc_ransac", {"theta": np.inf}),
+    ("gnc_irls", {"noise_bound": "mad"}), ("gnc_irls", {"max_iterations": 2.5}), ("lirp", {"rank_tol": "a"}),
+    ("lirp", {"rank_tol": np.nan}),
 ])
 def test_low_level_wrong_types(fn, kw):
     sc = make_scene(40, seed=1)

@@ -17,8 +17,15 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["TMP_SUFFIX", "publish", "clean_stale_temps", "atomic_open", "atomic_write_text", "atomic_write_bytes",
-           "atomic_savefig"]
+__all__ = [
+    "TMP_SUFFIX",
+    "atomic_open",
+    "atomic_savefig",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "clean_stale_temps",
+    "publish",
+]
 
 TMP_SUFFIX = ".poseonly-tmp"
 # temp files of the older writers (no pid in the name) are removed once they are this old (seconds)
