@@ -81,7 +81,7 @@ def _complete(kind: str, p: Path) -> bool:
 
 
 def _spawn(kind: str, target: Path) -> subprocess.Popen:
-    code = "from pathlib import Path\nTARGET = {!r}\n".format(str(target)) + textwrap.dedent(CHILD[kind])
+    code = f"from pathlib import Path\nTARGET = {str(target)!r}\n" + textwrap.dedent(CHILD[kind])
     env = dict(os.environ, PYTHONPATH=SRC, POSEONLY_NUMBA="0")
     return subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
 
