@@ -161,9 +161,16 @@ def estimate_relative_pose(
     # reports as status "degenerate"; no RuntimeWarning reaches the caller (errstate is
     # thread-local and restored on exit)
     with _blas_single_thread(), np.errstate(all="ignore"):
-        R, t, w, iters, diag = RUNNERS[method](f1, f2, o, tau)
-        diag["rank"] = rank
-        return finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, o.min_inliers)
+        try:
+            R, t, w, iters, diag = RUNNERS[method](f1, f2, o, tau)
+            diag["rank"] = rank
+            return finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, o.min_inliers)
+        except np.linalg.LinAlgError as exc:
+            # valid but numerically extreme input (e.g. every bearing ~90 deg off the optical axis)
+            # on which a solver's linear algebra fails: no pose, and the status says so
+            return degenerate_result(n, rank, method, thr_px, focal, t0,
+                                     reason=f"the {method!r} method failed numerically on this input ({exc}): "
+                                            "the correspondences are numerically degenerate")
 
 
 _SPEC_NOISE = Spec("real", lo=0.0, lo_open=True)
