@@ -328,3 +328,23 @@ def test_cli_experiment_bad_trials(trials):
     with pytest.raises(SystemExit) as e:
         main(["experiment", "table2", "--trials", trials])
     assert e.value.code == 2
+
+
+@SETTINGS
+@given(method=st.sampled_from(list(poseonly.METHODS)), data=st.data())
+def test_option_messages_do_not_contradict_themselves(method, data):
+    """An error names the option, what it must be and what was given; the given type never equals
+    the one required (the old ``refine=np.True_``: "must be of type bool, got bool")."""
+    from poseonly.options import parse_options
+
+    name = data.draw(st.sampled_from(list(OPTIONS[method].__dataclass_fields__)))
+    value = data.draw(option_values)
+    try:
+        parse_options(method, {name: value})
+    except InputError as exc:
+        msg = str(exc)
+        assert repr(name) in msg
+        if "must be of type " in msg and ", got " in msg:
+            required = msg.split("must be of type ")[1].split(" ")[0]
+            given_type = msg.split(", got ")[1].split(" ")[0]
+            assert given_type not in required.split("/"), msg
