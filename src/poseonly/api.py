@@ -101,8 +101,8 @@ def _blas_single_thread():
 def _focal(K1, K2, focal_px):
     if focal_px is not None:
         return float(focal_px)
-    fs = [0.5 * (K[0, 0] + K[1, 1]) for K in (K1, K2) if K is not None]
-    return float(np.mean(fs)) if fs else DEFAULT_FOCAL_PX
+    fs = [0.5 * float(K[0, 0]) + 0.5 * float(K[1, 1]) for K in (K1, K2) if K is not None]  # no overflow
+    return float(sum(f / len(fs) for f in fs)) if fs else DEFAULT_FOCAL_PX
 
 
 def _epipolar_rank(f1: np.ndarray, f2: np.ndarray) -> int:
