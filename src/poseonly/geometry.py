@@ -165,7 +165,9 @@ def check_intrinsics(K: np.ndarray, name: str = "K") -> np.ndarray:
     with np.errstate(all="ignore"):
         det = fx * fy
         Kinv_ok = np.isfinite(1.0 / fx) and np.isfinite(1.0 / fy) and np.isfinite(det) and det > 0
-    if not Kinv_ok or det < 1e-12 * max(1.0, float(np.abs(Kn).max())) ** 2:
+    if not Kinv_ok:
+        raise InputError(f"{name} has focal lengths out of the representable range (fx = {fx:g}, fy = {fy:g})")
+    if det < 1e-12 * max(1.0, float(np.abs(Kn).max())) ** 2:
         raise InputError(f"{name} is singular (det = {det:.3g})")
     return Kn
 
