@@ -151,7 +151,7 @@ def test_kill_and_resume(tmp_path):
     verify_database(ref, progress=False, seed=3)
     total = len(_rows(ref))
     assert total == 28
-    env = {**os.environ, "PYTHONPATH": SRC, "POSEONLY_NUMBA": "0"}
+    env = {**os.environ, "PYTHONPATH": SRC}
     cmd = [sys.executable, "-c", "import sys; from poseonly.cli import main; sys.exit(main())", "colmap", "verify", str(path),
            "--seed", "3", "--write-every", "2", "--no-progress"]
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)

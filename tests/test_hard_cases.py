@@ -3,7 +3,7 @@
 The bounds are measured against PoseLib (``max_epipolar_error`` 1 px, its default) on the same
 scenes, or against the first-order maximum-likelihood (Sampson) cost of the true inliers. Tests the current default
 fails are marked ``xfail(strict=False)``: they document the gap and turn into passes (XPASS) when a
-new default closes it. Run with ``POSEONLY_NUMBA=0``; scenes are kept small so the module stays fast.
+new default closes it. scenes are kept small so the module stays fast.
 """
 
 from __future__ import annotations

@@ -196,7 +196,10 @@ def test_noise_factor_reaches_the_default_method_only():
     sc = make_scene(200, "normal", "pinhole", noise_px=1.0, outlier_fraction=0.3, seed=3)
     got = ms["poseonly"].run(sc.u1, sc.u2, sc.K, 0)
     want = poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0, noise_factor=3.5)
-    plain = poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0)
     np.testing.assert_array_equal(got["R"], want.R)
-    assert got["num_inliers"] == want.num_inliers != plain.num_inliers
+    assert got["num_inliers"] == want.num_inliers
+    # the factor acts on the noise-matched threshold of final="ligt"
+    a = poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0, final="ligt", noise_factor=3.5)
+    b = poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0, final="ligt")
+    assert a.threshold_px != b.threshold_px
     ms["gnc-ransac"].run(sc.u1, sc.u2, sc.K, 0)  # no noise_factor option there: must not raise

@@ -41,7 +41,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .experiments._common import atomic_write_text, machine, markdown_table, single_thread, write_json
+from .experiments._common import atomic_write_text, machine, markdown_table, single_thread
 
 THRESHOLD_PX = 1.0  # the anchors' default; the default method gets its own default (noise-matched)
 NOISE_PX = 0.5
@@ -176,6 +176,7 @@ def _ms(s: float) -> str:
 
 
 def write_report(data: dict, out: Path) -> None:
+    atomic_write_text(out / "speed.json", json.dumps(data, indent=1, default=float))
     lines = ["# Speed (`poseonly bench speed`)", "", f"Machine: {data['machine']}. Command: `{data['command']}`.", ""]
     fp = data.get("fresh_process")
     if fp:
@@ -208,7 +209,6 @@ def write_report(data: dict, out: Path) -> None:
     lines += ["## Threads", "", f"{t['pairs']} pairs: serial {t['serial_s']:.3f} s, {t['workers']} threads {t['threads_s']:.3f} s: "
               f"speed-up {t['speedup']:.2f}x (identical results: {t['identical_results']}).", ""]
     atomic_write_text(out / "speed.md", "\n".join(lines))
-    write_json(out / "speed.json", data)
 
 
 def main(argv: list[str] | None = None) -> int:

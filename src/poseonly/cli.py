@@ -58,17 +58,69 @@ def _intrinsics(args, image_size=None):
     return None, None
 
 
+def _positive_int(text: str) -> int:
+    """argparse type: an integer >= 1."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {v}")
+    return v
+
+
+def _non_negative_int(text: str) -> int:
+    """argparse type: an integer >= 0 (seeds)."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {v}")
+    return v
+
+
+def _check_draw_target(path: str | None) -> None:
+    """Fail before any work when a drawing could not be written (directory, unknown format)."""
+    if not path:
+        return
+    from .pipeline import DRAW_FORMATS
+
+    p = Path(path)
+    if p.is_dir():
+        raise CLIError(f"--draw {path}: is a directory; give an image file name (e.g. matches.png)")
+    if p.suffix.lower() not in DRAW_FORMATS:
+        raise CLIError(f"--draw {path}: unsupported image format {p.suffix or '(none)'!r}; use one of {list(DRAW_FORMATS)}")
+
+
 def _fmt_pose(R, t) -> str:
+    if R is None or t is None:
+        return "R = (none)\nt = (none)" if R is None else _fmt_pose(R, np.full(3, np.nan)).replace("nan", "n/a")
     rows = "\n".join("  [" + ", ".join(f"{v: .6f}" for v in r) + "]" for r in R)
     return f"R =\n{rows}\nt = [" + ", ".join(f"{v: .6f}" for v in t) + "]"
+
+
+def _jsonable(v):
+    """JSON-safe value (arrays -> lists, non-finite floats -> None)."""
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    if isinstance(v, list):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, (float, np.floating)):
+        return float(v) if np.isfinite(v) else None
+    if isinstance(v, np.integer):
+        return int(v)
+    return v
 
 
 def cmd_demo(args) -> int:
     from .pipeline import run_demo
 
+    if not args.no_draw:
+        _check_draw_target(args.draw)
     d = run_demo(draw=None if args.no_draw else args.draw, method=args.method, seed=args.seed)
     if args.json:
-        print(json.dumps({k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in d.items()}, indent=2))
+        print(json.dumps({k: _jsonable(v) for k, v in d.items()}, indent=2, allow_nan=False))
         return 0
     print(f"poseonly {__version__} demo: {d['pair']} (embedded, 960x640)")
     print(f"matches: {d['num_matches']}, inliers: {d['num_inliers']} ({100 * d['inlier_ratio']:.1f}%), status: {d['status']}")
@@ -86,6 +138,7 @@ def cmd_demo(args) -> int:
 def cmd_relpose(args) -> int:
     from .pipeline import draw_matches, relpose_images, relpose_matches
 
+    _check_draw_target(args.draw)
     opts = {"method": args.method, "threshold_px": args.threshold, "seed": args.seed}
     if args.matches:
         from .features import load_matches_npz
@@ -116,7 +169,7 @@ def cmd_relpose(args) -> int:
     if args.json:
         d = r.to_dict()
         d.update(num_matches=int(len(pr.u1)), time_features_s=pr.time_features_s, time_estimate_s=pr.time_estimate_s)
-        print(json.dumps(d, indent=2))
+        print(json.dumps(d, indent=2, allow_nan=False))
     else:
         print(_fmt_pose(r.R, r.t))
         print(f"inliers: {r.num_inliers} / {len(pr.u1)} matches ({100 * r.inlier_ratio:.1f}%)")
@@ -160,7 +213,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--no-draw", action="store_true")
     d.add_argument("--json", action="store_true")
     d.add_argument("--method", default="poseonly")
-    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--seed", type=_non_negative_int, default=0)
     d.set_defaults(func=cmd_demo)
 
     r = sub.add_parser("relpose", help="relative pose of two images (or of a matches file)")
@@ -176,7 +229,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--threshold", type=float, default=2.0, help="inlier threshold in pixels")
     r.add_argument("--ratio", type=float, default=0.8, help="Lowe ratio")
     r.add_argument("--cache", help="feature cache directory")
-    r.add_argument("--seed", type=int, default=0)
+    r.add_argument("--seed", type=_non_negative_int, default=0)
     r.add_argument("--json", action="store_true")
     r.add_argument("--draw", help="write a match drawing (PNG)")
     r.set_defaults(func=cmd_relpose)
@@ -200,10 +253,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     for name in experiments.EXPERIMENTS:
         ep = esub.add_parser(name)
-        ep.add_argument("--trials", type=int, default=None, help="Monte Carlo trials (default: the paper's)")
+        ep.add_argument("--trials", type=_positive_int, default=None, help="Monte Carlo trials (default: the paper's)")
         ep.add_argument("--quick", action="store_true", help="a few trials (smoke test)")
         ep.add_argument("--out", default="docs/results", help="output directory for tables and figures")
-        ep.add_argument("--seed", type=int, default=0)
+        ep.add_argument("--seed", type=_non_negative_int, default=0)
         try:
             experiments.load(name).add_arguments(ep)
         except ImportError:

@@ -18,7 +18,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,8 +25,8 @@ from typing import Any
 
 import numpy as np
 
-from ._fileutil import publish
-from .geometry import InputError, check_intrinsics, essential_from_pose
+from ._fileutil import atomic_open, clean_stale_temps
+from .geometry import InputError, as_real_array, check_intrinsics, essential_from_pose
 
 __all__ = [
     "Features",
@@ -218,21 +217,19 @@ def _read_cache(f: Path) -> Features | None:
 
 
 def _atomic_savez(path: Path, **arrays: np.ndarray) -> None:
-    """``np.savez`` to a temp file in the target directory, then ``os.replace`` (atomic)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(fh, **arrays)
-            fh.flush()
-            os.fsync(fh.fileno())
-        publish(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    """``np.savez`` through :func:`poseonly._fileutil.atomic_open` (atomic; the temp files of
+    killed writers are removed on the next write of the same cache entry)."""
+    with atomic_open(path, "wb") as fh:
+        np.savez(fh, **arrays)
+
+
+def clean_cache(cache_dir: str | os.PathLike) -> int:
+    """Remove temp files that killed cache writes left in ``cache_dir``; returns how many."""
+    d = Path(cache_dir)
+    if not d.is_dir():
+        return 0
+    names = {f.name.split(".")[1] for f in d.iterdir() if f.name.startswith(".sift_") and f.name.count(".") >= 2}
+    return sum(clean_stale_temps(d / (n + ".npz")) for n in names)
 
 
 def extract_features(
@@ -260,6 +257,7 @@ def extract_features(
         if not path.is_file():
             raise InputError(f"image file not found: {path}")
         cache = _cache_file(path, max_features, Path(cache_dir))
+        clean_cache(cache_dir)
         hit = _read_cache(cache)
         if hit is not None:
             return hit
@@ -336,9 +334,9 @@ def match_images(
 
 def _check_pixels(a: Any, name: str, src: str) -> np.ndarray:
     try:
-        a = np.asarray(a, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise InputError(f"{src}: '{name}' must be a numeric (k, 2) array of pixel coordinates") from None
+        a = as_real_array(a, name)
+    except InputError as exc:
+        raise InputError(f"{src}: '{name}' must be a real numeric (k, 2) array of pixel coordinates ({exc})") from None
     if a.ndim != 2 or a.shape[1] != 2:
         raise InputError(f"{src}: '{name}' must have shape (k, 2) (pixel coordinates), got {a.shape}")
     if not np.all(np.isfinite(a)):

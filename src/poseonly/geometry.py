@@ -16,23 +16,24 @@ import numpy as np
 
 __all__ = [
     "InputError",
-    "skew",
-    "cross",
-    "normalize",
-    "bearings_from_pixels",
-    "bearings_from_normalized",
     "as_bearings",
+    "as_real_array",
+    "bearings_from_normalized",
+    "bearings_from_pixels",
     "check_correspondences",
     "check_intrinsics",
-    "essential_from_pose",
+    "cross",
     "decompose_essential",
     "essential_frames",
-    "triangulate_midpoint",
+    "essential_from_pose",
+    "normalize",
+    "project_to_so3",
     "rotation_angle_deg",
     "rotation_error_deg",
-    "translation_error_deg",
-    "project_to_so3",
     "rotation_from_rotvec",
+    "skew",
+    "translation_error_deg",
+    "triangulate_midpoint",
 ]
 
 
@@ -101,11 +102,34 @@ def project_to_so3(M: np.ndarray) -> np.ndarray:
 # input normalisation and validation
 
 
-def _check_finite_2d(a: np.ndarray, name: str) -> np.ndarray:
+# a bearing whose norm is below this (relative to nothing: bearings are directions given with
+# components of order 1) is taken for a zero vector
+ZERO_BEARING = 1e-12
+# the lower-left entries of a calibration matrix must vanish (relative to its largest entry)
+K_ZERO_RTOL = 1e-9
+
+
+def as_real_array(a: object, name: str) -> np.ndarray:
+    """``a`` as a float array (any shape); complex, object, string or ragged input raises
+    :class:`InputError`."""
     try:
-        a = np.asarray(a, dtype=float)
+        raw = np.asarray(a)
     except (TypeError, ValueError) as exc:
         raise InputError(f"{name} must be a numeric array ({exc})") from None
+    if np.iscomplexobj(raw):
+        raise InputError(f"{name} must be real; got a complex array (dtype {raw.dtype})")
+    if raw.dtype.kind not in "biuf":
+        try:
+            raw = raw.astype(float)
+        except (TypeError, ValueError) as exc:
+            raise InputError(f"{name} must be a numeric array, got dtype {raw.dtype} ({exc})") from None
+        if np.iscomplexobj(raw):  # pragma: no cover - astype(float) never yields complex
+            raise InputError(f"{name} must be real")
+    return np.asarray(raw, dtype=float)
+
+
+def _check_finite_2d(a: np.ndarray, name: str) -> np.ndarray:
+    a = as_real_array(a, name)
     if a.ndim != 2 or a.shape[1] not in (2, 3):
         raise InputError(f"{name} must have shape (n, 2) or (n, 3), got {a.shape}")
     if not np.isfinite(a).all():
@@ -115,18 +139,65 @@ def _check_finite_2d(a: np.ndarray, name: str) -> np.ndarray:
 
 
 def check_intrinsics(K: np.ndarray, name: str = "K") -> np.ndarray:
-    """Validate a 3x3 calibration matrix (finite, invertible, K[2,2] != 0)."""
-    try:
-        K = np.asarray(K, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be a numeric 3x3 matrix") from None
+    """Validate a 3x3 calibration matrix ``[[fx, s, cx], [0, fy, cy], [0, 0, 1]]``.
+
+    Finite, real, upper triangular, ``K[2, 2] != 0`` (a scaled ``K`` is divided by it), positive
+    focal lengths ``fx, fy`` and a finite inverse. Returns ``K / K[2, 2]`` as floats.
+    """
+    K = as_real_array(K, name)
     if K.shape != (3, 3):
         raise InputError(f"{name} must be a 3x3 matrix, got shape {K.shape}")
     if not np.all(np.isfinite(K)):
         raise InputError(f"{name} contains NaN or inf values")
-    if abs(np.linalg.det(K)) < 1e-12 * max(1.0, np.abs(K).max()) ** 3:
-        raise InputError(f"{name} is singular (det = {np.linalg.det(K):.3g})")
-    return K
+    scale = float(np.abs(K).max())
+    if scale == 0.0 or K[2, 2] == 0.0:
+        raise InputError(f"{name} is singular (K[2, 2] = {K[2, 2]:g})")
+    if max(abs(K[1, 0]), abs(K[2, 0]), abs(K[2, 1])) > K_ZERO_RTOL * scale:
+        raise InputError(f"{name} must be upper triangular ([[fx, s, cx], [0, fy, cy], [0, 0, 1]]); got lower-left "
+                         f"entries {K[1, 0]:g}, {K[2, 0]:g}, {K[2, 1]:g}")
+    with np.errstate(all="ignore"):
+        Kn = K / K[2, 2]
+    if not np.all(np.isfinite(Kn)):
+        raise InputError(f"{name} / K[2, 2] overflows (K[2, 2] = {K[2, 2]:g})")
+    fx, fy = float(Kn[0, 0]), float(Kn[1, 1])
+    if not (fx > 0 and fy > 0):
+        raise InputError(f"{name} must have positive focal lengths, got fx = {fx:g}, fy = {fy:g}")
+    with np.errstate(all="ignore"):
+        det = fx * fy
+        Kinv_ok = np.isfinite(1.0 / fx) and np.isfinite(1.0 / fy) and np.isfinite(det) and det > 0
+    if not Kinv_ok:
+        raise InputError(f"{name} has focal lengths out of the representable range (fx = {fx:g}, fy = {fy:g})")
+    if det < 1e-12 * max(1.0, float(np.abs(Kn).max())) ** 2:
+        raise InputError(f"{name} is singular (det = {det:.3g})")
+    return Kn
+
+
+def _unit_rows(a: np.ndarray, name: str) -> np.ndarray:
+    """Rows of ``a (n, 3)`` scaled to unit length without overflow or underflow.
+
+    Rows whose components are all of moderate size take the plain norm (bit for bit
+    ``np.linalg.norm``); the others are first divided by their largest absolute component, so
+    components up to ``1.8e308`` keep their direction. Rows shorter than :data:`ZERO_BEARING`
+    raise :class:`InputError`.
+    """
+    m = np.max(np.abs(a), axis=1)
+    plain = (m < 1e150) & (m > 1e-150)
+    if plain.all():
+        nrm = np.sqrt(a[:, 0] * a[:, 0] + a[:, 1] * a[:, 1] + a[:, 2] * a[:, 2])  # = np.linalg.norm(a, axis=1) bit for bit
+        zero = nrm < ZERO_BEARING
+        if zero.any():
+            raise InputError(f"{name} contains {int(np.count_nonzero(zero))} zero-length bearing vectors")
+        return a / nrm[:, None]
+    zero = m < ZERO_BEARING / np.sqrt(3.0)  # |row| <= sqrt(3) m (no overflow for m near 1.8e308)
+    if zero.any():
+        raise InputError(f"{name} contains {int(np.count_nonzero(zero))} zero-length bearing vectors")
+    out = np.empty_like(a)
+    ap = a[plain]
+    nrm = np.sqrt(np.sum(ap * ap, axis=1))
+    out[plain] = ap / nrm[:, None]
+    b = a[~plain] / m[~plain, None]
+    out[~plain] = b / np.sqrt(np.sum(b * b, axis=1))[:, None]
+    return out
 
 
 def bearings_from_normalized(x: np.ndarray) -> np.ndarray:
@@ -143,20 +214,40 @@ def bearings_from_pixels(u: np.ndarray, K: np.ndarray) -> np.ndarray:
     return normalize(np.linalg.solve(K, h.T).T)
 
 
-def as_bearings(x: np.ndarray, K: np.ndarray | None = None, name: str = "x") -> np.ndarray:
-    """Accept pixels (with ``K``), normalized coordinates (``(n, 2)``) or bearings (``(n, 3)``).
+def _pixels_to_rays(a: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """``K^-1 [u, v, 1]`` for upper-triangular ``K`` (``K[2, 2] = 1``), overflow-safe: pixels of
+    any finite size are first divided by their row's largest component."""
+    m = np.maximum(np.max(np.abs(a), axis=1), 1.0)
+    h = np.concatenate([a / m[:, None], 1.0 / m[:, None]], axis=1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = np.linalg.solve(K, h.T).T
+    return r
 
-    Returns unit bearing vectors; raises :class:`InputError` for bad shapes, NaN/inf, zero vectors.
+
+def as_bearings(x: np.ndarray, K: np.ndarray | None = None, name: str = "x") -> np.ndarray:
+    """Accept pixels ``(n, 2)`` (with ``K``), normalized coordinates ``(n, 2)`` or bearings ``(n, 3)``.
+
+    Returns unit bearing vectors ``(n, 3)``; raises :class:`InputError` for bad shapes, complex or
+    non-numeric input, NaN/inf, zero vectors and rays that are not finite. Norms are scaled, so
+    components of any finite magnitude keep their direction.
     """
     a = _check_finite_2d(x, name)
     if a.shape[1] == 2:
-        return bearings_from_pixels(a, K) if K is not None else bearings_from_normalized(a)
+        if K is None:
+            return _unit_rows(np.concatenate([a, np.ones((len(a), 1))], axis=1), name)
+        K = check_intrinsics(K, "K")
+        m = np.max(np.abs(a), axis=1) if len(a) else np.zeros(0)
+        if np.all(m < 1e150):
+            h = np.concatenate([a, np.ones((len(a), 1))], axis=1)
+            rays = np.linalg.solve(K, h.T).T  # as bearings_from_pixels, bit for bit
+        else:
+            rays = _pixels_to_rays(a, K)
+        if not np.all(np.isfinite(rays)):
+            raise InputError(f"{name}: K^-1 [u, v, 1] is not finite for {int(np.count_nonzero(~np.isfinite(rays).all(1)))} rows")
+        return _unit_rows(rays, name)
     if K is not None:
         raise InputError(f"{name} has shape (n, 3) (bearing vectors) but a K was given; pass pixels (n, 2) with K")
-    nrm = np.sqrt(a[:, 0] * a[:, 0] + a[:, 1] * a[:, 1] + a[:, 2] * a[:, 2])  # = np.linalg.norm(a, axis=1) bit for bit
-    if (nrm < 1e-12).any():
-        raise InputError(f"{name} contains {int(np.count_nonzero(nrm < 1e-12))} zero-length bearing vectors")
-    return a / nrm[:, None]
+    return _unit_rows(a, name)
 
 
 def check_correspondences(

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from ._fileutil import atomic_write_bytes
 from .api import RelativePoseResult, estimate_relative_pose
 from .geometry import InputError, rotation_error_deg, translation_error_deg
 
@@ -50,6 +51,9 @@ def relpose_images(img1, img2, K1, K2=None, *, ratio: float = 0.8, mutual: bool 
     return pr
 
 
+DRAW_FORMATS = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
+
+
 def draw_matches(img1, img2, u1, u2, inliers, out: str | Path, max_lines: int = 400, seed: int = 0) -> Path:
     """Side-by-side drawing: inliers green, outliers red (a random subset of ``max_lines``)."""
     import cv2
@@ -76,11 +80,15 @@ def draw_matches(img1, img2, u1, u2, inliers, out: str | Path, max_lines: int = 
         cv2.circle(canvas, p, 2, col, -1)
         cv2.circle(canvas, q, 2, col, -1)
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.stem + ".tmp" + out.suffix)
-    if not cv2.imwrite(str(tmp), canvas):
-        raise InputError(f"could not write the drawing to {out}")
-    tmp.replace(out)
+    ext = out.suffix.lower()
+    if out.is_dir():
+        raise InputError(f"--draw/out {out} is a directory; give an image file name (e.g. matches.png)")
+    if ext not in DRAW_FORMATS:
+        raise InputError(f"cannot write a match drawing as {out.name!r}: the suffix must be one of {list(DRAW_FORMATS)}")
+    ok, buf = cv2.imencode(ext, canvas)
+    if not ok:
+        raise InputError(f"could not encode the drawing as {ext}")
+    atomic_write_bytes(out, buf.tobytes())
     return out
 
 
@@ -101,8 +109,8 @@ def run_demo(draw: str | Path | None = "poseonly_demo_matches.png", method: str 
         "t": r.t,
         "R_gt": d.R_gt,
         "t_gt": d.t_gt,
-        "rotation_error_deg": float(rotation_error_deg(d.R_gt, r.R)),
-        "translation_error_deg": float(translation_error_deg(d.t_gt, r.t)),
+        "rotation_error_deg": float(rotation_error_deg(d.R_gt, r.R)) if r.R is not None else float("nan"),
+        "translation_error_deg": float(translation_error_deg(d.t_gt, r.t)) if r.t is not None else float("nan"),
         "time_features_s": pr.time_features_s,
         "time_estimate_s": pr.time_estimate_s,
     }

@@ -64,18 +64,26 @@ def homography_twin(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray
 
     ``f1, f2`` are the inlier bearings of ``(R, t)``. Returns ``(R_twin, t_twin (unit), planarity)``
     where planarity is the ratio of the smallest to the middle singular value of the centred points
-    (0 for an exact plane), or ``None`` when fewer than 4 points triangulate in front of the cameras.
+    (0 for an exact plane), or ``None`` when fewer than 4 points triangulate in front of the cameras
+    or the plane fit / decomposition is numerically degenerate.
     """
     t = normalize(np.asarray(t, float))
     X1, z1, z2 = triangulate_midpoint(R, t, f1, f2)
     ok = (z1 > 0) & (z2 > 0)
     if ok.sum() < 4:
         return None
-    n, d, planarity = fit_plane(X1[ok])
-    if d <= 0:
+    if not np.all(np.isfinite(X1[ok])):
         return None
-    H = R + np.outer(t, n) / d
-    Rs, Ts, Ns = decompose_homography(H)
+    try:
+        n, d, planarity = fit_plane(X1[ok])
+        if not (d > 0 and np.isfinite(d)):
+            return None
+        H = R + np.outer(t, n) / d
+        if not np.all(np.isfinite(H)):
+            return None
+        Rs, Ts, Ns = decompose_homography(H)
+    except np.linalg.LinAlgError:  # numerically degenerate inliers (e.g. bearings near 90 deg off-axis)
+        return None
     # physically valid: the inliers lie in front of camera 1 on the plane side (n . f1 > 0)
     front = np.mean(f1 @ Ns.T > 0, axis=0)
     cand = np.nonzero((front > 0.5) & (np.linalg.norm(Ts, axis=1) > 1e-12))[0]

@@ -5,13 +5,14 @@ from __future__ import annotations
 import json
 import os
 import platform
-import tempfile
 from pathlib import Path
 from typing import Any, Iterable
 
 import numpy as np
 
-from .._fileutil import publish
+from .._fileutil import atomic_savefig, atomic_write_text
+
+__all__ = ["atomic_write_text", "savefig", "write_json", "write_outputs", "finish_run"]
 
 
 def progress(it: Iterable, total: int | None = None, desc: str = "", disable: bool | None = None):
@@ -21,21 +22,6 @@ def progress(it: Iterable, total: int | None = None, desc: str = "", disable: bo
     except ImportError:  # pragma: no cover
         return it
     return tqdm(it, total=total, desc=desc, disable=disable, leave=False, dynamic_ncols=True)
-
-
-def atomic_write_text(path: str | Path, text: str) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        publish(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    return path
 
 
 def _jsonable(o: Any):
@@ -71,12 +57,8 @@ def markdown_table(header: list[str], rows: list[list[Any]]) -> str:
 
 
 def savefig(fig, path: str | Path) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.stem + ".tmp" + path.suffix)
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    os.replace(tmp, path)
-    return path
+    """Write a figure atomically (format from the suffix; see :func:`poseonly._fileutil.atomic_savefig`)."""
+    return atomic_savefig(fig, path, dpi=110, bbox_inches="tight")
 
 
 def machine() -> str:

@@ -448,7 +448,7 @@ def run_pair(pair: Pair, u1: np.ndarray, u2: np.ndarray, ratio: np.ndarray, meth
 
 def warm_up(plan: list[Pair], matches: list[tuple[np.ndarray, np.ndarray, np.ndarray]], methods: list[str]) -> None:
     """One untimed call of every method on the first pair with enough matches, so that imports and
-    JIT compilation (numba kernels) are not charged to the first timed pair."""
+    first-call costs are not charged to the first timed pair."""
     for p, (u1, u2, r) in zip(plan, matches):
         if len(u1) > MIN_MATCHES:
             for m in methods:

@@ -198,7 +198,7 @@ def ligt_refine(
     solver : ``"scipy"`` (default: ``scipy.optimize.least_squares``, ``method="lm"`` for the linear
         loss, ``"trf"`` with the grouped robust loss otherwise) or ``"lm"``: a compact
         Levenberg-Marquardt on IRLS-weighted 5x5 normal equations (:func:`_lm`; no ``rho''`` term),
-        formed in one pass over the points by a compiled kernel when numba is present. Same
+        run by the compiled core (``src/core/refine.cpp``). Same
         objective; from starts near the optimum the same minimum (tests/test_refine.py compares
         them); ~1 ms instead of ~4-6 ms per call at n ~ 200 (docs/results/speed.md), which is why
         the robust methods use it (``poseonly.api.REFINE_SOLVER``). ``max_iter`` counts cost

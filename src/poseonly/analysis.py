@@ -1,0 +1,292 @@
+"""Analysis of a final model: cheirality-consistent support, planar twin, pure rotation, chance inliers.
+
+Everything the status decision (:mod:`poseonly.result`) needs to know about a pose besides its own
+inliers: whether the homography twin (:mod:`poseonly.twin`) explains the data about as well
+(planar scene), whether a rotation without translation does (pure rotation), and how many inliers
+the pose would collect by chance. Shapes: bearings ``f1, f2 (n, 3)`` (unit), ``R (3, 3)`` or
+stacked ``(h, 3, 3)``, ``t (3,)`` or ``(h, 3)``; ``tau`` is an angle (radians).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .geometry import rotation_error_deg
+from .residuals import v_sampson, v_sampson_chiral
+from .twin import homography_twin
+
+__all__ = [
+    "NFA_MAX",
+    "REFINE_SOLVER",
+    "chance_inliers",
+    "chance_rate",
+    "kabsch",
+    "log10_nfa",
+    "log_binom_sf",
+    "parallax_deg",
+    "planar_twin",
+    "plausible_twin",
+    "polish",
+    "pure_rotation_test",
+    "robust_rotation",
+    "rotations_from_pairs",
+    "support",
+]
+
+# LiGTopt's optimiser inside the robust methods: the compact LM of poseonly.refine.ligt (same
+# objective as scipy's least_squares, ~10-20x less time per call; docs/RESULTS.md section 2)
+REFINE_SOLVER = "lm"
+# the twin is reported when its support reaches this fraction of the pose's
+TWIN_SUPPORT_RATIO = 0.9
+CHANCE_SEED = 20240611
+
+
+def support(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float) -> np.ndarray:
+    """Inliers ``(h, n)`` of stacked poses ``(h,3,3), (h,3)``: Sampson error below ``tau`` and
+    positive depths (``v_sampson_chiral`` is 1 where a depth is not positive, and ``tau`` is far
+    below 1)."""
+    return v_sampson_chiral(R, t, f1, f2) < min(tau, 0.5)
+
+
+def plausible_twin(R, t, tw, f1, f2, tau) -> bool:
+    """Cheap screen before polishing a twin: its raw support reaches 30 % of the pose's (the twin of
+    a non-planar scene keeps a few per cent; an unpolished planar twin measured 40-65 %)."""
+    sup = support(np.stack([R, tw[0]]), np.stack([t, tw[1]]), f1, f2, tau * 1.5).sum(axis=1)
+    return bool(sup[1] >= 0.3 * max(sup[0], 1))
+
+
+def polish(R, t, f1, f2, tau):
+    """Angular LiGTopt of a candidate on its cheirality-consistent inliers (twin comparison)."""
+    from .refine.ligt import ligt_refine
+
+    inl = support(R[None], t[None], f1, f2, tau * 1.5)[0]
+    if inl.sum() < 6:
+        inl = v_sampson(R, t, f1, f2) < tau * 1.5
+        if inl.sum() < 6:
+            return R, t
+    try:
+        r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization="angular", max_iter=20,
+                        solver=REFINE_SOLVER)
+    except ValueError:  # a degenerate candidate: keep it unpolished
+        return R, t
+    if np.all(np.isfinite(r.R)) and np.all(np.isfinite(r.t)):
+        return r.R, r.t
+    return R, t
+
+
+def parallax_deg(R, f1, f2, inl) -> float:
+    """Median angle (degrees) between ``R f1`` and ``f2`` over the inliers (NaN without any)."""
+    if not np.any(inl):
+        return float("nan")
+    Rf1 = f1[inl] @ R.T
+    c = np.clip(np.sum(Rf1 * f2[inl], axis=1), -1.0, 1.0)
+    return float(np.degrees(np.median(np.arccos(c))))
+
+
+def kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Rotation ``R`` minimising ``sum ||b_i - R a_i||^2`` (unit bearings ``(m, 3)``)."""
+    U, _, Vt = np.linalg.svd(b.T @ a)
+    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
+    return U @ D @ Vt
+
+
+def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, int] | None, dict[str, Any]]:
+    """The homography twin of ``(R, t)`` when it explains the data about as well (planar scene).
+
+    Returns ``(twin, info)``: ``twin = (R_twin, t_twin, support)`` or ``None``; ``info`` holds
+    ``planarity`` and ``support``/``twin_support`` when a twin was polished.
+    """
+    info: dict[str, Any] = {}
+    twin = None
+    sel = np.nonzero(inl)[0]
+    tw = homography_twin(R, t, f1[sel], f2[sel]) if len(sel) >= 6 else None
+    if tw is not None:
+        info["planarity"] = tw[2]
+    if tw is not None and plausible_twin(R, t, tw, f1, f2, tau):
+        Rt, tt = polish(tw[0], tw[1], f1, f2, tau)
+        sup = support(np.stack([R, Rt]), np.stack([t, tt]), f1, f2, tau).sum(axis=1)
+        info["support"], info["twin_support"] = int(sup[0]), int(sup[1])
+        if sup[1] >= TWIN_SUPPORT_RATIO * sup[0] and rotation_error_deg(R, Rt) > 0.1:
+            twin = (Rt, tt, int(sup[1]))
+    return twin, info
+
+
+# ------------------------------------------------------------------------------------------------
+# a-contrario significance (Moisan & Stival 2004; Moisan, Moulon, Monasse 2012 "AC-RANSAC")
+#
+# Under the random-match model a correspondence is an inlier of a fixed model with probability p,
+# the model's chance rate, measured on randomly re-paired matches. Among N tested hypotheses, the
+# expected number that collect k or more inliers of n by chance is at most N * P(Bin(n - s, p) >=
+# k - s) (Bonferroni; s = minimal sample size, whose points are inliers by construction). A model
+# is trusted only when this number of false alarms (NFA) is below NFA_MAX.
+
+NFA_MAX = 1e-3
+# re-paired matches used to measure a chance rate (at least CHANCE_MIN_REPEATS permutations)
+CHANCE_PAIRS = 20000
+CHANCE_MIN_REPEATS = 3
+CHANCE_MAX_REPEATS = 200
+
+
+def _permutations(n: int) -> np.ndarray:
+    rng = np.random.default_rng(CHANCE_SEED)
+    reps = int(np.clip(np.ceil(CHANCE_PAIRS / max(n, 1)), CHANCE_MIN_REPEATS, CHANCE_MAX_REPEATS))
+    return np.stack([rng.permutation(n) for _ in range(reps)])
+
+
+def chance_rate(R, t, f1, f2, tau) -> float:
+    """Probability that a randomly re-paired match is a Sampson inlier (``< tau``) of ``(R, t)``,
+    with add-one smoothing (never 0)."""
+    perms = _permutations(len(f1))
+    reps = len(perms)
+    v = v_sampson(np.broadcast_to(R, (reps, 3, 3)), np.broadcast_to(t, (reps, 3)),
+                  np.broadcast_to(f1, (reps,) + f1.shape), f2[perms])  # (reps, n)
+    return float((np.count_nonzero(v < tau) + 1) / (v.size + 2))
+
+
+def chance_inliers(R, t, f1, f2, tau) -> float:
+    """Expected inlier count of ``(R, t)`` on randomly re-paired matches (``n * chance_rate``)."""
+    return len(f1) * chance_rate(R, t, f1, f2, tau)
+
+
+def log_binom_sf(k: int, n: int, p: float) -> float:
+    """``log P(Bin(n, p) >= k)`` in numpy only (log-sum-exp of the terms; exact to rounding, no
+    underflow; scipy.stats is not imported because its import costs seconds)."""
+    if k <= 0:
+        return 0.0
+    if k > n:
+        return -np.inf
+    if p <= 0.0:
+        return -np.inf
+    if p >= 1.0:
+        return 0.0
+    lf = np.concatenate([[0.0], np.cumsum(np.log(np.arange(1, n + 1, dtype=float)))])  # log j!
+    j = np.arange(k, n + 1)
+    terms = lf[n] - lf[j] - lf[n - j] + j * np.log(p) + (n - j) * np.log1p(-p)
+    m = float(terms.max())
+    return m + float(np.log(np.sum(np.exp(terms - m))))
+
+
+def log10_nfa(k: int, n: int, p: float, num_tests: float, sample_size: int) -> float:
+    """``log10`` of the number of false alarms of a model with ``k`` inliers of ``n`` (see above)."""
+    kk, nn = k - sample_size, n - sample_size
+    lt = float(np.log10(max(num_tests, 1.0)))
+    if kk <= 0 or nn <= 0:
+        return lt
+    return lt + log_binom_sf(kk, nn, p) / float(np.log(10.0))
+
+
+# ------------------------------------------------------------------------------------------------
+# pure rotation: a robust rotation-only fit on all matches (2-point RANSAC + Kabsch)
+
+ROTATION_SAMPLE = 2
+ROTATION_MAX_ITERATIONS = 1000
+ROTATION_CONFIDENCE = 0.9999
+ROTATION_SEED = 20240612
+# a match fits a rotation when angle(R f1, f2) < ROTATION_THRESHOLD_FACTOR * tau (the full angular
+# error of a match is larger than its Sampson error, which only measures one direction)
+ROTATION_THRESHOLD_FACTOR = 2.0
+# a pose inlier supports a translation only when it is this many rotation thresholds off the rotation
+EXTRA_FACTOR = 2.0
+
+
+def rotations_from_pairs(a1, a2, b1, b2) -> np.ndarray:
+    """Rotations ``(h, 3, 3)`` with ``R a1 = b1`` and ``R (a1 x a2)`` along ``b1 x b2`` (inputs
+    ``(h, 3)`` unit): the exact 2-point rotation when the pairs are consistent."""
+    from .geometry import cross, normalize
+
+    def frame(u, v):
+        w = normalize(cross(u, v))
+        return np.stack([u, w, cross(u, w)], axis=-1)
+
+    return frame(b1, b2) @ np.swapaxes(frame(a1, a2), -1, -2)
+
+
+def _rotation_inliers(Rs, f1, f2, thr) -> np.ndarray:
+    """``(h, n)`` mask of ``|R f1 - f2| < 2 sin(thr / 2)`` (chord form: exact for tiny angles)."""
+    d = np.einsum("hij,nj->hni", Rs, f1) - f2[None]
+    return np.einsum("hni,hni->hn", d, d) < (2.0 * np.sin(0.5 * thr)) ** 2
+
+
+def robust_rotation(f1, f2, tau) -> tuple[np.ndarray, np.ndarray, int]:
+    """Best rotation-only model ``X2 ~ R X1`` over all matches: 2-point RANSAC with adaptive
+    stopping, then Kabsch on the inliers (twice). Returns ``(R, inliers (n,), hypotheses tested)``."""
+    n = len(f1)
+    thr = ROTATION_THRESHOLD_FACTOR * tau
+    rng = np.random.default_rng(ROTATION_SEED)
+    best_R, best_in, best_k = np.eye(3), np.zeros(n, bool), -1
+    it, needed, batch = 0, float(ROTATION_MAX_ITERATIONS), 64
+    while it < min(needed, ROTATION_MAX_ITERATIONS):
+        i = rng.integers(0, n, size=batch)
+        j = (i + rng.integers(1, n, size=batch)) % n
+        with np.errstate(all="ignore"):
+            Rs = rotations_from_pairs(f1[i], f1[j], f2[i], f2[j])
+        ok = np.all(np.isfinite(Rs), axis=(1, 2))
+        it += batch
+        if not ok.any():
+            continue
+        inl = _rotation_inliers(Rs[ok], f1, f2, thr)
+        cnt = inl.sum(axis=1)
+        k = int(np.argmax(cnt))
+        if cnt[k] > best_k:
+            best_R, best_in, best_k = Rs[ok][k], inl[k], int(cnt[k])
+            w = best_k / n
+            p_good = w * w
+            if 0 < p_good < 1:
+                needed = np.log(1 - ROTATION_CONFIDENCE) / np.log1p(-p_good)
+            elif p_good >= 1:
+                needed = 0
+    for _ in range(2):
+        if best_in.sum() < 3:
+            break
+        Rk = kabsch(f1[best_in], f2[best_in])
+        inl = _rotation_inliers(Rk[None], f1, f2, thr)[0]
+        if inl.sum() < best_in.sum():
+            break
+        best_R, best_in = Rk, inl
+    return best_R, best_in, it + 2
+
+
+def rotation_chance_rate(R, f1, f2, tau) -> float:
+    """Probability that a re-paired match fits the rotation ``R`` (add-one smoothing)."""
+    perms = _permutations(len(f1))
+    d = (f1 @ R.T)[None] - f2[perms]
+    hit = np.einsum("rni,rni->rn", d, d) < (2.0 * np.sin(0.5 * ROTATION_THRESHOLD_FACTOR * tau)) ** 2
+    return float((np.count_nonzero(hit) + 1) / (hit.size + 2))
+
+
+def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests) -> dict[str, Any]:
+    """Does a rotation without translation explain the data as well as the pose?
+
+    The rotation is fitted robustly on all matches (:func:`robust_rotation`). It is *significant*
+    when its own NFA (2-point samples, its measured chance rate) is below :data:`NFA_MAX`; the pose's
+    translation is *supported* when the pose's inliers that the rotation does not explain are more
+    than chance allows among the rotation's outliers (NFA with the pose's chance rate ``p_pose`` and
+    ``num_pose_tests`` hypotheses). ``pure_rotation`` = significant rotation and unsupported
+    translation. Returns a dict with ``R_rotation_only``, ``rotation_inliers``,
+    ``rotation_only_fraction`` (of the pose's inliers), ``translation_support`` (pose inliers
+    more than ``EXTRA_FACTOR`` rotation thresholds off the rotation), ``log10_nfa_rotation``,
+    ``log10_nfa_translation`` and ``pure_rotation`` (bool).
+    """
+    n = len(f1)
+    Rr, rin, tests = robust_rotation(f1, f2, tau)
+    k_rot = int(rin.sum())
+    p_rot = rotation_chance_rate(Rr, f1, f2, tau)
+    nfa_rot = log10_nfa(k_rot, n, p_rot, tests, ROTATION_SAMPLE)
+    # the pose's extra inliers: those clearly off the rotation (beyond EXTRA_FACTOR times its
+    # threshold: matches in the noise tail of the rotation are not evidence of a translation),
+    # among the matches that far off (s = 0: they are in no sample)
+    far = ~_rotation_inliers(Rr[None], f1, f2, EXTRA_FACTOR * ROTATION_THRESHOLD_FACTOR * tau)[0]
+    extra = int(np.count_nonzero(inl & far))
+    nfa_tr = log10_nfa(extra, int(far.sum()), p_pose, num_pose_tests, 0)
+    frac = float(np.count_nonzero(inl & rin) / max(int(inl.sum()), 1))
+    return {
+        "R_rotation_only": Rr,
+        "rotation_inliers": k_rot,
+        "rotation_only_fraction": frac,
+        "translation_support": extra,
+        "log10_nfa_rotation": nfa_rot,
+        "log10_nfa_translation": nfa_tr,
+        "pure_rotation": bool(nfa_rot < np.log10(NFA_MAX) and nfa_tr >= np.log10(NFA_MAX)),
+    }

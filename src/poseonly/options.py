@@ -1,0 +1,266 @@
+"""Options of :func:`poseonly.estimate_relative_pose`: one frozen dataclass per method, checked.
+
+:func:`parse_options` turns the keyword options of a call into the method's dataclass. Every value
+is checked by the field's :class:`Spec` (its kind, bounds and choices); unknown names, wrong types and
+out-of-range values raise :class:`poseonly.InputError` naming the option, what it must be and what
+was given. Accepted types: Python and numpy scalars alike (``np.float32(2.0)``, ``np.int64(7)``,
+``np.True_``); ``bool`` is never taken for a number. ``None`` for an option means its default. Real
+values must be finite (``threshold_px=inf`` is rejected). The same specs check the keyword arguments of
+the low-level functions (:func:`check_value`).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+import numpy as np
+
+from .geometry import InputError
+
+__all__ = [
+    "OPTIONS",
+    "CommonOptions",
+    "GncIrlsOptions",
+    "GncRansacOptions",
+    "LirpOptions",
+    "PoseonlyOptions",
+    "Spec",
+    "check_angle",
+    "check_value",
+    "parse_options",
+]
+
+# the range an angular threshold (radians) must lie in: below 1e-12 rad no double-precision residual
+# of unit bearings is meaningful, above 1 rad (57 deg) nearly every match is an inlier of any pose
+MIN_ANGLE = 1e-12
+MAX_ANGLE = 1.0
+
+
+@dataclass(frozen=True)
+class Spec:
+    """How one option is checked.
+
+    ``kind``: ``"real"`` (finite int/float, numpy scalars too), ``"int"`` (integral, not bool),
+    ``"bool"``, ``"str"`` (one of ``choices``), ``"name"`` (a registered solver or residual name,
+    ``doc`` says which registry), ``"seed"`` (int >= 0 or ``numpy.random.Generator``)
+    or ``"scale"`` (one of ``choices`` or a positive finite real). ``lo``/``hi`` bound a number
+    (``lo_open``/``hi_open``: strict).
+    """
+
+    kind: str
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+    choices: tuple[str, ...] = ()
+    doc: str = ""
+
+    def describe(self) -> str:
+        """What a valid value is, e.g. ``"a finite real > 0"``."""
+        if self.kind == "bool":
+            return "True or False"
+        if self.kind == "seed":
+            return "an integer >= 0 or a numpy.random.Generator"
+        if self.kind == "name":
+            return f"a {self.doc} name"
+        if self.kind == "str":
+            return "one of " + ", ".join(repr(c) for c in self.choices)
+        base = {"real": "a finite real number", "int": "an integer", "scale": "a positive finite real number"}[self.kind]
+        if self.kind == "scale":
+            return base + " or one of " + ", ".join(repr(c) for c in self.choices)
+        bounds = []
+        if self.lo is not None:
+            bounds.append(f"{'>' if self.lo_open else '>='} {self.lo:g}")
+        if self.hi is not None:
+            bounds.append(f"{'<' if self.hi_open else '<='} {self.hi:g}")
+        return base + (" " + " and ".join(bounds) if bounds else "")
+
+
+def _type_name(v: Any) -> str:
+    t = type(v)
+    return t.__name__ if t.__module__ == "builtins" else f"{t.__module__}.{t.__name__}"
+
+
+def _is_bool(v: Any) -> bool:
+    return isinstance(v, (bool, np.bool_))
+
+
+def _in_bounds(x: float, s: Spec) -> bool:
+    if s.lo is not None and (x <= s.lo if s.lo_open else x < s.lo):
+        return False
+    return not (s.hi is not None and (x >= s.hi if s.hi_open else x > s.hi))
+
+
+def check_value(name: str, v: Any, s: Spec) -> Any:
+    """Checked and converted value of option ``name`` (plain Python types out); raises
+    :class:`InputError` saying what the option must be and what was given."""
+
+    def bad_type() -> InputError:
+        return InputError(f"option {name!r} must be of type {_TYPE_WORD[s.kind]} ({s.describe()}), "
+                          f"got {_type_name(v)} {v!r}")
+
+    def bad_value() -> InputError:
+        return InputError(f"option {name!r} has an invalid value {v!r}: it must be {s.describe()}")
+
+    if s.kind == "bool":
+        if not _is_bool(v):
+            raise bad_type()
+        return bool(v)
+    if s.kind == "seed":
+        if isinstance(v, np.random.Generator):
+            return v
+        if _is_bool(v) or not isinstance(v, numbers.Integral):
+            raise bad_type()
+        if int(v) < 0:
+            raise bad_value()
+        return int(v)
+    if s.kind == "name":
+        if not isinstance(v, str):
+            raise bad_type()
+        return _check_name(name, v, s.doc)
+    if s.kind in ("str", "scale") and isinstance(v, str):
+        if v not in s.choices:
+            raise bad_value()
+        return v
+    if s.kind == "str":
+        raise bad_type()
+    if _is_bool(v) or not isinstance(v, numbers.Real):
+        raise bad_type()
+    if s.kind == "int":
+        if not isinstance(v, numbers.Integral):
+            raise bad_type()
+        x: float = int(v)
+    else:
+        x = float(v)
+        if not math.isfinite(x) or (s.kind == "scale" and not x > 0):
+            raise bad_value()
+    if not _in_bounds(x, s):
+        raise bad_value()
+    return x
+
+
+_TYPE_WORD = {"bool": "bool", "seed": "int", "name": "str", "str": "str", "int": "int", "real": "int/float",
+              "scale": "str/float"}
+
+
+def _check_name(name: str, v: str, registry: str) -> str:
+    """A solver or residual name known to its registry (solvers may be registered by users)."""
+    from .estimator import get_estimator
+    from .residuals import get_residual
+
+    try:
+        get_estimator(v) if registry == "solver" else get_residual(v)
+    except ValueError as exc:
+        raise InputError(f"option {name!r}: {exc}") from None
+    return v
+
+
+def _opt(default: Any, kind: str, doc: str = "", **kw: Any) -> Any:
+    return field(default=default, metadata={"spec": Spec(kind, doc=doc, **kw)})
+
+
+SCHEDULES = ("ms-tls", "gnc-tls")
+
+
+@dataclass(frozen=True)
+class CommonOptions:
+    """Options every method takes (see :func:`poseonly.estimate_relative_pose`)."""
+
+    threshold_px: float = _opt(2.0, "real", "inlier threshold in pixels", lo=0.0, lo_open=True)
+    focal_px: float | None = _opt(None, "real", "focal for the pixel <-> angle conversion", lo=0.0, lo_open=True)
+    seed: int | np.random.Generator = _opt(0, "seed", "random seed")  # noqa: RUF009
+    refine: bool = _opt(True, "bool", "LiGTopt on the inliers")
+    min_inliers: int = _opt(15, "int", "inliers needed for status ok", lo=6)
+
+    def check(self) -> None:
+        """Check every field against its :class:`Spec` (raises :class:`InputError`)."""
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if v is not None:
+                check_value(f.name, v, f.metadata["spec"])
+
+
+@dataclass(frozen=True)
+class PoseonlyOptions(CommonOptions):
+    """The default method's options (:mod:`poseonly.robust.default`)."""
+
+    max_iterations: int = _opt(100000, "int", lo=1)
+    min_iterations: int = _opt(50, "int", lo=0)
+    confidence: float = _opt(0.999, "real", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    solver: str = _opt("5pt", "str", "minimal solver", choices=("5pt", "lirp"))
+    max_lo: int = _opt(8, "int", lo=0)
+    scoring: str = _opt("msac-multi", "str", choices=("msac", "msac-multi", "count"))
+    lo_residual: str = _opt("sampson-chiral", "name", "residual")
+    lo_mu0: float = _opt(1e3, "real", lo=0.0, lo_open=True)
+    lo_iterations: int = _opt(10, "int", lo=1)
+    adaptive_threshold: bool = _opt(True, "bool")
+    noise_factor: float = _opt(2.5, "real", lo=0.0, lo_open=True)
+    lo: str = _opt("lirp", "str", choices=("lirp", "sampson"))
+    final: str = _opt("ml", "str", choices=("ml", "ligt"))
+    ml_range: float = _opt(3.0, "real", lo=1.0, hi=100.0, lo_open=True)
+    rival_distance: float = _opt(0.0, "real", lo=0.0, hi=180.0)
+
+
+@dataclass(frozen=True)
+class GncRansacOptions(CommonOptions):
+    """The paper's GNC-RANSAC (Alg. 3)."""
+
+    max_iterations: int = _opt(50, "int", lo=1)
+    sample_size: int = _opt(30, "int", lo=6)
+    adaptive: bool = _opt(False, "bool")
+    confidence: float = _opt(0.99, "real", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    residual: str = _opt("ligt", "name", "residual")
+    schedule: str = _opt("ms-tls", "str", choices=SCHEDULES)
+    scale: str | float = _opt("median", "scale", choices=("median", "mad"))
+
+
+@dataclass(frozen=True)
+class GncIrlsOptions(CommonOptions):
+    """GNC-IRLS (Alg. 2) on all points. ``scale=None``: noise bound from the pixel threshold."""
+
+    residual: str = _opt("ligt", "name", "residual")
+    schedule: str = _opt("ms-tls", "str", choices=SCHEDULES)
+    scale: str | float | None = _opt(None, "scale", choices=("median", "mad"))
+    max_iterations: int = _opt(100, "int", lo=1)
+
+
+@dataclass(frozen=True)
+class LirpOptions(CommonOptions):
+    """LiRP (Alg. 1) on all points: only the common options."""
+
+
+OPTIONS: dict[str, type[CommonOptions]] = {
+    "poseonly": PoseonlyOptions,
+    "gnc-ransac": GncRansacOptions,
+    "gnc-irls": GncIrlsOptions,
+    "lirp": LirpOptions,
+}
+
+
+def check_angle(name: str, tau: float, how: str = "") -> float:
+    """An angular threshold (radians) within ``[MIN_ANGLE, MAX_ANGLE]``; ``how`` says how it was
+    derived (for the message)."""
+    if not (math.isfinite(tau) and MIN_ANGLE <= tau <= MAX_ANGLE):
+        raise InputError(f"{name} = {tau:.3g} rad{how} must lie in [{MIN_ANGLE:g}, {MAX_ANGLE:g}] rad "
+                         "(a smaller angle is below double precision, a larger one makes every match an inlier)")
+    return float(tau)
+
+
+def parse_options(method: Any, options: dict[str, Any]) -> CommonOptions:
+    """The checked options dataclass of ``method`` from keyword ``options`` (``None`` = default)."""
+    if not isinstance(method, str):
+        raise InputError(f"method must be a string, one of {list(OPTIONS)}; got {_type_name(method)} {method!r}")
+    if method not in OPTIONS:
+        raise InputError(f"unknown method {method!r}; choose one of {list(OPTIONS)}")
+    cls = OPTIONS[method]
+    specs = {f.name: f.metadata["spec"] for f in fields(cls)}
+    kw: dict[str, Any] = {}
+    for k, v in options.items():
+        if k not in specs:
+            raise InputError(f"unknown option {k!r} for method {method!r}; valid options: {sorted(specs)}")
+        if v is not None:
+            kw[k] = check_value(k, v, specs[k])
+    return cls(**kw)

@@ -1,0 +1,255 @@
+"""The result type of :func:`poseonly.estimate_relative_pose` and the status decision.
+
+:func:`finish` takes a method's final model, computes its inlier mask and residuals, runs the
+analysis of :mod:`poseonly.analysis` and decides the status (``ok`` means "trust this pose").
+:func:`degenerate_result` is the result of input that determines no pose.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .analysis import (
+    NFA_MAX,
+    ROTATION_THRESHOLD_FACTOR,
+    chance_rate,
+    log10_nfa,
+    parallax_deg,
+    planar_twin,
+    pure_rotation_test,
+)
+from .geometry import essential_from_pose, rotation_error_deg
+from .residuals import v_sampson
+
+__all__ = ["STATUSES", "RelativePoseResult", "degenerate_result", "finish", "valid_pose"]
+
+STATUSES = ("ok", "planar_ambiguous", "pure_rotation", "too_few_inliers", "degenerate")
+
+
+# a returned R must satisfy |R^T R - I|_max < ORTHO_TOL and det R > 0 (else no valid pose was found)
+ORTHO_TOL = 1e-6
+# the pose's degrees of freedom: the a-contrario test discounts this many inliers (a pose fits any
+# 5 matches exactly)
+POSE_DOF = 5
+
+
+def _json_float(x: Any) -> float | None:
+    x = float(x)
+    return x if np.isfinite(x) else None
+
+
+def _json_array(a: np.ndarray | None) -> list | None:
+    """Nested lists with ``None`` for non-finite entries."""
+    if a is None:
+        return None
+    a = np.asarray(a, float)
+    obj = a.astype(object)
+    obj[~np.isfinite(a)] = None
+    return obj.tolist()
+
+
+def _json_value(v: Any) -> Any:
+    """A JSON-safe version of a diagnostic value (non-finite floats -> None, arrays -> lists)."""
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        return _json_float(v)
+    if isinstance(v, np.ndarray):
+        return _json_array(v) if v.dtype.kind == "f" else v.tolist()
+    if isinstance(v, str) or v is None:
+        return v
+    return str(v)
+
+
+@dataclass
+class RelativePoseResult:
+    """Relative pose ``X2 = R X1 + t`` (unit ``t``) with inliers and an honest status.
+
+    ``status`` is one of
+
+    * ``"ok"`` -- a confident calibrated pose: enough inliers (``min_inliers``), far more than
+      chance allows (a-contrario test, ``diagnostics["log10_nfa"] < -3``), no pure rotation, no
+      planar twin;
+    * ``"planar_ambiguous"`` -- the inliers are (near) planar and the homography twin (``R_twin``,
+      ``t_twin``) explains them about as well; the caller must decide (e.g. with a third view);
+    * ``"pure_rotation"`` -- a rotation without translation explains the matches and the pose's
+      extra inliers are no more than chance: ``R`` is the robust rotation-only fit and reliable,
+      ``t`` (a unit vector, the epipolar fit's) is not; ``inliers`` are the rotation's;
+    * ``"too_few_inliers"`` -- fewer than ``min_inliers`` inliers, or not significantly more than
+      randomly re-paired matches give the same model over all hypotheses tried; ``R, t`` are the
+      best guess and must not be trusted;
+    * ``"degenerate"`` -- the correspondences do not determine a pose (e.g. all points identical)
+      or the method found no valid model: ``R``, ``t`` and ``E`` are ``None``.
+
+    Shapes: ``R (3, 3)``, ``t (3,)`` (unit), ``E (3, 3)``, ``inliers (n,)`` bool, ``weights (n,)``,
+    ``residuals_px (n,)`` (NaN when undefined).
+    """
+
+    R: np.ndarray | None
+    t: np.ndarray | None
+    E: np.ndarray | None
+    inliers: np.ndarray
+    weights: np.ndarray
+    residuals_px: np.ndarray
+    num_inliers: int
+    num_iterations: int
+    status: str
+    message: str
+    method: str
+    threshold_px: float
+    focal_px: float
+    parallax_deg: float = float("nan")
+    R_twin: np.ndarray | None = None
+    t_twin: np.ndarray | None = None
+    twin_inliers: int = 0
+    time_s: float = 0.0
+    diagnostics: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    @property
+    def inlier_ratio(self) -> float:
+        return self.num_inliers / max(len(self.inliers), 1)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe summary (``json.dumps(..., allow_nan=False)`` works): arrays as lists,
+        ``None`` (null) for undefined values (no pose, NaN parallax); ``inliers`` as indices."""
+        d: dict[str, Any] = {
+            "R": _json_array(self.R),
+            "t": _json_array(self.t),
+            "E": _json_array(self.E),
+            "num_inliers": int(self.num_inliers),
+            "num_points": len(self.inliers),
+            "inlier_ratio": _json_float(self.inlier_ratio),
+            "inliers": np.nonzero(self.inliers)[0].tolist(),
+            "num_iterations": int(self.num_iterations),
+            "status": self.status,
+            "message": self.message,
+            "method": self.method,
+            "threshold_px": _json_float(self.threshold_px),
+            "focal_px": _json_float(self.focal_px),
+            "parallax_deg": _json_float(self.parallax_deg),
+            "time_s": _json_float(self.time_s),
+            "diagnostics": {k: _json_value(v) for k, v in self.diagnostics.items()},
+        }
+        if self.R_twin is not None:
+            d["R_twin"] = _json_array(self.R_twin)
+            d["t_twin"] = _json_array(self.t_twin)
+            d["twin_inliers"] = int(self.twin_inliers)
+        return d
+
+
+def valid_pose(R: np.ndarray, t: np.ndarray) -> bool:
+    """``R (3, 3)`` a finite rotation and ``t (3,)`` finite and non-zero."""
+    R, t = np.asarray(R, float), np.asarray(t, float)
+    if R.shape != (3, 3) or t.shape != (3,) or not (np.all(np.isfinite(R)) and np.all(np.isfinite(t))):
+        return False
+    with np.errstate(all="ignore"):
+        ortho = float(np.max(np.abs(R.T @ R - np.eye(3))))
+        nt = float(np.linalg.norm(t / max(float(np.max(np.abs(t))), 1e-300)))
+    return ortho < ORTHO_TOL and float(np.linalg.det(R)) > 0 and np.max(np.abs(t)) > 0 and np.isfinite(nt)
+
+
+def _unit(t: np.ndarray) -> np.ndarray:
+    t = np.asarray(t, float)
+    t = t / np.max(np.abs(t))
+    return t / np.linalg.norm(t)
+
+
+def _rotation_angles(R, f1, f2) -> np.ndarray:
+    c = np.clip(np.sum((f1 @ R.T) * f2, axis=1), -1.0, 1.0)
+    return np.arccos(c)
+
+
+def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inliers=15) -> RelativePoseResult:
+    """Inliers, residuals, analysis and status of a method's final model ``(R, t)``.
+
+    Order of the decision: no valid model -> ``degenerate``; a significant rotation-only model
+    and no significant translation -> ``pure_rotation``; too few inliers or an NFA above
+    :data:`poseonly.analysis.NFA_MAX` -> ``too_few_inliers``; a planar twin -> ``planar_ambiguous``;
+    else ``ok``.
+    """
+    if "tau_effective" in diag:  # the default method's noise-matched threshold (<= the user's)
+        tau = diag["tau_effective"]
+        thr_px = tau * focal
+    n = len(f1)
+    if not valid_pose(R, t):
+        return degenerate_result(n, diag.get("rank", -1), method, thr_px, focal, t0,
+                                 reason=f"the {method!r} method found no valid pose (no hypothesis scored)", diag=diag)
+    t = _unit(t)
+    v = v_sampson(R, t, f1, f2)
+    inl = v < tau
+    n_in = int(inl.sum())
+    weights = inl.astype(float) if w is None else np.asarray(w, float)
+    num_tests = float(diag.get("num_hypotheses", 1))
+    p_pose = chance_rate(R, t, f1, f2, tau)
+    lnfa = log10_nfa(n_in, n, p_pose, num_tests, POSE_DOF)
+    diag.update(chance_inliers=n * p_pose, chance_rate=p_pose, log10_nfa=lnfa)
+    rot = pure_rotation_test(f1, f2, tau, inl, p_pose, num_tests)
+    R_rot = rot.pop("R_rotation_only")
+    diag.update(rot)
+    R_twin = t_twin = None
+    twin_n = 0
+    par = parallax_deg(R, f1, f2, inl)
+    residuals = v * focal
+    needed = max(6, min_inliers)
+    if rot["pure_rotation"]:
+        status = "pure_rotation"
+        R = R_rot  # the robust rotation-only fit is the estimate of R here
+        ang = _rotation_angles(R, f1, f2)
+        inl = _rotation_inliers_mask(R, f1, f2, tau)
+        n_in = int(inl.sum())
+        weights = inl.astype(float)
+        residuals = ang * focal
+        par = float(np.degrees(np.median(ang[inl]))) if n_in else float("nan")
+        msg = (f"a rotation without translation explains {n_in} matches within {2 * thr_px:g} px and the pose's "
+               f"other inliers are no more than chance (median parallax {par:.3f} deg): R is reliable, the "
+               "translation direction is not")
+    elif n_in < needed or lnfa >= np.log10(NFA_MAX):
+        status = "too_few_inliers"
+        msg = (f"{n_in} inliers within {thr_px:g} px (needed {needed}); randomly re-paired matches give the same model "
+               f"{n * p_pose:.1f} inliers, and over the {num_tests:.3g} hypotheses tried chance explains this support "
+               f"(expected false alarms 10^{lnfa:.1f} >= {NFA_MAX:g}): the pose is not reliable")
+    else:
+        twin, info = planar_twin(R, t, f1, f2, tau, inl)
+        diag.update(info)
+        if twin is not None:
+            status = "planar_ambiguous"
+            R_twin, t_twin, twin_n = twin
+            msg = (f"the inliers are explained by two poses {rotation_error_deg(R, R_twin):.2f} deg apart "
+                   f"(planar scene: the homography twin keeps {twin_n} inliers in front of both cameras); see R_twin, t_twin")
+        else:
+            status, msg = "ok", f"{n_in} inliers within {thr_px:g} px (expected false alarms 10^{lnfa:.0f})"
+    return RelativePoseResult(
+        R=R, t=t, E=essential_from_pose(R, t), inliers=inl, weights=weights, residuals_px=residuals,
+        num_inliers=n_in, num_iterations=int(iters), status=status, message=msg, method=method, threshold_px=float(thr_px),
+        focal_px=focal, parallax_deg=par, R_twin=R_twin, t_twin=t_twin, twin_inliers=twin_n,
+        time_s=time.perf_counter() - t0, diagnostics=diag,
+    )
+
+
+def _rotation_inliers_mask(R, f1, f2, tau) -> np.ndarray:
+    d = f1 @ R.T - f2
+    return np.sum(d * d, axis=1) < (2.0 * np.sin(0.5 * ROTATION_THRESHOLD_FACTOR * tau)) ** 2
+
+
+def degenerate_result(n: int, rank: int, method: str, thr_px: float, focal: float, t0: float, *, reason: str | None = None,
+                      diag: dict[str, Any] | None = None) -> RelativePoseResult:
+    """Result without a pose (``R = t = E = None``): ``n`` correspondences whose epipolar system has
+    rank ``rank < 6``, or (``reason``) a method that found no valid model."""
+    msg = reason or f"the correspondences span a rank-{rank} epipolar system (< 6): the pose is not determined"
+    d = dict(diag or {})
+    d["rank"] = rank
+    return RelativePoseResult(
+        R=None, t=None, E=None, inliers=np.zeros(n, bool), weights=np.zeros(n), residuals_px=np.full(n, np.nan),
+        num_inliers=0, num_iterations=0, status="degenerate", message=msg,
+        method=method, threshold_px=thr_px, focal_px=focal, time_s=time.perf_counter() - t0, diagnostics=d,
+    )

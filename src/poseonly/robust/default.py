@@ -1,0 +1,188 @@
+"""The default method ``"poseonly"``: LO-RANSAC in the core, the pose-only choice, the ML pose.
+
+See :func:`run_poseonly` for the stages; the search runs in ``src/core`` (``ransac.h``,
+``estimators.h``), the ML refinement in ``src/core/ml_refine.cpp``.
+
+Shapes: bearings ``f1, f2 (n, 3)`` (unit), poses ``R (3, 3)``, ``t (3,)``; ``tau`` in radians.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .. import _core
+from ..analysis import REFINE_SOLVER, plausible_twin, polish, support
+from ..geometry import essential_from_pose
+from ..identify import identify_poses
+from ..options import PoseonlyOptions
+from ..residuals import get_residual, v_sampson, v_sampson_chiral
+from ..solvers.lirp import lirp_batch
+from ..twin import homography_twin
+from .ransac import RansacResult, core_seed, ransac_relpose
+
+__all__ = ["keep_better", "local_optimization", "make_rng", "msac_chiral", "noise_threshold", "refine_ligt", "rival_support_ratio",
+           "run_poseonly", "select_by_support"]
+
+# noise-matched threshold: clip range relative to the user's threshold, steps of the fixed point
+NOISE_THRESHOLD_RANGE = (0.25, 3.0)
+NOISE_THRESHOLD_STEPS = 3
+MAD_TO_SIGMA = 1.4826
+# hypotheses counted for the a-contrario test (poseonly.analysis): every minimal sample may give up
+# to 10 essential matrices (the 5-point solver's bound), each LO and final-stage candidate counts
+MAX_ROOTS_PER_SAMPLE = 10
+FINAL_CANDIDATES = 20
+# the ML refinement is kept unless it loses more than 2 % of the cheirality-aware MSAC score at tau
+ML_KEEP_TOLERANCE = 0.98
+
+
+def make_rng(seed: int | np.random.Generator) -> np.random.Generator:
+    """The generator of a seed (a Generator is used as is)."""
+    return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(int(seed))
+
+
+def msac_chiral(R, t, f1, f2, tau) -> float:
+    """Cheirality-aware MSAC score (larger is better)."""
+    v = v_sampson_chiral(R, t, f1, f2)
+    return float(np.sum(tau * tau - np.minimum(v * v, tau * tau)))
+
+
+def keep_better(a, b, f1, f2, tau, tol=1.0):
+    """``b`` if its cheirality-aware MSAC score reaches ``tol`` times ``a``'s, else ``a``."""
+    if not (np.all(np.isfinite(b[0])) and np.all(np.isfinite(b[1]))):
+        return a
+    return b if msac_chiral(*b, f1, f2, tau) >= tol * msac_chiral(*a, f1, f2, tau) else a
+
+
+def select_by_support(R, t, f1, f2, tau):
+    """Best of ``(R, t)`` (re-identified on its Sampson inliers), its homography twin and the LiRP
+    candidates of its consensus set, by cheirality-consistent support."""
+    sel = np.nonzero(v_sampson(R, t, f1, f2) < tau)[0]
+    if len(sel) < 6:
+        return R, t
+    Ri, ti, _, _ = identify_poses(essential_from_pose(R, t)[None], f1[sel], f2[sel])
+    R, t = Ri[0], ti[0]
+    inl = support(R[None], t[None], f1, f2, tau)[0]
+    o = lirp_batch(f1[sel][None], f2[sel][None])
+    cR = [R[None], o["cand_R"][0]]
+    ct = [t[None], o["cand_t"][0]]
+    tw = homography_twin(R, t, f1[sel], f2[sel])
+    if tw is not None and plausible_twin(R, t, tw, f1, f2, tau):
+        Rt, tt = polish(tw[0], tw[1], f1, f2, tau)
+        cR.append(Rt[None])
+        ct.append(tt[None])
+    cRa, cta = np.concatenate(cR), np.concatenate(ct)
+    sup = support(cRa, cta, f1, f2, tau).sum(axis=1)
+    k = int(np.argmax(sup))
+    return (cRa[k], cta[k]) if sup[k] > inl.sum() else (R, t)
+
+
+def refine_ligt(R, t, f1, f2, inl, tau, normalization="none"):
+    """LiGTopt on the inliers ``inl (n,)`` with a robust Cauchy loss at the threshold scale.
+
+    ``normalization="none"`` is the paper's LiGTopt (Eq. 9 residual ``||L~_i t||``);
+    ``"angular"`` divides each residual by ``theta_i^2 ||z_i R f1_i + t||`` (the sine of the view-2
+    reprojection angle), which measured as accurate as Sampson/ML refinement while the paper's
+    weighting is not better than LiRP itself (docs/RESULTS.md).
+    """
+    from ..refine.ligt import ligt_refine
+
+    if inl.sum() < 6:
+        return R, t
+    r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization=normalization, solver=REFINE_SOLVER)
+    if np.all(np.isfinite(r.R)) and np.all(np.isfinite(r.t)):
+        return r.R, r.t
+    return R, t
+
+
+def noise_threshold(R, t, f1, f2, tau, o: PoseonlyOptions) -> float:
+    """Inlier threshold matched to the measured noise, for the final stages and the returned mask.
+
+    Fixed-point iteration ``thr <- clip(k sigma(thr), tau / 4, 3 tau)`` (3 steps from ``thr = tau``)
+    with ``sigma(thr) = 1.4826 median |v|`` over the Sampson errors below ``thr`` and ``k =
+    noise_factor`` (2.5 keeps ~99 % of Gaussian inliers; the truncation at ``thr`` biases sigma low,
+    which the iteration undoes). Real images (~0.3 px) get a tighter threshold than the 1 px default,
+    1 px synthetic noise a wider one. ``adaptive_threshold=False`` keeps ``tau``.
+    """
+    if not o.adaptive_threshold:
+        return tau
+    v_all = v_sampson(R, t, f1, f2)
+    thr = tau
+    lo, hi = NOISE_THRESHOLD_RANGE
+    for _ in range(NOISE_THRESHOLD_STEPS):
+        v = v_all[v_all < thr]
+        if len(v) < 15:
+            return tau
+        thr = float(np.clip(o.noise_factor * MAD_TO_SIGMA * float(np.median(v)), lo * tau, hi * tau))
+    return thr
+
+
+LO_CODES = {"lirp": 0, "sampson": 1}
+
+
+def local_optimization(R, t, f1, f2, thr, o: PoseonlyOptions):
+    """The core's LO step at ``thr`` from the pose's cheirality-consistent inliers, on the points within
+    4 thresholds: warm-started TLS IRLS on all-candidate LiRP (``lo="lirp"``) or Sampson LM with a
+    Cauchy loss (``lo="sampson"``)."""
+    Rl, tl, ok = _core.relpose_lo(R, t, f1, f2, thr, float(o.lo_mu0), int(o.lo_iterations), get_residual(o.lo_residual).code,
+                                  LO_CODES[o.lo])
+    return (Rl, tl) if ok else (R, t)
+
+
+def rival_support_ratio(r: RansacResult, n: int, tau: float, scoring: str) -> float:
+    """Support of the best rival model (``rival_distance`` degrees or more from the result) relative to
+    the result's: the scorer's maximum minus its cost, so 1 means an equally supported rival and 0 no
+    rival. Diagnostic of the uniqueness of the pose."""
+    full = {"msac-multi": 3.0 * n, "msac": n * tau * tau, "count": float(n)}[scoring]
+    rc = float(r.stats.get("rival_cost", np.inf))
+    if not np.isfinite(rc):
+        return 0.0
+    return max(full - rc, 0.0) / max(full - r.score, 1e-300)
+
+
+def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float, scores: np.ndarray | None = None):
+    """The default method; returns ``(R, t, weights | None, iterations, diagnostics)``.
+
+    1. LO-RANSAC in the core (``poseonly.robust.ransac.ransac_relpose``): minimal hypotheses, MSAC-type
+       scoring of the Sampson error at ``tau`` with an exact bail-out, at least ``min_iterations``
+       samples and adaptive stopping at ``confidence``, PROSAC order when ``scores`` are given, LO of
+       every new best model;
+    2. the pose-only choice among the RANSAC model (re-identified on its inliers), its homography twin
+       and the LiRP candidates of its consensus set, by cheirality-consistent support
+       (:func:`select_by_support`: the Sampson score cannot tell a planar scene's twin from the truth,
+       depth signs can);
+    3. ``final="ml"``: the ML pose under a Gaussian-uniform mixture of Sampson errors
+       (``poseonly._core.ml_refine``: EM with the noise scale estimated, outliers uniform up to
+       ``ml_range * tau``), kept if its cheirality-aware MSAC score at ``tau`` does not drop by more
+       than 2 %; the returned inliers are those more likely inliers than not. ``final="ligt"`` (the
+       earlier default): LO at a noise-matched threshold, then angular LiGTopt.
+    """
+    r = ransac_relpose(
+        f1, f2, tau, core_seed(o.seed), solver=o.solver, scoring=o.scoring, max_iterations=o.max_iterations,
+        min_iterations=o.min_iterations, confidence=o.confidence, max_lo=o.max_lo, lo_mu0=o.lo_mu0,
+        lo_iterations=o.lo_iterations, lo_residual=o.lo_residual, scores=scores, lo=o.lo, rival_distance=o.rival_distance,
+    )
+    num_hyp = r.num_iterations * MAX_ROOTS_PER_SAMPLE + r.num_lo + FINAL_CANDIDATES
+    diag: dict[str, Any] = {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored, "num_hypotheses": num_hyp}
+    if o.rival_distance > 0:
+        diag["rival_support_ratio"] = rival_support_ratio(r, len(f1), tau, o.scoring)
+    R, t = select_by_support(r.R, r.t, f1, f2, tau)
+    if o.final == "ml":
+        diag["tau_effective"] = tau
+        if o.refine:
+            m = _core.ml_refine(R, t, f1, f2, float(o.ml_range) * tau)
+            if m["rounds"] > 0 and m["decision"] > 0 and np.all(np.isfinite(m["R"])):
+                cand = (m["R"], m["t"])
+                if msac_chiral(*cand, f1, f2, tau) >= ML_KEEP_TOLERANCE * msac_chiral(R, t, f1, f2, tau):
+                    R, t = cand
+                    diag.update(tau_effective=float(m["decision"]), sigma=float(m["sigma"]), ml_rounds=int(m["rounds"]),
+                                ml_inlier_fraction=float(m["inlier_fraction"]))
+        return R, t, None, r.num_iterations, diag
+    thr = noise_threshold(R, t, f1, f2, tau, o)
+    R, t = keep_better((R, t), local_optimization(R, t, f1, f2, thr, o), f1, f2, thr)
+    if o.refine:
+        ref = refine_ligt(R, t, f1, f2, support(R[None], t[None], f1, f2, thr)[0], thr, normalization="angular")
+        R, t = keep_better((R, t), ref, f1, f2, thr, tol=0.98)
+    diag["tau_effective"] = thr
+    return R, t, None, r.num_iterations, diag

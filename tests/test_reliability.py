@@ -1,0 +1,198 @@
+"""Regression tests of the findings of issue 14 (one test per finding, the issue's own examples)."""
+
+from __future__ import annotations
+
+import json
+import threading
+import warnings
+
+import numpy as np
+import pytest
+
+import poseonly
+from poseonly import InputError, estimate_relative_pose
+from poseonly.sim import default_K, make_scene
+
+FAST = {"max_iterations": 2000}
+
+
+def _json_strict(r) -> dict:
+    return json.loads(json.dumps(r.to_dict(), allow_nan=False))
+
+
+# ------------------------------------------------------------------------------------------------
+# status honesty
+
+
+def test_random_matches_issue_example_not_ok():
+    """n = 200 uniform pixels, default K, rng 200001: was "ok: 16 inliers within 2 px"."""
+    rng = np.random.default_rng(200001)
+    u1 = rng.uniform((0, 0), (640, 480), (200, 2))
+    u2 = rng.uniform((0, 0), (640, 480), (200, 2))
+    r = estimate_relative_pose(u1, u2, default_K(), **FAST)
+    assert r.status == "too_few_inliers", r.message
+    assert r.diagnostics["log10_nfa"] >= -3
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_pure_rotation_60pct_outliers_not_ok(seed):
+    sc = make_scene(200, "rotation", camera="pinhole", noise_px=0.5, outlier_fraction=0.6, seed=100 + seed)
+    r = estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=seed, **FAST)
+    assert r.status == "pure_rotation", r.message
+    assert poseonly.rotation_error_deg(sc.R, r.R) < 0.5
+
+
+def test_real_pose_stays_ok_with_small_support():
+    """The a-contrario test does not reject a genuine pose with 80 % outliers."""
+    sc = make_scene(150, camera="pinhole", noise_px=0.5, outlier_fraction=0.8, seed=5)
+    r = estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=0)
+    assert r.status == "ok", r.message
+    assert poseonly.rotation_error_deg(sc.R, r.R) < 1.0
+
+
+# ------------------------------------------------------------------------------------------------
+# errors instead of crashes
+
+
+@pytest.mark.parametrize("edit,msg", [
+    (lambda K: K.__setitem__((1, 1), -K[0, 0]), "positive focal"),  # fx = -fy
+    (lambda K: K.__setitem__((slice(0, 2), slice(0, 2)), -K[:2, :2]), "positive focal"),
+    (lambda K: K.__setitem__((0, 0), 0.0), "positive focal|singular"),
+    (lambda K: K.__setitem__((2, 0), 0.3), "upper triangular"),
+])
+def test_bad_intrinsics(edit, msg):
+    sc = make_scene(30, camera="pinhole", seed=1)
+    K = sc.K.copy()
+    edit(K)
+    with pytest.raises(InputError, match=msg):
+        estimate_relative_pose(sc.u1, sc.u2, K)
+
+
+@pytest.mark.parametrize("kw", [{"threshold_px": 1e157}, {"threshold_px": 1e-300}, {"focal_px": 1e300},
+                                {"focal_px": 1e-155}, {"threshold_px": np.inf}, {"threshold_px": np.nan}])
+def test_threshold_overflow_is_an_error(kw):
+    sc = make_scene(30, seed=1)
+    with pytest.raises(InputError, match="threshold|focal"):
+        estimate_relative_pose(sc.f1, sc.f2, **kw)
+
+
+@pytest.mark.parametrize("fn,kw", [
+    ("gnc_ransac", {"theta": None}), ("gnc_ransac", {"theta": 2e-3, "sample_size": 0}),
+    ("gnc_ransac", {"theta": 2e-3, "sample_size": 6.5}), ("gnc_ransac", {"theta": 2e-3, "max_iterations": None}),
+    ("gnc_ransac", {"theta": 2e-3, "max_iterations": 0}), ("gnc_ransac", {"theta": 2e-3, "seed": None}),
+    ("gnc_ransac", {"theta": 2e-3, "seed": -1}), ("gnc_ransac", {"theta": np.inf}),
+    ("gnc_irls", {"noise_bound": "mad"}), ("gnc_irls", {"max_iterations": 2.5}), ("lirp", {"rank_tol": "a"}),
+    ("lirp", {"rank_tol": np.nan}),
+])
+def test_low_level_wrong_types(fn, kw):
+    sc = make_scene(40, seed=1)
+    with pytest.raises(InputError):
+        getattr(poseonly, fn)(sc.f1, sc.f2, **kw)
+
+
+def test_low_level_numpy_scalars_accepted():
+    sc = make_scene(40, seed=1)
+    r = poseonly.gnc_ransac(sc.f1, sc.f2, theta=np.float32(2.5e-3), seed=np.int64(3), sample_size=np.int32(20),
+                            max_iterations=np.int64(5))
+    assert poseonly.rotation_error_deg(sc.R, r.R) < 1.0
+    assert poseonly.lirp(sc.f1, sc.f2, rank_tol=np.float64(1e-9)).status == "ok"
+
+
+def test_complex_input_rejected():
+    sc = make_scene(30, seed=1)
+    with pytest.raises(InputError, match="complex"):
+        estimate_relative_pose(sc.f1 + 0j, sc.f2)
+    with pytest.raises(InputError, match="complex"):
+        estimate_relative_pose(sc.u1, sc.u2, sc.K.astype(complex))
+
+
+# ------------------------------------------------------------------------------------------------
+# no silent garbage
+
+
+def test_huge_bearing_components_keep_their_direction():
+    sc = make_scene(60, noise_px=0.3, seed=4)
+    ref = estimate_relative_pose(sc.f1, sc.f2)
+    big = estimate_relative_pose(sc.f1 * 1e200, sc.f2 * 1e300)
+    assert big.status == ref.status
+    np.testing.assert_allclose(big.R, ref.R, atol=1e-9)
+    rows = sc.f1.copy()
+    rows[0] *= 1e300  # one huge row among normal ones
+    assert np.all(np.isfinite(poseonly.geometry.as_bearings(rows)))
+    np.testing.assert_allclose(poseonly.geometry.as_bearings(rows)[0], sc.f1[0] / np.linalg.norm(sc.f1[0]), atol=1e-15)
+
+
+def test_degenerate_has_no_pose_and_json_is_strict():
+    f = np.tile([0.1, 0.2, 1.0], (20, 1))
+    r = estimate_relative_pose(f, f)
+    assert r.status == "degenerate" and r.R is None and r.t is None and r.E is None
+    d = _json_strict(r)
+    assert d["R"] is None and d["t"] is None and d["parallax_deg"] is None and d["inliers"] == []
+
+
+def test_to_dict_has_E_and_inlier_indices():
+    sc = make_scene(60, noise_px=0.3, seed=4)
+    r = estimate_relative_pose(sc.f1, sc.f2)
+    d = _json_strict(r)
+    assert np.allclose(d["E"], r.E) and d["inliers"] == np.nonzero(r.inliers)[0].tolist()
+    assert abs(np.linalg.norm(d["t"]) - 1) < 1e-12
+
+
+def test_numpy_bool_message_does_not_contradict_itself():
+    sc = make_scene(30, seed=1)
+    r = estimate_relative_pose(sc.f1, sc.f2, refine=np.True_, threshold_px=np.float32(2), seed=np.int64(1))
+    assert r.R is not None
+    with pytest.raises(InputError) as e:
+        estimate_relative_pose(sc.f1, sc.f2, refine=1)
+    assert "got int 1" in str(e.value) and "bool" in str(e.value)
+
+
+def test_negative_seed_rejected_by_every_method():
+    sc = make_scene(30, seed=1)
+    for m in poseonly.METHODS:
+        with pytest.raises(InputError, match="seed"):
+            estimate_relative_pose(sc.f1, sc.f2, method=m, seed=-1)
+
+
+def test_no_runtime_warnings_escape():
+    sc = make_scene(40, seed=2)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for m in poseonly.METHODS:
+            estimate_relative_pose(sc.f1 * 1e250, sc.f2, method=m, **({"max_iterations": 5} if m != "lirp" else {}))
+        poseonly.lirp(sc.f1, sc.f2, np.full(40, 1e100))
+
+
+# ------------------------------------------------------------------------------------------------
+# no process-global state: concurrent calls give the serial results
+
+
+def test_threads_give_the_serial_results():
+    scs = [make_scene(80, noise_px=0.5, outlier_fraction=0.3, seed=s) for s in range(4)]
+    serial = [estimate_relative_pose(sc.f1, sc.f2, seed=1).R for sc in scs]
+    out: list = [None] * len(scs)
+
+    def work(i):
+        out[i] = estimate_relative_pose(scs[i].f1, scs[i].f2, seed=1).R
+
+    th = [threading.Thread(target=work, args=(i,)) for i in range(len(scs))]
+    for t in th:
+        t.start()
+    for t in th:
+        t.join()
+    for a, b in zip(serial, out):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("scale", [1e160, 1e189])
+def test_bearings_near_ninety_degrees_no_linalg_error(scale):
+    """Normalized coordinates of 1e160 (every ray ~90 deg off-axis) made the 5-point solver's eig and
+    the twin's SVD raise LinAlgError (benchmarks/fuzz.py cases 7458, 9602)."""
+    rng = np.random.default_rng(7458)
+    x1 = rng.standard_normal((25, 2)) * scale
+    x2 = rng.standard_normal((25, 2))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        r = estimate_relative_pose(x1, x2, max_iterations=150)
+    assert r.status != "ok" or r.R is not None
+    _json_strict(r)

@@ -1,0 +1,168 @@
+"""Every writer is atomic under SIGKILL and the next run removes the killed writers' temp files.
+
+A child process rewrites a target in a loop (a few MB each time, so kills land mid-write); the
+parent kills it at seeded random moments. After every kill the target is absent or complete, and
+one more write (by a new process) leaves no temp file behind.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SRC = str(Path(__file__).resolve().parents[1] / "src")
+KILLS = 4
+
+CHILD = {
+    # reports (markdown / JSON tables of every benchmark and experiment, bench_speed.write_report)
+    # (written in flushed chunks, as a report that streams its rows: a single write() syscall
+    # completes before SIGKILL is delivered, so it could not show a non-atomic writer)
+    "report": """
+        from poseonly._fileutil import atomic_open
+        chunk = "x" * 4096
+        while True:
+            with atomic_open(TARGET, "w") as fh:
+                fh.write("BEGIN\\n")
+                for _ in range(1000):
+                    fh.write(chunk)
+                    fh.flush()
+                fh.write("\\nEND\\n")
+    """,
+    # figures (experiments' savefig)
+    "figure": """
+        from poseonly.experiments._common import pyplot, savefig
+        import numpy as np
+        plt = pyplot()
+        fig, ax = plt.subplots(figsize=(16, 12))
+        ax.scatter(*np.random.default_rng(0).standard_normal((2, 60000)), s=1)
+        while True:
+            savefig(fig, TARGET)
+    """,
+    # the feature cache
+    "cache": """
+        import numpy as np
+        from poseonly.features import _atomic_savez
+        kp = np.arange(400_000, dtype=np.float64).reshape(-1, 2)
+        while True:
+            _atomic_savez(Path(TARGET), keypoints=kp, descriptors=np.ones((len(kp), 128), np.float32)[:2000],
+                          image_size=np.array([7, 9]))
+    """,
+    # match drawings (CLI --draw)
+    "drawing": """
+        from poseonly._fileutil import atomic_write_bytes
+        import cv2, numpy as np
+        img = np.random.default_rng(0).integers(0, 255, (1500, 2000, 3), dtype=np.uint8)
+        buf = cv2.imencode(".png", img)[1].tobytes()
+        while True:
+            atomic_write_bytes(TARGET, buf)
+    """,
+}
+SUFFIX = {"report": ".md", "figure": ".png", "cache": ".npz", "drawing": ".png"}
+
+
+def _complete(kind: str, p: Path) -> bool:
+    if kind == "report":
+        text = p.read_text()
+        return text.startswith("BEGIN\n") and text.endswith("\nEND\n") and len(text) == 4_096_011
+    if kind == "cache":
+        with np.load(p) as z:
+            return z["keypoints"].shape == (200_000, 2) and float(z["keypoints"][-1, 1]) == 399_999.0
+    data = p.read_bytes()
+    return data.startswith(b"\x89PNG") and data.rstrip(b"\x00").endswith(b"IEND\xaeB`\x82")
+
+
+def _spawn(kind: str, target: Path) -> subprocess.Popen:
+    code = f"from pathlib import Path\nTARGET = {str(target)!r}\n" + textwrap.dedent(CHILD[kind])
+    env = dict(os.environ, PYTHONPATH=SRC)
+    return subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+
+
+@pytest.mark.parametrize("kind", sorted(CHILD))
+def test_writer_survives_sigkill(kind, tmp_path):
+    if kind in ("figure",):
+        pytest.importorskip("matplotlib")
+    if kind == "drawing":
+        pytest.importorskip("cv2")
+    target = tmp_path / ("out" + SUFFIX[kind])
+    rng = np.random.default_rng(14)
+    killed_mid_write = 0
+    for _ in range(KILLS):
+        proc = _spawn(kind, target)
+        # wait until the child writes (its first temp file or target appears), then a random delay
+        t_end = time.time() + 60
+        while time.time() < t_end and not any(tmp_path.iterdir()):
+            if proc.poll() is not None:
+                pytest.fail(f"writer exited early: {proc.stderr.read().decode()[-2000:]}")
+            time.sleep(0.01)
+        time.sleep(float(rng.uniform(0.05, 0.6)))
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        proc.stderr.close()
+        temps = [f for f in tmp_path.iterdir() if f.name != target.name]
+        killed_mid_write += bool(temps)
+        if target.exists():
+            assert _complete(kind, target), f"{kind}: a kill left a partial {target.name}"
+    # the next write (a new process that is not killed) removes the dead writers' temp files
+    proc = _spawn(kind, target)
+    t_end = time.time() + 60
+    while time.time() < t_end and not (target.exists() and _complete(kind, target)
+                                       and not [f for f in tmp_path.iterdir() if f.name != target.name and
+                                                f".{os.getpid()}." not in f.name and _dead_temp(f)]):
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    proc.stderr.close()
+    leftovers = [f.name for f in tmp_path.iterdir() if f.name != target.name and _dead_temp(f, exclude=proc.pid)]
+    assert not leftovers, f"{kind}: temp files of killed writers were not cleaned: {leftovers}"
+    assert target.exists() and _complete(kind, target)
+
+
+def _dead_temp(f: Path, exclude: int | None = None) -> bool:
+    """A temp file of a writer that is no longer running (other than ``exclude``)."""
+    parts = f.name.split(".")
+    pid = next((int(p) for p in parts if p.isdigit()), None)
+    if pid is None or pid == exclude:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    return False
+
+
+def test_bench_speed_report_is_atomic(tmp_path, monkeypatch):
+    """``bench_speed.write_report`` goes through the atomic writer for both of its files."""
+    from poseonly import bench_speed
+
+    calls = []
+    monkeypatch.setattr(bench_speed, "atomic_write_text", lambda p, text: calls.append(Path(p).name))
+    try:
+        bench_speed.write_report({"machine": {}}, tmp_path)
+    except (KeyError, TypeError):
+        pass  # the minimal data stops the markdown part; the JSON went first
+    assert calls and calls[0] == "speed.json"
+    assert not [f for f in tmp_path.iterdir()], "write_report wrote outside the atomic writer"
+
+
+def test_stale_temp_of_dead_pid_removed(tmp_path):
+    from poseonly._fileutil import TMP_SUFFIX, atomic_write_text
+
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    stale = tmp_path / f".r.md.{dead.pid}.abc{TMP_SUFFIX}"
+    stale.write_text("half")
+    legacy = tmp_path / ".r.md.xyz.tmp"
+    legacy.write_text("old")
+    old = time.time() - 7200
+    os.utime(legacy, (old, old))
+    atomic_write_text(tmp_path / "r.md", json.dumps({"a": 1}))
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["r.md"]
