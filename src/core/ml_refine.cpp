@@ -11,6 +11,8 @@ namespace {
 
 constexpr double kSqrt2OverPi = 0.7978845608028654;
 constexpr int kMinInliers = 6;
+constexpr int kEmSteps = 50;     // EM steps on fixed residuals per round
+constexpr double kEmTol = 1e-6;  // relative change of sigma (absolute of g) that ends them
 
 void sampson_all(const Points& P, const Pose& pose, std::vector<double>* r) {
   const PoseTerms T(pose);
@@ -42,7 +44,8 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
   ro.loss = RefineLoss::Linear;
   ro.max_iterations = opt.lm_iterations;
   ro.tol = 1e-10;
-  for (int k = 0; k < opt.rounds; ++k) {
+  // one EM step on the current residuals: posteriors, then sigma and g; false when too few inliers
+  auto em_step = [&](bool update) {
     int nT = 0;
     double sp = 0.0, spr2 = 0.0;
     for (int i = 0; i < P.n; ++i) {
@@ -53,14 +56,26 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
       ++nT;
       const double z = r[i] / sigma;
       const double lin = g * kSqrt2OverPi / sigma * std::exp(-0.5 * z * z);
-      const double lout = (1.0 - g) / Tr;
-      p[i] = lin / (lin + lout);
+      p[i] = lin / (lin + (1.0 - g) / Tr);
       sp += p[i];
       spr2 += p[i] * r[i] * r[i];
     }
-    if (sp < kMinInliers) break;
-    sigma = std::clamp(std::sqrt(spr2 / sp), opt.sigma_floor, Tr);
-    g = std::clamp(sp / std::max(nT, 1), 1e-6, 1.0 - 1e-9);
+    if (sp < kMinInliers) return false;
+    if (update) {
+      sigma = std::clamp(std::sqrt(spr2 / sp), opt.sigma_floor, Tr);
+      g = std::clamp(sp / std::max(nT, 1), 1e-6, 1.0 - 1e-9);
+    }
+    return true;
+  };
+  for (int k = 0; k < opt.rounds; ++k) {
+    // the mixture's parameters to convergence on the current residuals (cheap: O(n) per step)
+    bool ok = true;
+    for (int e = 0; e < kEmSteps && ok; ++e) {
+      const double s0 = sigma, g0 = g;
+      ok = em_step(true);
+      if (std::abs(sigma - s0) <= kEmTol * s0 && std::abs(g - g0) <= kEmTol) break;
+    }
+    if (!ok || !em_step(false)) break;
     Pose next = out->pose;
     refine_sampson(P, p.data(), ro, &next);
     if (!(next.R.allFinite() && next.t.allFinite())) break;
