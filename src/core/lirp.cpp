@@ -6,13 +6,14 @@
 #include <Eigen/SVD>
 #include <complex>
 
+#include "linalg.h"
 #include "residuals.h"
 
 namespace poseonly {
 namespace {
 
 using Mat6 = Eigen::Matrix<double, 6, 6>;
-using RowsA = Eigen::Matrix<double, Eigen::Dynamic, 9>;
+constexpr int kStackRows = 64;  // rows of A held on the stack (more: one heap buffer)
 
 // monomial index of a^p b^q in y = (a^3, a^2 b, a b^2, b^3, a^2, ab, b^2, a, b, 1)
 int monomial(int p, int q) {
@@ -29,7 +30,16 @@ void null_space(const Points& P, const double* w, Mat9* V, Vec9* s) {
     if (wi > 0.0) ++m;
     wmax = std::max(wmax, wi);
   }
-  RowsA A = RowsA::Zero(std::max(m, 9), 9);
+  // A column by column (col 3 c + rr = w_i f1_c f2_rr over the rows i): the layout householder_qr reads
+  const int rows = std::max(m, 9);
+  double local[9 * kStackRows];
+  std::vector<double> heap;
+  double* A = local;
+  if (rows > kStackRows) {
+    heap.resize(9 * static_cast<size_t>(rows));
+    A = heap.data();
+  }
+  std::fill(A, A + 9 * rows, 0.0);
   int r = 0;
   const double inv = wmax > 0.0 ? 1.0 / wmax : 0.0;
   for (int i = 0; i < P.n; ++i) {
@@ -38,20 +48,23 @@ void null_space(const Points& P, const double* w, Mat9* V, Vec9* s) {
     const auto a = P.a(i);
     const auto b = P.b(i);
     // A_i q = f2^T Q f1 with q = vec(Q) column-major: coefficient of Q(rr, c) is f1_c f2_rr
-    for (int c = 0; c < 3; ++c)
-      for (int rr = 0; rr < 3; ++rr) A(r, 3 * c + rr) = wi * a(c) * b(rr);
+    for (int c = 0; c < 3; ++c) {
+      const double wa = wi * a(c);
+      for (int rr = 0; rr < 3; ++rr) A[(3 * c + rr) * rows + r] = wa * b(rr);
+    }
     ++r;
   }
   Mat9 Rf;
-  if (A.rows() > 9) {
-    Eigen::HouseholderQR<RowsA> qr(A);
-    Rf = qr.matrixQR().topRows<9>().triangularView<Eigen::Upper>();
+  if (rows > 9) {
+    Eigen::Matrix<double, 9, 9, Eigen::RowMajor> Rr = Eigen::Matrix<double, 9, 9, Eigen::RowMajor>::Zero();
+    double tau[9];
+    linalg::householder_qr<9>(A, rows, Rr.data(), tau);
+    Rf = Rr.triangularView<Eigen::Upper>();
   } else {
-    Rf = A.topRows<9>();
+    Rf = Eigen::Map<const Mat9>(A);
   }
-  Eigen::JacobiSVD<Mat9> svd(Rf, Eigen::ComputeFullV);
-  *V = svd.matrixV();
-  *s = svd.singularValues() * wmax;
+  linalg::jacobi_svd<9>(Rf, V, s);  // not converged in 30 sweeps: the last iterate (never seen)
+  *s *= wmax;
 }
 
 // The 9 x 10 Demazure system B y = 0 of Q = a Q1 + b Q2 + Q3 (Eq. 14):
@@ -91,9 +104,9 @@ using Vec3c = Eigen::Matrix<Cd, 3, 1>;
 // g2 = b^2 g5, g1 = b g3, leaving (g0, g3, g5). Falls back to the full eigen-decomposition where
 // N(lambda) has no well-defined 1-D null space (repeated eigenvalues).
 bool action_eigen(const Mat6& C, int which, Eigen::Matrix<Cd, 6, 1>* lam, Eigen::Matrix<Cd, 6, 6>* G) {
-  Eigen::EigenSolver<Mat6> es(C, false);
-  if (es.info() != Eigen::Success) return false;
-  *lam = es.eigenvalues();
+  double wr[6], wi[6];
+  if (!linalg::eigenvalues<6>(C, wr, wi)) return false;
+  for (int e = 0; e < 6; ++e) (*lam)(e) = Cd(wr[e], wi[e]);
   for (int e = 0; e < 6; ++e) {
     const Cd l = (*lam)(e);
     Eigen::Matrix<Cd, 3, 3> N;
@@ -198,13 +211,10 @@ void lirp_candidates(const Points& P, const double* w, LirpCandidates* out) {
   comp(0, 1) = -c1 * inv;
   comp(0, 2) = -c0 * inv;
   comp(1, 0) = comp(2, 1) = 1.0;
-  Eigen::Vector3cd roots = Eigen::Vector3cd::Zero();
-  if (comp.allFinite()) {
-    Eigen::EigenSolver<Mat3> es(comp, false);
-    if (es.info() == Eigen::Success) roots = es.eigenvalues();
-  }
+  double roots[3] = {0.0, 0.0, 0.0}, roots_im[3];
+  if (!(comp.allFinite() && linalg::eigenvalues<3>(comp, roots, roots_im))) std::fill(roots, roots + 3, 0.0);
   for (int k = 0; k < 3; ++k, ++c) {
-    const double r = std::real(roots(k));
+    const double r = roots[k];
     out->E[c] = unit_or(use_a ? Vec9(r * q1 + q2) : Vec9(q1 + r * q2), q3);
   }
   out->E[c++] = unit_or(q1, q3);
