@@ -2,11 +2,11 @@
 #include "fivept.h"
 
 #include <Eigen/Geometry>
-#include <Eigen/LU>
 #include <Eigen/QR>
 
 #include <algorithm>
 
+#include "linalg.h"
 #include "residuals.h"
 
 namespace poseonly {
@@ -115,247 +115,6 @@ void build_template(const Mat3 basis[4], Eigen::Matrix<double, 10, 20>* A) {
   for (int m = 0; m < 20; ++m) (*A)(9, m) = det[m];
 }
 
-// In-place LU with partial pivoting of an N x N matrix (full rows swapped: P A = L U); zero pivots
-// are floored at `floor` (inverse iteration on a singular matrix then still yields the null vector).
-// Returns false if a pivot is exactly zero and floor == 0.
-template <int N>
-bool lu_inplace(Eigen::Matrix<double, N, N>* L, int piv[N], double floor) {
-  for (int k = 0; k < N; ++k) {
-    int pk = k;
-    double big = std::abs((*L)(k, k));
-    for (int i = k + 1; i < N; ++i)
-      if (std::abs((*L)(i, k)) > big) {
-        big = std::abs((*L)(i, k));
-        pk = i;
-      }
-    piv[k] = pk;
-    if (pk != k) L->row(k).swap(L->row(pk));
-    if ((*L)(k, k) == 0.0) {
-      if (floor == 0.0) return false;
-      (*L)(k, k) = floor;
-    }
-    const double inv = 1.0 / (*L)(k, k);
-    for (int i = k + 1; i < N; ++i) {
-      const double f = ((*L)(i, k) *= inv);
-      if (f != 0.0)
-        for (int j = k + 1; j < N; ++j) (*L)(i, j) -= f * (*L)(k, j);
-    }
-  }
-  return true;
-}
-
-template <int N>
-void lu_solve(const Eigen::Matrix<double, N, N>& L, const int piv[N], double* b) {
-  for (int k = 0; k < N; ++k)  // the row interchanges first (full rows were swapped)
-    if (piv[k] != k) std::swap(b[k], b[piv[k]]);
-  for (int k = 0; k < N; ++k)
-    for (int i = k + 1; i < N; ++i) b[i] -= L(i, k) * b[k];
-  for (int k = N - 1; k >= 0; --k) {
-    double s = b[k];
-    for (int j = k + 1; j < N; ++j) s -= L(k, j) * b[j];
-    b[k] = s / L(k, k);
-  }
-}
-
-// Parlett-Reinsch balancing in place (Numerical Recipes balanc; powers of 2, no rounding).
-void balance10(Mat10* A) {
-  constexpr double radix = 2.0, sqrdx = radix * radix;
-  Mat10& a = *A;
-  bool done = false;
-  while (!done) {
-    done = true;
-    for (int i = 0; i < 10; ++i) {
-      double r = 0.0, c = 0.0;
-      for (int j = 0; j < 10; ++j)
-        if (j != i) {
-          c += std::abs(a(j, i));
-          r += std::abs(a(i, j));
-        }
-      if (c != 0.0 && r != 0.0) {
-        double g = r / radix, f = 1.0;
-        const double s = c + r;
-        while (c < g) {
-          f *= radix;
-          c *= sqrdx;
-        }
-        g = r * radix;
-        while (c > g) {
-          f /= radix;
-          c /= sqrdx;
-        }
-        if ((c + r) / f < 0.95 * s) {
-          done = false;
-          g = 1.0 / f;
-          a.row(i) *= g;
-          a.col(i) *= f;
-        }
-      }
-    }
-  }
-}
-
-// Reduction to upper Hessenberg form by stabilised elementary similarity transformations (NR elmhes).
-void hessenberg10(Mat10* A) {
-  constexpr int n = 10;
-  Mat10& a = *A;
-  for (int m = 1; m < n - 1; ++m) {
-    double x = 0.0;
-    int i = m;
-    for (int j = m; j < n; ++j)
-      if (std::abs(a(j, m - 1)) > std::abs(x)) {
-        x = a(j, m - 1);
-        i = j;
-      }
-    if (i != m) {
-      for (int j = m - 1; j < n; ++j) std::swap(a(i, j), a(m, j));
-      for (int j = 0; j < n; ++j) std::swap(a(j, i), a(j, m));
-    }
-    if (x != 0.0) {
-      for (int i2 = m + 1; i2 < n; ++i2) {
-        double y = a(i2, m - 1);
-        if (y != 0.0) {
-          y /= x;
-          a(i2, m - 1) = y;
-          for (int j = m; j < n; ++j) a(i2, j) -= y * a(m, j);
-          for (int j = 0; j < n; ++j) a(j, m) += y * a(j, i2);
-        }
-      }
-    }
-  }
-  for (int i = 2; i < n; ++i)
-    for (int j = 0; j < i - 1; ++j) a(i, j) = 0.0;
-}
-
-// Eigenvalues of an upper Hessenberg matrix by the Francis double-shift QR algorithm (EISPACK hqr as
-// in Numerical Recipes; 1-based h[1..n][1..n], destroyed). False if it did not converge.
-bool hqr10(double h[11][11], double wr[11], double wi[11]) {
-  constexpr int n = 10;
-  double anorm = 0.0;
-  for (int i = 1; i <= n; ++i)
-    for (int j = std::max(i - 1, 1); j <= n; ++j) anorm += std::abs(h[i][j]);
-  int nn = n, l = 1;
-  double t = 0.0, x = 0.0, y = 0.0, z = 0.0, w = 0.0, p = 0.0, q = 0.0, r = 0.0, s = 0.0;
-  while (nn >= 1) {
-    int its = 0;
-    do {
-      l = 1;
-      for (int ll = nn; ll >= 2; --ll) {
-        s = std::abs(h[ll - 1][ll - 1]) + std::abs(h[ll][ll]);
-        if (s == 0.0) s = anorm;
-        if (std::abs(h[ll][ll - 1]) + s == s) {
-          h[ll][ll - 1] = 0.0;
-          l = ll;
-          break;
-        }
-      }
-      x = h[nn][nn];
-      if (l == nn) {
-        wr[nn] = x + t;
-        wi[nn--] = 0.0;
-      } else {
-        y = h[nn - 1][nn - 1];
-        w = h[nn][nn - 1] * h[nn - 1][nn];
-        if (l == nn - 1) {
-          p = 0.5 * (y - x);
-          q = p * p + w;
-          z = std::sqrt(std::abs(q));
-          x += t;
-          if (q >= 0.0) {
-            z = p + (p >= 0.0 ? z : -z);
-            wr[nn - 1] = wr[nn] = x + z;
-            if (z != 0.0) wr[nn] = x - w / z;
-            wi[nn - 1] = wi[nn] = 0.0;
-          } else {
-            wr[nn - 1] = wr[nn] = x + p;
-            wi[nn - 1] = -z;
-            wi[nn] = z;
-          }
-          nn -= 2;
-        } else {
-          if (its == 60) return false;
-          if (its == 10 || its == 20 || its == 40) {  // exceptional shift
-            t += x;
-            for (int i = 1; i <= nn; ++i) h[i][i] -= x;
-            s = std::abs(h[nn][nn - 1]) + std::abs(h[nn - 1][nn - 2]);
-            y = x = 0.75 * s;
-            w = -0.4375 * s * s;
-          }
-          ++its;
-          int m = nn - 2;
-          for (; m >= l; --m) {
-            z = h[m][m];
-            r = x - z;
-            s = y - z;
-            p = (r * s - w) / h[m + 1][m] + h[m][m + 1];
-            q = h[m + 1][m + 1] - z - r - s;
-            r = h[m + 2][m + 1];
-            s = std::abs(p) + std::abs(q) + std::abs(r);
-            p /= s;
-            q /= s;
-            r /= s;
-            if (m == l) break;
-            const double u = std::abs(h[m][m - 1]) * (std::abs(q) + std::abs(r));
-            const double v = std::abs(p) * (std::abs(h[m - 1][m - 1]) + std::abs(z) + std::abs(h[m + 1][m + 1]));
-            if (u + v == v) break;
-          }
-          for (int i = m + 2; i <= nn; ++i) {
-            h[i][i - 2] = 0.0;
-            if (i != m + 2) h[i][i - 3] = 0.0;
-          }
-          for (int k = m; k <= nn - 1; ++k) {
-            if (k != m) {
-              p = h[k][k - 1];
-              q = h[k + 1][k - 1];
-              r = 0.0;
-              if (k != nn - 1) r = h[k + 2][k - 1];
-              if ((x = std::abs(p) + std::abs(q) + std::abs(r)) != 0.0) {
-                p /= x;
-                q /= x;
-                r /= x;
-              }
-            }
-            s = std::sqrt(p * p + q * q + r * r);
-            if (p < 0.0) s = -s;
-            if (s != 0.0) {
-              if (k == m) {
-                if (l != m) h[k][k - 1] = -h[k][k - 1];
-              } else {
-                h[k][k - 1] = -s * x;
-              }
-              p += s;
-              x = p / s;
-              y = q / s;
-              z = r / s;
-              q /= p;
-              r /= p;
-              for (int j = k; j <= nn; ++j) {
-                p = h[k][j] + q * h[k + 1][j];
-                if (k != nn - 1) {
-                  p += r * h[k + 2][j];
-                  h[k + 2][j] -= p * z;
-                }
-                h[k + 1][j] -= p * y;
-                h[k][j] -= p * x;
-              }
-              const int mmin = nn < k + 3 ? nn : k + 3;
-              for (int i = l; i <= mmin; ++i) {
-                p = x * h[i][k] + y * h[i][k + 1];
-                if (k != nn - 1) {
-                  p += z * h[i][k + 2];
-                  h[i][k + 2] -= p * r;
-                }
-                h[i][k + 1] -= p * q;
-                h[i][k] -= p;
-              }
-            }
-          }
-        }
-      }
-    } while (l < nn - 1);
-  }
-  return true;
-}
-
 // Gauss-Newton polish of a solution (x, y, z) of the ten template equations A m(x, y, z) = 0 (m the
 // 20 cubic monomials): the eigenvalue/eigenvector pair is accurate to ~1e-10 relative; two steps bring
 // the solution to rounding level. A step is kept only if it lowers |A m|.
@@ -429,38 +188,38 @@ int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots) {
     for (int c = 0; c < 3; ++c)
       for (int r = 0; r < 3; ++r) At(3 * c + r, i) = a(c) * b(r);
   }
-  Eigen::HouseholderQR<Eigen::Matrix<double, 9, 5>> qr(At);
-  const auto& QR = qr.matrixQR();
+  double R5[25], tau[5];
+  linalg::householder_qr<5>(At.data(), 9, R5, tau);
   double dmax = 0.0, dmin = kInf;
   for (int i = 0; i < 5; ++i) {
-    dmax = std::max(dmax, std::abs(QR(i, i)));
-    dmin = std::min(dmin, std::abs(QR(i, i)));
+    dmax = std::max(dmax, std::abs(R5[6 * i]));
+    dmin = std::min(dmin, std::abs(R5[6 * i]));
   }
   if (!(dmin > kRankTol * dmax)) return 0;  // rank-deficient sample (coincident or NaN points)
-  const Eigen::Matrix<double, 9, 9> Q = qr.householderQ();
-  Mat3 basis[4];
-  for (int k = 0; k < 4; ++k) basis[k] = Eigen::Map<const Mat3>(Q.col(5 + k).data());  // column-major E
+  Mat3 basis[4];  // columns 5..8 of Q: column-major E
+  for (int k = 0; k < 4; ++k) {
+    Vec9 q = Vec9::Zero();
+    q(5 + k) = 1.0;
+    linalg::householder_apply_q<5>(At.data(), 9, tau, q.data());
+    basis[k] = Eigen::Map<const Mat3>(q.data());
+  }
   // --- template, elimination, action matrix
   Eigen::Matrix<double, 10, 20> A;
   build_template(basis, &A);
-  const Eigen::PartialPivLU<Mat10> lu(A.leftCols<10>());
-  const auto d = lu.matrixLU().diagonal();
-  if (!(d.cwiseAbs().minCoeff() > 0.0) || !d.allFinite()) return 0;  // singular elimination template
-  const Mat10 G = lu.solve(A.rightCols<10>());
+  Mat10 LU = A.leftCols<10>();
+  int piv[10];
+  if (!linalg::lu_inplace<10>(&LU, piv, 0.0) || !LU.diagonal().allFinite()) return 0;  // singular template
+  Mat10 G = A.rightCols<10>();
+  for (int c = 0; c < 10; ++c) linalg::lu_solve<10>(LU, piv, G.col(c).data());
   Mat10 M = Mat10::Zero();
   for (int rr = 0; rr < 6; ++rr) M.row(rr) = -G.row(kActionRows[rr]);
   for (int rr = 0; rr < 4; ++rr) M(6 + rr, kUnitCols[rr]) = 1.0;
   if (!M.allFinite()) return 0;
   // --- eigenvalues: balancing, Hessenberg reduction, Francis QR; eigenvectors by inverse iteration
-  Mat10 Hm = M;
-  balance10(&Hm);
-  hessenberg10(&Hm);
-  double h[11][11], wr[11], wi[11];
-  for (int r = 0; r < 10; ++r)
-    for (int c = 0; c < 10; ++c) h[r + 1][c + 1] = Hm(r, c);
-  if (!hqr10(h, wr, wi)) return 0;
+  double wr[10], wi[10];
+  if (!linalg::eigenvalues<10>(M, wr, wi)) return 0;
   const double mnorm = M.cwiseAbs().maxCoeff();
-  for (int e = 1; e <= 10; ++e) {
+  for (int e = 0; e < 10; ++e) {
     const double lr = wr[e], li = wi[e];
     if (!(std::abs(li) <= kFiveptRealTol * (1.0 + std::sqrt(lr * lr + li * li)))) continue;
     // the eigenvector v ~ b: the unit rows give v0 = lr^2 v9, v1 = lr v7, v3 = lr v8, v6 = lr v9, so
@@ -476,12 +235,12 @@ int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots) {
       K(r, 5) = M(r, 9) + lr * M(r, 6) + l2 * M(r, 0) - (r == 0 ? l2 * lr : 0.0);
     }
     int piv6[6];
-    lu_inplace<6>(&K, piv6, 1e-300 + 1e-15 * (mnorm * (1.0 + l2 + l2 * std::abs(lr))));
+    linalg::lu_inplace<6>(&K, piv6, 1e-300 + 1e-15 * (mnorm * (1.0 + l2 + l2 * std::abs(lr))));
     double u[6];
     std::fill(u, u + 6, 1.0);
     bool ok = true;
     for (int it = 0; it < 2 && ok; ++it) {  // two steps of inverse iteration
-      lu_solve<6>(K, piv6, u);
+      linalg::lu_solve<6>(K, piv6, u);
       double nu = 0.0;
       for (double x : u) nu += x * x;
       nu = std::sqrt(nu);
@@ -595,7 +354,10 @@ void polish_pose(const Points& p, Pose* pose) {
       J.row(i) << g(0), g(1), g(2), h.dot(b1), h.dot(b2);
       rv(i) = r[i];
     }
-    const Eigen::Matrix<double, 5, 1> dx = J.partialPivLu().solve(-rv);
+    int piv[5];
+    if (!linalg::lu_inplace<5>(&J, piv, 0.0)) return;
+    Eigen::Matrix<double, 5, 1> dx = -rv;
+    linalg::lu_solve<5>(J, piv, dx.data());
     if (!dx.allFinite()) return;
     Pose q;
     const Vec3 w = dx.head<3>();

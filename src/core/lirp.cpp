@@ -6,13 +6,14 @@
 #include <Eigen/SVD>
 #include <complex>
 
+#include "linalg.h"
 #include "residuals.h"
 
 namespace poseonly {
 namespace {
 
 using Mat6 = Eigen::Matrix<double, 6, 6>;
-using RowsA = Eigen::Matrix<double, Eigen::Dynamic, 9>;
+constexpr int kStackRows = 64;  // rows of A held on the stack (more: one heap buffer)
 
 // monomial index of a^p b^q in y = (a^3, a^2 b, a b^2, b^3, a^2, ab, b^2, a, b, 1)
 int monomial(int p, int q) {
@@ -29,7 +30,16 @@ void null_space(const Points& P, const double* w, Mat9* V, Vec9* s) {
     if (wi > 0.0) ++m;
     wmax = std::max(wmax, wi);
   }
-  RowsA A = RowsA::Zero(std::max(m, 9), 9);
+  // A column by column (col 3 c + rr = w_i f1_c f2_rr over the rows i): the layout householder_qr reads
+  const int rows = std::max(m, 9);
+  double local[9 * kStackRows];
+  std::vector<double> heap;
+  double* A = local;
+  if (rows > kStackRows) {
+    heap.resize(9 * static_cast<size_t>(rows));
+    A = heap.data();
+  }
+  std::fill(A, A + 9 * rows, 0.0);
   int r = 0;
   const double inv = wmax > 0.0 ? 1.0 / wmax : 0.0;
   for (int i = 0; i < P.n; ++i) {
@@ -38,20 +48,23 @@ void null_space(const Points& P, const double* w, Mat9* V, Vec9* s) {
     const auto a = P.a(i);
     const auto b = P.b(i);
     // A_i q = f2^T Q f1 with q = vec(Q) column-major: coefficient of Q(rr, c) is f1_c f2_rr
-    for (int c = 0; c < 3; ++c)
-      for (int rr = 0; rr < 3; ++rr) A(r, 3 * c + rr) = wi * a(c) * b(rr);
+    for (int c = 0; c < 3; ++c) {
+      const double wa = wi * a(c);
+      for (int rr = 0; rr < 3; ++rr) A[(3 * c + rr) * rows + r] = wa * b(rr);
+    }
     ++r;
   }
   Mat9 Rf;
-  if (A.rows() > 9) {
-    Eigen::HouseholderQR<RowsA> qr(A);
-    Rf = qr.matrixQR().topRows<9>().triangularView<Eigen::Upper>();
+  if (rows > 9) {
+    Eigen::Matrix<double, 9, 9, Eigen::RowMajor> Rr = Eigen::Matrix<double, 9, 9, Eigen::RowMajor>::Zero();
+    double tau[9];
+    linalg::householder_qr<9>(A, rows, Rr.data(), tau);
+    Rf = Rr.triangularView<Eigen::Upper>();
   } else {
-    Rf = A.topRows<9>();
+    Rf = Eigen::Map<const Mat9>(A);
   }
-  Eigen::JacobiSVD<Mat9> svd(Rf, Eigen::ComputeFullV);
-  *V = svd.matrixV();
-  *s = svd.singularValues() * wmax;
+  linalg::jacobi_svd<9>(Rf, V, s);  // not converged in 30 sweeps: the last iterate (never seen)
+  *s *= wmax;
 }
 
 // The 9 x 10 Demazure system B y = 0 of Q = a Q1 + b Q2 + Q3 (Eq. 14):
@@ -91,9 +104,9 @@ using Vec3c = Eigen::Matrix<Cd, 3, 1>;
 // g2 = b^2 g5, g1 = b g3, leaving (g0, g3, g5). Falls back to the full eigen-decomposition where
 // N(lambda) has no well-defined 1-D null space (repeated eigenvalues).
 bool action_eigen(const Mat6& C, int which, Eigen::Matrix<Cd, 6, 1>* lam, Eigen::Matrix<Cd, 6, 6>* G) {
-  Eigen::EigenSolver<Mat6> es(C, false);
-  if (es.info() != Eigen::Success) return false;
-  *lam = es.eigenvalues();
+  double wr[6], wi[6];
+  if (!linalg::eigenvalues<6>(C, wr, wi)) return false;
+  for (int e = 0; e < 6; ++e) (*lam)(e) = Cd(wr[e], wi[e]);
   for (int e = 0; e < 6; ++e) {
     const Cd l = (*lam)(e);
     Eigen::Matrix<Cd, 3, 3> N;
@@ -198,13 +211,10 @@ void lirp_candidates(const Points& P, const double* w, LirpCandidates* out) {
   comp(0, 1) = -c1 * inv;
   comp(0, 2) = -c0 * inv;
   comp(1, 0) = comp(2, 1) = 1.0;
-  Eigen::Vector3cd roots = Eigen::Vector3cd::Zero();
-  if (comp.allFinite()) {
-    Eigen::EigenSolver<Mat3> es(comp, false);
-    if (es.info() == Eigen::Success) roots = es.eigenvalues();
-  }
+  double roots[3] = {0.0, 0.0, 0.0}, roots_im[3];
+  if (!(comp.allFinite() && linalg::eigenvalues<3>(comp, roots, roots_im))) std::fill(roots, roots + 3, 0.0);
   for (int k = 0; k < 3; ++k, ++c) {
-    const double r = std::real(roots(k));
+    const double r = roots[k];
     out->E[c] = unit_or(use_a ? Vec9(r * q1 + q2) : Vec9(q1 + r * q2), q3);
   }
   out->E[c++] = unit_or(q1, q3);
@@ -281,51 +291,93 @@ inline double sgn(double x) { return static_cast<double>((x > 0.0) - (x < 0.0));
 
 }  // namespace
 
-void identify(const Mat3& E, const Points& P, const double* w, CostMode mode, Identified* out) {
-  const Frames fr = essential_frames(E);
-  // per point, with a = R f1: a.t = v3.f1 and b.t = u3.f2 for both rotations, a.b = bt at +- f2^T F f1;
-  // h = (a x b).(b x t) = ab bt - at, h' = (a x b).(a x t) = bt - at ab (Lagrange identity)
+namespace {
+
+// Identification sums over the points (loop 1 of identify); Weighted = false reads no weights.
+// Scalars hoisted out of Eigen's 3-vectors: the loop is the solver's hottest (18 candidates).
+struct SignSums {
   double m1[2] = {0.0, 0.0}, raw[2] = {0.0, 0.0}, m2[2] = {0.0, 0.0}, ws = 0.0;
+};
+
+template <bool Weighted>
+SignSums sign_sums(const Frames& fr, const Points& P, const double* w) {
+  SignSums S;
+  const double v0 = fr.v3(0), v1 = fr.v3(1), v2 = fr.v3(2), u0 = fr.u3(0), u1 = fr.u3(1), u2 = fr.u3(2);
+  const Mat3& F = fr.F;
   for (int i = 0; i < P.n; ++i) {
-    const double wi = w ? w[i] : 1.0;
-    if (!(wi > 0.0)) continue;
-    ws += wi;
-    const auto a = P.a(i);
-    const auto b = P.b(i);
-    const double at = fr.v3.dot(a), bt = fr.u3.dot(b), x = b.dot(fr.F * a);
+    double wi = 1.0;
+    if (Weighted) {
+      wi = w[i];
+      if (!(wi > 0.0)) continue;
+    }
+    S.ws += wi;
+    const double* a = P.f1 + 3 * i;
+    const double* b = P.f2 + 3 * i;
+    const double at = v0 * a[0] + v1 * a[1] + v2 * a[2], bt = u0 * b[0] + u1 * b[1] + u2 * b[2];
+    const double x = b[0] * (F(0, 0) * a[0] + F(0, 1) * a[1] + F(0, 2) * a[2]) +
+                     b[1] * (F(1, 0) * a[0] + F(1, 1) * a[1] + F(1, 2) * a[2]) +
+                     b[2] * (F(2, 0) * a[0] + F(2, 1) * a[1] + F(2, 2) * a[2]);
     for (int r = 0; r < 2; ++r) {
       const double ab = bt * at + (r ? -x : x);
       const double h = ab * bt - at, hp = bt - at * ab;
       const double hh = h * hp;
-      m1[r] += wi * sgn(hh);
-      raw[r] += wi * hh;
-      m2[r] += wi * sgn(h);
+      S.m1[r] += wi * sgn(hh);
+      S.raw[r] += wi * hh;
+      S.m2[r] += wi * sgn(h);
     }
   }
-  const double norm = 1.0 / std::max(ws, kTiny);
+  return S;
+}
+
+// Sum of w_i v_PPO over the points for the rotation sign s and translation sign sigma (loop 2).
+template <bool Weighted>
+double ppo_sum(const Frames& fr, const Points& P, const double* w, double s, double sigma) {
+  const double v0 = fr.v3(0), v1 = fr.v3(1), v2 = fr.v3(2), u0 = fr.u3(0), u1 = fr.u3(1), u2 = fr.u3(2);
+  const Mat3 F = s * fr.F;
+  const Mat3& G = fr.G;
+  double c = 0.0;
+  for (int i = 0; i < P.n; ++i) {
+    double wi = 1.0;
+    if (Weighted) {
+      wi = w[i];
+      if (!(wi > 0.0)) continue;
+    }
+    const double* a = P.f1 + 3 * i;
+    const double* b = P.f2 + 3 * i;
+    const double at = v0 * a[0] + v1 * a[1] + v2 * a[2], bt = u0 * b[0] + u1 * b[1] + u2 * b[2];
+    const double x = b[0] * (F(0, 0) * a[0] + F(0, 1) * a[1] + F(0, 2) * a[2]) +
+                     b[1] * (F(1, 0) * a[0] + F(1, 1) * a[1] + F(1, 2) * a[2]) +
+                     b[2] * (F(2, 0) * a[0] + F(2, 1) * a[1] + F(2, 2) * a[2]);
+    const double e = b[0] * (G(0, 0) * a[0] + G(0, 1) * a[1] + G(0, 2) * a[2]) +
+                     b[1] * (G(1, 0) * a[0] + G(1, 1) * a[1] + G(1, 2) * a[2]) +
+                     b[2] * (G(2, 0) * a[0] + G(2, 1) * a[1] + G(2, 2) * a[2]);
+    const double ab = bt * at + x;
+    c += wi * ppo_from_forms(ab, sigma * bt, sigma * (ab * bt - at), std::abs(e));
+  }
+  return c;
+}
+
+}  // namespace
+
+void identify(const Mat3& E, const Points& P, const double* w, CostMode mode, Identified* out) {
+  const Frames fr = essential_frames(E);
+  // per point, with a = R f1: a.t = v3.f1 and b.t = u3.f2 for both rotations, a.b = bt at +- f2^T F f1;
+  // h = (a x b).(b x t) = ab bt - at, h' = (a x b).(a x t) = bt - at ab (Lagrange identity)
+  const SignSums S = w ? sign_sums<true>(fr, P, w) : sign_sums<false>(fr, P, w);
+  const double norm = 1.0 / std::max(S.ws, kTiny);
   // the twisted pair makes every depth product negative: keep the rotation with the larger M1
   // (tie: the larger raw sum of h h')
-  const int pick = (m1[1] > m1[0] || (m1[1] == m1[0] && raw[1] > raw[0])) ? 1 : 0;
+  const int pick = (S.m1[1] > S.m1[0] || (S.m1[1] == S.m1[0] && S.raw[1] > S.raw[0])) ? 1 : 0;
   const double s = pick ? -1.0 : 1.0;
-  out->M1 = m1[pick] * norm;
-  const double M2 = m2[pick] * norm;
+  out->M1 = S.m1[pick] * norm;
+  const double M2 = S.m2[pick] * norm;
   const double sigma = M2 < 0.0 ? -1.0 : 1.0;
   out->pose.R = fr.u3 * fr.v3.transpose() + s * fr.F;
   out->pose.t = sigma * fr.u3;
   out->valid = out->M1 > 0.0 && std::abs(M2) > 0.0;
   out->cost = kInf;
   if (mode == CostMode::Never || (mode == CostMode::IfValid && !out->valid)) return;
-  double c = 0.0;
-  for (int i = 0; i < P.n; ++i) {
-    const double wi = w ? w[i] : 1.0;
-    if (!(wi > 0.0)) continue;
-    const auto a = P.a(i);
-    const auto b = P.b(i);
-    const double at = fr.v3.dot(a), bt = fr.u3.dot(b);
-    const double ab = bt * at + s * b.dot(fr.F * a);
-    const double e = b.dot(fr.G * a);
-    c += wi * ppo_from_forms(ab, sigma * bt, sigma * (ab * bt - at), std::abs(e));
-  }
+  const double c = w ? ppo_sum<true>(fr, P, w, s, sigma) : ppo_sum<false>(fr, P, w, s, sigma);
   const double cost = c * norm;
   out->cost = std::isfinite(cost) ? cost : kInf;
 }
