@@ -260,3 +260,26 @@ def test_sampson_distance_synthetic() -> None:
     n = l2[:, :2] / np.linalg.norm(l2[:, :2], axis=1, keepdims=True)
     e = sampson_distance(u1, u2 + 0.7 * n, F)
     np.testing.assert_allclose(e, 0.7 / np.sqrt(2), rtol=0.05)  # shared between both images
+
+
+def test_match_scores_round_trip_and_validation(tmp_path):
+    from poseonly.features import load_matches_npz, save_matches_npz
+
+    u = np.random.default_rng(0).uniform(0, 100, (10, 2))
+    p = save_matches_npz(tmp_path / "m.npz", u, u + 1, K=np.eye(3), scores=np.linspace(0, 1, 10))
+    md = load_matches_npz(p)
+    np.testing.assert_array_equal(md.scores, np.linspace(0, 1, 10))
+    np.savez(tmp_path / "bad.npz", u1=u, u2=u, scores=np.ones(3))
+    with pytest.raises(ValueError, match="scores"):
+        load_matches_npz(tmp_path / "bad.npz")
+
+
+def test_match_features_scores_are_one_minus_ratio():
+    from poseonly.features import match_features
+
+    rng = np.random.default_rng(4)
+    d2 = rng.random((50, 128)).astype(np.float32)
+    d1 = d2[:20] + 0.01 * rng.random((20, 128)).astype(np.float32)
+    idx, sc = match_features(d1, d2, return_scores=True)
+    assert len(idx) == len(sc) > 0 and np.all((sc > 0.2) & (sc <= 1.0))
+    np.testing.assert_array_equal(idx, match_features(d1, d2))

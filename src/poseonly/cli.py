@@ -149,7 +149,7 @@ def cmd_relpose(args) -> int:
             K1, K2 = md.K1, md.K2
         if K1 is None:
             raise CLIError("no calibration: pass --K, --K1/--K2 or --focal/--pp, or store K in the npz")
-        pr = relpose_matches(md.u1, md.u2, K1, K2, **opts)
+        pr = relpose_matches(md.u1, md.u2, K1, K2, scores=md.scores, **opts)
         imgs = None
     else:
         if not (args.image1 and args.image2):

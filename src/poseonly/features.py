@@ -82,7 +82,8 @@ class Matches:
     """Putative matches between two images.
 
     ``u1, u2 (k, 2)`` pixel coordinates, ``idx (k, 2)`` indices into the two keypoint arrays,
-    ``image_size1, image_size2 = (width, height)``.
+    ``image_size1, image_size2 = (width, height)``, ``scores (k,)`` match quality ``1 - ratio``
+    (higher is better; ``None`` when unknown).
     """
 
     u1: np.ndarray
@@ -90,6 +91,7 @@ class Matches:
     idx: np.ndarray
     image_size1: tuple[int, int]
     image_size2: tuple[int, int]
+    scores: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.u1)
@@ -106,6 +108,7 @@ class MatchData:
     u2: np.ndarray
     K1: np.ndarray | None = None
     K2: np.ndarray | None = None
+    scores: np.ndarray | None = None  # (k,) match quality, higher is better (optional key 'scores')
 
     def __len__(self) -> int:
         return len(self.u1)
@@ -285,8 +288,11 @@ def _check_desc(d: np.ndarray, name: str) -> np.ndarray:
     return np.ascontiguousarray(d)
 
 
-def match_features(d1: np.ndarray, d2: np.ndarray, ratio: float = 0.8, mutual: bool = False) -> np.ndarray:
-    """Match descriptors with Lowe's ratio test; returns ``(k, 2)`` int index pairs ``(i1, i2)``.
+def match_features(d1: np.ndarray, d2: np.ndarray, ratio: float = 0.8, mutual: bool = False,
+                   return_scores: bool = False) -> Any:
+    """Match descriptors with Lowe's ratio test; returns ``(k, 2)`` int index pairs ``(i1, i2)``
+    (and with ``return_scores`` also their quality ``1 - dist1 / dist2`` ``(k,)``, higher is better:
+    the PROSAC order of :func:`poseonly.estimate_relative_pose`).
 
     Brute-force L2 two-nearest-neighbour search (``cv2.batchDistance``, the kernel of
     ``cv2.BFMatcher``, returning arrays); a match is kept when ``dist1 < ratio * dist2``. With
@@ -299,8 +305,8 @@ def match_features(d1: np.ndarray, d2: np.ndarray, ratio: float = 0.8, mutual: b
     if d1.shape[1] != d2.shape[1]:
         raise InputError(f"descriptor lengths differ: {d1.shape[1]} vs {d2.shape[1]}")
     empty = np.zeros((0, 2), dtype=np.int64)
-    if len(d1) == 0 or len(d2) < 2:
-        return empty  # the ratio test needs a second neighbour
+    if len(d1) == 0 or len(d2) < 2:  # the ratio test needs a second neighbour
+        return (empty, np.zeros(0)) if return_scores else empty
     cv2 = _cv2()
     dist, nn = cv2.batchDistance(d1, d2, cv2.CV_32F, normType=cv2.NORM_L2, K=2)
     keep = dist[:, 0] < float(ratio) * dist[:, 1]
@@ -310,7 +316,11 @@ def match_features(d1: np.ndarray, d2: np.ndarray, ratio: float = 0.8, mutual: b
         _, back = cv2.batchDistance(d2, d1, cv2.CV_32F, normType=cv2.NORM_L2, K=1)
         ok = back[i2, 0] == i1
         i1, i2 = i1[ok], i2[ok]
-    return np.stack([i1, i2], axis=1).astype(np.int64) if len(i1) else empty
+    idx = np.stack([i1, i2], axis=1).astype(np.int64) if len(i1) else empty
+    if not return_scores:
+        return idx
+    d = dist[i1].astype(float)
+    return idx, 1.0 - d[:, 0] / np.maximum(d[:, 1], 1e-300)
 
 
 def match_images(
@@ -324,8 +334,8 @@ def match_images(
     """SIFT-match two images (files or arrays): :func:`extract_features` + :func:`match_features`."""
     f1 = extract_features(img1, max_features=max_features, cache_dir=cache_dir)
     f2 = extract_features(img2, max_features=max_features, cache_dir=cache_dir)
-    idx = match_features(f1.descriptors, f2.descriptors, ratio=ratio, mutual=mutual)
-    return Matches(f1.keypoints[idx[:, 0]], f2.keypoints[idx[:, 1]], idx, f1.image_size, f2.image_size)
+    idx, scores = match_features(f1.descriptors, f2.descriptors, ratio=ratio, mutual=mutual, return_scores=True)
+    return Matches(f1.keypoints[idx[:, 0]], f2.keypoints[idx[:, 1]], idx, f1.image_size, f2.image_size, scores)
 
 
 # --------------------------------------------------------------------------------------------
@@ -345,7 +355,7 @@ def _check_pixels(a: Any, name: str, src: str) -> np.ndarray:
     return a
 
 
-def _check_match_arrays(u1: Any, u2: Any, K1: Any, K2: Any, K: Any, src: str) -> MatchData:
+def _check_match_arrays(u1: Any, u2: Any, K1: Any, K2: Any, K: Any, src: str, scores: Any = None) -> MatchData:
     u1 = _check_pixels(u1, "u1", src)
     u2 = _check_pixels(u2, "u2", src)
     if len(u1) != len(u2):
@@ -364,11 +374,18 @@ def _check_match_arrays(u1: Any, u2: Any, K1: Any, K2: Any, K: Any, src: str) ->
     if (k1 is None) != (k2 is None):
         have, miss = ("K1", "K2") if k1 is not None else ("K2", "K1")
         raise InputError(f"{src}: '{have}' is given but '{miss}' is missing (give both, or a shared 'K')")
-    return MatchData(u1, u2, k1, k2)
+    sc = None
+    if scores is not None:
+        sc = np.asarray(scores)
+        if sc.shape != (len(u1),) or sc.dtype.kind not in "biuf" or not np.all(np.isfinite(sc)):
+            raise InputError(f"{src}: 'scores' must be a finite real array of shape ({len(u1)},), got {sc.dtype} {sc.shape}")
+        sc = sc.astype(float)
+    return MatchData(u1, u2, k1, k2, sc)
 
 
 def load_matches_npz(path: str | os.PathLike) -> MatchData:
-    """Load a match file (keys ``u1``, ``u2``; optional ``K1``, ``K2`` or shared ``K``).
+    """Load a match file (keys ``u1``, ``u2``; optional ``K1``, ``K2`` or shared ``K``; optional
+    ``scores (k,)``, match quality, higher is better).
 
     Raises :class:`InputError` with a clear message if the file is missing, not an ``.npz``
     archive, truncated, lacks a required key, or holds arrays of the wrong shape or with NaN/inf.
@@ -401,7 +418,7 @@ def load_matches_npz(path: str | os.PathLike) -> MatchData:
                 f"'K1', 'K2' or 'K' (3x3); found {sorted(keys) or 'no keys'}"
             )
         arrays: dict[str, np.ndarray | None] = {}
-        for k in ("u1", "u2", "K1", "K2", "K"):
+        for k in ("u1", "u2", "K1", "K2", "K", "scores"):
             if k not in keys:
                 arrays[k] = None
                 continue
@@ -409,7 +426,7 @@ def load_matches_npz(path: str | os.PathLike) -> MatchData:
                 arrays[k] = z[k]
             except (ValueError, OSError, EOFError, zipfile.BadZipFile, KeyError) as exc:
                 raise InputError(f"{src}: cannot read key '{k}' ({type(exc).__name__}: {exc})") from None
-    return _check_match_arrays(arrays["u1"], arrays["u2"], arrays["K1"], arrays["K2"], arrays["K"], src)
+    return _check_match_arrays(arrays["u1"], arrays["u2"], arrays["K1"], arrays["K2"], arrays["K"], src, arrays["scores"])
 
 
 def save_matches_npz(
@@ -419,14 +436,17 @@ def save_matches_npz(
     K1: np.ndarray | None = None,
     K2: np.ndarray | None = None,
     K: np.ndarray | None = None,
+    scores: np.ndarray | None = None,
 ) -> Path:
     """Validate and write a match file atomically (see the module docstring for the keys).
 
     Returns the path written (``.npz`` is not appended: the given name is used as is).
     """
     p = Path(path)
-    data = _check_match_arrays(u1, u2, K1, K2, K, "matches to save")
+    data = _check_match_arrays(u1, u2, K1, K2, K, "matches to save", scores)
     arrays = {"u1": data.u1, "u2": data.u2}
+    if data.scores is not None:
+        arrays["scores"] = data.scores
     if K is not None:
         arrays["K"] = np.asarray(K, dtype=np.float64)
     if K1 is not None:
