@@ -8,16 +8,15 @@ honest ``status`` and diagnostics.
 Methods
 -------
 ``"poseonly"`` (default)
-    LO-RANSAC built from the paper's parts and measured to beat them (docs/RESULTS.md):
-    5-point minimal hypotheses (``solver="lirp"`` uses LiRP on 6 points), MSAC scoring of the
-    Sampson error against the pixel threshold with a preemptive subset test, adaptive stopping,
-    and local optimisation of every new best model by warm-started TLS IRLS on LiRP (all 18
-    candidates, the one minimising the weighted objective kept) with the cheirality-aware Sampson
-    residual (points behind a camera count as outliers). The final model is chosen among the RANSAC
-    model, the LiRP candidates of its consensus set and its polished homography twin by
-    cheirality-consistent support, then refined by LiGTopt with the angular normalisation (the
-    paper's LiGT weighting measured less accurate than LiRP itself). Each final stage is kept only if
-    the cheirality-aware MSAC score does not drop.
+    Decided on real image pairs (docs/RESULTS_real.md). LO-RANSAC in the compiled core: 5-point
+    hypotheses (``solver="lirp"``: LiRP on 6 points), multi-scale MSAC scoring of the Sampson error at
+    ``threshold_px`` (1 px) with an exact bail-out, at least 500 samples and adaptive stopping at
+    confidence 0.9999, PROSAC sampling when match ``scores`` are given, and local optimisation of every
+    new best model (Sampson LM with a Cauchy loss; ``lo="lirp"``: warm-started TLS IRLS on all-candidate
+    LiRP). Then the pose-only choice among the RANSAC model, the LiRP candidates of its consensus set
+    and its polished homography twin by cheirality-consistent support, and the ML pose under a
+    Gaussian-uniform mixture of Sampson errors (EM, noise scale estimated; ``final="ligt"`` keeps the
+    earlier noise-matched LO + angular LiGTopt).
 ``"gnc-ransac"``
     The paper's Algorithm 3 as written: samples of ``n_s = 30``, GNC-IRLS with the adaptive
     ``c = 5.54 * 1.4826 * median(v)``, 50 iterations, inliers ``v_LiGT < theta``.
@@ -141,10 +140,10 @@ def estimate_relative_pose(
 
     ``x1, x2``: ``(n, 2)`` pixels (with ``K1``/``K2``; ``K2`` defaults to ``K1``), ``(n, 2)``
     normalized coordinates (no ``K``) or ``(n, 3)`` bearing vectors. ``method``: one of
-    :data:`METHODS` (see the module docstring). Common options: ``threshold_px`` (default 2.0; the
-    RANSAC threshold. The default method then matches its final threshold to the measured noise
-    within ``threshold_px / 4 .. 3 threshold_px`` -- ``adaptive_threshold=False`` disables it -- and
-    reports it as ``result.threshold_px``), ``min_inliers`` (15, for status ``ok``),
+    :data:`METHODS` (see the module docstring). Common options: ``threshold_px`` (the RANSAC
+    threshold; default 1.0 for the default method, 2.0 for the paper's methods. The default method's
+    returned inliers are then those its ML refinement finds more likely inliers than not, and that
+    decision threshold is reported as ``result.threshold_px``), ``min_inliers`` (15, for status ``ok``),
     ``focal_px`` (focal for the pixel conversion when no ``K`` is given; default 800), ``seed``
     (int or ``numpy.random.Generator``; default 0), ``refine`` (LiGTopt on the inliers; default
     True). ``camera1``/``camera2`` (instead of ``K1``/``K2``; ``camera2`` defaults to ``camera1``): any

@@ -185,11 +185,15 @@ class CommonOptions:
 
 @dataclass(frozen=True)
 class PoseonlyOptions(CommonOptions):
-    """The default method's options (:mod:`poseonly.robust.default`)."""
+    """The default method's options (:mod:`poseonly.robust.default`). Defaults decided on real image
+    pairs (docs/RESULTS_real.md): a 1 px threshold, at least 500 samples at confidence 0.9999 (a
+    search that does not stop on the first plausible consensus), Sampson-LM local optimisation, the
+    ML final refinement."""
 
+    threshold_px: float = _opt(1.0, "real", "inlier threshold in pixels", lo=0.0, lo_open=True)
     max_iterations: int = _opt(100000, "int", lo=1)
-    min_iterations: int = _opt(50, "int", lo=0)
-    confidence: float = _opt(0.999, "real", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    min_iterations: int = _opt(500, "int", lo=0)
+    confidence: float = _opt(0.9999, "real", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
     solver: str = _opt("5pt", "str", "minimal solver", choices=("5pt", "lirp"))
     max_lo: int = _opt(8, "int", lo=0)
     scoring: str = _opt("msac-multi", "str", choices=("msac", "msac-multi", "count"))
@@ -198,7 +202,7 @@ class PoseonlyOptions(CommonOptions):
     lo_iterations: int = _opt(10, "int", lo=1)
     adaptive_threshold: bool = _opt(True, "bool")
     noise_factor: float = _opt(2.5, "real", lo=0.0, lo_open=True)
-    lo: str = _opt("lirp", "str", choices=("lirp", "sampson"))
+    lo: str = _opt("sampson", "str", choices=("lirp", "sampson"))
     final: str = _opt("ml", "str", choices=("ml", "ligt"))
     ml_range: float = _opt(3.0, "real", lo=1.0, hi=100.0, lo_open=True)
     rival_distance: float = _opt(0.0, "real", lo=0.0, hi=180.0)

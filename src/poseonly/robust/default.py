@@ -154,8 +154,8 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
        depth signs can);
     3. ``final="ml"``: the ML pose under a Gaussian-uniform mixture of Sampson errors
        (``poseonly._core.ml_refine``: EM with the noise scale estimated, outliers uniform up to
-       ``ml_range * tau``), kept if its cheirality-aware MSAC score at ``tau`` does not drop by more
-       than 2 %; the returned inliers are those more likely inliers than not. ``final="ligt"`` (the
+       ``ml_range * tau``), kept if its cheirality-aware MSAC score at the larger of ``tau`` and the
+       mixture's decision threshold does not drop by more than 2 %; the returned inliers are those more likely inliers than not. ``final="ligt"`` (the
        earlier default): LO at a noise-matched threshold, then angular LiGTopt.
     """
     r = ransac_relpose(
@@ -174,7 +174,10 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
             m = _core.ml_refine(R, t, f1, f2, float(o.ml_range) * tau)
             if m["rounds"] > 0 and m["decision"] > 0 and np.all(np.isfinite(m["R"])):
                 cand = (m["R"], m["t"])
-                if msac_chiral(*cand, f1, f2, tau) >= ML_KEEP_TOLERANCE * msac_chiral(R, t, f1, f2, tau):
+                # compared at the scale the mixture found (the truncated score at a tight tau favours
+                # the pose fitted to that truncation)
+                thr = max(tau, float(m["decision"]))
+                if msac_chiral(*cand, f1, f2, thr) >= ML_KEEP_TOLERANCE * msac_chiral(R, t, f1, f2, thr):
                     R, t = cand
                     diag.update(tau_effective=float(m["decision"]), sigma=float(m["sigma"]), ml_rounds=int(m["rounds"]),
                                 ml_inlier_fraction=float(m["inlier_fraction"]))
