@@ -45,7 +45,7 @@ def opencv_relpose(u1, u2, K1, K2=None, *, method: str = "RANSAC", threshold_px:
         return None, None, np.zeros(len(u1), bool), time.perf_counter() - t0
     _, R, t, mask2 = cv2.recoverPose(E, p1, p2, K, mask=mask.copy())
     dt = time.perf_counter() - t0
-    return R, t.ravel() / max(np.linalg.norm(t), 1e-300), mask.ravel().astype(bool), dt
+    return R, t.ravel() / max(float(np.linalg.norm(t)), 1e-300), mask.ravel().astype(bool), dt
 
 
 def poselib_relpose(u1, u2, K1, K2=None, *, threshold_px: float = 1.0, max_iterations: int | None = None, seed: int = 0):

@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -28,7 +29,7 @@ from .experiments._common import atomic_write_text, machine, markdown_table, pro
 from .geometry import rotation_error_deg
 from .sim import make_scene
 
-OUTLIERS = (0.0, 0.2, 0.4, 0.5, 0.6, 0.7, 0.8)
+OUTLIERS: tuple[float, ...] = (0.0, 0.2, 0.4, 0.5, 0.6, 0.7, 0.8)
 
 
 def ml_floor(sc) -> np.ndarray:
@@ -41,7 +42,13 @@ def ml_floor(sc) -> np.ndarray:
     f1, f2 = sc.f1[sc.inliers], sc.f2[sc.inliers]
     t0 = sc.t if np.linalg.norm(sc.t) > 0 else np.array([0.0, 0.0, 1.0])
     ch = PoseChart(sc.R, t0)
-    r = least_squares(lambda x: v_sampson(*ch.retract(x), f1, f2), np.zeros(5), method="lm", xtol=1e-12, ftol=1e-12)
+
+    def resid(x: np.ndarray) -> np.ndarray:
+        R, t = ch.retract(x)
+        assert t is not None  # the chart was built with a translation
+        return v_sampson(R, t, f1, f2)
+
+    r = least_squares(resid, np.zeros(5), method="lm", xtol=1e-12, ftol=1e-12)
     return ch.retract(r.x)[0]
 
 
@@ -95,12 +102,12 @@ def _methods():
 def compute(trials: int, cameras=("wide", "pinhole"), outliers=OUTLIERS, n: int = 300, noise: float = 1.0, seed: int = 0) -> dict:
     single_thread()
     ms = _methods()
-    res = {"trials": trials, "n": n, "noise_px": noise, "outliers": list(outliers), "methods": list(ms), "rows": []}
+    res: dict[str, Any] = {"trials": trials, "n": n, "noise_px": noise, "outliers": list(outliers), "methods": list(ms), "rows": []}
     tasks = [(c, k, f) for c in cameras for k in ("normal", "planar") for f in outliers]
     for cam, kind, frac in progress(tasks, total=len(tasks), desc="bench robust"):
-        errs = {m: [] for m in ms}
-        errs_tw = {m: [] for m in ms}
-        times = {m: [] for m in ms}
+        errs: dict[str, list[float]] = {m: [] for m in ms}
+        errs_tw: dict[str, list[float]] = {m: [] for m in ms}
+        times: dict[str, list[float]] = {m: [] for m in ms}
         for s in range(trials):
             sc = make_scene(n, kind, cam, noise, frac, seed + s)
             tw = _twin_R(sc) if kind == "planar" else None

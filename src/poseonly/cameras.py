@@ -66,7 +66,7 @@ def _brown_params(model: str, p: np.ndarray) -> tuple[float, ...]:
     if model == "OPENCV":
         return (p[4], p[5], p[6], p[7], z, z, z, z)
     if model == "FULL_OPENCV":
-        return tuple(float(v) for v in p[4:12])  # type: ignore[return-value]
+        return tuple(float(v) for v in p[4:12])
     return (z,) * 8
 
 

@@ -21,7 +21,7 @@ import os
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -223,7 +223,8 @@ def _atomic_savez(path: Path, **arrays: np.ndarray) -> None:
     """``np.savez`` through :func:`poseonly._fileutil.atomic_open` (atomic; the temp files of
     killed writers are removed on the next write of the same cache entry)."""
     with atomic_open(path, "wb") as fh:
-        np.savez(fh, **arrays)
+        # numpy's stub lets **kwds bind savez's keyword allow_pickle: bool, so a dict of arrays does not type-check
+        np.savez(fh, **cast(dict[str, Any], arrays))
 
 
 def clean_cache(cache_dir: str | os.PathLike) -> int:

@@ -227,7 +227,7 @@ def make_scene(
         idx = rng.choice(n, size=k, replace=False)
         inliers[idx] = False
         if camera == "wide":
-            Q = []
+            Q: list[np.ndarray] = []
             while sum(len(q) for q in Q) < k:
                 Pq = _opengv_points(rng, 4 * k)
                 Q.append(Pq[Pq[:, 2] > 0])  # a random point seen by camera 2, in camera 2's frame

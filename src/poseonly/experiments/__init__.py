@@ -8,6 +8,7 @@ names to modules, imported lazily so optional dependencies stay optional.
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from types import ModuleType
 
 EXPERIMENTS: dict[str, str] = {

@@ -38,12 +38,12 @@ def write_json(path: str | Path, data: Any) -> Path:
     return atomic_write_text(path, json.dumps(data, indent=2, default=_jsonable))
 
 
-def fmt(x: float) -> str:
+def fmt(x: float | np.floating[Any] | None) -> str:
     if x is None or (isinstance(x, float) and np.isnan(x)):
         return "-"
     if x == 0:
         return "0"
-    ax = abs(x)
+    ax = abs(float(x))
     if ax >= 1000 or ax < 1e-3:
         return f"{x:.2e}"
     return f"{x:.4g}"

@@ -130,6 +130,7 @@ def _methods(cauchy_px: float):
         except ImportError:
             ok = False
     if ok:
+        assert npt_fn is not None  # ok implies the refiner was found
         c = cauchy_px / 800.0
         ms["robust Npt (IRLS, Cauchy)"] = lambda sc, s: robust_npt(sc.f1, sc.f2, npt_fn, c)[0]
         ms["Npt (all points)"] = lambda sc, s: npt_fn(sc.f1, sc.f2)[0]
@@ -151,9 +152,9 @@ def compute(trials: int, n: int = 300, outliers=OUTLIERS, noise: float = 1.0, se
     bar = progress(range(total), total=total, desc="chirality")
     it = iter(bar)
     for gen in GENERATORS:
-        per = {m: {"mean": [], "median": [], "fail": []} for m in names}
+        per: dict[str, dict[str, list[float]]] = {m: {"mean": [], "median": [], "fail": []} for m in names}
         for frac in outliers:
-            errs = {m: [] for m in names}
+            errs: dict[str, list[float]] = {m: [] for m in names}
             for s in range(trials):
                 sc = _scene(gen, n, noise, frac, seed + s)
                 if gen == "none" and frac == outliers[0]:

@@ -44,6 +44,7 @@ import argparse
 import os
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -116,8 +117,8 @@ def homography_twin(sc, min_angle_deg: float = 0.5) -> np.ndarray | None:
         return None
     nrm, d = np.asarray(sc.plane[:3], float), float(sc.plane[3])
     H = sc.R + np.outer(sc.baseline * sc.t, nrm) / d
-    _, Rs, _, _ = cv2.decomposeHomographyMat(H, np.eye(3))
-    Rs = np.asarray(Rs, float)
+    _, Rs_cv, _, _ = cv2.decomposeHomographyMat(H, np.eye(3))
+    Rs = np.asarray(Rs_cv, float)
     e = rotation_error_deg(sc.R, Rs)
     far = e > min_angle_deg
     return Rs[far][0] if np.any(far) else None
@@ -220,7 +221,7 @@ def compute(trials: int, n: int = 300, outliers=OUTLIERS, noise: float = 1.0, se
     methods, skipped = _methods(thr_px)
     names = list(methods)
     tasks = [(k, f, s, n, noise, seed, thr_px) for k in KINDS for f in outliers for s in range(trials)]
-    raw = {(k, f): [] for k in KINDS for f in outliers}
+    raw: dict[tuple[str, float], list[dict[str, Any]]] = {(k, f): [] for k in KINDS for f in outliers}
     if jobs > 1:
         from concurrent.futures import ProcessPoolExecutor, as_completed
 
@@ -235,10 +236,10 @@ def compute(trials: int, n: int = 300, outliers=OUTLIERS, noise: float = 1.0, se
         for t in progress(tasks, total=len(tasks), desc="gnc-ransac"):
             k, f, s, o = _trial(t)
             raw[(k, f)].append(o)
-    res = {"trials": trials, "n": n, "noise_px": noise, "outliers": list(outliers), "kinds": list(KINDS), "seed": seed,
+    res: dict[str, Any] = {"trials": trials, "n": n, "noise_px": noise, "outliers": list(outliers), "kinds": list(KINDS), "seed": seed,
            "threshold_px_anchors": thr_px, "methods": names, "skipped": skipped, "results": {}}
     for k in KINDS:
-        per = {m: {"mean": [], "median": [], "mean_twin": [], "median_twin": [], "mean_htwin": [], "median_htwin": [], "time_s": [],
+        per: dict[str, dict[str, list[float]]] = {m: {"mean": [], "median": [], "mean_twin": [], "median_twin": [], "mean_htwin": [], "median_htwin": [], "time_s": [],
                    "fail": []} for m in names}
         twins, htwins = [], []
         for f in outliers:

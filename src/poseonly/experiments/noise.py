@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -131,7 +132,7 @@ def compute(trials: int, n: int = 30, levels=LEVELS, seed: int = 0, noise_model:
     solver_errors = _solver_errors()
     methods_init = list(INITIAL)
     methods_opt = list(ops)
-    res = {"trials": trials, "n": n, "levels": list(levels), "kinds": list(KINDS), "noise_model": noise_model, "seed": seed,
+    res: dict[str, Any] = {"trials": trials, "n": n, "levels": list(levels), "kinds": list(KINDS), "noise_model": noise_model, "seed": seed,
            "groups": {"initial": methods_init, "optimisation": methods_opt}, "skipped": skipped, "results": {}, "time_s": {}}
     tsum = {m: 0.0 for m in methods_init + methods_opt}
     tcnt = {m: 0 for m in tsum}
@@ -139,7 +140,7 @@ def compute(trials: int, n: int = 30, levels=LEVELS, seed: int = 0, noise_model:
     bar = progress(range(total), total=total, desc="noise")
     it = iter(bar)
     for kind in KINDS:
-        per = {m: {"mean": [], "median": [], "fail": []} for m in methods_init + methods_opt}
+        per: dict[str, dict[str, list[float]]] = {m: {"mean": [], "median": [], "fail": []} for m in methods_init + methods_opt}
         for lev in levels:
             scenes = [make_scene(n, kind, "wide", noise_px=lev, seed=seed + s, noise_model=noise_model) for s in range(trials)]
             F1 = np.stack([s.f1 for s in scenes])
@@ -203,7 +204,7 @@ def to_markdown(res: dict) -> str:
         best = []
         for i, lev in enumerate(res["levels"]):
             vals = {m: per[m]["mean"][i] for m in res["groups"]["initial"] if np.isfinite(per[m]["mean"][i])}
-            best.append(f"{lev:g} px: {min(vals, key=vals.get)}" if vals else f"{lev:g} px: -")
+            best.append(f"{lev:g} px: {min(vals, key=vals.__getitem__)}" if vals else f"{lev:g} px: -")
         lines.append(f"* {kind}: " + "; ".join(best))
     out.append("\n".join(lines) + "\n")
     t = res["time_s"]

@@ -28,6 +28,7 @@ import argparse
 import math
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -73,14 +74,14 @@ def compute(trials: int, n: int = 30, outliers=OUTLIERS, noise: float = 1.0, see
 
     variants = {"paper": None, "pixel": bound_px}
     methods = [f"{LABELS[r]} ({v})" for v in variants for r in RESIDUALS] + [REF]
-    res = {"trials": trials, "n": n, "noise_px": noise, "outliers": list(outliers), "kinds": list(KINDS), "seed": seed,
+    res: dict[str, Any] = {"trials": trials, "n": n, "noise_px": noise, "outliers": list(outliers), "kinds": list(KINDS), "seed": seed,
            "bound_px": bound_px, "methods": methods, "results": {}, "time_s": {}}
     tsum = {m: 0.0 for m in methods}
     total = len(KINDS) * len(outliers)
     bar = progress(range(total), total=total, desc="residuals")
     it = iter(bar)
     for kind in KINDS:
-        per = {m: [] for m in methods}
+        per: dict[str, list[dict]] = {m: [] for m in methods}
         for frac in outliers:
             scenes = [make_scene(n, kind, "wide", noise, frac, seed + s) for s in range(trials)]
             F1 = np.stack([s.f1 for s in scenes])
@@ -111,10 +112,12 @@ def compute(trials: int, n: int = 30, outliers=OUTLIERS, noise: float = 1.0, see
             for s, sc in enumerate(scenes):
                 o = opengv_ransac_5pt(sc.f1, sc.f2, np.random.default_rng(seed + s))
                 e[s] = rotation_error_deg(sc.R, o.R)
-                if kind == "planar" and tw[s] is not None:
-                    et[s] = rotation_error_deg(tw[s], o.R)
-                if kind == "planar" and htw[s] is not None:
-                    eh[s] = rotation_error_deg(htw[s], o.R)
+                if kind == "planar":
+                    tw_s, htw_s = tw[s], htw[s]
+                    if tw_s is not None:
+                        et[s] = rotation_error_deg(tw_s, o.R)
+                    if htw_s is not None:
+                        eh[s] = rotation_error_deg(htw_s, o.R)
             tsum[REF] += time.perf_counter() - t0
             per[REF].append(_summary(e, et if kind == "planar" else None, eh if kind == "planar" else None))
             next(it, None)

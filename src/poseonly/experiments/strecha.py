@@ -471,8 +471,8 @@ def to_markdown(res: dict, command: str | None = None) -> str:
             rows.append([sc, st[ms[0]]["pairs"]] + [f"{st[m]['confident']} / {st[m]['not_confident']} (wrong {st[m]['confident_wrong']})" for m in ms])
     lines.append(markdown_table(header, rows) if rows else "none\n")
     # paper comparison
-    pk = [(sc, _paper_key(sc)) for sc in cfg["scenes"]]
-    pk = [(sc, k) for sc, k in pk if k]
+    keyed = [(sc, _paper_key(sc)) for sc in cfg["scenes"]]
+    pk = [(sc, k) for sc, k in keyed if k]
     if pk:
         lines += ["", "## The paper's Table 3 (its own matches: SIFT + cascade hashing) next to ours (set a)", ""]
         header = ["scene", "paper OpenGV", "paper GNC-RANSAC"] + ms

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -74,11 +75,11 @@ def _methods(use_npt: bool):
 
 def compute(trials: int, n: int = 30, camera: str = "wide", seed: int = 0, use_npt: bool = False) -> dict:
     methods = _methods(use_npt)
-    out = {"trials": trials, "n": n, "camera": camera, "rows": []}
+    out: dict[str, Any] = {"trials": trials, "n": n, "camera": camera, "rows": []}
     for kind in ("planar", "normal"):
         for noise in (0.0, 0.1):
-            row = {"scene": kind, "noise_px": noise}
-            acc = {m: [] for m in methods}
+            row: dict[str, Any] = {"scene": kind, "noise_px": noise}
+            acc: dict[str, list[Any]] = {m: [] for m in methods}
             for s in progress(range(trials), total=trials, desc=f"table2 {kind} {noise}px"):
                 sc = make_scene(n, kind, camera, noise_px=noise, seed=seed + s)
                 for m, fn in methods.items():

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any, Callable, overload
 
 import numpy as np
 
@@ -101,6 +101,14 @@ def grouped_loss(name: str, group: int) -> Callable[[np.ndarray], np.ndarray] | 
 
 # ---------------------------------------------------------------------------------------------
 # pose helpers
+
+
+@overload
+def check_pose(R: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+@overload
+def check_pose(R: np.ndarray, t: None = None) -> tuple[np.ndarray, None]: ...
+@overload
+def check_pose(R: np.ndarray, t: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]: ...
 
 
 def check_pose(R: np.ndarray, t: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:

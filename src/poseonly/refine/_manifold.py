@@ -88,7 +88,7 @@ class PoseChart:
         self.R0 = np.asarray(R0, dtype=float)
         self.with_translation = with_translation and t0 is not None
         self.t0 = normalize(np.asarray(t0, dtype=float)) if t0 is not None else None
-        self.B = tangent_basis(self.t0) if self.with_translation else None
+        self.B: np.ndarray | None = tangent_basis(self.t0) if self.with_translation and self.t0 is not None else None
         self.size = 5 if self.with_translation else 3
 
     def x0(self) -> np.ndarray:
@@ -107,6 +107,7 @@ class PoseChart:
 
     def jacobians(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, np.ndarray | None]:
         E, Jl = _rodrigues_and_jl(x, True)
+        assert Jl is not None  # want_jl=True always returns J_l
         R = E @ self.R0
         if not self.with_translation:
             return R, self.t0, Jl, None

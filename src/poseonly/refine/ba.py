@@ -211,6 +211,7 @@ def bundle_adjust(
     r1 = residuals(x)
     cost1 = objective(r1)
     R1, t1 = chart.retract(x)
+    assert t1 is not None  # the chart was built with t0
     X1 = points(x)
     if not cost1 <= cost0:
         R1, t1, X1, cost1, ok, msg = R0, t0, X0, cost0, False, msg + "; cost increased, start returned"

@@ -120,6 +120,7 @@ def _residual_and_jacobian(chart: PoseChart, x: np.ndarray, f1: np.ndarray, f2: 
         r, _ = _ligt_terms(R, t, f1, f2, normalization)
         return (sw[:, None] * r).ravel(), None
     R, t, Jl, Jt = chart.jacobians(x)
+    assert Jt is not None  # the LiGT chart always has the translation block
     r, (a, c, s, cc, cs, z, P, nP) = _ligt_terms(R, t, f1, f2, normalization)
     dA = cross(Jl.T[None, :, :], a[:, None, :])  # (n, 3, 3): -[a]x J_l, column k as row k
     dC = cross(f2[:, None, :], dA)
@@ -267,7 +268,9 @@ def ligt_refine(
     if x is None:  # the core's LM returned the pose itself
         R1, t1 = Rc, tc
     else:
-        R1, t1 = chart.retract(x)
+        R1, t1_chart = chart.retract(x)
+        assert t1_chart is not None  # the chart was built with t0
+        t1 = t1_chart
     r1 = (sw[:, None] * _ligt_terms(R1, t1, f1, f2, norm)[0]).ravel()
     cost1 = _objective(r1, key, scale)
     if not cost1 <= cost0:  # never return a worse pose (LM/TRF only accept decreasing steps; guard)

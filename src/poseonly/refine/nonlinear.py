@@ -30,6 +30,8 @@ sign of ``t`` is kept as optimised; ``info["positive_depth_fraction"]`` reports 
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from scipy.optimize import least_squares
 
@@ -90,7 +92,7 @@ def opengv_nonlinear(
     if cost0 <= atol:
         x, nfev, status, ok, msg = chart.x0(), 1, 1, True, "exact start (zero residual)"
     else:
-        state = {"nfev": 0}
+        state: dict[str, Any] = {"nfev": 0}
 
         def fun_stop(x):
             r = fun(x)
@@ -106,6 +108,7 @@ def opengv_nonlinear(
         except _Converged:
             x, nfev, status, ok, msg = state["x"], state["nfev"], 2, True, f"cost below cost_atol * n = {atol:.1e} (exact fit)"
     R1, t1 = chart.retract(x)
+    assert t1 is not None  # the chart was built with t0
     r1 = fun(x)
     cost1 = float(r1 @ r1)
     if not cost1 <= cost0:

@@ -89,7 +89,7 @@ class GNCOptions:
         return {
             "schedule": _SCHEDULES[self.schedule],
             "scale": 2 if fixed else _SCALES[str(self.scale)],
-            "scale_value": float(self.scale) if fixed else 0.0,  # type: ignore[arg-type]
+            "scale_value": float(self.scale) if fixed else 0.0,
             "c_factor": float(self.c_factor),
             "noise_bound": 0.0 if self.noise_bound is None else float(self.noise_bound),
             "max_iterations": int(self.max_iterations),

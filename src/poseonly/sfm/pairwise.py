@@ -16,6 +16,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -134,7 +135,7 @@ def two_view(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray | None, K2: np.ndarr
                     return TwoView(z["R"], z["t"], z["inliers"], int(z["num_inliers"]), str(z["status"]))
             except Exception:  # noqa: BLE001, S110 - unreadable cache entry: recompute
                 pass
-    extra = {} if focal_px is None else {"focal_px": float(focal_px)}
+    extra: dict[str, Any] = {} if focal_px is None else {"focal_px": float(focal_px)}
     r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, threshold_px=opt.threshold_px, seed=seed, **extra)
     out = TwoView(np.asarray(r.R), np.asarray(r.t), np.asarray(r.inliers, dtype=bool), int(r.num_inliers), str(r.status))
     if f is not None:

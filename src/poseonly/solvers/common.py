@@ -16,7 +16,9 @@ depth conditions of :func:`poseonly.identify.identify_poses`, then the weighted 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from itertools import product
+from typing import Any, cast
 
 import numpy as np
 
@@ -64,7 +66,7 @@ def right_singular(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if n < 9:
         A = np.concatenate([A, np.zeros((h, 9 - n, 9))], axis=1)
     elif n > 9:
-        A = np.linalg.qr(A, mode="r")
+        A = cast(np.ndarray, np.linalg.qr(A, mode="r"))  # numpy's stub types every mode as QRResult; "r" returns R only
     _, s, Vt = np.linalg.svd(A)
     return s, Vt
 
@@ -115,7 +117,7 @@ def project_essential(E: np.ndarray) -> np.ndarray:
     return (U * np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)) @ Vt
 
 
-def monomial_tensor(nvar: int, monomials: list[tuple[int, ...]]) -> np.ndarray:
+def monomial_tensor(nvar: int, monomials: Sequence[tuple[int, ...]]) -> np.ndarray:
     """Map ordered index triples ``(i, j, k)`` of ``nvar`` coefficients to cubic monomials.
 
     With ``E(c) = sum_i c_i E_i`` every cubic matrix expression is ``sum_{ijk} c_i c_j c_k T_ijk``;
@@ -210,7 +212,7 @@ def pose_from_essentials(
     if k == 0:
         R = np.full((h, 3, 3), np.nan)
         t = np.full((h, 3), np.nan)
-        info = dict(best=np.full(h, -1), E=np.full((h, 3, 3), np.nan), cand_R=np.zeros((h, 0, 3, 3)),
+        info: dict[str, Any] = dict(best=np.full(h, -1), E=np.full((h, 3, 3), np.nan), cand_R=np.zeros((h, 0, 3, 3)),
                     cand_t=np.zeros((h, 0, 3)), cand_valid=np.zeros((h, 0), bool), cand_cost=np.zeros((h, 0)))
     else:
         Es = np.where(mask[..., None, None], E, np.eye(3))  # harmless filler for empty slots
