@@ -46,14 +46,14 @@ from __future__ import annotations
 
 import contextlib
 import time
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
 from .analysis import REFINE_SOLVER
 from .estimator import lirp_estimator
 from .geometry import InputError, as_bearings, check_correspondences, check_intrinsics
-from .options import OPTIONS, Spec, check_angle, check_value, parse_options
+from .options import OPTIONS, PoseonlyOptions, Spec, check_angle, check_value, parse_options
 from .result import RelativePoseResult, degenerate_result, finish
 from .robust.default import make_rng, run_poseonly
 from .robust.gnc import GNCOptions, gnc_irls_batch
@@ -193,7 +193,7 @@ def estimate_relative_pose(
     with _blas_single_thread(), np.errstate(all="ignore"):
         try:
             if method == "poseonly":
-                R, t, w, iters, diag = run_poseonly(f1, f2, o, tau, scores)
+                R, t, w, iters, diag = run_poseonly(f1, f2, cast(PoseonlyOptions, o), tau, scores)
             else:
                 R, t, w, iters, diag = RUNNERS[method](f1, f2, o, tau)
             diag["rank"] = rank

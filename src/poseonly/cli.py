@@ -139,7 +139,9 @@ def cmd_relpose(args) -> int:
     from .pipeline import draw_matches, relpose_images, relpose_matches
 
     _check_draw_target(args.draw)
-    opts = {"method": args.method, "threshold_px": args.threshold, "seed": args.seed}
+    opts = {"method": args.method, "seed": args.seed}
+    if args.threshold is not None:
+        opts["threshold_px"] = args.threshold
     if args.matches:
         from .features import load_matches_npz
 
@@ -226,7 +228,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--focal", type=float)
     r.add_argument("--pp", type=float, nargs=2, metavar=("CX", "CY"))
     r.add_argument("--method", default="poseonly")
-    r.add_argument("--threshold", type=float, default=2.0, help="inlier threshold in pixels")
+    r.add_argument("--threshold", type=float, default=None, help="inlier threshold in pixels (default: the method's; 1 px for the default method)")
     r.add_argument("--ratio", type=float, default=0.8, help="Lowe ratio")
     r.add_argument("--cache", help="feature cache directory")
     r.add_argument("--seed", type=_non_negative_int, default=0)

@@ -217,7 +217,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--overwrite", action="store_true",
                    help="replace the selected pairs' existing two-view geometries (default: keep them and verify "
                         "only the others, which also resumes an interrupted run)")
-    p.add_argument("--threshold", type=float, default=2.0, help="inlier threshold in pixels (default 2.0)")
+    p.add_argument("--threshold", type=float, default=None, help="inlier threshold in pixels (default: the method's, 1 px for the default method)")
     p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"estimation method (default {DEFAULT_METHOD})")
     p.add_argument("--seed", type=int, default=0, help="base seed; each pair's seed derives from it and the pair id")
     p.add_argument("--jobs", type=int, default=1, help="local worker processes (-1: all cores; default 1)")
@@ -231,7 +231,8 @@ def run_cli(args: argparse.Namespace) -> int:
     """Run ``poseonly colmap verify`` from parsed arguments; prints a summary, returns the exit code."""
     s = verify_database(args.database, pairs_file=args.pairs, overwrite=args.overwrite, n_jobs=args.jobs,
                         client=args.dask, chunk_size=args.chunk, write_every=args.write_every,
-                        progress=not args.no_progress, method=args.method, threshold_px=args.threshold, seed=args.seed)
+                        progress=not args.no_progress, method=args.method, seed=args.seed,
+                        **({} if args.threshold is None else {"threshold_px": args.threshold}))
     print(f"{s.selected} pairs selected, {s.skipped} already verified (kept), {s.written} written in {s.time_s:.1f} s")
     if s.skipped and not s.written:
         print("  every selected pair already had a two-view geometry: pass --overwrite to replace them with poseonly's")

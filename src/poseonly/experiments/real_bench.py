@@ -52,7 +52,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -112,7 +112,7 @@ def ours(method: str = "poseonly", use_scores: bool = False, **options: Any) -> 
 
         extra = {"scores": scores} if use_scores else {}
         r = estimate_relative_pose(u1, u2, K1, K2, method=method, seed=int(seed), **extra, **options)
-        good = r.status not in ("degenerate", "failed") and np.all(np.isfinite(r.R))
+        good = r.status not in ("degenerate", "failed") and r.R is not None and np.all(np.isfinite(r.R))
         return MethodOutput(r.R if good else None, r.t if good else None, np.asarray(r.inliers, bool), r.status)
 
     return run
@@ -767,22 +767,23 @@ def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly",
         u1, u2, _ = pair_matches(p, cache)
         e_gt = sampson_error_px(u1, u2, p.K1, p.K2, p.R, p.t)
         o = estimate_relative_pose(u1, u2, p.K1, p.K2, seed=0)
+        Ro, to = cast(np.ndarray, o.R), cast(np.ndarray, o.t)  # None only for status "degenerate"
         Rp, tp, inlp, _ = poselib_relpose(u1, u2, p.K1, p.K2, threshold_px=1.0, seed=0)
         d: dict[str, Any] = {
             "dataset": p.dataset, "id": p.pid, "matches": len(u1), "gt_1px": int(np.count_nonzero(e_gt < GT_PX)),
-            "R_err": float(rotation_error_deg(p.R, o.R)), "status": o.status, "final_thr_px": float(o.threshold_px),
+            "R_err": float(rotation_error_deg(p.R, Ro)), "status": o.status, "final_thr_px": float(o.threshold_px),
             "inliers": int(o.num_inliers), "inliers_far": int(np.count_nonzero(o.inliers & (e_gt > FAR_PX))),
-            "msac": _msac_cost(u1, u2, p, o.R, o.t), "msac_gt": _msac_cost(u1, u2, p, p.R, p.t),
+            "msac": _msac_cost(u1, u2, p, Ro, to), "msac_gt": _msac_cost(u1, u2, p, p.R, p.t),
             "iterations": int(o.num_iterations), "ref_iterations": _poselib_iterations(u1, u2, p),
         }
         if Rp is not None:
             d.update(ref_R_err=float(rotation_error_deg(p.R, Rp)), ref_inliers=int(np.count_nonzero(inlp)),
                      ref_inliers_far=int(np.count_nonzero(inlp & (e_gt > FAR_PX))), ref_msac=_msac_cost(u1, u2, p, Rp, tp))
-        d["R_err_seeds"] = [float(rotation_error_deg(p.R, estimate_relative_pose(u1, u2, p.K1, p.K2, seed=s).R))
+        d["R_err_seeds"] = [float(rotation_error_deg(p.R, cast(np.ndarray, estimate_relative_pose(u1, u2, p.K1, p.K2, seed=s).R)))
                             for s in range(seeds)]
         for name, opts in (("@1px", {"threshold_px": 1.0}), ("fixed-thr", {"adaptive_threshold": False}),
                            ("no-refine", {"refine": False}), ("min1000", {"min_iterations": 1000, "confidence": 0.9999})):
-            d[f"R_err_{name}"] = float(rotation_error_deg(p.R, estimate_relative_pose(u1, u2, p.K1, p.K2, seed=0, **opts).R))
+            d[f"R_err_{name}"] = float(rotation_error_deg(p.R, cast(np.ndarray, estimate_relative_pose(u1, u2, p.K1, p.K2, seed=0, **opts).R)))
         out.append(d)
     return out
 
