@@ -78,18 +78,26 @@ def main(argv: list[str] | None = None) -> int:
         same &= all(np.array_equal(base[k].result.R, on_dask[k].result.R) for k in base)
         rows.append((f"Dask LocalCluster, {a.jobs} workers (incl. start-up)", td, cpu_s() - c2))
     load = os.getloadavg()
-    print(f"{a.pairs} pairs x {a.points} matches; load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on "
-          f"{os.cpu_count()} cores; results identical across schedules: {same}")
+    print(f"{a.pairs} pairs x {a.points} matches; load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} cores; results identical across schedules: {same}")
     print(f"{'schedule':<48} {'wall s':>8} {'pairs/s':>8} {'speed-up':>8} {'CPU s':>8}")
     for name, t, c in rows:
         print(f"{name:<48} {t:8.2f} {a.pairs / t:8.1f} {t1 / t:8.2f} {c:8.2f}")
     print("CPU s: user + system time of all processes (the parallel overhead, independent of other load)")
     out = Path(a.out or f"batch_throughput_{time.strftime('%Y%m%d-%H%M%S')}")
     out.mkdir(parents=True, exist_ok=True)
-    (out / "batch_throughput.json").write_text(json.dumps(
-        {"pairs": a.pairs, "points": a.points, "jobs": a.jobs, "loadavg": load, "identical": bool(same),
-         "rows": [{"schedule": n, "wall_s": t, "cpu_s": c, "pairs_per_s": a.pairs / t, "speedup": t1 / t}
-                  for n, t, c in rows]}, indent=2))
+    (out / "batch_throughput.json").write_text(
+        json.dumps(
+            {
+                "pairs": a.pairs,
+                "points": a.points,
+                "jobs": a.jobs,
+                "loadavg": load,
+                "identical": bool(same),
+                "rows": [{"schedule": n, "wall_s": t, "cpu_s": c, "pairs_per_s": a.pairs / t, "speedup": t1 / t} for n, t, c in rows],
+            },
+            indent=2,
+        )
+    )
     print(f"wrote {out / 'batch_throughput.json'}")
     return 0
 

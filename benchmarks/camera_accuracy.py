@@ -38,8 +38,7 @@ def main(argv: list[str] | None = None) -> int:
         for name, cam in CAMERAS.items():
             e0, e1 = [], []
             for s in range(a.scenes):
-                sc = make_scene(a.points, camera="pinhole", noise_px=1.0 if mode == "bearing" else 0.0,
-                                outlier_fraction=0.2, seed=s)
+                sc = make_scene(a.points, camera="pinhole", noise_px=1.0 if mode == "bearing" else 0.0, outlier_fraction=0.2, seed=s)
                 nz = np.random.default_rng(1000 + s).standard_normal((2, a.points, 2)) if mode == "pixel" else np.zeros((2, a.points, 2))
                 u1, u2 = PINHOLE.project(sc.f1) + nz[0], PINHOLE.project(sc.f2) + nz[1]
                 d1, d2 = cam.project(sc.f1) + nz[0], cam.project(sc.f2) + nz[1]

@@ -55,8 +55,7 @@ def camera_errors(rec, scene) -> dict:
     s, Q, T = umeyama(np.array(C_est), C_gt)
     rot = [rotation_error_deg(gt[n].R_cw.T, R @ Q.T) for n, R in zip(names, R_est, strict=True)]
     pos = np.linalg.norm((s * np.array(C_est) @ Q.T + T) - C_gt, axis=1)
-    return {"registered": len(names), "rot_med_deg": float(np.median(rot)), "rot_max_deg": float(np.max(rot)),
-            "pos_med_m": float(np.median(pos)), "pos_max_m": float(np.max(pos))}
+    return {"registered": len(names), "rot_med_deg": float(np.median(rot)), "rot_max_deg": float(np.max(rot)), "pos_med_m": float(np.median(pos)), "pos_max_m": float(np.max(pos))}
 
 
 def verified_pairs(pycolmap, db: Path) -> dict:
@@ -110,11 +109,11 @@ def main(argv: list[str] | None = None) -> int:
         base = sd / "matches.db"
         if not base.exists():
             K = scene.K
-            reader = pycolmap.ImageReaderOptions(camera_model="PINHOLE",
-                                                 camera_params=f"{K[0, 0]},{K[1, 1]},{K[0, 2]},{K[1, 2]}")
+            reader = pycolmap.ImageReaderOptions(camera_model="PINHOLE", camera_params=f"{K[0, 0]},{K[1, 1]},{K[0, 2]},{K[1, 2]}")
             ext = pycolmap.FeatureExtractionOptions(max_image_size=a.max_image_size, num_threads=a.threads)
-            pycolmap.extract_features(str(base), str(scene.path / "images"), camera_mode=pycolmap.CameraMode.SINGLE,
-                                      reader_options=reader, extraction_options=ext, device=pycolmap.Device.cpu)
+            pycolmap.extract_features(
+                str(base), str(scene.path / "images"), camera_mode=pycolmap.CameraMode.SINGLE, reader_options=reader, extraction_options=ext, device=pycolmap.Device.cpu
+            )
             mo = pycolmap.FeatureMatchingOptions(skip_geometric_verification=True, num_threads=a.threads)
             pycolmap.match_exhaustive(str(base), matching_options=mo, device=pycolmap.Device.cpu)
         row = {}
@@ -131,14 +130,18 @@ def main(argv: list[str] | None = None) -> int:
             print(scene.name, verifier, json.dumps(row[verifier]), flush=True)
         results[scene.name] = row
     (out / "roundtrip.json").write_text(json.dumps(results, indent=2))
-    lines = [("| scene | verification | verified pairs (CALIBRATED / all) | inlier matches | verify s | mapper | registered "
-             "| rot. median / max (deg) | position median / max (m) |"), "|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        ("| scene | verification | verified pairs (CALIBRATED / all) | inlier matches | verify s | mapper | registered | rot. median / max (deg) | position median / max (m) |"),
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
     for sc, row in results.items():
         for ver, r in row.items():
             for mp in ("incremental", "global"):
                 e = r[mp]
-                head = (f"| {sc} | {ver} | {r['configs'].get('CALIBRATED', 0)} / {sum(r['configs'].values())} "
-                        f"| {r['inlier_matches']} | {r['verify_time_s']:.1f} | {mp} | {e['registered']} |")
+                head = (
+                    f"| {sc} | {ver} | {r['configs'].get('CALIBRATED', 0)} / {sum(r['configs'].values())} "
+                    f"| {r['inlier_matches']} | {r['verify_time_s']:.1f} | {mp} | {e['registered']} |"
+                )
                 if "rot_med_deg" in e:
                     lines.append(f"{head} {e['rot_med_deg']:.3f} / {e['rot_max_deg']:.3f} | {e['pos_med_m']:.4f} / {e['pos_max_m']:.4f} |")
                 else:

@@ -59,13 +59,10 @@ def main() -> None:
                 r = poseonly.estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, seed=s, **opts)
             tim[k].append(time.perf_counter() - t0)
             err[k].append(rotation_error_deg(sc.R, r.R))
-    print(f"{a.camera} {a.scene} {a.outliers:.0%} outliers, {len(floor)} scenes (part {a.part}/{a.parts}); "
-          f"noise floor median {np.median(floor):.4f}")
+    print(f"{a.camera} {a.scene} {a.outliers:.0%} outliers, {len(floor)} scenes (part {a.part}/{a.parts}); noise floor median {np.median(floor):.4f}")
     for k in variants:
-        print(f"  {k}: median {np.median(err[k]):.4f} ({np.median(err[k]) / np.median(floor):.2f}x floor), "
-              f"mean {np.mean(err[k]):.4f}, time {1e3 * np.median(tim[k]):.0f} ms")
-    np.savez(f"/tmp/default_variants_{a.camera}_{a.scene}_{a.outliers}_{a.part}.npz", floor=floor,
-             **{k: v for k, v in err.items()})
+        print(f"  {k}: median {np.median(err[k]):.4f} ({np.median(err[k]) / np.median(floor):.2f}x floor), mean {np.mean(err[k]):.4f}, time {1e3 * np.median(tim[k]):.0f} ms")
+    np.savez(f"/tmp/default_variants_{a.camera}_{a.scene}_{a.outliers}_{a.part}.npz", floor=floor, **{k: v for k, v in err.items()})
 
 
 if __name__ == "__main__":

@@ -43,9 +43,44 @@ from poseonly.sim import default_K, make_scene
 
 FAST = {"max_iterations": 150, "min_iterations": 20}
 SPECIAL = [0.0, -0.0, 1.0, -1.0, 1e-300, 1e300, -1e300, 1e154, 1.7e308, 5e-324, np.nan, np.inf, -np.inf]
-VALUES = [None, True, False, 0, 1, -1, 7, 10**6, 2.0, -2.0, 0.5, 1e300, 1e-300, np.nan, np.inf, -np.inf, "", "x", "median",
-          "mad", "5pt", "lirp", "ligt", "msac", "count", "ms-tls", np.float32(2.0), np.int64(7), np.True_, np.int32(-1),
-          np.float16(0.5), [1, 2], {"a": 1}, 6.5, 30, 3]
+VALUES = [
+    None,
+    True,
+    False,
+    0,
+    1,
+    -1,
+    7,
+    10**6,
+    2.0,
+    -2.0,
+    0.5,
+    1e300,
+    1e-300,
+    np.nan,
+    np.inf,
+    -np.inf,
+    "",
+    "x",
+    "median",
+    "mad",
+    "5pt",
+    "lirp",
+    "ligt",
+    "msac",
+    "count",
+    "ms-tls",
+    np.float32(2.0),
+    np.int64(7),
+    np.True_,
+    np.int32(-1),
+    np.float16(0.5),
+    [1, 2],
+    {"a": 1},
+    6.5,
+    30,
+    3,
+]
 
 
 class Invalid(AssertionError):
@@ -54,6 +89,7 @@ class Invalid(AssertionError):
 
 def check_result(r, n: int) -> None:
     """The invariants of a :class:`poseonly.RelativePoseResult` (as in tests/test_properties.py)."""
+
     def need(c, msg):
         if not c:
             raise Invalid(msg)
@@ -143,15 +179,19 @@ def _opts(rng, method):
 
 
 def _scene(rng):
-    return make_scene(int(rng.integers(8, 61)), str(rng.choice(["normal", "planar", "rotation"])),
-                      camera=str(rng.choice(["wide", "pinhole"])), noise_px=float(rng.choice([0.0, 0.5, 2.0])),
-                      outlier_fraction=float(rng.choice([0.0, 0.3, 0.8])), seed=int(rng.integers(10**6)))
+    return make_scene(
+        int(rng.integers(8, 61)),
+        str(rng.choice(["normal", "planar", "rotation"])),
+        camera=str(rng.choice(["wide", "pinhole"])),
+        noise_px=float(rng.choice([0.0, 0.5, 2.0])),
+        outlier_fraction=float(rng.choice([0.0, 0.3, 0.8])),
+        seed=int(rng.integers(10**6)),
+    )
 
 
 def case(rng) -> tuple[str, object]:
     """One case: ``(family, thunk)``; the thunk returns ``(result | None, n)``."""
-    fam = str(rng.choice(["arrays", "scene", "random", "duplicates", "options", "lowlevel", "cli"],
-                         p=[0.25, 0.2, 0.1, 0.1, 0.15, 0.12, 0.08]))
+    fam = str(rng.choice(["arrays", "scene", "random", "duplicates", "options", "lowlevel", "cli"], p=[0.25, 0.2, 0.1, 0.1, 0.15, 0.12, 0.08]))
     est = poseonly.estimate_relative_pose
     if fam == "arrays":
         n, c = int(rng.integers(0, 41)), int(rng.choice([2, 2, 2, 3, 3, 1, 4]))
@@ -162,8 +202,7 @@ def case(rng) -> tuple[str, object]:
         return fam, lambda: (est(x1, x2, K, **FAST), len(x1))
     if fam == "scene":
         sc, m = _scene(rng), str(rng.choice(list(poseonly.METHODS)))
-        o = dict(FAST) if m == "poseonly" else ({"max_iterations": 5, "sample_size": min(30, len(sc.f1))}
-                                                  if m == "gnc-ransac" else {})
+        o = dict(FAST) if m == "poseonly" else ({"max_iterations": 5, "sample_size": min(30, len(sc.f1))} if m == "gnc-ransac" else {})
         pix = bool(rng.integers(2)) and np.all(sc.X[:, 2] > 0)
         if pix:
             return fam, lambda: (est(sc.u1, sc.u2, sc.K, method=m, **o), len(sc.f1))
@@ -194,9 +233,11 @@ def case(rng) -> tuple[str, object]:
         fn = str(rng.choice(["gnc_irls", "gnc_ransac", "lirp"]))
         sc = _scene(rng)
         f1 = sc.f1 if rng.integers(2) else _array(rng, len(sc.f1), 3)
-        names = {"gnc_irls": ["noise_bound", "residual", "schedule", "scale", "max_iterations", "eps0", "weights"],
-                 "gnc_ransac": ["seed", "sample_size", "max_iterations", "adaptive", "residual", "schedule", "scale"],
-                 "lirp": ["rank_tol", "weights"]}[fn]
+        names = {
+            "gnc_irls": ["noise_bound", "residual", "schedule", "scale", "max_iterations", "eps0", "weights"],
+            "gnc_ransac": ["seed", "sample_size", "max_iterations", "adaptive", "residual", "schedule", "scale"],
+            "lirp": ["rank_tol", "weights"],
+        }[fn]
         kw = {str(k): VALUES[rng.integers(len(VALUES))] for k in rng.choice(names, size=min(len(names), int(rng.integers(0, 4))), replace=False)}
         if fn == "gnc_ransac":
             kw.setdefault("theta", 2.5e-3 if rng.integers(2) else VALUES[rng.integers(len(VALUES))])
@@ -214,9 +255,34 @@ def case(rng) -> tuple[str, object]:
 
         return fam, low
     # cli
-    words = ["--threshold", "-1", "0", "nan", "inf", "2", "--focal", "500", "-3", "--pp", "320", "240", "--method",
-             "lirp", "gnc-irls", "bogus", "--seed", "-2", "7", "--json", "--draw", "x.xyz", "--K", "missing.txt",
-             "--ratio", "1.5"]
+    words = [
+        "--threshold",
+        "-1",
+        "0",
+        "nan",
+        "inf",
+        "2",
+        "--focal",
+        "500",
+        "-3",
+        "--pp",
+        "320",
+        "240",
+        "--method",
+        "lirp",
+        "gnc-irls",
+        "bogus",
+        "--seed",
+        "-2",
+        "7",
+        "--json",
+        "--draw",
+        "x.xyz",
+        "--K",
+        "missing.txt",
+        "--ratio",
+        "1.5",
+    ]
     args = [str(w) for w in rng.choice(words, size=int(rng.integers(0, 7)))]
     n = int(rng.integers(0, 31))
     u1, u2 = _array(rng, n, 2), _array(rng, n, 2)
@@ -302,14 +368,23 @@ def main(argv: list[str] | None = None) -> int:
     total = Counter()
     for c in counts.values():
         total.update(c)
-    rows = [f"| {fam} | {sum(c.values())} | {c['result']} | {c['error']} | {c['invalid']} | {c['crash']} | {c['hang']} |"
-            for fam, c in sorted(counts.items())]
-    rows.append(f"| **all** | {sum(total.values())} | {total['result']} | {total['error']} | {total['invalid']} | "
-                f"{total['crash']} | {total['hang']} |")
+    rows = [f"| {fam} | {sum(c.values())} | {c['result']} | {c['error']} | {c['invalid']} | {c['crash']} | {c['hang']} |" for fam, c in sorted(counts.items())]
+    rows.append(f"| **all** | {sum(total.values())} | {total['result']} | {total['error']} | {total['invalid']} | {total['crash']} | {total['hang']} |")
     cmd = "POSEONLY_NUMBA=0 PYTHONPATH=src python benchmarks/fuzz.py " + " ".join(argv if argv is not None else sys.argv[1:])
-    md = "\n".join(["## Fuzzing the public API and the CLI (benchmarks/fuzz.py)", "", f"Command: `{cmd}`; {time.perf_counter() - t0:.0f} s.", "",
-                    "| family | cases | valid result | InputError | invalid result | crash | hang |",
-                    "|---|---|---|---|---|---|---|", *rows, "", *(bad[:50] or ["No crash, hang or invalid result."]), ""])
+    md = "\n".join(
+        [
+            "## Fuzzing the public API and the CLI (benchmarks/fuzz.py)",
+            "",
+            f"Command: `{cmd}`; {time.perf_counter() - t0:.0f} s.",
+            "",
+            "| family | cases | valid result | InputError | invalid result | crash | hang |",
+            "|---|---|---|---|---|---|---|",
+            *rows,
+            "",
+            *(bad[:50] or ["No crash, hang or invalid result."]),
+            "",
+        ]
+    )
     print(md)
     if a.out is not None:
         from poseonly._fileutil import atomic_write_text

@@ -101,8 +101,7 @@ def main(argv: list[str] | None = None) -> None:
         "baseline_m": baseline,
         "convention": "X2 = R X1 + t (camera 1 -> camera 2), E = [t]x R, x2^T E x1 = 0, unit t; "
         "R_12 = R_2^T R_1, t_12 ~ R_2^T (C_1 - C_2) from the .camera files (R camera->world, C centre)",
-        "pixel_convention": "OpenCV: integer pixel coordinates at pixel centres; K scaled as "
-        "fx' = s fx, fy' = s fy, cx' = s (cx + 0.5) - 0.5, cy' = s (cy + 0.5) - 0.5",
+        "pixel_convention": "OpenCV: integer pixel coordinates at pixel centres; K scaled as fx' = s fx, fy' = s fy, cx' = s (cx + 0.5) - 0.5, cy' = s (cy + 0.5) - 0.5",
         "resize": f"cv2.resize INTER_AREA, JPEG quality {args.quality}",
         "match_stats": stats,
         "provenance": PROVENANCE,

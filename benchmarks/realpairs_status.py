@@ -32,8 +32,7 @@ def main(argv: list[str] | None = None) -> int:
     for ds in ("kitti_seq1", "middlebury_temple"):
         pairs = json.loads((a.root / ds / "pairs.json").read_text())["pairs"]
         for p in pairs[:: max(1, len(pairs) // a.per_dataset)][: a.per_dataset]:
-            pr = relpose_images(a.root / ds / p["im1"], a.root / ds / p["im2"], np.array(p["K1"]), np.array(p["K2"]),
-                                cache_dir=a.cache)
+            pr = relpose_images(a.root / ds / p["im1"], a.root / ds / p["im2"], np.array(p["K1"]), np.array(p["K2"]), cache_dir=a.cache)
             r = pr.result
             er = float(rotation_error_deg(np.array(p["R"]), r.R)) if r.R is not None else float("nan")
             et = float(translation_error_deg(np.array(p["t"]), r.t)) if r.t is not None else float("nan")

@@ -88,13 +88,11 @@ def main() -> None:
     t30 = timing(30, methods)
     t300 = timing(300, methods)
     print(f"rotation error (deg), 1 px, n = 30, {args.scenes} scenes each; translation error (deg) mean in []")
-    print(f"{'method':22s} {'normal mean':>11s} {'median':>8s} {'[t]':>7s} {'planar mean':>12s} {'median':>8s} {'[t]':>7s}"
-          f" {'ms n=30':>8s} {'ms n=300':>9s}")
+    print(f"{'method':22s} {'normal mean':>11s} {'median':>8s} {'[t]':>7s} {'planar mean':>12s} {'median':>8s} {'[t]':>7s} {'ms n=30':>8s} {'ms n=300':>9s}")
     for name in ["LiRP", *methods]:
         rn, tn = acc["normal"][name]
         rp, tp = acc["planar"][name]
-        print(f"{name:22s} {rn.mean():11.4f} {np.median(rn):8.4f} {tn.mean():7.3f} {rp.mean():12.4f} {np.median(rp):8.4f} {tp.mean():7.3f}"
-              f" {t30[name]:8.2f} {t300[name]:9.2f}")
+        print(f"{name:22s} {rn.mean():11.4f} {np.median(rn):8.4f} {tn.mean():7.3f} {rp.mean():12.4f} {np.median(rp):8.4f} {tp.mean():7.3f} {t30[name]:8.2f} {t300[name]:9.2f}")
 
 
 if __name__ == "__main__":

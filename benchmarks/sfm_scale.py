@@ -40,8 +40,7 @@ def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int) ->
     from poseonly.sfm import average_rotations, ligt_positions
     from poseonly.sfm.synthetic import make_scene
 
-    s = make_scene(n, int(n * obs_per_view / TRACK_LENGTH_MEAN), noise_px=0.5, rotation_noise_deg=0.3,
-                   outlier_fraction=outliers, seed=seed)
+    s = make_scene(n, int(n * obs_per_view / TRACK_LENGTH_MEAN), noise_px=0.5, rotation_noise_deg=0.3, outlier_fraction=outliers, seed=seed)
     rss_before = _vm("VmRSS")
     try:
         with open("/proc/self/clear_refs", "w") as fh:
@@ -56,9 +55,17 @@ def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int) ->
         lg = ligt_positions(s.rotations, s.tracks, s.bearings)
         extra = {"times_s": lg.times_s, "rows": lg.info["rows"], "nnz_H": lg.info["nnz_H"]}
     dt = time.perf_counter() - t0
-    return {"stage": stage, "views": n, "edges": len(s.pairs), "tracks": len(s.tracks),
-            "observations": s.tracks.num_observations, "time_s": dt, "rss_before_mib": rss_before,
-            "peak_rss_mib": _vm("VmHWM"), **extra}
+    return {
+        "stage": stage,
+        "views": n,
+        "edges": len(s.pairs),
+        "tracks": len(s.tracks),
+        "observations": s.tracks.num_observations,
+        "time_s": dt,
+        "rss_before_mib": rss_before,
+        "peak_rss_mib": _vm("VmHWM"),
+        **extra,
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -78,23 +85,32 @@ def main(argv: list[str] | None = None) -> int:
     env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
     for n in a.views:
         for st in a.stages:
-            r = subprocess.run([sys.executable, __file__, "--child", st, str(n), "--obs-per-view", str(a.obs_per_view),
-                                "--outliers", str(a.outliers), "--seed", str(a.seed)],
-                               capture_output=True, text=True, env=env, check=False)
+            r = subprocess.run(
+                [sys.executable, __file__, "--child", st, str(n), "--obs-per-view", str(a.obs_per_view), "--outliers", str(a.outliers), "--seed", str(a.seed)],
+                capture_output=True,
+                text=True,
+                env=env,
+                check=False,
+            )
             if r.returncode != 0:
                 print(r.stderr[-2000:], file=sys.stderr)
                 return 1
             row = json.loads(r.stdout.strip().splitlines()[-1])
             rows.append(row)
-            print(f"{st:20s} views {n:6d} obs {row['observations']:8d} edges {row['edges']:7d}: "
-                  f"{row['time_s']:8.2f} s, peak RSS {row['peak_rss_mib']:8.1f} MiB (scene {row['rss_before_mib']:.0f} MiB)", flush=True)
+            print(
+                f"{st:20s} views {n:6d} obs {row['observations']:8d} edges {row['edges']:7d}: "
+                f"{row['time_s']:8.2f} s, peak RSS {row['peak_rss_mib']:8.1f} MiB (scene {row['rss_before_mib']:.0f} MiB)",
+                flush=True,
+            )
     growth = {}
     for st in a.stages:
         rr = [r for r in rows if r["stage"] == st]
         if len(rr) >= 2:
             x = np.log([r["observations"] for r in rr])
-            growth[st] = {"time_exponent": float(np.polyfit(x, np.log([r["time_s"] for r in rr]), 1)[0]),
-                          "memory_exponent": float(np.polyfit(x, np.log([r["peak_rss_mib"] for r in rr]), 1)[0])}
+            growth[st] = {
+                "time_exponent": float(np.polyfit(x, np.log([r["time_s"] for r in rr]), 1)[0]),
+                "memory_exponent": float(np.polyfit(x, np.log([r["peak_rss_mib"] for r in rr]), 1)[0]),
+            }
     for st, g in growth.items():
         print(f"{st}: time ~ obs^{g['time_exponent']:.2f}, peak memory ~ obs^{g['memory_exponent']:.2f}")
     Path(a.out).parent.mkdir(parents=True, exist_ok=True)

@@ -95,8 +95,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rotation-draws", type=int, default=100, help="draws per outlier ratio")
     p.add_argument("--max-iterations", type=int, default=None, help="RANSAC cap (default: the library's)")
     p.add_argument("--workers", type=int, default=1)
-    p.add_argument("--parts", nargs="+", choices=("random", "rotation", "genuine"), default=["random", "rotation"],
-                   help="genuine: the power side (ok rate on real poses, pinhole, 0.5 px, --outliers)")
+    p.add_argument(
+        "--parts",
+        nargs="+",
+        choices=("random", "rotation", "genuine"),
+        default=["random", "rotation"],
+        help="genuine: the power side (ok rate on real poses, pinhole, 0.5 px, --outliers)",
+    )
     p.add_argument("--out", type=Path, default=None)
     a = p.parse_args(argv)
     if a.draws < 1 or a.rotation_draws < 1 or a.workers < 1 or any(n < 6 for n in a.sizes):
@@ -107,41 +112,74 @@ def main(argv: list[str] | None = None) -> int:
         for n in a.sizes:
             draws = a.draws_large if (a.large is not None and a.draws_large and n >= a.large) else a.draws
             st = Counter(_run(_random_case, [(kind, n, SEED_BASE + d, a.max_iterations) for d in range(draws)], a.workers))
-            rows.append(f"| random {kind} | {n} | {draws} | {st['ok']} | {st['too_few_inliers']} | "
-                        f"{st['pure_rotation']} | {st['planar_ambiguous']} | {st['degenerate']} |")
+            rows.append(f"| random {kind} | {n} | {draws} | {st['ok']} | {st['too_few_inliers']} | {st['pure_rotation']} | {st['planar_ambiguous']} | {st['degenerate']} |")
             print(rows[-1], flush=True)
     rot_rows = []
     for w in a.outliers if "rotation" in a.parts else ():
-        st = Counter(_run(_rotation_case, [(a.rotation_n, w, SEED_BASE + d, a.max_iterations)
-                                           for d in range(a.rotation_draws)], a.workers))
-        rot_rows.append(f"| {100 * w:.0f} % | {a.rotation_n} | {a.rotation_draws} | {st['ok']} | {st['pure_rotation']} "
-                        f"({100 * st['pure_rotation'] / a.rotation_draws:.1f} %) | {st['too_few_inliers']} | "
-                        f"{st['planar_ambiguous'] + st['degenerate']} |")
+        st = Counter(_run(_rotation_case, [(a.rotation_n, w, SEED_BASE + d, a.max_iterations) for d in range(a.rotation_draws)], a.workers))
+        rot_rows.append(
+            f"| {100 * w:.0f} % | {a.rotation_n} | {a.rotation_draws} | {st['ok']} | {st['pure_rotation']} "
+            f"({100 * st['pure_rotation'] / a.rotation_draws:.1f} %) | {st['too_few_inliers']} | "
+            f"{st['planar_ambiguous'] + st['degenerate']} |"
+        )
         print(rot_rows[-1], flush=True)
     gen_rows = []
     for w in a.outliers if "genuine" in a.parts else ():
-        st = Counter(_run(_genuine_case, [(a.rotation_n, w, SEED_BASE + d, a.max_iterations)
-                                          for d in range(a.rotation_draws)], a.workers))
+        st = Counter(_run(_genuine_case, [(a.rotation_n, w, SEED_BASE + d, a.max_iterations) for d in range(a.rotation_draws)], a.workers))
         wrong = sum(v for k, v in st.items() if k.endswith("-wrong"))
-        gen_rows.append(f"| {100 * w:.0f} % | {a.rotation_n} | {a.rotation_draws} | {st['ok']} "
-                        f"({100 * st['ok'] / a.rotation_draws:.1f} %) | {st['ok-wrong']} | {st['too_few_inliers']} | "
-                        f"{a.rotation_draws - st['ok'] - st['ok-wrong'] - st['too_few_inliers']} | {wrong} |")
+        gen_rows.append(
+            f"| {100 * w:.0f} % | {a.rotation_n} | {a.rotation_draws} | {st['ok']} "
+            f"({100 * st['ok'] / a.rotation_draws:.1f} %) | {st['ok-wrong']} | {st['too_few_inliers']} | "
+            f"{a.rotation_draws - st['ok'] - st['ok-wrong'] - st['too_few_inliers']} | {wrong} |"
+        )
         print(gen_rows[-1], flush=True)
     cap = "the library default (100000)" if a.max_iterations is None else str(a.max_iterations)
     cmd = "POSEONLY_NUMBA=0 PYTHONPATH=src python benchmarks/status_calibration.py " + " ".join(argv or sys.argv[1:])
-    md = "\n".join([
-        "## Status calibration (benchmarks/status_calibration.py)", "",
-        f"Command: `{cmd}`  ", f"RANSAC iteration cap: {cap}; wall time {time.perf_counter() - t0:.0f} s.", "",
-        *(["Random matches (no pose exists; every `ok` is a false alarm):", "",
-           "| data | n | draws | ok | too_few_inliers | pure_rotation | planar_ambiguous | degenerate |",
-           "|---|---|---|---|---|---|---|---|", *rows, ""] if rows else []),
-        *(["Pure rotation (t = 0, 0.5 px noise; `ok` is wrong, `pure_rotation` is right):", "",
-           "| outliers | n | draws | ok | pure_rotation | too_few_inliers | other |", "|---|---|---|---|---|---|---|",
-           *rot_rows, ""] if rot_rows else []),
-        *(["Genuine poses (pinhole, 0.5 px noise; `ok` with a rotation error < 1 deg is right):", "",
-           "| outliers | n | draws | ok (right) | ok but wrong | too_few_inliers | other | any status, wrong R |",
-           "|---|---|---|---|---|---|---|---|", *gen_rows, ""] if gen_rows else []),
-    ])
+    md = "\n".join(
+        [
+            "## Status calibration (benchmarks/status_calibration.py)",
+            "",
+            f"Command: `{cmd}`  ",
+            f"RANSAC iteration cap: {cap}; wall time {time.perf_counter() - t0:.0f} s.",
+            "",
+            *(
+                [
+                    "Random matches (no pose exists; every `ok` is a false alarm):",
+                    "",
+                    "| data | n | draws | ok | too_few_inliers | pure_rotation | planar_ambiguous | degenerate |",
+                    "|---|---|---|---|---|---|---|---|",
+                    *rows,
+                    "",
+                ]
+                if rows
+                else []
+            ),
+            *(
+                [
+                    "Pure rotation (t = 0, 0.5 px noise; `ok` is wrong, `pure_rotation` is right):",
+                    "",
+                    "| outliers | n | draws | ok | pure_rotation | too_few_inliers | other |",
+                    "|---|---|---|---|---|---|---|",
+                    *rot_rows,
+                    "",
+                ]
+                if rot_rows
+                else []
+            ),
+            *(
+                [
+                    "Genuine poses (pinhole, 0.5 px noise; `ok` with a rotation error < 1 deg is right):",
+                    "",
+                    "| outliers | n | draws | ok (right) | ok but wrong | too_few_inliers | other | any status, wrong R |",
+                    "|---|---|---|---|---|---|---|---|",
+                    *gen_rows,
+                    "",
+                ]
+                if gen_rows
+                else []
+            ),
+        ]
+    )
     print(md)
     if a.out is not None:
         from poseonly._fileutil import atomic_write_text

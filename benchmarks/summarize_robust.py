@@ -19,8 +19,16 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
 DEFAULT = [REPO / "docs/results/robust_wide/robust.json", REPO / "docs/results/robust_pinhole/robust.json"]
-COLUMNS = ["poseonly (default)", "GNC-RANSAC (paper)", "GNC-IRLS (pixel bound)", "OpenCV USAC_MAGSAC", "PoseLib (default)",
-           "OpenCV USAC_MAGSAC (3 px)", "PoseLib (default, 3 px)", "noise floor (ML on true inliers)"]
+COLUMNS = [
+    "poseonly (default)",
+    "GNC-RANSAC (paper)",
+    "GNC-IRLS (pixel bound)",
+    "OpenCV USAC_MAGSAC",
+    "PoseLib (default)",
+    "OpenCV USAC_MAGSAC (3 px)",
+    "PoseLib (default, 3 px)",
+    "noise floor (ML on true inliers)",
+]
 FLOOR = COLUMNS[-1]
 
 
@@ -37,8 +45,7 @@ def _err(r: dict, scene: str) -> float:
 def main(argv: list[str] | None = None) -> int:
     paths = [Path(p) for p in (argv if argv else DEFAULT)]
     tables = [_index(p) for p in paths]
-    print("| camera, scene | outliers | default | GNC-RANSAC (paper) | GNC-IRLS | MAGSAC | PoseLib default | MAGSAC 3 px | PoseLib 3 px "
-          "| noise floor |")
+    print("| camera, scene | outliers | default | GNC-RANSAC (paper) | GNC-IRLS | MAGSAC | PoseLib default | MAGSAC 3 px | PoseLib 3 px | noise floor |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for cam, idx in tables:
         for scene in ("normal", "planar"):
@@ -58,16 +65,20 @@ def main(argv: list[str] | None = None) -> int:
             fl = idx[(scene, 0.8, FLOOR)]["median"]
             a, p = idx[(scene, 0.8, COLUMNS[0])], idx[(scene, 0.8, "PoseLib (default)")]
             p3 = idx.get((scene, 0.8, "PoseLib (default, 3 px)"))
-            print(f"{cam} {scene}, 80 % outliers: default / floor {a['median'] / fl:.2f} (vs truth), {_err(a, scene) / fl:.2f} "
-                  f"(nearer of truth and twin); PoseLib default / floor {_err(p, scene) / fl:.2f}"
-                  + (f", PoseLib 3 px / floor {_err(p3, scene) / fl:.2f}" if p3 else "")
-                  + f"; default time / PoseLib time {a['time_ms'] / p['time_ms']:.2f}")
+            print(
+                f"{cam} {scene}, 80 % outliers: default / floor {a['median'] / fl:.2f} (vs truth), {_err(a, scene) / fl:.2f} "
+                f"(nearer of truth and twin); PoseLib default / floor {_err(p, scene) / fl:.2f}"
+                + (f", PoseLib 3 px / floor {_err(p3, scene) / fl:.2f}" if p3 else "")
+                + f"; default time / PoseLib time {a['time_ms'] / p['time_ms']:.2f}"
+            )
             for o in (0.0, 0.2, 0.4, 0.5):
                 a, m, p = idx[(scene, o, COLUMNS[0])], idx[(scene, o, "OpenCV USAC_MAGSAC")], idx[(scene, o, "PoseLib (default)")]
                 p3 = idx.get((scene, o, "PoseLib (default, 3 px)"))
-                print(f"    {o * 100:.0f} %: default time / MAGSAC time {a['time_ms'] / m['time_ms']:.2f} ({a['time_ms']:.1f} / "
-                      f"{m['time_ms']:.1f} ms); median default {_err(a, scene):.3g}, PoseLib {_err(p, scene):.3g}, MAGSAC {_err(m, scene):.3g}"
-                      + (f", PoseLib 3 px {_err(p3, scene):.3g}" if p3 else ""))
+                print(
+                    f"    {o * 100:.0f} %: default time / MAGSAC time {a['time_ms'] / m['time_ms']:.2f} ({a['time_ms']:.1f} / "
+                    f"{m['time_ms']:.1f} ms); median default {_err(a, scene):.3g}, PoseLib {_err(p, scene):.3g}, MAGSAC {_err(m, scene):.3g}"
+                    + (f", PoseLib 3 px {_err(p3, scene):.3g}" if p3 else "")
+                )
     return 0
 
 

@@ -42,8 +42,7 @@ def test_serial_pool_dask_identical():
     pooled = _summary(poseonly.estimate_relative_poses(pairs, n_jobs=2, chunk_size=2, progress=False, seed=7))
     _same(serial, pooled)
     distributed = pytest.importorskip("dask.distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc, \
-            distributed.Client(lc) as client:
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc, distributed.Client(lc) as client:
         on_dask = _summary(poseonly.estimate_relative_poses(iter(pairs), client=client, chunk_size=2, progress=False, seed=7))
     _same(serial, on_dask)
 
@@ -83,8 +82,7 @@ def test_dask_lost_worker():
     distributed = pytest.importorskip("dask.distributed")
     pairs = _pairs(8)
     serial = _summary(poseonly.estimate_relative_poses(pairs, progress=False))
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc, \
-            distributed.Client(lc) as client:
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc, distributed.Client(lc) as client:
         out = []
         for k, r in enumerate(poseonly.estimate_relative_poses(pairs, client=client, chunk_size=1, progress=False)):
             out.append(r)

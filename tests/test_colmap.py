@@ -68,8 +68,7 @@ def make_db(path, n_images=6, n_points=150, seed=0):
 
 def _rows(path):
     with closing(sqlite3.connect(path)) as con:  # closed before pycolmap opens the file (two SQLite copies)
-        return con.execute("SELECT pair_id, rows, cols, data, config, F, E, H, qvec, tvec FROM two_view_geometries "
-                           "ORDER BY pair_id").fetchall()
+        return con.execute("SELECT pair_id, rows, cols, data, config, F, E, H, qvec, tvec FROM two_view_geometries ORDER BY pair_id").fetchall()
 
 
 def _check_consistent(path):
@@ -152,8 +151,7 @@ def test_kill_and_resume(tmp_path):
     total = len(_rows(ref))
     assert total == 28
     env = {**os.environ, "PYTHONPATH": SRC}
-    cmd = [sys.executable, "-c", "import sys; from poseonly.cli import main; sys.exit(main())", "colmap", "verify", str(path),
-           "--seed", "3", "--write-every", "2", "--no-progress"]
+    cmd = [sys.executable, "-c", "import sys; from poseonly.cli import main; sys.exit(main())", "colmap", "verify", str(path), "--seed", "3", "--write-every", "2", "--no-progress"]
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     n = 0
     deadline = time.time() + 120

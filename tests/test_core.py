@@ -17,9 +17,16 @@ from reference import gnc as ref_gnc
 from reference import lirp as ref_lirp
 from reference import residuals as ref_res
 
-REF = {"sampson": ref_res.v_sampson, "sampson-chiral": ref_res.v_sampson_chiral, "ligt": ref_res.v_LiGT,
-       "coplanar": ref_res.v_E, "ppo": ref_res.v_PPO, "ba": ref_res.v_BA, "opengv": ref_res.v_OpenGV,
-       "opengv-symmetric": lambda R, t, f1, f2: ref_res.v_OpenGV(R, t, f1, f2, symmetric=True)}
+REF = {
+    "sampson": ref_res.v_sampson,
+    "sampson-chiral": ref_res.v_sampson_chiral,
+    "ligt": ref_res.v_LiGT,
+    "coplanar": ref_res.v_E,
+    "ppo": ref_res.v_PPO,
+    "ba": ref_res.v_BA,
+    "opengv": ref_res.v_OpenGV,
+    "opengv-symmetric": lambda R, t, f1, f2: ref_res.v_OpenGV(R, t, f1, f2, symmetric=True),
+}
 
 
 def _rot(rng):
@@ -78,12 +85,12 @@ def test_lirp_extreme_weights(weights):
     assert rotation_error_deg(ref.R, r.R) < 1e-6
 
 
-@pytest.mark.parametrize("residual,all_cand,scale", [("ligt", False, "median"), ("ligt", False, "mad"), ("sampson-chiral", True, None),
-                                                     ("ppo", False, "median"), ("ba", False, "median")])
+@pytest.mark.parametrize(
+    "residual,all_cand,scale", [("ligt", False, "median"), ("ligt", False, "mad"), ("sampson-chiral", True, None), ("ppo", False, "median"), ("ba", False, "median")]
+)
 def test_gnc_matches_reference_loop(residual, all_cand, scale):
     s = sim.make_scene(60, noise_px=1.0, outlier_fraction=0.3, seed=7)
-    opts = GNCOptions(noise_bound=2.0 / 800 if scale is None else None, scale=scale or "median", max_iterations=40,
-                      mu0=1e3 if scale is None else None)
+    opts = GNCOptions(noise_bound=2.0 / 800 if scale is None else None, scale=scale or "median", max_iterations=40, mu0=1e3 if scale is None else None)
     est = get_estimator("lirp-all" if all_cand else "lirp", residual)
     g = gnc_irls_batch(s.f1[None], s.f2[None], est, opts, detect_cycles=False)
     R, t, w, v, c, it, conv = ref_gnc.gnc_irls(s.f1, s.f2, opts, residual, all_cand)

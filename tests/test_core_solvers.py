@@ -295,8 +295,7 @@ def _sampson_scipy(R0, t0, f1, f2, loss, scale):
         den = np.sum(Ef1**2, axis=1) + np.sum(Etf2**2, axis=1) - 2 * num**2
         return num / np.sqrt(den)
 
-    res = least_squares(fun, np.zeros(5), method="lm" if loss == "linear" else "trf", loss=loss, f_scale=scale,
-                        ftol=1e-15, xtol=1e-15, gtol=1e-15, max_nfev=200)
+    res = least_squares(fun, np.zeros(5), method="lm" if loss == "linear" else "trf", loss=loss, f_scale=scale, ftol=1e-15, xtol=1e-15, gtol=1e-15, max_nfev=200)
     return chart.retract(res.x)
 
 

@@ -24,8 +24,7 @@ from poseonly.options import OPTIONS
 from poseonly.result import STATUSES
 from poseonly.sim import default_K, make_scene
 
-SETTINGS = settings(derandomize=True, max_examples=12, deadline=None, database=None,
-                    suppress_health_check=list(HealthCheck))
+SETTINGS = settings(derandomize=True, max_examples=12, deadline=None, database=None, suppress_health_check=list(HealthCheck))
 # the default method on data without a pose would run its full 100000 iterations: cap it in tests
 FAST = {"max_iterations": 150, "min_iterations": 20}
 
@@ -66,8 +65,7 @@ def call(fn, *args, **kw):
 # ------------------------------------------------------------------------------------------------
 # strategies
 
-special_floats = st.sampled_from([0.0, -0.0, 1.0, -1.0, 1e-300, -1e-300, 1e300, -1e300, 1e154, 1.7e308, np.nan, np.inf,
-                                  -np.inf, 5e-324])
+special_floats = st.sampled_from([0.0, -0.0, 1.0, -1.0, 1e-300, -1e-300, 1e300, -1e300, 1e154, 1.7e308, np.nan, np.inf, -np.inf, 5e-324])
 floats = st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64), special_floats)
 
 
@@ -130,16 +128,45 @@ scene_kinds = st.sampled_from(["normal", "planar", "rotation"])
 @st.composite
 def scenes(draw):
     n = draw(st.integers(8, 60))
-    sc = make_scene(n, draw(scene_kinds), camera=draw(st.sampled_from(["wide", "pinhole"])),
-                    noise_px=draw(st.sampled_from([0.0, 0.5, 2.0])), outlier_fraction=draw(st.sampled_from([0.0, 0.3, 0.8])),
-                    seed=draw(st.integers(0, 10**6)))
+    sc = make_scene(
+        n,
+        draw(scene_kinds),
+        camera=draw(st.sampled_from(["wide", "pinhole"])),
+        noise_px=draw(st.sampled_from([0.0, 0.5, 2.0])),
+        outlier_fraction=draw(st.sampled_from([0.0, 0.3, 0.8])),
+        seed=draw(st.integers(0, 10**6)),
+    )
     return sc
 
 
 option_values = st.one_of(
-    st.none(), st.booleans(), st.integers(-5, 10**6), floats, st.text(max_size=8),
-    st.sampled_from([np.float32(2.0), np.int64(7), np.True_, np.float64(np.inf), np.int32(-1), np.float16(0.5),
-                     "median", "mad", "5pt", "lirp", "ligt", "msac", "count", "ms-tls", 1e300, 1e-300, [1, 2], {"a": 1}]),
+    st.none(),
+    st.booleans(),
+    st.integers(-5, 10**6),
+    floats,
+    st.text(max_size=8),
+    st.sampled_from(
+        [
+            np.float32(2.0),
+            np.int64(7),
+            np.True_,
+            np.float64(np.inf),
+            np.int32(-1),
+            np.float16(0.5),
+            "median",
+            "mad",
+            "5pt",
+            "lirp",
+            "ligt",
+            "msac",
+            "count",
+            "ms-tls",
+            1e300,
+            1e-300,
+            [1, 2],
+            {"a": 1},
+        ]
+    ),
 )
 
 
@@ -150,8 +177,7 @@ def option_dicts(draw, method):
     opts = {k: draw(option_values) for k in keys}
     if method == "poseonly":
         for k, v in FAST.items():
-            if not (k in opts and isinstance(opts[k], (int, np.integer)) and not isinstance(opts[k], bool)
-                    and 0 <= opts[k] <= 300):
+            if not (k in opts and isinstance(opts[k], (int, np.integer)) and not isinstance(opts[k], bool) and 0 <= opts[k] <= 300):
                 opts[k] = v
     if method == "gnc-ransac" and "max_iterations" not in opts:
         opts["max_iterations"] = 5
@@ -245,8 +271,7 @@ def test_threshold_and_focal_extremes(thr, focal):
 
 def test_numpy_scalars_and_messages():
     sc = make_scene(30, seed=3)
-    r = poseonly.estimate_relative_pose(sc.f1, sc.f2, threshold_px=np.float32(2.0), min_inliers=np.int64(10),
-                                        refine=np.True_, seed=np.int64(4), **FAST)
+    r = poseonly.estimate_relative_pose(sc.f1, sc.f2, threshold_px=np.float32(2.0), min_inliers=np.int64(10), refine=np.True_, seed=np.int64(4), **FAST)
     check_result(r, 30)
     with pytest.raises(InputError, match="must be of type bool") as e:
         poseonly.estimate_relative_pose(sc.f1, sc.f2, refine=1)
@@ -266,9 +291,11 @@ low_values = st.one_of(option_values, st.integers(-3, 60))
 def test_low_level_functions(data, fn):
     sc = make_scene(data.draw(st.integers(6, 40)), data.draw(scene_kinds), seed=data.draw(st.integers(0, 99)))
     f1, f2 = (sc.f1, sc.f2) if data.draw(st.booleans()) else (data.draw(arrays(len(sc.f1), 3)), sc.f2)
-    names = {"gnc_irls": ["noise_bound", "residual", "schedule", "scale", "max_iterations", "eps0", "weights"],
-             "gnc_ransac": ["seed", "sample_size", "max_iterations", "adaptive", "residual", "schedule", "scale"],
-             "lirp": ["rank_tol", "weights"]}[fn]
+    names = {
+        "gnc_irls": ["noise_bound", "residual", "schedule", "scale", "max_iterations", "eps0", "weights"],
+        "gnc_ransac": ["seed", "sample_size", "max_iterations", "adaptive", "residual", "schedule", "scale"],
+        "lirp": ["rank_tol", "weights"],
+    }[fn]
     kw = {k: data.draw(low_values) for k in data.draw(st.lists(st.sampled_from(names), max_size=3, unique=True))}
     if fn == "gnc_ransac":
         kw["theta"] = data.draw(st.one_of(st.just(2.5e-3), low_values))
@@ -286,9 +313,39 @@ def test_low_level_functions(data, fn):
 # ------------------------------------------------------------------------------------------------
 # the CLI
 
-cli_args = st.lists(st.sampled_from(["--threshold", "-1", "0", "nan", "inf", "2", "--focal", "500", "-3", "--pp", "320",
-                                     "240", "--method", "lirp", "gnc-irls", "bogus", "--seed", "-2", "7", "--json",
-                                     "--draw", "x.xyz", "--K", "missing.txt", "--ratio", "1.5"]), max_size=6)
+cli_args = st.lists(
+    st.sampled_from(
+        [
+            "--threshold",
+            "-1",
+            "0",
+            "nan",
+            "inf",
+            "2",
+            "--focal",
+            "500",
+            "-3",
+            "--pp",
+            "320",
+            "240",
+            "--method",
+            "lirp",
+            "gnc-irls",
+            "bogus",
+            "--seed",
+            "-2",
+            "7",
+            "--json",
+            "--draw",
+            "x.xyz",
+            "--K",
+            "missing.txt",
+            "--ratio",
+            "1.5",
+        ]
+    ),
+    max_size=6,
+)
 
 
 @SETTINGS

@@ -84,8 +84,7 @@ def test_small_run_on_temple(tmp_path):
     pytest.importorskip("cv2")
     pytest.importorskip("poselib")
     out = tmp_path / "out"
-    argv = [str(TEMPLE), "--max-pairs", "2", "--methods", "poseonly", "poselib-1px", "--out", str(out),
-            "--cache", str(tmp_path / "cache")]
+    argv = [str(TEMPLE), "--max-pairs", "2", "--methods", "poseonly", "poselib-1px", "--out", str(out), "--cache", str(tmp_path / "cache")]
     assert rb.main(argv) == 0
     res = json.loads((out / "real_bench.json").read_text())
     assert [p["id"] for p in res["pairs"]] == [p["id"] for p in json.loads((TEMPLE / "pairs.json").read_text())["pairs"][:2]]
@@ -98,8 +97,7 @@ def test_small_run_on_temple(tmp_path):
     assert len(files) == 2
     again = rb.compute([TEMPLE], methods=["poseonly"], cache=tmp_path / "cache", max_pairs=2)
     assert [p["matches"] for p in again["pairs"]] == [p["matches"] for p in res["pairs"]]
-    assert [p["methods"]["poseonly"][0]["R_err"] for p in again["pairs"]] == pytest.approx(
-        [p["methods"]["poseonly"][0]["R_err"] for p in res["pairs"]])
+    assert [p["methods"]["poseonly"][0]["R_err"] for p in again["pairs"]] == pytest.approx([p["methods"]["poseonly"][0]["R_err"] for p in res["pairs"]])
 
 
 @pytest.mark.parametrize("name", ["superansac", "opencv-magsac", "poselib-1px"])

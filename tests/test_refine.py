@@ -78,8 +78,7 @@ def test_ligt_jacobian_matches_finite_differences(norm):
     for k in range(5):
         e = np.zeros(5)
         e[k] = h
-        Jn[:, k] = (_residual_and_jacobian(chart, x + e, sc.f1, sc.f2, sw, False, norm)[0]
-                    - _residual_and_jacobian(chart, x - e, sc.f1, sc.f2, sw, False, norm)[0]) / (2 * h)
+        Jn[:, k] = (_residual_and_jacobian(chart, x + e, sc.f1, sc.f2, sw, False, norm)[0] - _residual_and_jacobian(chart, x - e, sc.f1, sc.f2, sw, False, norm)[0]) / (2 * h)
     assert np.abs(J - Jn).max() < 1e-6 * max(1.0, np.abs(J).max())
 
 

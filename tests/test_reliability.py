@@ -54,12 +54,15 @@ def test_real_pose_stays_ok_with_small_support():
 # errors instead of crashes
 
 
-@pytest.mark.parametrize("edit,msg", [
-    (lambda K: K.__setitem__((1, 1), -K[0, 0]), "positive focal"),  # fx = -fy
-    (lambda K: K.__setitem__((slice(0, 2), slice(0, 2)), -K[:2, :2]), "positive focal"),
-    (lambda K: K.__setitem__((0, 0), 0.0), "positive focal|singular"),
-    (lambda K: K.__setitem__((2, 0), 0.3), "upper triangular"),
-])
+@pytest.mark.parametrize(
+    "edit,msg",
+    [
+        (lambda K: K.__setitem__((1, 1), -K[0, 0]), "positive focal"),  # fx = -fy
+        (lambda K: K.__setitem__((slice(0, 2), slice(0, 2)), -K[:2, :2]), "positive focal"),
+        (lambda K: K.__setitem__((0, 0), 0.0), "positive focal|singular"),
+        (lambda K: K.__setitem__((2, 0), 0.3), "upper triangular"),
+    ],
+)
 def test_bad_intrinsics(edit, msg):
     sc = make_scene(30, camera="pinhole", seed=1)
     K = sc.K.copy()
@@ -68,22 +71,30 @@ def test_bad_intrinsics(edit, msg):
         estimate_relative_pose(sc.u1, sc.u2, K)
 
 
-@pytest.mark.parametrize("kw", [{"threshold_px": 1e157}, {"threshold_px": 1e-300}, {"focal_px": 1e300},
-                                {"focal_px": 1e-155}, {"threshold_px": np.inf}, {"threshold_px": np.nan}])
+@pytest.mark.parametrize("kw", [{"threshold_px": 1e157}, {"threshold_px": 1e-300}, {"focal_px": 1e300}, {"focal_px": 1e-155}, {"threshold_px": np.inf}, {"threshold_px": np.nan}])
 def test_threshold_overflow_is_an_error(kw):
     sc = make_scene(30, seed=1)
     with pytest.raises(InputError, match="threshold|focal"):
         estimate_relative_pose(sc.f1, sc.f2, **kw)
 
 
-@pytest.mark.parametrize("fn,kw", [
-    ("gnc_ransac", {"theta": None}), ("gnc_ransac", {"theta": 2e-3, "sample_size": 0}),
-    ("gnc_ransac", {"theta": 2e-3, "sample_size": 6.5}), ("gnc_ransac", {"theta": 2e-3, "max_iterations": None}),
-    ("gnc_ransac", {"theta": 2e-3, "max_iterations": 0}), ("gnc_ransac", {"theta": 2e-3, "seed": None}),
-    ("gnc_ransac", {"theta": 2e-3, "seed": -1}), ("gnc_ransac", {"theta": np.inf}),
-    ("gnc_irls", {"noise_bound": "mad"}), ("gnc_irls", {"max_iterations": 2.5}), ("lirp", {"rank_tol": "a"}),
-    ("lirp", {"rank_tol": np.nan}),
-])
+@pytest.mark.parametrize(
+    "fn,kw",
+    [
+        ("gnc_ransac", {"theta": None}),
+        ("gnc_ransac", {"theta": 2e-3, "sample_size": 0}),
+        ("gnc_ransac", {"theta": 2e-3, "sample_size": 6.5}),
+        ("gnc_ransac", {"theta": 2e-3, "max_iterations": None}),
+        ("gnc_ransac", {"theta": 2e-3, "max_iterations": 0}),
+        ("gnc_ransac", {"theta": 2e-3, "seed": None}),
+        ("gnc_ransac", {"theta": 2e-3, "seed": -1}),
+        ("gnc_ransac", {"theta": np.inf}),
+        ("gnc_irls", {"noise_bound": "mad"}),
+        ("gnc_irls", {"max_iterations": 2.5}),
+        ("lirp", {"rank_tol": "a"}),
+        ("lirp", {"rank_tol": np.nan}),
+    ],
+)
 def test_low_level_wrong_types(fn, kw):
     sc = make_scene(40, seed=1)
     with pytest.raises(InputError):
@@ -92,8 +103,7 @@ def test_low_level_wrong_types(fn, kw):
 
 def test_low_level_numpy_scalars_accepted():
     sc = make_scene(40, seed=1)
-    r = poseonly.gnc_ransac(sc.f1, sc.f2, theta=np.float32(2.5e-3), seed=np.int64(3), sample_size=np.int32(20),
-                            max_iterations=np.int64(5))
+    r = poseonly.gnc_ransac(sc.f1, sc.f2, theta=np.float32(2.5e-3), seed=np.int64(3), sample_size=np.int32(20), max_iterations=np.int64(5))
     assert poseonly.rotation_error_deg(sc.R, r.R) < 1.0
     assert poseonly.lirp(sc.f1, sc.f2, rank_tol=np.float64(1e-9)).status == "ok"
 

@@ -41,7 +41,7 @@ def test_tracks_union_and_min_length():
     tr3 = tracks_from_arrays([0, 1, 0], [5, 7, 1], [1, 2, 3], [7, 9, 2], min_length=3)
     assert _track_set(tr3) == {frozenset({(0, 5), (1, 7), (2, 9)})}
     assert tr3.num_short == 1
-    assert np.all(np.diff(tr.views[tr.ptr[0]:tr.ptr[1]]) > 0)  # sorted by view
+    assert np.all(np.diff(tr.views[tr.ptr[0] : tr.ptr[1]]) > 0)  # sorted by view
 
 
 def test_tracks_conflict_split_keeps_heavier_matches_and_drop_removes():

@@ -20,8 +20,7 @@ def sfm_run(tmp_path_factory):
     if not (SCENE / "images" / "K.txt").is_file():
         pytest.skip("shared Strecha data not available")
     out = tmp_path_factory.mktemp("sfm")
-    rc = main(["sfm", str(SCENE / "images"), "--K", str(SCENE / "images" / "K.txt"), "--out", str(out),
-               "--max-images", str(N_IMAGES), "--max-features", "2000", "--no-progress"])
+    rc = main(["sfm", str(SCENE / "images"), "--K", str(SCENE / "images" / "K.txt"), "--out", str(out), "--max-images", str(N_IMAGES), "--max-features", "2000", "--no-progress"])
     return rc, out
 
 

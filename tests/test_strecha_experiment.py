@@ -78,8 +78,7 @@ def test_strecha_experiment_on_demo_scene(tmp_path: Path, capsys) -> None:
     # the second run reuses the cached features and matches
     assert list((cache / "matches").glob("*.npz")) and len(list(cache.glob("sift_*.npz"))) == 2
     capsys.readouterr()
-    rc = main(["experiment", "strecha", str(root), "--out", str(out), "--cache", str(cache),
-               "--methods", "poseonly", "poselib", "--threshold-px", "1", "3"])
+    rc = main(["experiment", "strecha", str(root), "--out", str(out), "--cache", str(cache), "--methods", "poseonly", "poselib", "--threshold-px", "1", "3"])
     assert rc == 0
     res2 = json.loads((out / "strecha.json").read_text())
     assert res2["methods"] == ["poseonly@1px", "poseonly@3px", "poselib"]
@@ -102,8 +101,9 @@ def test_strecha_experiment_errors(tmp_path: Path, capsys) -> None:
 @pytest.mark.skipif(not (STRECHA / "Herz-Jesus-P8").is_dir(), reason="Strecha data not available (set POSEONLY_STRECHA)")
 def test_strecha_experiment_real_subset(tmp_path: Path) -> None:
     out = tmp_path / "out"
-    rc = main(["experiment", "strecha", str(STRECHA), "--scenes", "Herz-Jesus-P8", "--max-pairs", "3",
-               "--max-features", "4000", "--out", str(out), "--cache", str(tmp_path / "cache")])
+    rc = main(
+        ["experiment", "strecha", str(STRECHA), "--scenes", "Herz-Jesus-P8", "--max-pairs", "3", "--max-features", "4000", "--out", str(out), "--cache", str(tmp_path / "cache")]
+    )
     assert rc == 0
     res = _check_outputs(out, ["Herz-Jesus-P8"], 3)
     assert [(r["i"], r["j"]) for r in res["pairs"]] == [(0, 1), (0, 2), (0, 3)]

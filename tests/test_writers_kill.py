@@ -114,9 +114,9 @@ def test_writer_survives_sigkill(kind, tmp_path):
     # the next write (a new process that is not killed) removes the dead writers' temp files
     proc = _spawn(kind, target)
     t_end = time.time() + 60
-    while time.time() < t_end and not (target.exists() and _complete(kind, target)
-                                       and not [f for f in tmp_path.iterdir() if f.name != target.name and
-                                                f".{os.getpid()}." not in f.name and _dead_temp(f)]):
+    while time.time() < t_end and not (
+        target.exists() and _complete(kind, target) and not [f for f in tmp_path.iterdir() if f.name != target.name and f".{os.getpid()}." not in f.name and _dead_temp(f)]
+    ):
         time.sleep(0.05)
     proc.send_signal(signal.SIGKILL)
     proc.wait()

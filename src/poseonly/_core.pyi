@@ -10,31 +10,80 @@ LIRP_CANDIDATES: int
 
 def residual_matrix(kind: int, R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64]) -> NDArray[np.float64]: ...
 def lirp_batch(f1: NDArray[np.float64], f2: NDArray[np.float64], w: NDArray[np.float64] | None = None, all_costs: bool = True) -> dict[str, Any]: ...
-def identify(E: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], w: NDArray[np.float64] | None = None,
-             with_cost: bool = True) -> dict[str, Any]: ...
-def gnc_irls_batch(f1: NDArray[np.float64], f2: NDArray[np.float64], w0: NDArray[np.float64] | None = None,
-                   options: dict[str, Any] = ...) -> dict[str, Any]: ...
-def ransac_relpose(f1: NDArray[np.float64], f2: NDArray[np.float64], threshold: float, seed: int, solver: int = 0, scoring: int = 1,
-                   max_iterations: int = 100000, min_iterations: int = 50, confidence: float = 0.999, max_lo: int = 8, lo_mu0: float = 1e3,
-                   lo_iterations: int = 10, lo_residual: int = 1, order: NDArray[np.int64] | None = None,
-                   lo: int = 0, rival_distance: float = 0.0) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
-def relpose_lo(R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], threshold: float,
-               lo_mu0: float = 1e3, lo_iterations: int = 10, lo_residual: int = 1, lo: int = 0) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]: ...
-def ml_refine(R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], range: float, rounds: int = 6,
-              lm_iterations: int = 10) -> dict[str, Any]: ...
-def gnc_ransac(f1: NDArray[np.float64], f2: NDArray[np.float64], theta: float, seed: int, sample_size: int = 30, max_iterations: int = 50,
-               adaptive: bool = False, confidence: float = 0.99,
-               gnc: dict[str, Any] = ...) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
-def ransac_line(xy: NDArray[np.float64], threshold: float, seed: int, max_iterations: int = 1000, confidence: float = 0.999, max_lo: int = 8,
-                scoring: int = 0) -> tuple[tuple[float, float, float], dict[str, Any]]: ...
+def identify(E: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], w: NDArray[np.float64] | None = None, with_cost: bool = True) -> dict[str, Any]: ...
+def gnc_irls_batch(f1: NDArray[np.float64], f2: NDArray[np.float64], w0: NDArray[np.float64] | None = None, options: dict[str, Any] = ...) -> dict[str, Any]: ...
+def ransac_relpose(
+    f1: NDArray[np.float64],
+    f2: NDArray[np.float64],
+    threshold: float,
+    seed: int,
+    solver: int = 0,
+    scoring: int = 1,
+    max_iterations: int = 100000,
+    min_iterations: int = 50,
+    confidence: float = 0.999,
+    max_lo: int = 8,
+    lo_mu0: float = 1e3,
+    lo_iterations: int = 10,
+    lo_residual: int = 1,
+    order: NDArray[np.int64] | None = None,
+    lo: int = 0,
+    rival_distance: float = 0.0,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
+def relpose_lo(
+    R: NDArray[np.float64],
+    t: NDArray[np.float64],
+    f1: NDArray[np.float64],
+    f2: NDArray[np.float64],
+    threshold: float,
+    lo_mu0: float = 1e3,
+    lo_iterations: int = 10,
+    lo_residual: int = 1,
+    lo: int = 0,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]: ...
+def ml_refine(
+    R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], range: float, rounds: int = 6, lm_iterations: int = 10
+) -> dict[str, Any]: ...
+def gnc_ransac(
+    f1: NDArray[np.float64],
+    f2: NDArray[np.float64],
+    theta: float,
+    seed: int,
+    sample_size: int = 30,
+    max_iterations: int = 50,
+    adaptive: bool = False,
+    confidence: float = 0.99,
+    gnc: dict[str, Any] = ...,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
+def ransac_line(
+    xy: NDArray[np.float64], threshold: float, seed: int, max_iterations: int = 1000, confidence: float = 0.999, max_lo: int = 8, scoring: int = 0
+) -> tuple[tuple[float, float, float], dict[str, Any]]: ...
 def fivept(f1: NDArray[np.float64], f2: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
 def fivept_batch(f1: NDArray[np.float64], f2: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]: ...
 def fivept_essentials(f1: NDArray[np.float64], f2: NDArray[np.float64]) -> NDArray[np.float64]: ...
-def refine_sampson(R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64],
-                   w: NDArray[np.float64] | None = None, loss: str = "linear", loss_scale: float | None = None, max_iterations: int = 50,
-                   tol: float = 1e-12) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
-def refine_ligt(R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64],
-                w: NDArray[np.float64] | None = None, normalization: str = "none", loss: str = "linear", loss_scale: float | None = None,
-                max_iterations: int = 50, tol: float = 1e-12) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
-def _refine_residuals(kind: int, R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64],
-                      x: NDArray[np.float64], w: NDArray[np.float64] | None = None) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+def refine_sampson(
+    R: NDArray[np.float64],
+    t: NDArray[np.float64],
+    f1: NDArray[np.float64],
+    f2: NDArray[np.float64],
+    w: NDArray[np.float64] | None = None,
+    loss: str = "linear",
+    loss_scale: float | None = None,
+    max_iterations: int = 50,
+    tol: float = 1e-12,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
+def refine_ligt(
+    R: NDArray[np.float64],
+    t: NDArray[np.float64],
+    f1: NDArray[np.float64],
+    f2: NDArray[np.float64],
+    w: NDArray[np.float64] | None = None,
+    normalization: str = "none",
+    loss: str = "linear",
+    loss_scale: float | None = None,
+    max_iterations: int = 50,
+    tol: float = 1e-12,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
+def _refine_residuals(
+    kind: int, R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], x: NDArray[np.float64], w: NDArray[np.float64] | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...

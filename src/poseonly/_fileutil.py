@@ -65,7 +65,7 @@ def clean_stale_temps(path: str | os.PathLike) -> int:
         name = f.name
         if not name.startswith(prefix):
             continue
-        rest = name[len(prefix):]
+        rest = name[len(prefix) :]
         stale = False
         if name.endswith(TMP_SUFFIX):
             pid = rest.split(".", 1)[0]
@@ -127,8 +127,7 @@ def atomic_savefig(fig: Any, path: str | os.PathLike, **kw: Any) -> Path:
     fmt = path.suffix.lower().lstrip(".")
     supported = fig.canvas.get_supported_filetypes()
     if fmt not in supported:
-        raise ValueError(f"cannot write a figure as {path.name!r}: the suffix must be one of "
-                         f"{sorted('.' + k for k in supported)}")
+        raise ValueError(f"cannot write a figure as {path.name!r}: the suffix must be one of {sorted('.' + k for k in supported)}")
     with atomic_open(path, "wb") as fh:
         fig.savefig(fh, format=fmt, **kw)
     return path

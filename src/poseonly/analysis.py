@@ -67,8 +67,7 @@ def polish(R, t, f1, f2, tau):
         if inl.sum() < 6:
             return R, t
     try:
-        r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization="angular", max_iter=20,
-                        solver=REFINE_SOLVER)
+        r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization="angular", max_iter=20, solver=REFINE_SOLVER)
     except ValueError:  # a degenerate candidate: keep it unpolished
         return R, t
     if np.all(np.isfinite(r.R)) and np.all(np.isfinite(r.t)):
@@ -140,8 +139,7 @@ def chance_rate(R, t, f1, f2, tau) -> float:
     with add-one smoothing (never 0)."""
     perms = _permutations(len(f1))
     reps = len(perms)
-    v = v_sampson(np.broadcast_to(R, (reps, 3, 3)), np.broadcast_to(t, (reps, 3)),
-                  np.broadcast_to(f1, (reps,) + f1.shape), f2[perms])  # (reps, n)
+    v = v_sampson(np.broadcast_to(R, (reps, 3, 3)), np.broadcast_to(t, (reps, 3)), np.broadcast_to(f1, (reps,) + f1.shape), f2[perms])  # (reps, n)
     return float((np.count_nonzero(v < tau) + 1) / (v.size + 2))
 
 

@@ -14,8 +14,7 @@ import numpy as np
 __all__ = ["opencv_relpose", "poselib_relpose", "ANCHORS", "available_anchors"]
 
 
-def opencv_relpose(u1, u2, K1, K2=None, *, method: str = "RANSAC", threshold_px: float = 1.0, max_iters: int | None = None,
-                   prob: float = 0.999):
+def opencv_relpose(u1, u2, K1, K2=None, *, method: str = "RANSAC", threshold_px: float = 1.0, max_iters: int | None = None, prob: float = 0.999):
     """``cv2.findEssentialMat`` + ``cv2.recoverPose`` (classic ``RANSAC`` or ``USAC_MAGSAC``).
 
     With different ``K1, K2`` the points are first normalised and an identity camera is used with
@@ -31,6 +30,7 @@ def opencv_relpose(u1, u2, K1, K2=None, *, method: str = "RANSAC", threshold_px:
         K = np.asarray(K1, float)
         p1, p2, thr = u1, u2, threshold_px
     else:
+
         def norm(u, K):
             h = np.column_stack([u, np.ones(len(u))]) @ np.linalg.inv(K).T
             return np.ascontiguousarray(h[:, :2] / h[:, 2:])
@@ -55,8 +55,7 @@ def poselib_relpose(u1, u2, K1, K2=None, *, threshold_px: float = 1.0, max_itera
     K2 = K1 if K2 is None else K2
 
     def cam(K):
-        return {"model": "PINHOLE", "width": int(2 * K[0, 2] + 1), "height": int(2 * K[1, 2] + 1),
-                "params": [float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2])]}
+        return {"model": "PINHOLE", "width": int(2 * K[0, 2] + 1), "height": int(2 * K[1, 2] + 1), "params": [float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2])]}
 
     ro = {"max_epipolar_error": float(threshold_px), "seed": int(seed)}
     if max_iterations is not None:

@@ -181,8 +181,7 @@ def estimate_relative_pose(
     scores = _check_scores(scores, n)
     focal = _focal(K1, K2, o.focal_px) if cam_focal is None or o.focal_px is not None else cam_focal
     thr_px = float(o.threshold_px)
-    tau = check_angle("the angular threshold threshold_px / focal", thr_px / focal,
-                      f" (threshold_px = {thr_px:g}, focal = {focal:g} px)")
+    tau = check_angle("the angular threshold threshold_px / focal", thr_px / focal, f" (threshold_px = {thr_px:g}, focal = {focal:g} px)")
     with _blas_single_thread(), np.errstate(all="ignore"):
         rank = _epipolar_rank(f1, f2)
     if rank < MIN_EPIPOLAR_RANK:
@@ -201,9 +200,9 @@ def estimate_relative_pose(
         except np.linalg.LinAlgError as exc:
             # valid but numerically extreme input (e.g. every bearing ~90 deg off the optical axis)
             # on which a solver's linear algebra fails: no pose, and the status says so
-            return degenerate_result(n, rank, method, thr_px, focal, t0,
-                                     reason=f"the {method!r} method failed numerically on this input ({exc}): "
-                                            "the correspondences are numerically degenerate")
+            return degenerate_result(
+                n, rank, method, thr_px, focal, t0, reason=f"the {method!r} method failed numerically on this input ({exc}): the correspondences are numerically degenerate"
+            )
 
 
 _SPEC_NOISE = Spec("real", lo=0.0, lo_open=True)
@@ -218,9 +217,18 @@ _SPEC_SEED = Spec("seed")
 _SPEC_RANK_TOL = Spec("real", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
 
 
-def gnc_irls(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, noise_bound: float | None = None,
-             residual: str = "ligt", schedule: str = "ms-tls", scale: str | float = "median", max_iterations: int = 100,
-             eps0: float = 1e-9):
+def gnc_irls(
+    f1: np.ndarray,
+    f2: np.ndarray,
+    weights: np.ndarray | None = None,
+    *,
+    noise_bound: float | None = None,
+    residual: str = "ligt",
+    schedule: str = "ms-tls",
+    scale: str | float = "median",
+    max_iterations: int = 100,
+    eps0: float = 1e-9,
+):
     """GNC-IRLS (Alg. 2) with LiRP on bearing vectors ``f1, f2 (n, 3)`` (or normalized ``(n, 2)``);
     returns :class:`poseonly.robust.GNCBatchResult` for the single problem (``R (3, 3)``, ``t (3,)``,
     ``weights (n,)``...).
@@ -232,10 +240,13 @@ def gnc_irls(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, 
     f1, f2, w = check_correspondences(f1, f2, weights)
     if noise_bound is not None:
         noise_bound = check_angle("noise_bound", check_value("noise_bound", noise_bound, _SPEC_NOISE))
-    opts = GNCOptions(schedule=check_value("schedule", schedule, _SPEC_SCHEDULE),
-                      scale=check_value("scale", scale, _SPEC_SCALE), noise_bound=noise_bound,
-                      max_iterations=check_value("max_iterations", max_iterations, _SPEC_ITER),
-                      eps0=check_value("eps0", eps0, _SPEC_EPS0))
+    opts = GNCOptions(
+        schedule=check_value("schedule", schedule, _SPEC_SCHEDULE),
+        scale=check_value("scale", scale, _SPEC_SCALE),
+        noise_bound=noise_bound,
+        max_iterations=check_value("max_iterations", max_iterations, _SPEC_ITER),
+        eps0=check_value("eps0", eps0, _SPEC_EPS0),
+    )
     est = lirp_estimator(check_value("residual", residual, _SPEC_RESIDUAL))
     with np.errstate(all="ignore"):
         g = gnc_irls_batch(f1[None], f2[None], est, opts, None if w is None else w[None])
@@ -244,16 +255,25 @@ def gnc_irls(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, 
     return g
 
 
-def gnc_ransac(f1: np.ndarray, f2: np.ndarray, *, theta: float, seed: int | np.random.Generator = 0, sample_size: int = 30,
-               max_iterations: int = 50, adaptive: bool = False, residual: str = "ligt", schedule: str = "ms-tls",
-               scale: str | float = "median"):
+def gnc_ransac(
+    f1: np.ndarray,
+    f2: np.ndarray,
+    *,
+    theta: float,
+    seed: int | np.random.Generator = 0,
+    sample_size: int = 30,
+    max_iterations: int = 50,
+    adaptive: bool = False,
+    residual: str = "ligt",
+    schedule: str = "ms-tls",
+    scale: str | float = "median",
+):
     """The paper's GNC-RANSAC (Alg. 3) on bearing vectors ``f1, f2 (n, 3)`` with inlier threshold
     ``theta`` (radians) on ``v_LiGT`` (e.g. ``threshold_px / focal``). Returns
     :class:`poseonly.robust.RansacResult` (``R (3, 3)``, ``t (3,)``, ``inliers (n,)``). Raises
     :class:`InputError` for bad input."""
     f1, f2, _ = check_correspondences(f1, f2)
-    if theta is None or isinstance(theta, (bool, np.bool_)) or not isinstance(theta, (int, float, np.integer, np.floating)) \
-            or not theta > 0:
+    if theta is None or isinstance(theta, (bool, np.bool_)) or not isinstance(theta, (int, float, np.integer, np.floating)) or not theta > 0:
         raise InputError(f"theta must be a finite angle > 0 (radians), got {type(theta).__name__} {theta!r}")
     theta = check_angle("theta", float(theta))
     sample_size = check_value("sample_size", sample_size, _SPEC_SAMPLE)
@@ -263,9 +283,17 @@ def gnc_ransac(f1: np.ndarray, f2: np.ndarray, *, theta: float, seed: int | np.r
     est = lirp_estimator(check_value("residual", residual, _SPEC_RESIDUAL))
     rng = make_rng(check_value("seed", seed, _SPEC_SEED))
     with np.errstate(all="ignore"):
-        return _gnc_ransac_loop(f1, f2, theta, rng, estimator=est, sample_size=sample_size,
-                                max_iterations=check_value("max_iterations", max_iterations, _SPEC_ITER),
-                                gnc_options=gopts, adaptive=check_value("adaptive", adaptive, _SPEC_BOOL))
+        return _gnc_ransac_loop(
+            f1,
+            f2,
+            theta,
+            rng,
+            estimator=est,
+            sample_size=sample_size,
+            max_iterations=check_value("max_iterations", max_iterations, _SPEC_ITER),
+            gnc_options=gopts,
+            adaptive=check_value("adaptive", adaptive, _SPEC_BOOL),
+        )
 
 
 def lirp(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, rank_tol: float = 1e-9) -> LiRPResult:

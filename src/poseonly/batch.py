@@ -100,8 +100,7 @@ def _run_one(index: int, pair: Pair, options: dict[str, Any]) -> PairResult:
     opts = {**options, **pair.options}
     seed = pair_seed(int(opts.pop("seed", 0)), pair.key)
     try:
-        r = estimate_relative_pose(pair.x1, pair.x2, pair.K1, pair.K2, camera1=pair.camera1, camera2=pair.camera2,
-                                   seed=seed, **opts)
+        r = estimate_relative_pose(pair.x1, pair.x2, pair.K1, pair.K2, camera1=pair.camera1, camera2=pair.camera2, seed=seed, **opts)
     except ValueError as exc:  # invalid input of this pair (InputError is a ValueError)
         return PairResult(index, pair.key, seed, None, str(exc))
     return PairResult(index, pair.key, seed, r)

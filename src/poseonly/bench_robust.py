@@ -70,13 +70,13 @@ def _methods():
     from .anchors import available_anchors, opencv_relpose, poselib_relpose
 
     def ours(sc, s):
-        r = poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=s) if sc.camera == "pinhole" else \
-            poseonly.estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, seed=s)
+        r = poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=s) if sc.camera == "pinhole" else poseonly.estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, seed=s)
         return r.R
 
     def gr(refine):
         def f(sc, s):
             return poseonly.estimate_relative_pose(sc.f1, sc.f2, method="gnc-ransac", refine=refine, focal_px=800.0, seed=s).R
+
         return f
 
     def gi(sc, s):
@@ -122,10 +122,19 @@ def compute(trials: int, cameras=("wide", "pinhole"), outliers=OUTLIERS, n: int 
                 errs[m].append(e)
                 errs_tw[m].append(min(e, float(rotation_error_deg(tw, R))) if (tw is not None and e < 180.0) else e)
         for m in ms:
-            res["rows"].append({"camera": cam, "scene": kind, "outliers": frac, "method": m,
-                                "mean": float(np.mean(errs[m])), "median": float(np.median(errs[m])),
-                                "mean_twin": float(np.mean(errs_tw[m])), "median_twin": float(np.median(errs_tw[m])),
-                                "time_ms": 1e3 * float(np.median(times[m]))})
+            res["rows"].append(
+                {
+                    "camera": cam,
+                    "scene": kind,
+                    "outliers": frac,
+                    "method": m,
+                    "mean": float(np.mean(errs[m])),
+                    "median": float(np.median(errs[m])),
+                    "mean_twin": float(np.mean(errs_tw[m])),
+                    "median_twin": float(np.median(errs_tw[m])),
+                    "time_ms": 1e3 * float(np.median(times[m])),
+                }
+            )
     return res
 
 
@@ -134,8 +143,9 @@ def to_markdown(res: dict) -> str:
     fr = res["outliers"]
     for cam in sorted({r["camera"] for r in res["rows"]}, reverse=True):
         for kind in ("normal", "planar"):
-            for key, label in (("median", "median rotation error (deg)"), ("mean", "mean rotation error (deg)"),
-                               ("time_ms", "median time per call (ms)")) + ((("median_twin", "median error vs nearer of truth and twin (deg)"),) if kind == "planar" else ()):
+            for key, label in (("median", "median rotation error (deg)"), ("mean", "mean rotation error (deg)"), ("time_ms", "median time per call (ms)")) + (
+                (("median_twin", "median error vs nearer of truth and twin (deg)"),) if kind == "planar" else ()
+            ):
                 rows = []
                 for m in res["methods"]:
                     cells = [next(r[key] for r in res["rows"] if r["camera"] == cam and r["scene"] == kind and r["outliers"] == f and r["method"] == m) for f in fr]
@@ -187,10 +197,12 @@ def main(argv: list[str] | None = None) -> int:
     from .experiments.opengv_ransac import code_version
 
     res["code_version"] = code_version()
-    md = (f"Robust benchmark (n = 300, 1 px Gaussian noise, {trials} seeded trials per cell, seed {args.seed}; "
-          f"OpenCV/PoseLib with their 1 px default threshold on the pixel coordinates, poseonly with its defaults; "
-          f"single-threaded; {res['wall_s']:.0f} s; code `{res['code_version']}`; {res['machine']}).\n"
-          f"Command: `poseonly bench robust {' '.join(argv if argv is not None else [])}`\n\n" + to_markdown(res))
+    md = (
+        f"Robust benchmark (n = 300, 1 px Gaussian noise, {trials} seeded trials per cell, seed {args.seed}; "
+        f"OpenCV/PoseLib with their 1 px default threshold on the pixel coordinates, poseonly with its defaults; "
+        f"single-threaded; {res['wall_s']:.0f} s; code `{res['code_version']}`; {res['machine']}).\n"
+        f"Command: `poseonly bench robust {' '.join(argv if argv is not None else [])}`\n\n" + to_markdown(res)
+    )
     out = Path(args.out)
     atomic_write_text(out / "robust.md", md)
     write_json(out / "robust.json", res)

@@ -51,8 +51,10 @@ FRESH_RUNS = 5
 
 _FRESH = {
     "poseonly": "import poseonly; r = poseonly.estimate_relative_pose(d['u1'], d['u2'], d['K'], d['K'])",
-    "poselib": ("import poselib; K = d['K']; c = {'model': 'PINHOLE', 'width': 960, 'height': 640, "
-                "'params': [K[0,0], K[1,1], K[0,2], K[1,2]]}; poselib.estimate_relative_pose(d['u1'], d['u2'], c, c, {}, {})"),
+    "poselib": (
+        "import poselib; K = d['K']; c = {'model': 'PINHOLE', 'width': 960, 'height': 640, "
+        "'params': [K[0,0], K[1,1], K[0,2], K[1,2]]}; poselib.estimate_relative_pose(d['u1'], d['u2'], c, c, {}, {})"
+    ),
     "opencv": "import cv2; E, m = cv2.findEssentialMat(d['u1'], d['u2'], d['K'], cv2.USAC_MAGSAC, 0.999, 1.0); cv2.recoverPose(E, d['u1'], d['u2'], d['K'], mask=m)",
 }
 
@@ -79,8 +81,7 @@ def fresh_process(runs: int) -> dict:
         f = Path(tmp) / "demo.npz"
         np.savez(f, u1=np.ascontiguousarray(m.u1, float), u2=np.ascontiguousarray(m.u2, float), K=np.asarray(d.K1, float))
         for name, stmt in _FRESH.items():
-            code = ("import time, numpy as np; d = dict(np.load(%r)); t0 = time.perf_counter(); %s; "
-                    "print(time.perf_counter() - t0)") % (str(f), stmt)
+            code = ("import time, numpy as np; d = dict(np.load(%r)); t0 = time.perf_counter(); %s; print(time.perf_counter() - t0)") % (str(f), stmt)
             firsts, walls = [], []
             for _ in range(runs):
                 t0 = time.perf_counter()
@@ -142,8 +143,7 @@ def gnc_ransac_row(scenes: int, repeats: int) -> dict:
     from . import estimate_relative_pose, sim
 
     scs = [sim.make_scene(N_POINTS, camera="pinhole", noise_px=NOISE_PX, outlier_fraction=0.3, seed=200 + s) for s in range(scenes)]
-    row = {"gnc_ransac": _median_time(lambda sc: estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, method="gnc-ransac", refine=False),
-                                      scs * repeats)}
+    row = {"gnc_ransac": _median_time(lambda sc: estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, method="gnc-ransac", refine=False), scs * repeats)}
     meths = _methods()
     if "opencv-magsac" in meths:
         row["opencv-magsac"] = _median_time(meths["opencv-magsac"], scs * repeats)
@@ -167,8 +167,7 @@ def threads_row(pairs: int = 8, workers: int = 2) -> dict:
         threaded = list(ex.map(one, scs))
         t_threads = time.perf_counter() - t0
     same = all(np.array_equal(a.R, b.R) for a, b in zip(serial, threaded))
-    return {"pairs": pairs, "workers": workers, "serial_s": t_serial, "threads_s": t_threads, "speedup": t_serial / t_threads,
-            "identical_results": same}
+    return {"pairs": pairs, "workers": workers, "serial_s": t_serial, "threads_s": t_threads, "speedup": t_serial / t_threads, "identical_results": same}
 
 
 def _ms(s: float) -> str:
@@ -180,14 +179,23 @@ def write_report(data: dict, out: Path) -> None:
     lines = ["# Speed (`poseonly bench speed`)", "", f"Machine: {data['machine']}. Command: `{data['command']}`.", ""]
     fp = data.get("fresh_process")
     if fp:
-        lines += ["## Fresh process: import + first estimate on the demo matches", "",
-                  f"{fp['num_matches']} SIFT matches of the demo pair; median of {FRESH_RUNS} new interpreters.", ""]
-        rows = [[k, f"{v['import_first_estimate_s']:.3f} s", f"{v['process_wall_s']:.3f} s"] if "error" not in v else [k, v["error"], ""]
-                for k, v in fp.items() if isinstance(v, dict)]
+        lines += [
+            "## Fresh process: import + first estimate on the demo matches",
+            "",
+            f"{fp['num_matches']} SIFT matches of the demo pair; median of {FRESH_RUNS} new interpreters.",
+            "",
+        ]
+        rows = [
+            [k, f"{v['import_first_estimate_s']:.3f} s", f"{v['process_wall_s']:.3f} s"] if "error" not in v else [k, v["error"], ""] for k, v in fp.items() if isinstance(v, dict)
+        ]
         lines += [markdown_table(["library", "import + first estimate", "whole process"], rows), ""]
     lr = data["lirp"]
-    lines += ["## LiRP", "", markdown_table(["n", "public `poseonly.lirp`", "core, per problem in a batch"],
-                                             [[n, _ms(lr[f"lirp_public_n{n}"]), _ms(lr[f"lirp_core_n{n}"])] for n in (30, 300)]), ""]
+    lines += [
+        "## LiRP",
+        "",
+        markdown_table(["n", "public `poseonly.lirp`", "core, per problem in a batch"], [[n, _ms(lr[f"lirp_public_n{n}"]), _ms(lr[f"lirp_core_n{n}"])] for n in (30, 300)]),
+        "",
+    ]
     e2e = data["end_to_end"]
     names = [k for k in e2e[0] if k not in ("camera", "outliers")]
     rows = []
@@ -198,16 +206,23 @@ def write_report(data: dict, out: Path) -> None:
         if "opencv-magsac" in r:
             row.append(f"{r['poseonly'] / r['opencv-magsac']:.2f}")
         rows.append(row)
-    hdr = ["camera", "outliers"] + names + (["poseonly / PoseLib"] if "poselib" in names else []) + (
-        ["poseonly / MAGSAC"] if "opencv-magsac" in names else [])
+    hdr = ["camera", "outliers"] + names + (["poseonly / PoseLib"] if "poselib" in names else []) + (["poseonly / MAGSAC"] if "opencv-magsac" in names else [])
     lines += [f"## Default method, n = {N_POINTS}, {NOISE_PX} px noise (anchors at {THRESHOLD_PX} px)", "", markdown_table(hdr, rows), ""]
     g = data["gnc_ransac"]
-    lines += ["## GNC-RANSAC (Algorithm 3, 50 samples of 30), 30 % outliers", "",
-              f"GNC-RANSAC {_ms(g['gnc_ransac'])}" + (f", OpenCV MAGSAC {_ms(g['opencv-magsac'])}: ratio "
-                                                       f"{g['gnc_ransac'] / g['opencv-magsac']:.2f}" if "opencv-magsac" in g else ""), ""]
+    lines += [
+        "## GNC-RANSAC (Algorithm 3, 50 samples of 30), 30 % outliers",
+        "",
+        f"GNC-RANSAC {_ms(g['gnc_ransac'])}" + (f", OpenCV MAGSAC {_ms(g['opencv-magsac'])}: ratio {g['gnc_ransac'] / g['opencv-magsac']:.2f}" if "opencv-magsac" in g else ""),
+        "",
+    ]
     t = data["threads"]
-    lines += ["## Threads", "", f"{t['pairs']} pairs: serial {t['serial_s']:.3f} s, {t['workers']} threads {t['threads_s']:.3f} s: "
-              f"speed-up {t['speedup']:.2f}x (identical results: {t['identical_results']}).", ""]
+    lines += [
+        "## Threads",
+        "",
+        f"{t['pairs']} pairs: serial {t['serial_s']:.3f} s, {t['workers']} threads {t['threads_s']:.3f} s: "
+        f"speed-up {t['speedup']:.2f}x (identical results: {t['identical_results']}).",
+        "",
+    ]
     atomic_write_text(out / "speed.md", "\n".join(lines))
 
 

@@ -267,9 +267,11 @@ def _check_points(a: Any, d: int, name: str) -> np.ndarray:
 def _raise_unconverged(ok: np.ndarray, uv: np.ndarray, model: str) -> None:
     if not ok.all():
         bad = np.nonzero(~ok)[0]
-        raise InputError(f"undistortion ({model}) did not converge for {len(bad)} of {len(uv)} points (first: index "
-                         f"{bad[0]}, pixel {uv[bad[0]].tolist()}): the points lie outside the region where the "
-                         "distortion model is invertible")
+        raise InputError(
+            f"undistortion ({model}) did not converge for {len(bad)} of {len(uv)} points (first: index "
+            f"{bad[0]}, pixel {uv[bad[0]].tolist()}): the points lie outside the region where the "
+            "distortion model is invertible"
+        )
 
 
 def from_opencv(K: Any, dist: Any = None, width: int = 0, height: int = 0, *, fisheye: bool = False) -> Camera:
@@ -302,8 +304,7 @@ def from_opencv(K: Any, dist: Any = None, width: int = 0, height: int = 0, *, fi
         full = np.zeros(8)
         full[: len(d)] = d  # OpenCV order k1 k2 p1 p2 k3 k4 k5 k6 = FULL_OPENCV's
         return Camera("FULL_OPENCV", int(width), int(height), tuple(float(v) for v in (*base, *full)))
-    raise InputError(f"OpenCV distortion takes 4, 5 or 8 coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6]]), got {len(d)} "
-                     "(thin-prism / tilt coefficients are not supported)")
+    raise InputError(f"OpenCV distortion takes 4, 5 or 8 coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6]]), got {len(d)} (thin-prism / tilt coefficients are not supported)")
 
 
 def as_camera(spec: Any, name: str = "camera") -> Camera:
@@ -320,8 +321,7 @@ def as_camera(spec: Any, name: str = "camera") -> Camera:
             extra = set(spec) - {"K", "dist", "width", "height", "fisheye"}
             if extra:
                 raise InputError(f"{name}: unknown keys {sorted(extra)} (K-style camera keys: K, dist, width, height, fisheye)")
-            return from_opencv(spec["K"], spec.get("dist"), spec.get("width", 0), spec.get("height", 0),
-                               fisheye=bool(spec.get("fisheye", False)))
+            return from_opencv(spec["K"], spec.get("dist"), spec.get("width", 0), spec.get("height", 0), fisheye=bool(spec.get("fisheye", False)))
         missing = {"model", "params"} - set(spec)
         if missing:
             raise InputError(f"{name}: a camera dict needs keys model, width, height, params (or K, dist); missing {sorted(missing)}")
@@ -335,8 +335,9 @@ def as_camera(spec: Any, name: str = "camera") -> Camera:
         return Camera(model.upper(), int(spec.get("width", 0)), int(spec.get("height", 0)), params)
     if isinstance(spec, tuple) and len(spec) == 2:
         return from_opencv(spec[0], spec[1])
-    raise InputError(f"{name} must be a poseonly Camera, a pycolmap.Camera, a dict {{model, width, height, params}}, "
-                     f"a dict {{K, dist}} or a tuple (K, dist); got {type(spec).__name__}")
+    raise InputError(
+        f"{name} must be a poseonly Camera, a pycolmap.Camera, a dict {{model, width, height, params}}, a dict {{K, dist}} or a tuple (K, dist); got {type(spec).__name__}"
+    )
 
 
 def lift_pair(x1: Any, x2: Any, camera1: Any, camera2: Any = None) -> tuple[np.ndarray, np.ndarray, float]:

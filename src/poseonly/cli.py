@@ -1,12 +1,12 @@
 """Command-line interface (thin: parses, calls the library, prints).
 
-    poseonly demo [--draw out.png] [--json]
-    poseonly relpose IMG1 IMG2 (--K K.txt | --K1 A --K2 B | --focal F [--pp CX CY]) [--json] [--draw out.png]
-    poseonly relpose --matches matches.npz [--K ...]
-    poseonly experiment NAME [--trials N] [--quick] [--out DIR] [...]
-    poseonly bench NAME [...]
-    poseonly colmap verify DATABASE [--pairs FILE] [--overwrite] [--jobs N | --dask ADDRESS]
-    poseonly bench real DIR... [--seeds K] [--methods ...] [--out DIR] [--cache DIR] [--max-pairs N]
+poseonly demo [--draw out.png] [--json]
+poseonly relpose IMG1 IMG2 (--K K.txt | --K1 A --K2 B | --focal F [--pp CX CY]) [--json] [--draw out.png]
+poseonly relpose --matches matches.npz [--K ...]
+poseonly experiment NAME [--trials N] [--quick] [--out DIR] [...]
+poseonly bench NAME [...]
+poseonly colmap verify DATABASE [--pairs FILE] [--overwrite] [--jobs N | --dask ADDRESS]
+poseonly bench real DIR... [--seeds K] [--methods ...] [--out DIR] [--cache DIR] [--max-pairs N]
 """
 
 from __future__ import annotations

@@ -200,8 +200,7 @@ def verify_database(
             buf.clear()
             src.direct.clear()
 
-        for pr in estimate_relative_poses(src, n_jobs=n_jobs, client=client, chunk_size=chunk_size, progress=progress,
-                                          **options):
+        for pr in estimate_relative_poses(src, n_jobs=n_jobs, client=client, chunk_size=chunk_size, progress=progress, **options):
             buf.append(src.row(pr))
             if len(buf) + len(src.direct) >= write_every:
                 flush()
@@ -214,9 +213,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     """The options of ``poseonly colmap verify``."""
     p.add_argument("database", help="COLMAP database file (database.db) with cameras, keypoints and matches")
     p.add_argument("--pairs", help="only these pairs: a text file of 'IMAGE_NAME1 IMAGE_NAME2' lines")
-    p.add_argument("--overwrite", action="store_true",
-                   help="replace the selected pairs' existing two-view geometries (default: keep them and verify "
-                        "only the others, which also resumes an interrupted run)")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the selected pairs' existing two-view geometries (default: keep them and verify only the others, which also resumes an interrupted run)",
+    )
     p.add_argument("--threshold", type=float, default=None, help="inlier threshold in pixels (default: the method's, 1 px for the default method)")
     p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"estimation method (default {DEFAULT_METHOD})")
     p.add_argument("--seed", type=int, default=0, help="base seed; each pair's seed derives from it and the pair id")
@@ -229,16 +230,24 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run_cli(args: argparse.Namespace) -> int:
     """Run ``poseonly colmap verify`` from parsed arguments; prints a summary, returns the exit code."""
-    s = verify_database(args.database, pairs_file=args.pairs, overwrite=args.overwrite, n_jobs=args.jobs,
-                        client=args.dask, chunk_size=args.chunk, write_every=args.write_every,
-                        progress=not args.no_progress, method=args.method, seed=args.seed,
-                        **({} if args.threshold is None else {"threshold_px": args.threshold}))
+    s = verify_database(
+        args.database,
+        pairs_file=args.pairs,
+        overwrite=args.overwrite,
+        n_jobs=args.jobs,
+        client=args.dask,
+        chunk_size=args.chunk,
+        write_every=args.write_every,
+        progress=not args.no_progress,
+        method=args.method,
+        seed=args.seed,
+        **({} if args.threshold is None else {"threshold_px": args.threshold}),
+    )
     print(f"{s.selected} pairs selected, {s.skipped} already verified (kept), {s.written} written in {s.time_s:.1f} s")
     if s.skipped and not s.written:
         print("  every selected pair already had a two-view geometry: pass --overwrite to replace them with poseonly's")
     for cfg, k in sorted(s.configs.items()):
         print(f"  {cfg}: {k}")
     if s.errors:
-        print(f"  {len(s.errors)} pairs with invalid input (UNDEFINED), e.g. pair {next(iter(s.errors))}: "
-              f"{next(iter(s.errors.values()))}")
+        print(f"  {len(s.errors)} pairs with invalid input (UNDEFINED), e.g. pair {next(iter(s.errors))}: {next(iter(s.errors.values()))}")
     return 0

@@ -50,10 +50,7 @@ def _cv2() -> Any:
     try:
         import cv2  # noqa: PLC0415
     except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise ImportError(
-            "OpenCV is required for image features and matching; install it with "
-            "`pip install poseonly[opencv]` (or `pip install opencv-python-headless`)"
-        ) from exc
+        raise ImportError("OpenCV is required for image features and matching; install it with `pip install poseonly[opencv]` (or `pip install opencv-python-headless`)") from exc
     return cv2
 
 
@@ -289,8 +286,7 @@ def _check_desc(d: np.ndarray, name: str) -> np.ndarray:
     return np.ascontiguousarray(d)
 
 
-def match_features(d1: np.ndarray, d2: np.ndarray, ratio: float = 0.8, mutual: bool = False,
-                   return_scores: bool = False) -> Any:
+def match_features(d1: np.ndarray, d2: np.ndarray, ratio: float = 0.8, mutual: bool = False, return_scores: bool = False) -> Any:
     """Match descriptors with Lowe's ratio test; returns ``(k, 2)`` int index pairs ``(i1, i2)``
     (and with ``return_scores`` also their quality ``1 - dist1 / dist2`` ``(k,)``, higher is better:
     the PROSAC order of :func:`poseonly.estimate_relative_pose`).
@@ -415,8 +411,7 @@ def load_matches_npz(path: str | os.PathLike) -> MatchData:
         missing = [k for k in ("u1", "u2") if k not in keys]
         if missing:
             raise InputError(
-                f"{src} lacks required key(s) {missing}; expected 'u1', 'u2' ((k, 2) pixels) and optionally "
-                f"'K1', 'K2' or 'K' (3x3); found {sorted(keys) or 'no keys'}"
+                f"{src} lacks required key(s) {missing}; expected 'u1', 'u2' ((k, 2) pixels) and optionally 'K1', 'K2' or 'K' (3x3); found {sorted(keys) or 'no keys'}"
             )
         arrays: dict[str, np.ndarray | None] = {}
         for k in ("u1", "u2", "K1", "K2", "K", "scores"):
@@ -486,9 +481,6 @@ def sampson_distance(u1: np.ndarray, u2: np.ndarray, F: np.ndarray) -> np.ndarra
     return num / np.where(den > 0, den, np.finfo(float).tiny)
 
 
-def sampson_error_px(
-    u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, R: np.ndarray, t: np.ndarray
-) -> np.ndarray:
+def sampson_error_px(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, R: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Sampson distance (pixels) of pixel matches under the pose ``(R, t)`` (``X2 = R X1 + t``)."""
     return sampson_distance(u1, u2, fundamental_from_pose(K1, K2, R, t))
-

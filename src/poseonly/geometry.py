@@ -153,8 +153,7 @@ def check_intrinsics(K: np.ndarray, name: str = "K") -> np.ndarray:
     if scale == 0.0 or K[2, 2] == 0.0:
         raise InputError(f"{name} is singular (K[2, 2] = {K[2, 2]:g})")
     if max(abs(K[1, 0]), abs(K[2, 0]), abs(K[2, 1])) > K_ZERO_RTOL * scale:
-        raise InputError(f"{name} must be upper triangular ([[fx, s, cx], [0, fy, cy], [0, 0, 1]]); got lower-left "
-                         f"entries {K[1, 0]:g}, {K[2, 0]:g}, {K[2, 1]:g}")
+        raise InputError(f"{name} must be upper triangular ([[fx, s, cx], [0, fy, cy], [0, 0, 1]]); got lower-left entries {K[1, 0]:g}, {K[2, 0]:g}, {K[2, 1]:g}")
     with np.errstate(all="ignore"):
         Kn = K / K[2, 2]
     if not np.all(np.isfinite(Kn)):

@@ -37,9 +37,7 @@ def _weights_or_none(w: np.ndarray | None, n: int) -> np.ndarray | None:
     return None if w is None else np.ascontiguousarray(np.broadcast_to(np.asarray(w, dtype=float), (n,)))
 
 
-def identify_and_rank(
-    E: np.ndarray, f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None, with_cost: bool = True
-) -> dict[str, np.ndarray]:
+def identify_and_rank(E: np.ndarray, f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None, with_cost: bool = True) -> dict[str, np.ndarray]:
     """Identify and rank candidate essential matrices ``E (..., k, 3, 3)`` on bearings ``(..., n, 3)``.
 
     ``w (..., n)`` optional weights. Returns a dict with ``R (..., k, 3, 3)``, ``t (..., k, 3)``,
@@ -62,11 +60,9 @@ def identify_and_rank(
     M1 = np.empty((H, k))
     cost = np.empty((H, k))
     for i in range(H):
-        o = _core.identify(np.ascontiguousarray(Eb[i]), np.ascontiguousarray(F1[i]), np.ascontiguousarray(F2[i]),
-                           None if W is None else np.ascontiguousarray(W[i]), with_cost)
+        o = _core.identify(np.ascontiguousarray(Eb[i]), np.ascontiguousarray(F1[i]), np.ascontiguousarray(F2[i]), None if W is None else np.ascontiguousarray(W[i]), with_cost)
         R[i], t[i], valid[i], M1[i], cost[i] = o["R"], o["t"], o["valid"].astype(bool), o["M1"], o["cost"]
-    out = {"R": R.reshape(lead + (k, 3, 3)), "t": t.reshape(lead + (k, 3)), "valid": valid.reshape(lead + (k,)),
-           "M1": M1.reshape(lead + (k,))}
+    out = {"R": R.reshape(lead + (k, 3, 3)), "t": t.reshape(lead + (k, 3)), "valid": valid.reshape(lead + (k,)), "M1": M1.reshape(lead + (k,))}
     if with_cost:
         key = np.where(valid, cost, cost + INVALID_RANK_OFFSET)
         out["cost"] = cost.reshape(lead + (k,))
@@ -74,9 +70,7 @@ def identify_and_rank(
     return out
 
 
-def identify_poses(
-    E: np.ndarray, f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def identify_poses(E: np.ndarray, f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Reduce candidate essential matrices to one pose each.
 
     ``E (..., k, 3, 3)``, bearings ``f1, f2 (..., n, 3)``, weights ``w (..., n)``. Returns
@@ -87,9 +81,7 @@ def identify_poses(
     return o["R"], o["t"], o["valid"], o["M1"]
 
 
-def select_candidate(
-    R: np.ndarray, t: np.ndarray, valid: np.ndarray, f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+def select_candidate(R: np.ndarray, t: np.ndarray, valid: np.ndarray, f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Weighted mean PPO cost ``(..., k)`` of candidate poses ``R (..., k, 3, 3)``, ``t (..., k, 3)``
     and the index ``(...)`` of the best one (invalid candidates ranked after every valid one)."""
     R = np.asarray(R, dtype=float)

@@ -99,8 +99,7 @@ def check_value(name: str, v: Any, s: Spec) -> Any:
     :class:`InputError` saying what the option must be and what was given."""
 
     def bad_type() -> InputError:
-        return InputError(f"option {name!r} must be of type {_TYPE_WORD[s.kind]} ({s.describe()}), "
-                          f"got {_type_name(v)} {v!r}")
+        return InputError(f"option {name!r} must be of type {_TYPE_WORD[s.kind]} ({s.describe()}), got {_type_name(v)} {v!r}")
 
     def bad_value() -> InputError:
         return InputError(f"option {name!r} has an invalid value {v!r}: it must be {s.describe()}")
@@ -142,8 +141,7 @@ def check_value(name: str, v: Any, s: Spec) -> Any:
     return x
 
 
-_TYPE_WORD = {"bool": "bool", "seed": "int", "name": "str", "str": "str", "int": "int", "real": "int/float",
-              "scale": "str/float"}
+_TYPE_WORD = {"bool": "bool", "seed": "int", "name": "str", "str": "str", "int": "int", "real": "int/float", "scale": "str/float"}
 
 
 def _check_name(name: str, v: str, registry: str) -> str:
@@ -248,8 +246,9 @@ def check_angle(name: str, tau: float, how: str = "") -> float:
     """An angular threshold (radians) within ``[MIN_ANGLE, MAX_ANGLE]``; ``how`` says how it was
     derived (for the message)."""
     if not (math.isfinite(tau) and MIN_ANGLE <= tau <= MAX_ANGLE):
-        raise InputError(f"{name} = {tau:.3g} rad{how} must lie in [{MIN_ANGLE:g}, {MAX_ANGLE:g}] rad "
-                         "(a smaller angle is below double precision, a larger one makes every match an inlier)")
+        raise InputError(
+            f"{name} = {tau:.3g} rad{how} must lie in [{MIN_ANGLE:g}, {MAX_ANGLE:g}] rad (a smaller angle is below double precision, a larger one makes every match an inlier)"
+        )
     return float(tau)
 
 

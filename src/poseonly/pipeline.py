@@ -36,8 +36,7 @@ def relpose_matches(u1, u2, K1, K2, **options: Any) -> PairResult:
     return PairResult(r, u1, u2, 0.0, time.perf_counter() - t0)
 
 
-def relpose_images(img1, img2, K1, K2=None, *, ratio: float = 0.8, mutual: bool = False, cache_dir=None,
-                   **options: Any) -> PairResult:
+def relpose_images(img1, img2, K1, K2=None, *, ratio: float = 0.8, mutual: bool = False, cache_dir=None, **options: Any) -> PairResult:
     """SIFT + ratio-test matching + :func:`poseonly.estimate_relative_pose` on two image files."""
     from .features import match_images
 
@@ -70,7 +69,7 @@ def draw_matches(img1, img2, u1, u2, inliers, out: str | Path, max_lines: int = 
     h = max(a.shape[0], b.shape[0])
     canvas = np.zeros((h, a.shape[1] + b.shape[1], 3), np.uint8)
     canvas[: a.shape[0], : a.shape[1]] = a
-    canvas[: b.shape[0], a.shape[1]:] = b
+    canvas[: b.shape[0], a.shape[1] :] = b
     rng = np.random.default_rng(seed)
     idx = rng.permutation(len(u1))[:max_lines]
     for i in idx:

@@ -74,8 +74,9 @@ class Residual:
         F2 = np.broadcast_to(f2, pl + (n, 3)).reshape(-1, n, 3)
         out = np.empty((len(Rb), n))
         for i in range(len(Rb)):
-            out[i] = _core.residual_matrix(self.code, np.ascontiguousarray(Rb[i : i + 1]), np.ascontiguousarray(tb[i : i + 1]),
-                                           np.ascontiguousarray(F1[i]), np.ascontiguousarray(F2[i]))[0]
+            out[i] = _core.residual_matrix(
+                self.code, np.ascontiguousarray(Rb[i : i + 1]), np.ascontiguousarray(tb[i : i + 1]), np.ascontiguousarray(F1[i]), np.ascontiguousarray(F2[i])
+            )[0]
         return out.reshape(pl + (n,))
 
     @property
@@ -84,8 +85,7 @@ class Residual:
 
 
 RESIDUALS: dict[str, Residual] = {name: Residual(name, code) for code, name in enumerate(_core.RESIDUAL_KINDS)}
-_ALIASES = {"e": "coplanar", "v_e": "coplanar", "v_ligt": "ligt", "v_ppo": "ppo", "v_ba": "ba", "v_opengv": "opengv",
-            "reprojection": "ba", "v_sampson": "sampson"}
+_ALIASES = {"e": "coplanar", "v_e": "coplanar", "v_ligt": "ligt", "v_ppo": "ppo", "v_ba": "ba", "v_opengv": "opengv", "reprojection": "ba", "v_sampson": "sampson"}
 
 v_E = RESIDUALS["coplanar"]
 v_LiGT = RESIDUALS["ligt"]
@@ -122,4 +122,3 @@ def ligt_depths(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) ->
     h = np.sum(c * np.cross(f2, tt), axis=-1)
     hp = np.sum(c * np.cross(Rf1, tt), axis=-1)
     return h, hp, np.sum(c * c, axis=-1)
-

@@ -182,8 +182,7 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
         thr_px = tau * focal
     n = len(f1)
     if not valid_pose(R, t):
-        return degenerate_result(n, diag.get("rank", -1), method, thr_px, focal, t0,
-                                 reason=f"the {method!r} method found no valid pose (no hypothesis scored)", diag=diag)
+        return degenerate_result(n, diag.get("rank", -1), method, thr_px, focal, t0, reason=f"the {method!r} method found no valid pose (no hypothesis scored)", diag=diag)
     t = _unit(t)
     v = v_sampson(R, t, f1, f2)
     inl = v < tau
@@ -210,29 +209,50 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
         weights = inl.astype(float)
         residuals = ang * focal
         par = float(np.degrees(np.median(ang[inl]))) if n_in else float("nan")
-        msg = (f"a rotation without translation explains {n_in} matches within {2 * thr_px:g} px and the pose's "
-               f"other inliers are no more than chance (median parallax {par:.3f} deg): R is reliable, the "
-               "translation direction is not")
+        msg = (
+            f"a rotation without translation explains {n_in} matches within {2 * thr_px:g} px and the pose's "
+            f"other inliers are no more than chance (median parallax {par:.3f} deg): R is reliable, the "
+            "translation direction is not"
+        )
     elif n_in < needed or lnfa >= np.log10(NFA_MAX):
         status = "too_few_inliers"
-        msg = (f"{n_in} inliers within {thr_px:g} px (needed {needed}); randomly re-paired matches give the same model "
-               f"{n * p_pose:.1f} inliers, and over the {num_tests:.3g} hypotheses tried chance explains this support "
-               f"(expected false alarms 10^{lnfa:.1f} >= {NFA_MAX:g}): the pose is not reliable")
+        msg = (
+            f"{n_in} inliers within {thr_px:g} px (needed {needed}); randomly re-paired matches give the same model "
+            f"{n * p_pose:.1f} inliers, and over the {num_tests:.3g} hypotheses tried chance explains this support "
+            f"(expected false alarms 10^{lnfa:.1f} >= {NFA_MAX:g}): the pose is not reliable"
+        )
     else:
         twin, info = planar_twin(R, t, f1, f2, tau, inl)
         diag.update(info)
         if twin is not None:
             status = "planar_ambiguous"
             R_twin, t_twin, twin_n = twin
-            msg = (f"the inliers are explained by two poses {rotation_error_deg(R, R_twin):.2f} deg apart "
-                   f"(planar scene: the homography twin keeps {twin_n} inliers in front of both cameras); see R_twin, t_twin")
+            msg = (
+                f"the inliers are explained by two poses {rotation_error_deg(R, R_twin):.2f} deg apart "
+                f"(planar scene: the homography twin keeps {twin_n} inliers in front of both cameras); see R_twin, t_twin"
+            )
         else:
             status, msg = "ok", f"{n_in} inliers within {thr_px:g} px (expected false alarms 10^{lnfa:.0f})"
     return RelativePoseResult(
-        R=R, t=t, E=essential_from_pose(R, t), inliers=inl, weights=weights, residuals_px=residuals,
-        num_inliers=n_in, num_iterations=int(iters), status=status, message=msg, method=method, threshold_px=float(thr_px),
-        focal_px=focal, parallax_deg=par, R_twin=R_twin, t_twin=t_twin, twin_inliers=twin_n,
-        time_s=time.perf_counter() - t0, diagnostics=diag,
+        R=R,
+        t=t,
+        E=essential_from_pose(R, t),
+        inliers=inl,
+        weights=weights,
+        residuals_px=residuals,
+        num_inliers=n_in,
+        num_iterations=int(iters),
+        status=status,
+        message=msg,
+        method=method,
+        threshold_px=float(thr_px),
+        focal_px=focal,
+        parallax_deg=par,
+        R_twin=R_twin,
+        t_twin=t_twin,
+        twin_inliers=twin_n,
+        time_s=time.perf_counter() - t0,
+        diagnostics=diag,
     )
 
 
@@ -241,15 +261,28 @@ def _rotation_inliers_mask(R, f1, f2, tau) -> np.ndarray:
     return np.sum(d * d, axis=1) < (2.0 * np.sin(0.5 * ROTATION_THRESHOLD_FACTOR * tau)) ** 2
 
 
-def degenerate_result(n: int, rank: int, method: str, thr_px: float, focal: float, t0: float, *, reason: str | None = None,
-                      diag: dict[str, Any] | None = None) -> RelativePoseResult:
+def degenerate_result(
+    n: int, rank: int, method: str, thr_px: float, focal: float, t0: float, *, reason: str | None = None, diag: dict[str, Any] | None = None
+) -> RelativePoseResult:
     """Result without a pose (``R = t = E = None``): ``n`` correspondences whose epipolar system has
     rank ``rank < 6``, or (``reason``) a method that found no valid model."""
     msg = reason or f"the correspondences span a rank-{rank} epipolar system (< 6): the pose is not determined"
     d = dict(diag or {})
     d["rank"] = rank
     return RelativePoseResult(
-        R=None, t=None, E=None, inliers=np.zeros(n, bool), weights=np.zeros(n), residuals_px=np.full(n, np.nan),
-        num_inliers=0, num_iterations=0, status="degenerate", message=msg,
-        method=method, threshold_px=thr_px, focal_px=focal, time_s=time.perf_counter() - t0, diagnostics=d,
+        R=None,
+        t=None,
+        E=None,
+        inliers=np.zeros(n, bool),
+        weights=np.zeros(n),
+        residuals_px=np.full(n, np.nan),
+        num_inliers=0,
+        num_iterations=0,
+        status="degenerate",
+        message=msg,
+        method=method,
+        threshold_px=thr_px,
+        focal_px=focal,
+        time_s=time.perf_counter() - t0,
+        diagnostics=d,
     )

@@ -94,7 +94,7 @@ def _add_noise(f: np.ndarray, noise_px: float, rng: np.random.Generator, model: 
     n1 = normalize(n1)
     n2 = np.cross(f, n1)
     if model == "opengv":
-        nx, ny = (noise_px * rng.uniform(-1, 1, (2, len(f))) / np.sqrt(2.0))
+        nx, ny = noise_px * rng.uniform(-1, 1, (2, len(f))) / np.sqrt(2.0)
     elif model == "gaussian":
         nx, ny = noise_px * rng.standard_normal((2, len(f)))
     else:
@@ -238,7 +238,18 @@ def make_scene(
     u1 = _project(K, f1)
     u2 = _project(K, f2)
     return Scene(
-        f1=f1, f2=f2, u1=u1, u2=u2, K=K, R=R, t=t_unit, baseline=baseline, inliers=inliers, X=X,
-        kind=kind, camera=camera, noise_px=float(noise_px),
+        f1=f1,
+        f2=f2,
+        u1=u1,
+        u2=u2,
+        K=K,
+        R=R,
+        t=t_unit,
+        baseline=baseline,
+        inliers=inliers,
+        X=X,
+        kind=kind,
+        camera=camera,
+        noise_px=float(noise_px),
         plane=None if plane is None else np.append(plane[0], plane[1]),
     )

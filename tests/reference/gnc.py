@@ -13,8 +13,15 @@ from poseonly.robust.gnc import MAD_TO_SIGMA, GNCOptions
 from . import residuals as ref_res
 from .lirp import lirp_batch
 
-RESIDUALS = {"ligt": ref_res.v_LiGT, "sampson": ref_res.v_sampson, "sampson-chiral": ref_res.v_sampson_chiral,
-             "coplanar": ref_res.v_E, "ppo": ref_res.v_PPO, "ba": ref_res.v_BA, "opengv": ref_res.v_OpenGV}
+RESIDUALS = {
+    "ligt": ref_res.v_LiGT,
+    "sampson": ref_res.v_sampson,
+    "sampson-chiral": ref_res.v_sampson_chiral,
+    "coplanar": ref_res.v_E,
+    "ppo": ref_res.v_PPO,
+    "ba": ref_res.v_BA,
+    "opengv": ref_res.v_OpenGV,
+}
 
 
 def tls_weights(v: np.ndarray, c: float, mu: float, schedule: str) -> np.ndarray:
@@ -22,8 +29,7 @@ def tls_weights(v: np.ndarray, c: float, mu: float, schedule: str) -> np.ndarray
     if schedule == "ms-tls":
         return np.where(v <= c, 1.0, np.where(v >= (mu + 1.0) / mu * c, 0.0, (mu + 1.0) * c / np.maximum(v, 1e-300) - mu))
     v2, c2 = v * v, c * c
-    return np.where(v2 <= mu / (mu + 1.0) * c2, 1.0,
-                    np.where(v2 >= (mu + 1.0) / mu * c2, 0.0, np.sqrt(c2 * mu * (mu + 1.0) / np.maximum(v2, 1e-300)) - mu))
+    return np.where(v2 <= mu / (mu + 1.0) * c2, 1.0, np.where(v2 >= (mu + 1.0) / mu * c2, 0.0, np.sqrt(c2 * mu * (mu + 1.0) / np.maximum(v2, 1e-300)) - mu))
 
 
 def gnc_irls(f1, f2, opts: GNCOptions, residual: str = "ligt", all_candidates: bool = False, w0=None, min_sample: int = 6):
@@ -37,8 +43,7 @@ def gnc_irls(f1, f2, opts: GNCOptions, residual: str = "ligt", all_candidates: b
         if all_candidates:
             valid = o["cand_valid"][0]
             keep = valid if valid.any() else np.ones_like(valid)
-            cost = np.array([np.sum(w * res(o["cand_R"][0, j], o["cand_t"][0, j], f1, f2)) if keep[j] else np.inf
-                             for j in range(len(valid))])
+            cost = np.array([np.sum(w * res(o["cand_R"][0, j], o["cand_t"][0, j], f1, f2)) if keep[j] else np.inf for j in range(len(valid))])
             cost = np.where(np.isfinite(cost), cost, np.inf)
             j = int(np.argmin(cost)) if np.isfinite(cost).any() else int(o["best"][0])
             R, t = o["cand_R"][0, j], o["cand_t"][0, j]

@@ -188,8 +188,7 @@ def identify_and_rank(
         else:
             D = np.asarray(D, dtype=float).reshape(H, 15, -1)
         R, t, valid, M1, cost = _rank_numpy(E, D, w, with_cost)
-    out = {"R": R.reshape(lead + (k, 3, 3)), "t": t.reshape(lead + (k, 3)), "valid": valid.reshape(lead + (k,)),
-           "M1": M1.reshape(lead + (k,))}
+    out = {"R": R.reshape(lead + (k, 3, 3)), "t": t.reshape(lead + (k, 3)), "valid": valid.reshape(lead + (k,)), "M1": M1.reshape(lead + (k,))}
     if with_cost:
         cost = np.where(np.isfinite(cost), cost, np.inf)
         key = np.where(valid, cost, cost + 10.0)  # PPO residual <= 2, so +10 ranks invalid last
@@ -198,9 +197,7 @@ def identify_and_rank(
     return out
 
 
-def identify_poses(
-    E: np.ndarray, f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def identify_poses(E: np.ndarray, f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Reduce candidate essential matrices to one pose each.
 
     Parameters: ``E (..., k, 3, 3)``, bearings ``f1, f2 (..., n, 3)``, weights ``w (..., n)``.
@@ -211,9 +208,7 @@ def identify_poses(
     return o["R"], o["t"], o["valid"], o["M1"]
 
 
-def select_candidate(
-    R: np.ndarray, t: np.ndarray, valid: np.ndarray, f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+def select_candidate(R: np.ndarray, t: np.ndarray, valid: np.ndarray, f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Weighted-mean PPO cost of every candidate and the index of the best one.
 
     Invalid candidates (failing the depth conditions) are ranked after every valid one. Returns

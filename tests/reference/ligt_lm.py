@@ -81,10 +81,7 @@ def _lm(chart, f1, f2, sw, norm, loss, scale, max_iter, tol):
     return x, nfev, njev, status, msg
 
 
-
-
-def ligt_refine_numpy_lm(R, t, f1, f2, weights=None, *, loss="linear", loss_scale=None, max_iter=50, tol=1e-12,
-                         normalization="none") -> RefineResult:
+def ligt_refine_numpy_lm(R, t, f1, f2, weights=None, *, loss="linear", loss_scale=None, max_iter=50, tol=1e-12, normalization="none") -> RefineResult:
     """:func:`poseonly.refine.ligt.ligt_refine` with ``solver="lm"``, computed by the numpy LM above."""
     f1, f2, w = check_correspondences(f1, f2, weights, min_points=6)
     R0, t0 = check_pose(R, t)
@@ -113,6 +110,13 @@ def ligt_refine_numpy_lm(R, t, f1, f2, weights=None, *, loss="linear", loss_scal
     if not cost1 <= cost0:
         R1, t1, cost1 = R0, t0, cost0
     t1, frac = fix_translation_sign(R1, normalize(t1), f1, f2, w)
-    return RefineResult(R=R1, t=t1, cost_initial=cost0, cost_final=cost1, num_iterations=njev, success=status > 0, message=str(msg),
-                        info={"nfev": nfev, "status": status, "loss": key, "normalization": norm, "loss_scale": scale,
-                              "positive_depth_fraction": frac})
+    return RefineResult(
+        R=R1,
+        t=t1,
+        cost_initial=cost0,
+        cost_final=cost1,
+        num_iterations=njev,
+        success=status > 0,
+        message=str(msg),
+        info={"nfev": nfev, "status": status, "loss": key, "normalization": norm, "loss_scale": scale, "positive_depth_fraction": frac},
+    )

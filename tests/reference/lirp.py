@@ -213,8 +213,7 @@ def lirp_candidates(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None,
     }
 
 
-def lirp_batch(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None, *, A: np.ndarray | None = None,
-               D: np.ndarray | None = None) -> dict[str, np.ndarray]:
+def lirp_batch(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None, *, A: np.ndarray | None = None, D: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Weighted LiRP on ``h`` stacked problems (no validation; the hot path of the robust loops).
 
     ``A (h, n, 9)`` (rows ``kron(f1_i, f2_i)``) and ``D (h, 15, n)``
@@ -228,8 +227,7 @@ def lirp_batch(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None, *, A
     o = identify_and_rank(cE, f1, f2, w, D)
     best = o["best"]
     idx = np.arange(len(best))
-    out.update(cand_E=cE, cand_R=o["R"], cand_t=o["t"], cand_valid=o["valid"], cand_cost=o["cost"], best=best,
-               R=o["R"][idx, best], t=o["t"][idx, best], E=cE[idx, best])
+    out.update(cand_E=cE, cand_R=o["R"], cand_t=o["t"], cand_valid=o["valid"], cand_cost=o["cost"], best=best, R=o["R"][idx, best], t=o["t"][idx, best], E=cE[idx, best])
     return out
 
 

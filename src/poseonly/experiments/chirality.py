@@ -70,8 +70,7 @@ def make_scene_no_chirality(n: int, noise_px: float, outlier_fraction: float, se
         f2[idx] = normalize(sim._opengv_points(rng, k))  # anywhere around camera 2, as OpenGV
     K = sim.default_K()
     nan = np.full((n, 2), np.nan)
-    return sim.Scene(f1=f1, f2=f2, u1=nan, u2=nan.copy(), K=K, R=R, t=t / baseline, baseline=baseline, inliers=inliers, X=X,
-                     kind="normal", camera="wide", noise_px=float(noise_px))
+    return sim.Scene(f1=f1, f2=f2, u1=nan, u2=nan.copy(), K=K, R=R, t=t / baseline, baseline=baseline, inliers=inliers, X=X, kind="normal", camera="wide", noise_px=float(noise_px))
 
 
 def _scene(gen: str, n: int, noise: float, frac: float, seed: int) -> sim.Scene:
@@ -142,8 +141,19 @@ def _methods(cauchy_px: float):
 def compute(trials: int, n: int = 300, outliers=OUTLIERS, noise: float = 1.0, seed: int = 0, cauchy_px: float = 2.0) -> dict:
     methods, skipped = _methods(cauchy_px)
     names = list(methods)
-    res = {"trials": trials, "n": n, "noise_px": noise, "outliers": list(outliers), "generators": list(GENERATORS), "seed": seed,
-           "cauchy_px": cauchy_px, "methods": names, "skipped": skipped, "results": {}, "time_s": {}}
+    res = {
+        "trials": trials,
+        "n": n,
+        "noise_px": noise,
+        "outliers": list(outliers),
+        "generators": list(GENERATORS),
+        "seed": seed,
+        "cauchy_px": cauchy_px,
+        "methods": names,
+        "skipped": skipped,
+        "results": {},
+        "time_s": {},
+    }
     tsum = {m: 0.0 for m in names}
     solver_errs = _solver_errors()
     ncall = 0
@@ -214,9 +224,11 @@ def run(args: argparse.Namespace) -> int:
     trials = 3 if args.quick else (args.trials or 500)
     t0 = time.perf_counter()
     res = stamp(compute(trials, args.n, outliers, args.noise, args.seed, args.cauchy_px), t0)
-    head = (f"Appendix B: chirality filter in the generator (n = {args.n}, {args.noise:g} px Gaussian, OpenGV-style geometry, "
-            f"{trials} trials per setting, seed {args.seed}; 'chirality' = points in front of both cameras, 'none' = OpenGV's "
-            f"points as generated; {res['wall_s']:.0f} s)")
+    head = (
+        f"Appendix B: chirality filter in the generator (n = {args.n}, {args.noise:g} px Gaussian, OpenGV-style geometry, "
+        f"{trials} trials per setting, seed {args.seed}; 'chirality' = points in front of both cameras, 'none' = OpenGV's "
+        f"points as generated; {res['wall_s']:.0f} s)"
+    )
     finish_run(args.out, "chirality", head, res, to_markdown(res), _figure)
     return 0
 
@@ -233,8 +245,7 @@ def _figure(res: dict, path: Path) -> None:
     for ax, key in zip(axes[0], ("mean", "median")):
         for i, m in enumerate(res["methods"]):
             for gen, ls in zip(res["generators"], ("-", "--")):
-                ax.plot(x, np.maximum(res["results"][gen][m][key], 1e-4), ls=ls, marker="o", ms=3, color=cyc[i % len(cyc)],
-                        label=f"{m} ({gen})")
+                ax.plot(x, np.maximum(res["results"][gen][m][key], 1e-4), ls=ls, marker="o", ms=3, color=cyc[i % len(cyc)], label=f"{m} ({gen})")
         ax.set_yscale("log")
         ax.set_xlabel("outlier fraction (%)")
         ax.set_ylabel(f"{key} rotation error (deg)")

@@ -40,8 +40,7 @@ from ._common import code_version, machine, markdown_table, progress, write_outp
 
 # openMVG GlobalSfM (bundle adjustment included), mean rotation error in degrees, as published by
 # the LiGT authors (PoSDK benchmark data; docs/SFM.md)
-OPENMVG_ROT_DEG = {"Herz-Jesus-P8": 0.0228, "fountain-P11": 0.0297, "entry-P10": 0.0321, "Herz-Jesus-P25": 0.0546,
-                   "castle-P30": 0.0843, "castle-P19": 0.0695}
+OPENMVG_ROT_DEG = {"Herz-Jesus-P8": 0.0228, "fountain-P11": 0.0297, "entry-P10": 0.0321, "Herz-Jesus-P25": 0.0546, "castle-P30": 0.0843, "castle-P19": 0.0695}
 DEFAULT_CACHE = "/tmp/sfm_cache"
 
 
@@ -81,8 +80,7 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
     R_gt, C_gt = _gt(sc)
     opt = PairwiseOptions(max_features=args.max_features, threshold_px=args.threshold_px, seed=args.seed)
     t0 = time.perf_counter()
-    ig = image_view_graph(sc.image_paths, sc.K, options=opt, cache_dir=args.cache,
-                          progress=lambda it, **kw: progress(it, **kw))
+    ig = image_view_graph(sc.image_paths, sc.K, options=opt, cache_dir=args.cache, progress=lambda it, **kw: progress(it, **kw))
     t_pairs = time.perf_counter() - t0
     gopt = GlobalOptions(ligt_reweight=args.reweight)
     res = run_global(ig.graph, ig.bearings, float(sc.K[0, 0]), gopt)
@@ -106,9 +104,18 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
         from ..sfm.export import build_colmap_reconstruction
 
         rc = res.reconstruction
-        model = build_colmap_reconstruction([p.name for p in sc.image_paths], ig.K, [f.image_size for f in ig.features],
-                                            [f.keypoints for f in ig.features], res.rotations, res.centres, res.tracks,
-                                            rc.points, rc.valid, rc.obs_valid)
+        model = build_colmap_reconstruction(
+            [p.name for p in sc.image_paths],
+            ig.K,
+            [f.image_size for f in ig.features],
+            [f.keypoints for f in ig.features],
+            res.rotations,
+            res.centres,
+            res.tracks,
+            rc.points,
+            rc.valid,
+            rc.obs_valid,
+        )
         model, t_ba = bundle_adjust(model)
         R_ba, C_ba = poses_from_reconstruction(model, len(sc))
         out["ba"] = _scores(R_ba, C_ba, R_gt, C_gt) | {"time_s": t_ba}
@@ -125,33 +132,83 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
                 except Exception as exc:  # noqa: BLE001 - an anchor failure must not lose our numbers
                     out["pycolmap"]["error"] = f"{type(exc).__name__}: {exc}"
                     continue
-                out["pycolmap"].update({k: _scores(v["rotations"], v["centres"], R_gt, C_gt) | {"time_s": v["time_s"]}
-                                        for k, v in a.items()})
+                out["pycolmap"].update({k: _scores(v["rotations"], v["centres"], R_gt, C_gt) | {"time_s": v["time_s"]} for k, v in a.items()})
     return out
 
 
 def _table(results: list[dict[str, Any]]) -> str:
-    hdr = ["scene", "method", "cams", "rot mean (deg)", "rot median", "rot mean, rot-only align", "rel rot mean, all pairs", "pos mean (m)",
-           "pos mean / extent", "AUC@1", "AUC@5", "time (s)"]
+    hdr = [
+        "scene",
+        "method",
+        "cams",
+        "rot mean (deg)",
+        "rot median",
+        "rot mean, rot-only align",
+        "rel rot mean, all pairs",
+        "pos mean (m)",
+        "pos mean / extent",
+        "AUC@1",
+        "AUC@5",
+        "time (s)",
+    ]
     rows = []
     for r in results:
         ev = r["ours"]
         t = sum(v for k, v in r["times_s"].items() if k in ("rotation_averaging", "tracks", "ligt", "reconstruction"))
-        rows.append([r["scene"], "poseonly (RA + LiGT, no BA)", f"{ev['num_estimated']}/{r['views']}", ev["rot_mean_deg"],
-                     ev["rot_median_deg"], ev["rot_mean_deg_rotalign"], ev["rel_rot_mean_deg"], ev["pos_mean"], ev["pos_mean_frac"],
-                     ev["auc@1"], ev["auc@5"], t])
+        rows.append(
+            [
+                r["scene"],
+                "poseonly (RA + LiGT, no BA)",
+                f"{ev['num_estimated']}/{r['views']}",
+                ev["rot_mean_deg"],
+                ev["rot_median_deg"],
+                ev["rot_mean_deg_rotalign"],
+                ev["rel_rot_mean_deg"],
+                ev["pos_mean"],
+                ev["pos_mean_frac"],
+                ev["auc@1"],
+                ev["auc@5"],
+                t,
+            ]
+        )
         if "ba" in r:
             b = r["ba"]
-            rows.append([r["scene"], "poseonly + optional pycolmap BA", f"{b['num_estimated']}/{r['views']}", b["rot_mean_deg"],
-                         b["rot_median_deg"], b["rot_mean_deg_rotalign"], b["rel_rot_mean_deg"], b["pos_mean"], b["pos_mean_frac"],
-                         b["auc@1"], b["auc@5"], t + b["time_s"]])
+            rows.append(
+                [
+                    r["scene"],
+                    "poseonly + optional pycolmap BA",
+                    f"{b['num_estimated']}/{r['views']}",
+                    b["rot_mean_deg"],
+                    b["rot_median_deg"],
+                    b["rot_mean_deg_rotalign"],
+                    b["rel_rot_mean_deg"],
+                    b["pos_mean"],
+                    b["pos_mean_frac"],
+                    b["auc@1"],
+                    b["auc@5"],
+                    t + b["time_s"],
+                ]
+            )
         for k, a in (r.get("pycolmap") or {}).items():
             if k == "error":
                 rows.append([r["scene"], f"pycolmap: {a}", "", "", "", "", "", "", "", "", "", ""])
                 continue
-            rows.append([r["scene"], f"pycolmap {k}", f"{a['num_estimated']}/{r['views']}", a["rot_mean_deg"],
-                         a["rot_median_deg"], a["rot_mean_deg_rotalign"], a["rel_rot_mean_deg"], a["pos_mean"], a["pos_mean_frac"],
-                         a["auc@1"], a["auc@5"], a["time_s"]])
+            rows.append(
+                [
+                    r["scene"],
+                    f"pycolmap {k}",
+                    f"{a['num_estimated']}/{r['views']}",
+                    a["rot_mean_deg"],
+                    a["rot_median_deg"],
+                    a["rot_mean_deg_rotalign"],
+                    a["rel_rot_mean_deg"],
+                    a["pos_mean"],
+                    a["pos_mean_frac"],
+                    a["auc@1"],
+                    a["auc@5"],
+                    a["time_s"],
+                ]
+            )
         if r["scene"] in OPENMVG_ROT_DEG:
             rows.append([r["scene"], "openMVG GlobalSfM + BA (published)", "", OPENMVG_ROT_DEG[r["scene"]], "", "", "", "", "", "", "", ""])
     return markdown_table(hdr, rows)
@@ -159,10 +216,11 @@ def _table(results: list[dict[str, Any]]) -> str:
 
 def _stage_table(results: list[dict[str, Any]]) -> str:
     keys = ["features", "matching", "two_view", "rotation_averaging", "tracks", "ligt", "reconstruction"]
-    rows = [[r["scene"], r["edges"], len(r["outlier_edges"]), r["input_rotation_error_deg"], r["tracks"], r["points_valid"]]
-            + [r["times_s"].get(k, float("nan")) for k in keys] for r in results]
-    return markdown_table(["scene", "edges", "outlier edges", "two-view rot err (deg)", "tracks", "points"]
-                          + [f"{k} (s)" for k in keys], rows)
+    rows = [
+        [r["scene"], r["edges"], len(r["outlier_edges"]), r["input_rotation_error_deg"], r["tracks"], r["points_valid"]] + [r["times_s"].get(k, float("nan")) for k in keys]
+        for r in results
+    ]
+    return markdown_table(["scene", "edges", "outlier edges", "two-view rot err (deg)", "tracks", "points"] + [f"{k} (s)" for k in keys], rows)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -174,11 +232,18 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"no Strecha scene folders at or below {root}" + (f" named {args.scenes}" if args.scenes else ""))
     t0 = time.perf_counter()
     results = [run_scene(s, args) for s in scenes]
-    res = {"results": results, "config": {k: v for k, v in vars(args).items() if k != "func"},
-           "wall_s": time.perf_counter() - t0, "machine": machine(), "code_version": code_version()}
-    md = ("# Global SfM on Strecha (rotation averaging + LiGT + analytical points, no bundle adjustment)\n\n"
-          + _table(results) + "\nStages (times measured on a shared machine, under load; features / matching / two-view "
-          "are 0 when cached):\n\n" + _stage_table(results)
-          + f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n")
+    res = {
+        "results": results,
+        "config": {k: v for k, v in vars(args).items() if k != "func"},
+        "wall_s": time.perf_counter() - t0,
+        "machine": machine(),
+        "code_version": code_version(),
+    }
+    md = (
+        "# Global SfM on Strecha (rotation averaging + LiGT + analytical points, no bundle adjustment)\n\n"
+        + _table(results)
+        + "\nStages (times measured on a shared machine, under load; features / matching / two-view "
+        "are 0 when cached):\n\n" + _stage_table(results) + f"\nMachine: {res['machine']}; code `{res['code_version']}`.\n"
+    )
     write_outputs(args.out, "global_sfm", md, res)
     return 0

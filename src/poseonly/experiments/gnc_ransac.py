@@ -156,9 +156,13 @@ def _methods(thr_px: float) -> tuple[dict, dict]:
 
         return f
 
-    for name, key, kw in (("OpenCV RANSAC (50 it)", "opencv-ransac", {"max_iters": 50}), ("OpenCV RANSAC (default)", "opencv-ransac", {}),
-                          ("OpenCV USAC_MAGSAC", "opencv-magsac", {}), ("PoseLib (50 it)", "poselib", {"max_iterations": 50}),
-                          ("PoseLib (default)", "poselib", {})):
+    for name, key, kw in (
+        ("OpenCV RANSAC (50 it)", "opencv-ransac", {"max_iters": 50}),
+        ("OpenCV RANSAC (default)", "opencv-ransac", {}),
+        ("OpenCV USAC_MAGSAC", "opencv-magsac", {}),
+        ("PoseLib (50 it)", "poselib", {"max_iterations": 50}),
+        ("PoseLib (default)", "poselib", {}),
+    ):
         if key in avail:
             ms[name] = anchor(key, **kw)
         else:
@@ -236,11 +240,22 @@ def compute(trials: int, n: int = 300, outliers=OUTLIERS, noise: float = 1.0, se
         for t in progress(tasks, total=len(tasks), desc="gnc-ransac"):
             k, f, s, o = _trial(t)
             raw[(k, f)].append(o)
-    res: dict[str, Any] = {"trials": trials, "n": n, "noise_px": noise, "outliers": list(outliers), "kinds": list(KINDS), "seed": seed,
-           "threshold_px_anchors": thr_px, "methods": names, "skipped": skipped, "results": {}}
+    res: dict[str, Any] = {
+        "trials": trials,
+        "n": n,
+        "noise_px": noise,
+        "outliers": list(outliers),
+        "kinds": list(KINDS),
+        "seed": seed,
+        "threshold_px_anchors": thr_px,
+        "methods": names,
+        "skipped": skipped,
+        "results": {},
+    }
     for k in KINDS:
-        per: dict[str, dict[str, list[float]]] = {m: {"mean": [], "median": [], "mean_twin": [], "median_twin": [], "mean_htwin": [], "median_htwin": [], "time_s": [],
-                   "fail": []} for m in names}
+        per: dict[str, dict[str, list[float]]] = {
+            m: {"mean": [], "median": [], "mean_twin": [], "median_twin": [], "mean_htwin": [], "median_htwin": [], "time_s": [], "fail": []} for m in names
+        }
         twins, htwins = [], []
         for f in outliers:
             rows = raw[(k, f)]
@@ -268,10 +283,12 @@ def to_markdown(res: dict) -> str:
         per = res["results"][kind]
         blocks = [("mean", "mean rotation error (deg)"), ("median", "median rotation error (deg)")]
         if kind == "planar":
-            blocks += [("mean_twin", "mean rotation error vs the nearer of truth and twin (LiRP twin, chirality-valid) (deg)"),
-                       ("median_twin", "median rotation error vs the nearer of truth and twin (LiRP twin, chirality-valid) (deg)"),
-                       ("mean_htwin", "mean rotation error vs the nearer of truth and homography twin (chirality ignored) (deg)"),
-                       ("median_htwin", "median rotation error vs the nearer of truth and homography twin (chirality ignored) (deg)")]
+            blocks += [
+                ("mean_twin", "mean rotation error vs the nearer of truth and twin (LiRP twin, chirality-valid) (deg)"),
+                ("median_twin", "median rotation error vs the nearer of truth and twin (LiRP twin, chirality-valid) (deg)"),
+                ("mean_htwin", "mean rotation error vs the nearer of truth and homography twin (chirality ignored) (deg)"),
+                ("median_htwin", "median rotation error vs the nearer of truth and homography twin (chirality ignored) (deg)"),
+            ]
         for key, title in blocks:
             out.append(f"**{kind} scene: {title}**\n")
             rows = []
@@ -287,11 +304,13 @@ def to_markdown(res: dict) -> str:
         out.append(f"**{kind} scene: mean time per call (ms)**\n")
         out.append(markdown_table(head, [[m] + [1e3 * v for v in per[m]["time_s"]] for m in res["methods"]]))
         if kind == "planar":
-            out.append("Fraction of planar scenes with a chirality-valid LiRP twin: "
-                       + ", ".join(f"{100 * f:.0f}%: {v:.2f}" for f, v in zip(res["outliers"], res["twin_fraction"]["planar"]))
-                       + "; with a homography twin (chirality ignored): "
-                       + ", ".join(f"{100 * f:.0f}%: {v:.2f}" for f, v in zip(res["outliers"], res["homography_twin_fraction"]["planar"]))
-                       + "\n")
+            out.append(
+                "Fraction of planar scenes with a chirality-valid LiRP twin: "
+                + ", ".join(f"{100 * f:.0f}%: {v:.2f}" for f, v in zip(res["outliers"], res["twin_fraction"]["planar"]))
+                + "; with a homography twin (chirality ignored): "
+                + ", ".join(f"{100 * f:.0f}%: {v:.2f}" for f, v in zip(res["outliers"], res["homography_twin_fraction"]["planar"]))
+                + "\n"
+            )
     if res.get("skipped"):
         out.append("\nSkipped: " + "; ".join(f"{m}: {why}" for m, why in res["skipped"].items()) + "\n")
     return "\n".join(out)
@@ -303,9 +322,11 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     res = stamp(compute(trials, args.n, outliers, args.noise, args.seed, max(1, min(args.jobs, os.cpu_count() or 1)), args.threshold_px), t0)
     res["jobs"] = args.jobs
-    head = (f"GNC-RANSAC experiment (n = {args.n}, {args.noise:g} px, wide OpenGV-style scenes, {trials} trials per setting, "
-            f"seed {args.seed}; OpenCV/PoseLib on pixel coordinates with a {args.threshold_px:g} px threshold; "
-            f"{args.jobs} worker(s), {res['wall_s']:.0f} s)")
+    head = (
+        f"GNC-RANSAC experiment (n = {args.n}, {args.noise:g} px, wide OpenGV-style scenes, {trials} trials per setting, "
+        f"seed {args.seed}; OpenCV/PoseLib on pixel coordinates with a {args.threshold_px:g} px threshold; "
+        f"{args.jobs} worker(s), {res['wall_s']:.0f} s)"
+    )
     finish_run(args.out, "gnc-ransac", head, res, to_markdown(res), _figure)
     return 0
 
@@ -317,9 +338,14 @@ def _figure(res: dict, path: Path) -> None:
     from ._common import savefig
 
     x = 100 * np.asarray(res["outliers"])
-    panels = [("normal", "mean", "mean"), ("planar", "mean", "mean"), ("planar", "mean_htwin", "mean, nearer of truth/homography twin"),
-              ("normal", "median", "median"), ("planar", "median", "median"),
-              ("planar", "median_htwin", "median, nearer of truth/homography twin")]
+    panels = [
+        ("normal", "mean", "mean"),
+        ("planar", "mean", "mean"),
+        ("planar", "mean_htwin", "mean, nearer of truth/homography twin"),
+        ("normal", "median", "median"),
+        ("planar", "median", "median"),
+        ("planar", "median_htwin", "median, nearer of truth/homography twin"),
+    ]
     fig, axes = plt.subplots(2, 3, figsize=(16, 9), squeeze=False)
     cyc = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     colors = {m: cyc[i % len(cyc)] for i, m in enumerate(res["methods"])}

@@ -132,8 +132,18 @@ def compute(trials: int, n: int = 30, levels=LEVELS, seed: int = 0, noise_model:
     solver_errors = _solver_errors()
     methods_init = list(INITIAL)
     methods_opt = list(ops)
-    res: dict[str, Any] = {"trials": trials, "n": n, "levels": list(levels), "kinds": list(KINDS), "noise_model": noise_model, "seed": seed,
-           "groups": {"initial": methods_init, "optimisation": methods_opt}, "skipped": skipped, "results": {}, "time_s": {}}
+    res: dict[str, Any] = {
+        "trials": trials,
+        "n": n,
+        "levels": list(levels),
+        "kinds": list(KINDS),
+        "noise_model": noise_model,
+        "seed": seed,
+        "groups": {"initial": methods_init, "optimisation": methods_opt},
+        "skipped": skipped,
+        "results": {},
+        "time_s": {},
+    }
     tsum = {m: 0.0 for m in methods_init + methods_opt}
     tcnt = {m: 0 for m in tsum}
     total = len(KINDS) * len(levels) * trials
@@ -182,8 +192,7 @@ def to_markdown(res: dict) -> str:
     for group, ms in res["groups"].items():
         for kind in res["kinds"]:
             per = res["results"][kind]
-            out.append(f"**{kind} scene, {group} methods**: mean (median) rotation error in degrees"
-                       + (" (LiRP repeated for reference)" if group == "optimisation" else "") + "\n")
+            out.append(f"**{kind} scene, {group} methods**: mean (median) rotation error in degrees" + (" (LiRP repeated for reference)" if group == "optimisation" else "") + "\n")
             cols = (["LiRP"] if group == "optimisation" else []) + list(ms)
             header = ["noise (px)"] + cols
             rows = []
@@ -220,8 +229,10 @@ def run(args: argparse.Namespace) -> int:
     use_npt = not args.no_npt
     t0 = time.perf_counter()
     res = stamp(compute(trials, args.n, levels, args.seed, args.noise_model, use_npt), t0)
-    head = (f"Noise test (n = {args.n}, wide OpenGV-style scenes, {args.noise_model} noise, {trials} trials per level, "
-            f"seed {args.seed}; optimisation methods start from LiRP; {res['wall_s']:.0f} s)")
+    head = (
+        f"Noise test (n = {args.n}, wide OpenGV-style scenes, {args.noise_model} noise, {trials} trials per level, "
+        f"seed {args.seed}; optimisation methods start from LiRP; {res['wall_s']:.0f} s)"
+    )
     finish_run(args.out, "noise", head, res, to_markdown(res), _figure)
     return 0
 

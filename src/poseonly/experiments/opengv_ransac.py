@@ -174,8 +174,9 @@ def opengv_ransac_5pt(
     v = v_OpenGV_symmetric(best_R, best_t, f1, f2)
     inl = v < threshold
     t_unit = best_t / max(float(np.linalg.norm(best_t)), 1e-300)
-    return OpenGVRansacResult(R=best_R, t=t_unit, inliers=inl, num_inliers=int(inl.sum()), num_iterations=it, residuals=v,
-                              info={"threshold": threshold, "skipped": skipped, "k": k})
+    return OpenGVRansacResult(
+        R=best_R, t=t_unit, inliers=inl, num_inliers=int(inl.sum()), num_iterations=it, residuals=v, info={"threshold": threshold, "skipped": skipped, "k": k}
+    )
 
 
 def opengv_ransac_nonlinear(

@@ -332,8 +332,7 @@ def load_datasets(dirs: list[str | Path]) -> dict[str, list[Pair]]:
         else:
             scenes = find_scenes(p)
             if not scenes:
-                raise InputError(f"{p} is neither a realpairs folder (pairs.json) nor holds Strecha scenes "
-                                 "(images/ + gt_dense_cameras/)")
+                raise InputError(f"{p} is neither a realpairs folder (pairs.json) nor holds Strecha scenes (images/ + gt_dense_cameras/)")
             groups = [load_strecha(s) for s in scenes]
         for g in groups:
             name = g[0].dataset
@@ -363,8 +362,7 @@ def ratio_matches(d1: np.ndarray, d2: np.ndarray, ratio: float = RATIO) -> tuple
 
     if len(d1) == 0 or len(d2) < 2:
         return np.zeros((0, 2), np.int64), np.zeros(0)
-    dist, nn = cv2.batchDistance(np.ascontiguousarray(d1, np.float32), np.ascontiguousarray(d2, np.float32),
-                                 cv2.CV_32F, normType=cv2.NORM_L2, K=2)
+    dist, nn = cv2.batchDistance(np.ascontiguousarray(d1, np.float32), np.ascontiguousarray(d2, np.float32), cv2.CV_32F, normType=cv2.NORM_L2, K=2)
     keep = dist[:, 0] < ratio * dist[:, 1]
     i1 = np.flatnonzero(keep)
     r = dist[keep, 0].astype(np.float64) / np.maximum(dist[keep, 1].astype(np.float64), 1e-30)
@@ -420,8 +418,7 @@ def run_pair(pair: Pair, u1: np.ndarray, u2: np.ndarray, ratio: np.ndarray, meth
 
     n = len(u1)
     gt = int(np.count_nonzero(sampson_error_px(u1, u2, pair.K1, pair.K2, pair.R, pair.t) < GT_PX)) if n else 0
-    rec: dict[str, Any] = {"dataset": pair.dataset, "id": pair.pid, "im1": pair.im1.name, "im2": pair.im2.name,
-                           "matches": n, "gt_matches": gt, "methods": {}}
+    rec: dict[str, Any] = {"dataset": pair.dataset, "id": pair.pid, "im1": pair.im1.name, "im2": pair.im2.name, "matches": n, "gt_matches": gt, "methods": {}}
     scores = 1.0 - ratio
     for m in methods:
         runs = []
@@ -437,8 +434,7 @@ def run_pair(pair: Pair, u1: np.ndarray, u2: np.ndarray, ratio: np.ndarray, meth
                 o, err = MethodOutput(None, None, np.zeros(n, bool), "failed"), f"{type(exc).__name__}: {exc}"
             dt = time.perf_counter() - t0
             er, et = _errors(pair, o)
-            d = {"R_err": er if np.isfinite(er) else None, "t_err": et if np.isfinite(et) else None,
-                 "status": o.status, "inliers": int(np.count_nonzero(o.inliers)), "time_s": dt}
+            d = {"R_err": er if np.isfinite(er) else None, "t_err": et if np.isfinite(et) else None, "status": o.status, "inliers": int(np.count_nonzero(o.inliers)), "time_s": dt}
             if err:
                 d["error"] = err
             runs.append(d)
@@ -459,8 +455,7 @@ def warm_up(plan: list[Pair], matches: list[tuple[np.ndarray, np.ndarray, np.nda
             return
 
 
-def compute(dirs: list[str | Path], *, methods: list[str] | None = None, seeds: int = 1, cache: str | Path,
-            max_pairs: int | None = None) -> dict:
+def compute(dirs: list[str | Path], *, methods: list[str] | None = None, seeds: int = 1, cache: str | Path, max_pairs: int | None = None) -> dict:
     """Run the benchmark; returns ``{"config", "methods", "notes", "pairs", "summary", ...}``."""
     if seeds < 1:
         raise InputError(f"--seeds must be >= 1, got {seeds}")
@@ -475,13 +470,23 @@ def compute(dirs: list[str | Path], *, methods: list[str] | None = None, seeds: 
     matches = [pair_matches(p, cache) for p in progress(plan, total=len(plan), desc="matching")]
     t_match = time.perf_counter() - t_start
     warm_up(plan, matches, ms)
-    records = [run_pair(p, mt[0], mt[1], mt[2], ms, seeds)
-               for p, mt in progress(zip(plan, matches), total=len(plan), desc="real pairs")]
+    records = [run_pair(p, mt[0], mt[1], mt[2], ms, seeds) for p, mt in progress(zip(plan, matches), total=len(plan), desc="real pairs")]
     res = {
-        "config": {"dirs": [str(d) for d in dirs], "datasets": {k: v[0].kind for k, v in data.items()}, "seeds": seeds,
-                   "max_pairs": max_pairs, "ratio": RATIO, "min_matches": MIN_MATCHES, "gt_px": GT_PX, "gt_min": GT_MIN,
-                   "wrong_deg": WRONG_DEG, "good_deg": GOOD_DEG, "reference": REFERENCE, "cache": str(cache),
-                   "superansac_threshold_px": SUPERANSAC_THRESHOLD_PX},
+        "config": {
+            "dirs": [str(d) for d in dirs],
+            "datasets": {k: v[0].kind for k, v in data.items()},
+            "seeds": seeds,
+            "max_pairs": max_pairs,
+            "ratio": RATIO,
+            "min_matches": MIN_MATCHES,
+            "gt_px": GT_PX,
+            "gt_min": GT_MIN,
+            "wrong_deg": WRONG_DEG,
+            "good_deg": GOOD_DEG,
+            "reference": REFERENCE,
+            "cache": str(cache),
+            "superansac_threshold_px": SUPERANSAC_THRESHOLD_PX,
+        },
         "methods": ms,
         "notes": notes,
         "time_total_s": time.perf_counter() - t_start,
@@ -529,7 +534,8 @@ def _method_stats(recs: list[dict], m: str, seeds: int, ref: str | None) -> dict
     has_status = any(s is not None for s in status)
     ok = np.array([s == "ok" for s in status])
     d: dict[str, Any] = {
-        "pairs": len(recs), "failed": int(np.count_nonzero(~fin)),
+        "pairs": len(recs),
+        "failed": int(np.count_nonzero(~fin)),
         "median_R_err": float(np.median(er)) if len(er) else float("nan"),
         "mean_R_err": float(np.mean(er[fin])) if fin.any() else float("nan"),
         "median_t_err": float(np.median(et)) if len(et) else float("nan"),
@@ -559,8 +565,7 @@ def _method_stats(recs: list[dict], m: str, seeds: int, ref: str | None) -> dict
 
 def _subsets(kind: str) -> dict[str, Callable[[dict], bool]]:
     if kind == "strecha":
-        return {"overlap": lambda r: r["matches"] > MIN_MATCHES and r["gt_matches"] >= GT_MIN,
-                "all": lambda r: r["matches"] > MIN_MATCHES}
+        return {"overlap": lambda r: r["matches"] > MIN_MATCHES and r["gt_matches"] >= GT_MIN, "all": lambda r: r["matches"] > MIN_MATCHES}
     return {"all": lambda r: True}
 
 
@@ -598,8 +603,7 @@ _SUBSET_TITLE = {
 def overview_markdown(res: dict) -> str:
     """One row per dataset (Strecha: overlapping pairs) and method: the headline numbers."""
     ms, S = res["methods"], res["summary"]
-    header = ["dataset", "pairs", "method", "med / mean R err", "AUC@5 / @10 / @20", "med time x", "ok>5", "good-not-ok",
-              "ref-good-not-ok"]
+    header = ["dataset", "pairs", "method", "med / mean R err", "AUC@5 / @10 / @20", "med time x", "ok>5", "good-not-ok", "ref-good-not-ok"]
     rows = []
     for ds, subs in S.items():
         sub = "overlap" if "overlap" in subs else "all"
@@ -607,11 +611,19 @@ def overview_markdown(res: dict) -> str:
         for m in ms:
             s = st[m]
             a = s["auc"]
-            rows.append([ds if sub == "all" else f"{ds} (overlap)", s["pairs"], m,
-                         f"{s['median_R_err']:.3f} / {s['mean_R_err']:.3f}", f"{a['5']:.1f} / {a['10']:.1f} / {a['20']:.1f}",
-                         f"{s.get('median_time_ratio', float('nan')):.2f}",
-                         f"{s['ok_wrong']} / {s['ok']}" if "ok" in s else "-", s.get("good_not_ok", "-"),
-                         f"{s['ref_good_not_ok']} / {s['ref_good']}" if "ref_good" in s else "-"])
+            rows.append(
+                [
+                    ds if sub == "all" else f"{ds} (overlap)",
+                    s["pairs"],
+                    m,
+                    f"{s['median_R_err']:.3f} / {s['mean_R_err']:.3f}",
+                    f"{a['5']:.1f} / {a['10']:.1f} / {a['20']:.1f}",
+                    f"{s.get('median_time_ratio', float('nan')):.2f}",
+                    f"{s['ok_wrong']} / {s['ok']}" if "ok" in s else "-",
+                    s.get("good_not_ok", "-"),
+                    f"{s['ref_good_not_ok']} / {s['ref_good']}" if "ref_good" in s else "-",
+                ]
+            )
     return markdown_table(header, rows)
 
 
@@ -623,7 +635,8 @@ def to_markdown(res: dict, command: str | None = None) -> str:
         lines += ["Command:", "", "```bash", command, "```", ""]
     lines += [
         f"SIFT (OpenCV, full resolution) + Lowe ratio {cfg['ratio']}, identical matches for every method. "
-        f"Seeds 0..{cfg['seeds'] - 1} (tables: seed 0)" + (f"; at most {cfg['max_pairs']} pairs per dataset" if cfg["max_pairs"] else "")
+        f"Seeds 0..{cfg['seeds'] - 1} (tables: seed 0)"
+        + (f"; at most {cfg['max_pairs']} pairs per dataset" if cfg["max_pairs"] else "")
         + ". Errors in degrees; t err = angle between translation directions, sign ignored (SuperGlue). "
         "AUC of max(R err, t err), a pair without a pose counts as an infinite error (its mean errors exclude it). "
         f"Time = the estimator call, BLAS/OpenCV on one thread, **measured under load** on a shared machine; "
@@ -633,35 +646,53 @@ def to_markdown(res: dict, command: str | None = None) -> str:
         f"SupeRANSAC: its authors' E settings (PROSAC by 1 - ratio, MAGSAC, nested-RANSAC LO, LSQ, conf 1-1e-7, "
         f"5000 iterations) at {cfg['superansac_threshold_px']:g} px.",
         "",
-        f"Machine: {res['machine']}" + (f"; code `{res['code_version']}`" if res.get("code_version") else "")
+        f"Machine: {res['machine']}"
+        + (f"; code `{res['code_version']}`" if res.get("code_version") else "")
         + f". Total {res['time_total_s']:.0f} s (matching {res['time_matching_s']:.0f} s, cached pairs excluded).",
         "",
     ]
     lines += [f"Note: {n}." for n in res["notes"]]
-    lines += ["", "## Overview (seed 0; Strecha: overlapping pairs; ok>5 = wrong `ok` poses / `ok` poses)", "",
-              overview_markdown(res)]
+    lines += ["", "## Overview (seed 0; Strecha: overlapping pairs; ok>5 = wrong `ok` poses / `ok` poses)", "", overview_markdown(res)]
     for ds, subs in S.items():
         for sub, st in subs.items():
             n = st[ms[0]]["pairs"]
             lines += ["", f"## {ds}: {_SUBSET_TITLE[sub]}, {n} pairs", ""]
-            header = ["method", "med R", "mean R", "med t", "mean t", "AUC@5", "AUC@10", "AUC@20", "failed",
-                      "med ms", "mean ms", "med x", "mean x"]
+            header = ["method", "med R", "mean R", "med t", "mean t", "AUC@5", "AUC@10", "AUC@20", "failed", "med ms", "mean ms", "med x", "mean x"]
             if cfg["seeds"] > 1:
                 header.append(f"AUC@10 over {cfg['seeds']} seeds")
             rows = []
             for m in ms:
                 s = st[m]
-                row = [m, s["median_R_err"], s["mean_R_err"], s["median_t_err"], s["mean_t_err"],
-                       f"{s['auc']['5']:.1f}", f"{s['auc']['10']:.1f}", f"{s['auc']['20']:.1f}", s["failed"],
-                       s["median_time_ms"], s["mean_time_ms"], s.get("median_time_ratio", float("nan")),
-                       s.get("mean_time_ratio", float("nan"))]
+                row = [
+                    m,
+                    s["median_R_err"],
+                    s["mean_R_err"],
+                    s["median_t_err"],
+                    s["mean_t_err"],
+                    f"{s['auc']['5']:.1f}",
+                    f"{s['auc']['10']:.1f}",
+                    f"{s['auc']['20']:.1f}",
+                    s["failed"],
+                    s["median_time_ms"],
+                    s["mean_time_ms"],
+                    s.get("median_time_ratio", float("nan")),
+                    s.get("mean_time_ratio", float("nan")),
+                ]
                 if cfg["seeds"] > 1:
                     row.append(f"{s['auc10_mean']:.1f} +- {s['auc10_std']:.2f} (range {s['auc10_range']:.2f})")
                 rows.append(row)
             lines.append(markdown_table(header, rows))
-            srows = [[m, st[m]["ok"], f"{st[m]['ok_wrong']} ({st[m]['ok_wrong_pct']:.1f} %)",
-                      st[m].get("good_not_ok", "-"), f"{st[m].get('ref_good_not_ok', '-')} / {st[m].get('ref_good', '-')}"]
-                     for m in ms if "ok" in st[m]]
+            srows = [
+                [
+                    m,
+                    st[m]["ok"],
+                    f"{st[m]['ok_wrong']} ({st[m]['ok_wrong_pct']:.1f} %)",
+                    st[m].get("good_not_ok", "-"),
+                    f"{st[m].get('ref_good_not_ok', '-')} / {st[m].get('ref_good', '-')}",
+                ]
+                for m in ms
+                if "ok" in st[m]
+            ]
             if srows:
                 lines += ["", markdown_table(["method", "ok", "ok>5", "good-not-ok", "ref-good-not-ok / ref-good"], srows)]
     return "\n".join(lines) + "\n"
@@ -691,7 +722,7 @@ def figure(res: dict, path: Path) -> Path | None:
         a.set_xlabel("max(R err, t err) (deg, log)")
         a.set_ylabel("pairs (%)")
         a.grid(alpha=0.3)
-    for a in axs.ravel()[len(panels):]:
+    for a in axs.ravel()[len(panels) :]:
         a.axis("off")
     axs[0, 0].legend(fontsize=7)
     fig.tight_layout()
@@ -731,15 +762,13 @@ def _poselib_iterations(u1: np.ndarray, u2: np.ndarray, p: Pair) -> int:
     import poselib as pl
 
     def cam(K: np.ndarray) -> dict:
-        return {"model": "PINHOLE", "width": int(2 * K[0, 2] + 1), "height": int(2 * K[1, 2] + 1),
-                "params": [float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2])]}
+        return {"model": "PINHOLE", "width": int(2 * K[0, 2] + 1), "height": int(2 * K[1, 2] + 1), "params": [float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2])]}
 
     _, info = pl.estimate_relative_pose(u1, u2, cam(p.K1), cam(p.K2), {"max_epipolar_error": 1.0, "seed": 0}, {})
     return int(info["iterations"])
 
 
-def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly", seeds: int = 4,
-             datasets: list[str] | None = None, overlap_only: bool = False) -> list[dict]:
+def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly", seeds: int = 4, datasets: list[str] | None = None, overlap_only: bool = False) -> list[dict]:
     """Re-run the ``n_worst`` pairs where ``method`` loses most to :data:`REFERENCE` (rotation error
     difference, seed 0) and report for each: the default's final (noise-matched) threshold and inliers,
     its inliers farther than ``FAR_PX`` from the GT geometry against the reference's, the MSAC cost at
@@ -758,8 +787,7 @@ def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly",
         b = 180.0 if b is None else b
         return a - b
 
-    cand = [r for r in res["pairs"] if r["matches"] >= MIN_SOLVE and (not datasets or r["dataset"] in datasets)
-            and (not overlap_only or r["gt_matches"] >= GT_MIN)]
+    cand = [r for r in res["pairs"] if r["matches"] >= MIN_SOLVE and (not datasets or r["dataset"] in datasets) and (not overlap_only or r["gt_matches"] >= GT_MIN)]
     recs = sorted(cand, key=loss, reverse=True)[:n_worst]
     out = []
     for r in recs:
@@ -770,19 +798,34 @@ def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly",
         Ro, to = cast(np.ndarray, o.R), cast(np.ndarray, o.t)  # None only for status "degenerate"
         Rp, tp, inlp, _ = poselib_relpose(u1, u2, p.K1, p.K2, threshold_px=1.0, seed=0)
         d: dict[str, Any] = {
-            "dataset": p.dataset, "id": p.pid, "matches": len(u1), "gt_1px": int(np.count_nonzero(e_gt < GT_PX)),
-            "R_err": float(rotation_error_deg(p.R, Ro)), "status": o.status, "final_thr_px": float(o.threshold_px),
-            "inliers": int(o.num_inliers), "inliers_far": int(np.count_nonzero(o.inliers & (e_gt > FAR_PX))),
-            "msac": _msac_cost(u1, u2, p, Ro, to), "msac_gt": _msac_cost(u1, u2, p, p.R, p.t),
-            "iterations": int(o.num_iterations), "ref_iterations": _poselib_iterations(u1, u2, p),
+            "dataset": p.dataset,
+            "id": p.pid,
+            "matches": len(u1),
+            "gt_1px": int(np.count_nonzero(e_gt < GT_PX)),
+            "R_err": float(rotation_error_deg(p.R, Ro)),
+            "status": o.status,
+            "final_thr_px": float(o.threshold_px),
+            "inliers": int(o.num_inliers),
+            "inliers_far": int(np.count_nonzero(o.inliers & (e_gt > FAR_PX))),
+            "msac": _msac_cost(u1, u2, p, Ro, to),
+            "msac_gt": _msac_cost(u1, u2, p, p.R, p.t),
+            "iterations": int(o.num_iterations),
+            "ref_iterations": _poselib_iterations(u1, u2, p),
         }
         if Rp is not None:
-            d.update(ref_R_err=float(rotation_error_deg(p.R, Rp)), ref_inliers=int(np.count_nonzero(inlp)),
-                     ref_inliers_far=int(np.count_nonzero(inlp & (e_gt > FAR_PX))), ref_msac=_msac_cost(u1, u2, p, Rp, tp))
-        d["R_err_seeds"] = [float(rotation_error_deg(p.R, cast(np.ndarray, estimate_relative_pose(u1, u2, p.K1, p.K2, seed=s).R)))
-                            for s in range(seeds)]
-        for name, opts in (("@1px", {"threshold_px": 1.0}), ("fixed-thr", {"adaptive_threshold": False}),
-                           ("no-refine", {"refine": False}), ("min1000", {"min_iterations": 1000, "confidence": 0.9999})):
+            d.update(
+                ref_R_err=float(rotation_error_deg(p.R, Rp)),
+                ref_inliers=int(np.count_nonzero(inlp)),
+                ref_inliers_far=int(np.count_nonzero(inlp & (e_gt > FAR_PX))),
+                ref_msac=_msac_cost(u1, u2, p, Rp, tp),
+            )
+        d["R_err_seeds"] = [float(rotation_error_deg(p.R, cast(np.ndarray, estimate_relative_pose(u1, u2, p.K1, p.K2, seed=s).R))) for s in range(seeds)]
+        for name, opts in (
+            ("@1px", {"threshold_px": 1.0}),
+            ("fixed-thr", {"adaptive_threshold": False}),
+            ("no-refine", {"refine": False}),
+            ("min1000", {"min_iterations": 1000, "confidence": 0.9999}),
+        ):
             d[f"R_err_{name}"] = float(rotation_error_deg(p.R, cast(np.ndarray, estimate_relative_pose(u1, u2, p.K1, p.K2, seed=0, **opts).R)))
         out.append(d)
     return out
@@ -790,22 +833,65 @@ def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly",
 
 def diagnosis_markdown(diag: list[dict]) -> str:
     """Table of :func:`diagnose`."""
-    header = ["dataset", "pair", "matches", "GT<1px", "R err", "status", "final thr px", "inliers", f"far>{FAR_PX:g}px",
-              f"MSAC@{MSAC_PX:g}", "MSAC GT", "PL R err", "PL inliers", "PL far", "PL MSAC", "R err seeds 0-3",
-              "@1px", "fixed thr", "no refine", "min1000", "iters", "PL iters"]
-    rows = [[d["dataset"], d["id"], d["matches"], d["gt_1px"], d["R_err"], d["status"], d["final_thr_px"], d["inliers"],
-             d["inliers_far"], d["msac"], d["msac_gt"], d.get("ref_R_err", float("nan")), d.get("ref_inliers", "-"),
-             d.get("ref_inliers_far", "-"), d.get("ref_msac", float("nan")), " / ".join(f"{e:.3g}" for e in d["R_err_seeds"]),
-             d["R_err_@1px"], d["R_err_fixed-thr"], d["R_err_no-refine"], d["R_err_min1000"], d["iterations"],
-             d["ref_iterations"]]
-            for d in diag]
-    return ("# Pairs where the default loses most to PoseLib (1 px), seed 0\n\n"
-            f"R errors in degrees. far = inliers more than {FAR_PX:g} px (Sampson) from the GT epipolar geometry; "
-            f"MSAC@{MSAC_PX:g} = sum over all matches of min(e^2, {MSAC_PX:g}) (px^2) of the pose (lower is better); "
-            "@1px / fixed thr / no refine / min1000 = the default with threshold_px=1, adaptive_threshold=False, "
-            "refine=False, min_iterations=1000 + confidence=0.9999; "
-            "iters = RANSAC iterations of the default and of PoseLib (1 px, seed 0).\n\n"
-            + markdown_table(header, rows))
+    header = [
+        "dataset",
+        "pair",
+        "matches",
+        "GT<1px",
+        "R err",
+        "status",
+        "final thr px",
+        "inliers",
+        f"far>{FAR_PX:g}px",
+        f"MSAC@{MSAC_PX:g}",
+        "MSAC GT",
+        "PL R err",
+        "PL inliers",
+        "PL far",
+        "PL MSAC",
+        "R err seeds 0-3",
+        "@1px",
+        "fixed thr",
+        "no refine",
+        "min1000",
+        "iters",
+        "PL iters",
+    ]
+    rows = [
+        [
+            d["dataset"],
+            d["id"],
+            d["matches"],
+            d["gt_1px"],
+            d["R_err"],
+            d["status"],
+            d["final_thr_px"],
+            d["inliers"],
+            d["inliers_far"],
+            d["msac"],
+            d["msac_gt"],
+            d.get("ref_R_err", float("nan")),
+            d.get("ref_inliers", "-"),
+            d.get("ref_inliers_far", "-"),
+            d.get("ref_msac", float("nan")),
+            " / ".join(f"{e:.3g}" for e in d["R_err_seeds"]),
+            d["R_err_@1px"],
+            d["R_err_fixed-thr"],
+            d["R_err_no-refine"],
+            d["R_err_min1000"],
+            d["iterations"],
+            d["ref_iterations"],
+        ]
+        for d in diag
+    ]
+    return (
+        "# Pairs where the default loses most to PoseLib (1 px), seed 0\n\n"
+        f"R errors in degrees. far = inliers more than {FAR_PX:g} px (Sampson) from the GT epipolar geometry; "
+        f"MSAC@{MSAC_PX:g} = sum over all matches of min(e^2, {MSAC_PX:g}) (px^2) of the pose (lower is better); "
+        "@1px / fixed thr / no refine / min1000 = the default with threshold_px=1, adaptive_threshold=False, "
+        "refine=False, min_iterations=1000 + confidence=0.9999; "
+        "iters = RANSAC iterations of the default and of PoseLib (1 px, seed 0).\n\n" + markdown_table(header, rows)
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -816,14 +902,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default="docs/results/real", help="output folder (default docs/results/real)")
     p.add_argument("--cache", help="feature/match cache folder (default <out>/cache)")
     p.add_argument("--max-pairs", type=int, help="at most N pairs per dataset, in file order")
-    p.add_argument("--diagnose", type=int, metavar="N", default=0,
-                   help="also re-run the N pairs where the default loses most to PoseLib and write real_bench_diagnosis.md")
+    p.add_argument("--diagnose", type=int, metavar="N", default=0, help="also re-run the N pairs where the default loses most to PoseLib and write real_bench_diagnosis.md")
     p.add_argument("--diagnose-datasets", nargs="+", metavar="NAME", help="diagnose only pairs of these datasets")
-    p.add_argument("--diagnose-overlap", action="store_true",
-                   help=f"diagnose only pairs with >= {GT_MIN} matches within {GT_PX:g} px of the GT geometry")
+    p.add_argument("--diagnose-overlap", action="store_true", help=f"diagnose only pairs with >= {GT_MIN} matches within {GT_PX:g} px of the GT geometry")
     p.add_argument("--diagnose-name", default="real_bench_diagnosis", help="file name (no suffix) of the diagnosis")
-    p.add_argument("--from-json", metavar="PATH", help="skip the run: read the results of an earlier run and re-render its report (or, with --diagnose, "
-                        "diagnose its losing pairs)")
+    p.add_argument("--from-json", metavar="PATH", help="skip the run: read the results of an earlier run and re-render its report (or, with --diagnose, diagnose its losing pairs)")
     return p
 
 

@@ -74,8 +74,18 @@ def compute(trials: int, n: int = 30, outliers=OUTLIERS, noise: float = 1.0, see
 
     variants = {"paper": None, "pixel": bound_px}
     methods = [f"{LABELS[r]} ({v})" for v in variants for r in RESIDUALS] + [REF]
-    res: dict[str, Any] = {"trials": trials, "n": n, "noise_px": noise, "outliers": list(outliers), "kinds": list(KINDS), "seed": seed,
-           "bound_px": bound_px, "methods": methods, "results": {}, "time_s": {}}
+    res: dict[str, Any] = {
+        "trials": trials,
+        "n": n,
+        "noise_px": noise,
+        "outliers": list(outliers),
+        "kinds": list(KINDS),
+        "seed": seed,
+        "bound_px": bound_px,
+        "methods": methods,
+        "results": {},
+        "time_s": {},
+    }
     tsum = {m: 0.0 for m in methods}
     total = len(KINDS) * len(outliers)
     bar = progress(range(total), total=total, desc="residuals")
@@ -133,8 +143,7 @@ def to_markdown(res: dict) -> str:
     out = []
     for kind in res["kinds"]:
         per = res["results"][kind]
-        for key, title in (("mean", "mean rotation error (deg)"), ("median", "median rotation error (deg)"),
-                           ("success", "success rate (error < 1 deg)")):
+        for key, title in (("mean", "mean rotation error (deg)"), ("median", "median rotation error (deg)"), ("success", "success rate (error < 1 deg)")):
             out.append(f"**{kind} scene: {title}**\n")
             header = ["method"] + [f"{100 * f:.0f}%" for f in res["outliers"]]
             rows = [[m] + [per[m][i][key] for i in range(len(res["outliers"]))] for m in res["methods"]]
@@ -154,8 +163,9 @@ def to_markdown(res: dict) -> str:
             best = [min(ms, key=lambda m: per[m][i]["mean"]).split(" ")[0] for i in range(len(res["outliers"]))]
             lines.append(f"* {kind}, {var} bound: " + ", ".join(f"{100 * f:.0f}%: {b}" for f, b in zip(res["outliers"], best)))
     out.append("\n".join(lines) + "\n")
-    out.append("\nMean time per problem (ms): " + ", ".join(f"{m} {1e3 * v:.2f}" for m, v in res["time_s"].items())
-               + " (GNC variants: lockstep over the stacked trials, total / trials)\n")
+    out.append(
+        "\nMean time per problem (ms): " + ", ".join(f"{m} {1e3 * v:.2f}" for m, v in res["time_s"].items()) + " (GNC variants: lockstep over the stacked trials, total / trials)\n"
+    )
     return "\n".join(out)
 
 
@@ -164,9 +174,11 @@ def run(args: argparse.Namespace) -> int:
     trials = 3 if args.quick else (args.trials or 500)
     t0 = time.perf_counter()
     res = stamp(compute(trials, args.n, outliers, args.noise, args.seed, args.bound_px), t0)
-    head = (f"Residual selection for MS-TLS GNC-IRLS + LiRP (n = {args.n}, {args.noise:g} px, wide OpenGV-style scenes, "
-            f"{trials} trials per setting, seed {args.seed}; 'paper' = adaptive c = 5.54 * 1.4826 * median(v), "
-            f"'pixel' = fixed bound {args.bound_px:g} px / 800; reference {REF}; {res['wall_s']:.0f} s)")
+    head = (
+        f"Residual selection for MS-TLS GNC-IRLS + LiRP (n = {args.n}, {args.noise:g} px, wide OpenGV-style scenes, "
+        f"{trials} trials per setting, seed {args.seed}; 'paper' = adaptive c = 5.54 * 1.4826 * median(v), "
+        f"'pixel' = fixed bound {args.bound_px:g} px / 800; reference {REF}; {res['wall_s']:.0f} s)"
+    )
     finish_run(args.out, "residuals", head, res, to_markdown(res), _figure)
     return 0
 

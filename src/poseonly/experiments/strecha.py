@@ -66,30 +66,27 @@ PAPER_TABLE3 = {
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("path", nargs="?", default=os.environ.get("POSEONLY_STRECHA"),
-                   help="folder holding Strecha scene folders (or one scene folder); default $POSEONLY_STRECHA")
+    p.add_argument("path", nargs="?", default=os.environ.get("POSEONLY_STRECHA"), help="folder holding Strecha scene folders (or one scene folder); default $POSEONLY_STRECHA")
     p.add_argument("--scenes", nargs="+", metavar="NAME", help="only these scene folder names (default: all found)")
     p.add_argument("--cache", help="feature/match cache directory (default: <out>/cache)")
     p.add_argument("--ratio", type=float, default=0.8, help="Lowe ratio of the SIFT matching (default 0.8)")
-    p.add_argument("--methods", nargs="+", choices=ALL_METHODS, metavar="METHOD",
-                   help=f"methods to run (default: all available): {', '.join(ALL_METHODS)}")
-    p.add_argument("--threshold-px", nargs="+", type=float, metavar="PX",
-                   help="inlier threshold(s) in pixels of our methods (default: the API default); several values "
-                        "run every one of our methods once per value, named METHOD@PXpx")
-    p.add_argument("--noise-factor", type=float, metavar="K",
-                   help="noise_factor option of the default method (its final threshold is K robust sigmas; "
-                        "default: the API default)")
-    p.add_argument("--anchor-threshold-px", type=float, default=1.0,
-                   help="threshold of OpenCV and PoseLib in pixels (default 1, their defaults)")
-    p.add_argument("--opengv-threshold-px", type=float,
-                   help="threshold of RANSAC+5pt in pixels per view (default: OpenGV's own, 0.5 sqrt(2) px at f = 800)")
+    p.add_argument("--methods", nargs="+", choices=ALL_METHODS, metavar="METHOD", help=f"methods to run (default: all available): {', '.join(ALL_METHODS)}")
+    p.add_argument(
+        "--threshold-px",
+        nargs="+",
+        type=float,
+        metavar="PX",
+        help="inlier threshold(s) in pixels of our methods (default: the API default); several values run every one of our methods once per value, named METHOD@PXpx",
+    )
+    p.add_argument("--noise-factor", type=float, metavar="K", help="noise_factor option of the default method (its final threshold is K robust sigmas; default: the API default)")
+    p.add_argument("--anchor-threshold-px", type=float, default=1.0, help="threshold of OpenCV and PoseLib in pixels (default 1, their defaults)")
+    p.add_argument("--opengv-threshold-px", type=float, help="threshold of RANSAC+5pt in pixels per view (default: OpenGV's own, 0.5 sqrt(2) px at f = 800)")
     p.add_argument("--max-pairs", type=int, help="at most this many pairs per scene (in (i, j) order; for smoke tests)")
     p.add_argument("--max-features", type=int, help="keep the strongest N SIFT features per image (default: all)")
     p.add_argument("--min-matches", type=int, default=30, help="process pairs with MORE than this many putative matches")
     p.add_argument("--gt-px", type=float, default=2.0, help="Sampson error (px) under the GT pose of a GT-consistent match")
     p.add_argument("--gt-min", type=int, default=30, help="a pair truly overlaps with at least this many GT-consistent matches")
-    p.add_argument("--min-confident-inliers", type=int, default=15,
-                   help="an anchor's pose counts as confident with at least this many inliers")
+    p.add_argument("--min-confident-inliers", type=int, default=15, help="an anchor's pose counts as confident with at least this many inliers")
     p.add_argument("--wrong-deg", type=float, default=5.0, help="a confident pose with a larger rotation error is 'wrong'")
 
 
@@ -142,8 +139,7 @@ class Method:
     ours: bool
 
 
-def _ours(api_method: str, refine: bool | None, threshold: float | None,
-          extra: dict[str, Any] | None = None) -> Callable[..., dict]:
+def _ours(api_method: str, refine: bool | None, threshold: float | None, extra: dict[str, Any] | None = None) -> Callable[..., dict]:
     from ..api import estimate_relative_pose
 
     def run(u1, u2, K, seed):
@@ -223,8 +219,7 @@ def _opengv(thr_px: float | None, min_inl: int) -> Callable[..., dict] | None:
     return run
 
 
-def build_methods(names, thresholds, anchor_thr: float, min_inl: int, notes: list[str],
-                  opengv_thr: float | None = None, noise_factor: float | None = None) -> list[Method]:
+def build_methods(names, thresholds, anchor_thr: float, min_inl: int, notes: list[str], opengv_thr: float | None = None, noise_factor: float | None = None) -> list[Method]:
     from ..anchors import available_anchors
 
     names = list(names or ALL_METHODS)
@@ -272,11 +267,26 @@ def _select_scenes(root: Path, names: list[str] | None) -> list[Path]:
     return found
 
 
-def compute(root: str | Path, *, scenes: list[str] | None = None, cache: str | Path, ratio: float = 0.8,
-            methods: list[str] | None = None, thresholds: list[float] | None = None, anchor_thr: float = 1.0,
-            opengv_thr: float | None = None, noise_factor: float | None = None,
-            max_pairs: int | None = None, max_features: int | None = None, min_matches: int = 30, gt_px: float = 2.0,
-            gt_min: int = 30, min_conf_inliers: int = 15, wrong_deg: float = 5.0, seed: int = 0) -> dict:
+def compute(
+    root: str | Path,
+    *,
+    scenes: list[str] | None = None,
+    cache: str | Path,
+    ratio: float = 0.8,
+    methods: list[str] | None = None,
+    thresholds: list[float] | None = None,
+    anchor_thr: float = 1.0,
+    opengv_thr: float | None = None,
+    noise_factor: float | None = None,
+    max_pairs: int | None = None,
+    max_features: int | None = None,
+    min_matches: int = 30,
+    gt_px: float = 2.0,
+    gt_min: int = 30,
+    min_conf_inliers: int = 15,
+    wrong_deg: float = 5.0,
+    seed: int = 0,
+) -> dict:
     from ..features import sampson_error_px
     from ..io.strecha import load_scene, relative_pose
 
@@ -303,8 +313,15 @@ def compute(root: str | Path, *, scenes: list[str] | None = None, cache: str | P
         R_gt, t_gt, base = relative_pose(sc, i, j)
         K = sc.K
         n = len(u1)
-        rec: dict[str, Any] = {"scene": sc.name, "i": i, "j": j, "images": [sc.image_paths[i].name, sc.image_paths[j].name],
-                               "matches": n, "baseline_m": base, "processed": n > min_matches}
+        rec: dict[str, Any] = {
+            "scene": sc.name,
+            "i": i,
+            "j": j,
+            "images": [sc.image_paths[i].name, sc.image_paths[j].name],
+            "matches": n,
+            "baseline_m": base,
+            "processed": n > min_matches,
+        }
         if n > 0:
             e_gt = sampson_error_px(u1, u2, K, K, R_gt, t_gt)
             rec["gt_matches"] = int(np.count_nonzero(e_gt < gt_px))
@@ -322,19 +339,39 @@ def compute(root: str | Path, *, scenes: list[str] | None = None, cache: str | P
                 ok = R is not None
                 rerr = float(rotation_error_deg(R_gt, R)) if ok else float("nan")
                 terr = float(translation_error_deg(t_gt, o["t"])) if ok and o["t"] is not None else float("nan")
-                d = {"rot_err_deg": rerr, "t_err_deg": terr, "inliers": int(o["num_inliers"]),
-                     "inlier_ratio": o["num_inliers"] / n, "outlier_pct": 100.0 * (1.0 - o["num_inliers"] / n),
-                     "status": o["status"], "confident": o["status"] == "ok", "time_s": float(o["time_s"])}
+                d = {
+                    "rot_err_deg": rerr,
+                    "t_err_deg": terr,
+                    "inliers": int(o["num_inliers"]),
+                    "inlier_ratio": o["num_inliers"] / n,
+                    "outlier_pct": 100.0 * (1.0 - o["num_inliers"] / n),
+                    "status": o["status"],
+                    "confident": o["status"] == "ok",
+                    "time_s": float(o["time_s"]),
+                }
                 if "error" in o:
                     d["error"] = o["error"]
                 rec["methods"][m.name] = d
         records.append(rec)
     out = {
-        "config": {"path": str(root), "scenes": [sc.name for sc in loaded], "cache": str(cache), "ratio": ratio,
-                   "max_features": max_features, "max_pairs": max_pairs, "min_matches": min_matches, "gt_px": gt_px,
-                   "gt_min": gt_min, "min_confident_inliers": min_conf_inliers, "wrong_deg": wrong_deg, "seed": seed,
-                   "threshold_px": thresholds, "anchor_threshold_px": anchor_thr,
-                   "opengv_threshold_px": opengv_thr, "noise_factor": noise_factor},
+        "config": {
+            "path": str(root),
+            "scenes": [sc.name for sc in loaded],
+            "cache": str(cache),
+            "ratio": ratio,
+            "max_features": max_features,
+            "max_pairs": max_pairs,
+            "min_matches": min_matches,
+            "gt_px": gt_px,
+            "gt_min": gt_min,
+            "min_confident_inliers": min_conf_inliers,
+            "wrong_deg": wrong_deg,
+            "seed": seed,
+            "threshold_px": thresholds,
+            "anchor_threshold_px": anchor_thr,
+            "opengv_threshold_px": opengv_thr,
+            "noise_factor": noise_factor,
+        },
         "methods": [m.name for m in ms],
         "ours": [m.name for m in ms if m.ours],
         "notes": notes,
@@ -388,9 +425,11 @@ def summarize(res: dict) -> dict:
             recs = [r for r in proc if pred(r) and (sc == "all scenes" or r["scene"] == sc)]
             out[sname][sc] = {m: _stats(recs, m, wrong) for m in res["methods"]} if recs else {}
     out["counts"] = {
-        sc: {"pairs": sum(1 for r in res["pairs"] if sc == "all scenes" or r["scene"] == sc),
-             "processed": sum(1 for r in proc if sc == "all scenes" or r["scene"] == sc),
-             "overlap": sum(1 for r in proc if r["overlap"] and (sc == "all scenes" or r["scene"] == sc))}
+        sc: {
+            "pairs": sum(1 for r in res["pairs"] if sc == "all scenes" or r["scene"] == sc),
+            "processed": sum(1 for r in proc if sc == "all scenes" or r["scene"] == sc),
+            "overlap": sum(1 for r in proc if r["overlap"] and (sc == "all scenes" or r["scene"] == sc)),
+        }
         for sc in scenes
     }
     return out
@@ -418,8 +457,11 @@ def to_markdown(res: dict, command: str | None = None) -> str:
         f"matches" + (f", at most {cfg['max_pairs']} per scene" if cfg["max_pairs"] else "") + ". "
         f"Our methods at threshold {'the API default (2 px)' if not thr else ', '.join(f'{v:g} px' for v in thr)}; "
         f"OpenCV / PoseLib at {cfg['anchor_threshold_px']:g} px; RANSAC+5pt (OpenGV) at "
-        + (f"{cfg['opengv_threshold_px']:g} px" if cfg.get("opengv_threshold_px") else
-           "OpenGV's default threshold (0.5 sqrt(2) px at f = 800 per view, i.e. about 0.71 * f / 800 px here) and 50 iterations")
+        + (
+            f"{cfg['opengv_threshold_px']:g} px"
+            if cfg.get("opengv_threshold_px")
+            else "OpenGV's default threshold (0.5 sqrt(2) px at f = 800 per view, i.e. about 0.71 * f / 800 px here) and 50 iterations"
+        )
         + f". Seed {cfg['seed']}. "
         f"Rotation error = angle of R_gt^T R (deg). Outlier % = 1 - inliers / putative matches, each method's own "
         f"inlier set. Time = estimation only, mean per pair (features + matching: "
@@ -433,8 +475,10 @@ def to_markdown(res: dict, command: str | None = None) -> str:
     if res["notes"]:
         lines.append("")
     cnt = S["counts"]
-    lines += ["Pairs: " + "; ".join(f"{sc}: {c['pairs']} pairs, {c['processed']} with > {cfg['min_matches']} matches, "
-                                   f"{c['overlap']} truly overlapping" for sc, c in cnt.items()), ""]
+    lines += [
+        "Pairs: " + "; ".join(f"{sc}: {c['pairs']} pairs, {c['processed']} with > {cfg['min_matches']} matches, {c['overlap']} truly overlapping" for sc, c in cnt.items()),
+        "",
+    ]
 
     def compact(setname: str, title: str) -> None:
         lines.extend([f"## {title}", "", "Mean / median rotation error (deg); failed pairs (no pose) are excluded and counted in the detailed table.", ""])
@@ -447,23 +491,28 @@ def to_markdown(res: dict, command: str | None = None) -> str:
         lines.append(markdown_table(header, rows))
 
     def detailed(setname: str) -> None:
-        header = ["scene", "method", "pairs", "failed", "mean err (deg)", "median err (deg)", "max err (deg)",
-                  "outliers (%)", "time (ms)", "confident"]
+        header = ["scene", "method", "pairs", "failed", "mean err (deg)", "median err (deg)", "max err (deg)", "outliers (%)", "time (ms)", "confident"]
         rows = []
         for sc, st in S[setname].items():
             for m in ms if st else []:
                 s = st[m]
-                rows.append([sc, m, s["pairs"], s["failed"], s["mean_err_deg"], s["median_err_deg"], s["max_err_deg"],
-                             f"{s['mean_outlier_pct']:.1f}", s["mean_time_ms"], s["confident"]])
+                rows.append(
+                    [sc, m, s["pairs"], s["failed"], s["mean_err_deg"], s["median_err_deg"], s["max_err_deg"], f"{s['mean_outlier_pct']:.1f}", s["mean_time_ms"], s["confident"]]
+                )
         lines.extend(["", markdown_table(header, rows)])
 
     compact("all", f"(a) All pairs with more than {cfg['min_matches']} putative matches (the paper's protocol)")
     detailed("all")
     compact("overlap", f"(b) Truly overlapping pairs (at least {cfg['gt_min']} matches within {cfg['gt_px']:g} px of the GT epipolar geometry)")
     detailed("overlap")
-    lines += ["", f"## Non-overlapping pairs (fewer than {cfg['gt_min']} GT-consistent matches)", "",
-              f"confident / not confident pose (ours: status == \"ok\"; anchors: at least {cfg['min_confident_inliers']} "
-              f"inliers), and confident poses with rotation error > {cfg['wrong_deg']:g} deg ('wrong').", ""]
+    lines += [
+        "",
+        f"## Non-overlapping pairs (fewer than {cfg['gt_min']} GT-consistent matches)",
+        "",
+        f'confident / not confident pose (ours: status == "ok"; anchors: at least {cfg["min_confident_inliers"]} '
+        f"inliers), and confident poses with rotation error > {cfg['wrong_deg']:g} deg ('wrong').",
+        "",
+    ]
     header = ["scene", "pairs"] + ms
     rows = []
     for sc, st in S["non_overlap"].items():
@@ -480,8 +529,10 @@ def to_markdown(res: dict, command: str | None = None) -> str:
         for sc, k in pk:
             st = S["all"].get(sc) or {}
             p = PAPER_TABLE3[k]
-            rows.append([sc, f"{p['opengv'][0]:g} / {p['opengv'][1]:g}", f"{p['gnc-ransac'][0]:g} / {p['gnc-ransac'][1]:g}"]
-                        + [f"{fmt(st[m]['mean_err_deg'])} / {fmt(st[m]['median_err_deg'])}" if st else "-" for m in ms])
+            rows.append(
+                [sc, f"{p['opengv'][0]:g} / {p['opengv'][1]:g}", f"{p['gnc-ransac'][0]:g} / {p['gnc-ransac'][1]:g}"]
+                + [f"{fmt(st[m]['mean_err_deg'])} / {fmt(st[m]['median_err_deg'])}" if st else "-" for m in ms]
+            )
         lines.append(markdown_table(header, rows))
     # worst overlapping pairs of the first of our methods
     ours = res["ours"]
@@ -496,14 +547,16 @@ def to_markdown(res: dict, command: str | None = None) -> str:
             rows = []
             for r in over[:10]:
                 a, b = r["methods"][m0], r["methods"][ref]
-                rows.append([r["scene"], f"{r['i']}-{r['j']}", r["matches"], r["gt_matches"], a["rot_err_deg"], a["inliers"],
-                             a["status"], b["rot_err_deg"], b["inliers"]])
+                rows.append([r["scene"], f"{r['i']}-{r['j']}", r["matches"], r["gt_matches"], a["rot_err_deg"], a["inliers"], a["status"], b["rot_err_deg"], b["inliers"]])
             lines.append(markdown_table(header, rows))
     errs = [(r, m, d["error"]) for r in res["pairs"] if r["processed"] for m, d in r["methods"].items() if "error" in d]
     if errs:
         lines += ["", "## Exceptions raised (counted as failed pairs)", ""]
-        lines.append(markdown_table(["scene", "pair", "matches", "GT-consistent", "method", "error"],
-                                    [[r["scene"], f"{r['i']}-{r['j']}", r["matches"], r["gt_matches"], m, e] for r, m, e in errs]))
+        lines.append(
+            markdown_table(
+                ["scene", "pair", "matches", "GT-consistent", "method", "error"], [[r["scene"], f"{r['i']}-{r['j']}", r["matches"], r["gt_matches"], m, e] for r, m, e in errs]
+            )
+        )
     lines += ["", f"Total run time {res['time_total_s']:.0f} s."]
     return "\n".join(lines) + "\n"
 
@@ -524,9 +577,11 @@ def figure(res: dict, path: Path) -> Path | None:
     fig, ax = plt.subplots(1, 3, figsize=(16, 4.2))
     x = np.arange(len(scenes))
     w = 0.8 / len(ms)
-    panels = [("all", "mean_outlier_pct", "identified outliers (%), pairs with > 30 matches", False),
-              ("all", "median_err_deg", "median rotation error (deg), pairs with > 30 matches", True),
-              ("overlap", "median_err_deg", "median rotation error (deg), truly overlapping pairs", True)]
+    panels = [
+        ("all", "mean_outlier_pct", "identified outliers (%), pairs with > 30 matches", False),
+        ("all", "median_err_deg", "median rotation error (deg), pairs with > 30 matches", True),
+        ("overlap", "median_err_deg", "median rotation error (deg), truly overlapping pairs", True),
+    ]
     for a, (sset, key, title, log) in zip(ax, panels):
         for k, m in enumerate(ms):
             vals = [S[sset][sc][m][key] if S[sset].get(sc) else np.nan for sc in scenes]
@@ -536,8 +591,9 @@ def figure(res: dict, path: Path) -> Path | None:
             for k, sc in enumerate(scenes):
                 pk = _paper_key(sc)
                 if pk:
-                    a.hlines(PAPER_TABLE3[pk]["gnc-ransac"][1], x[k] - w / 2, x[k] + 0.8 - w / 2, colors="k",
-                             linestyles="--", label="paper's GNC-RANSAC (Table 3)" if k == 0 else None)
+                    a.hlines(
+                        PAPER_TABLE3[pk]["gnc-ransac"][1], x[k] - w / 2, x[k] + 0.8 - w / 2, colors="k", linestyles="--", label="paper's GNC-RANSAC (Table 3)" if k == 0 else None
+                    )
         a.set_xticks(x + 0.4 - w / 2, scenes)
         a.set_title(title, fontsize=9)
     handles, labels = ax[1].get_legend_handles_labels()
@@ -568,11 +624,25 @@ def run(args: argparse.Namespace) -> int:
         max_pairs = max_pairs or 3
         max_features = max_features or 4000
     cache = Path(args.cache) if args.cache else out / "cache"
-    res = compute(args.path, scenes=args.scenes, cache=cache, ratio=args.ratio, methods=args.methods,
-                  thresholds=args.threshold_px, anchor_thr=args.anchor_threshold_px,
-                  opengv_thr=args.opengv_threshold_px, noise_factor=args.noise_factor, max_pairs=max_pairs,
-                  max_features=max_features, min_matches=args.min_matches, gt_px=args.gt_px, gt_min=args.gt_min,
-                  min_conf_inliers=args.min_confident_inliers, wrong_deg=args.wrong_deg, seed=args.seed)
+    res = compute(
+        args.path,
+        scenes=args.scenes,
+        cache=cache,
+        ratio=args.ratio,
+        methods=args.methods,
+        thresholds=args.threshold_px,
+        anchor_thr=args.anchor_threshold_px,
+        opengv_thr=args.opengv_threshold_px,
+        noise_factor=args.noise_factor,
+        max_pairs=max_pairs,
+        max_features=max_features,
+        min_matches=args.min_matches,
+        gt_px=args.gt_px,
+        gt_min=args.gt_min,
+        min_conf_inliers=args.min_confident_inliers,
+        wrong_deg=args.wrong_deg,
+        seed=args.seed,
+    )
     prog = Path(sys.argv[0]).name if sys.argv else ""
     cmd = "poseonly " + " ".join(sys.argv[1:]) if prog in ("poseonly", "poseonly.exe", "cli.py", "__main__.py") else None
     res["command"] = cmd

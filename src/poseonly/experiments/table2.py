@@ -86,8 +86,12 @@ def compute(trials: int, n: int = 30, camera: str = "wide", seed: int = 0, use_n
                     acc[m].append(fn(sc))
             for m, vals in acc.items():
                 a = np.array(vals, float)
-                row[m] = {"mean_err": float(a[:, 0].mean()), "median_err": float(np.median(a[:, 0])),
-                          "mean_err_oracle": float(a[:, 1].mean()), "mean_d_min": float(np.nanmean(a[:, 2])) if np.any(np.isfinite(a[:, 2])) else float("nan")}
+                row[m] = {
+                    "mean_err": float(a[:, 0].mean()),
+                    "median_err": float(np.median(a[:, 0])),
+                    "mean_err_oracle": float(a[:, 1].mean()),
+                    "mean_d_min": float(np.nanmean(a[:, 2])) if np.any(np.isfinite(a[:, 2])) else float("nan"),
+                }
             out["rows"].append(row)
     out["methods"] = list(methods)
     return out

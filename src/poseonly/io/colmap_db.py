@@ -188,5 +188,3 @@ class ColmapDatabase:
                     self.db.delete_two_view_geometry(i1, i2)
                     k += 1
         return k
-
-

@@ -101,10 +101,7 @@ def read_camera_file(path: str | os.PathLike) -> StrechaCamera:
     p = Path(path)
     v = _read_numbers(p, "camera file")
     if v.size != _N_CAMERA_VALUES:
-        raise InputError(
-            f"camera file {p} must hold {_N_CAMERA_VALUES} numbers (K 3x3, distortion 3, R 3x3, C 3, "
-            f"width height), found {v.size}"
-        )
+        raise InputError(f"camera file {p} must hold {_N_CAMERA_VALUES} numbers (K 3x3, distortion 3, R 3x3, C 3, width height), found {v.size}")
     K = check_intrinsics(v[0:9].reshape(3, 3), f"K in {p}")
     dist = v[9:12].copy()
     R_raw = v[12:21].reshape(3, 3)
@@ -115,10 +112,7 @@ def read_camera_file(path: str | os.PathLike) -> StrechaCamera:
     # stored with ~6 significant digits: accept small deviations, reject non-rotations
     orth = np.abs(R_raw @ R_raw.T - np.eye(3)).max()
     if orth > 1e-3 or np.linalg.det(R_raw) < 0:
-        raise InputError(
-            f"camera file {p}: the rotation block is not a rotation matrix "
-            f"(max |R R^T - I| = {orth:.3g}, det = {np.linalg.det(R_raw):.3g})"
-        )
+        raise InputError(f"camera file {p}: the rotation block is not a rotation matrix (max |R R^T - I| = {orth:.3g}, det = {np.linalg.det(R_raw):.3g})")
     return StrechaCamera(K=K, distortion=dist, R_cw=project_to_so3(R_raw), C=C, width=int(w), height=int(h))
 
 

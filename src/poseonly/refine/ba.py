@@ -202,8 +202,17 @@ def bundle_adjust(
         x, nfev, njev, status, ok, msg = x0, 1, 0, 1, True, "exact start (zero residual)"
     else:
         res = least_squares(
-            lambda x: residuals(x).ravel(), x0, jac=jacobian, method="trf", tr_solver="lsmr",
-            loss=grouped_loss(key, 2), f_scale=scale, x_scale="jac", ftol=tol, xtol=tol, gtol=tol,
+            lambda x: residuals(x).ravel(),
+            x0,
+            jac=jacobian,
+            method="trf",
+            tr_solver="lsmr",
+            loss=grouped_loss(key, 2),
+            f_scale=scale,
+            x_scale="jac",
+            ftol=tol,
+            xtol=tol,
+            gtol=tol,
             tr_options={"atol": 1e-14, "btol": 1e-14},
             max_nfev=int(max_iter),
         )
@@ -221,8 +230,22 @@ def bundle_adjust(
         X1 = -X1
     rms = lambda r: float(np.sqrt(np.mean(np.sum(r.reshape(n, 2, 2) ** 2, axis=2))))  # noqa: E731
     return RefineResult(
-        R=R1, t=t1s, cost_initial=cost0, cost_final=cost1, num_iterations=njev, success=ok, message=msg, points=X1,
-        info={"nfev": nfev, "status": status, "loss": key, "loss_scale": scale if key != "linear" else None,
-              "positive_depth_fraction": frac, "rms_initial": rms(r0), "rms_final": rms(r1),
-              "points_reinitialised": reinit},
+        R=R1,
+        t=t1s,
+        cost_initial=cost0,
+        cost_final=cost1,
+        num_iterations=njev,
+        success=ok,
+        message=msg,
+        points=X1,
+        info={
+            "nfev": nfev,
+            "status": status,
+            "loss": key,
+            "loss_scale": scale if key != "linear" else None,
+            "positive_depth_fraction": frac,
+            "rms_initial": rms(r0),
+            "rms_final": rms(r1),
+            "points_reinitialised": reinit,
+        },
     )

@@ -100,6 +100,12 @@ def eigensolver(
     t1, frac = fix_translation_sign(R1, t1, f1, f2, w)
     ev = np.linalg.eigvalsh(eigensolver_matrix(R1, f1, f2, w))
     return RefineResult(
-        R=R1, t=t1, cost_initial=lam0, cost_final=lam1, num_iterations=njev, success=ok, message=msg,
+        R=R1,
+        t=t1,
+        cost_initial=lam0,
+        cost_final=lam1,
+        num_iterations=njev,
+        success=ok,
+        message=msg,
         info={"nfev": nfev, "status": status, "eigenvalues": ev, "positive_depth_fraction": frac},
     )

@@ -107,8 +107,7 @@ def _ligt_terms(R, t, f1, f2, normalization):
     return q / nP[:, None], (a, c, s, ccf, cs, z, P, nP)
 
 
-def _residual_and_jacobian(chart: PoseChart, x: np.ndarray, f1: np.ndarray, f2: np.ndarray, sw: np.ndarray,
-                           want_jac: bool, normalization: str = "none"):
+def _residual_and_jacobian(chart: PoseChart, x: np.ndarray, f1: np.ndarray, f2: np.ndarray, sw: np.ndarray, want_jac: bool, normalization: str = "none"):
     """Stacked residuals ``(3n,)`` and their Jacobian ``(3n, 5)`` w.r.t. the chart's ``x = (w, v)``.
 
     Derivatives are formed per parameter block, ``[n, k, i]`` = d(component i)/d(x_k): the rotation
@@ -253,16 +252,33 @@ def ligt_refine(
     elif solver == "lm":
         # the core's LM (src/core/refine.cpp): the same chart, losses and rules as the numpy LM kept in
         # tests/reference/ligt_lm.py (the tests compare the two)
-        Rc, tc, st = _core.refine_ligt(R0, t0, np.ascontiguousarray(f1), np.ascontiguousarray(f2),
-                                       None if w is None else np.ascontiguousarray(w, dtype=float), normalization=norm, loss=key,
-                                       loss_scale=scale if key != "linear" else None, max_iterations=int(max_iter), tol=tol)
+        Rc, tc, st = _core.refine_ligt(
+            R0,
+            t0,
+            np.ascontiguousarray(f1),
+            np.ascontiguousarray(f2),
+            None if w is None else np.ascontiguousarray(w, dtype=float),
+            normalization=norm,
+            loss=key,
+            loss_scale=scale if key != "linear" else None,
+            max_iterations=int(max_iter),
+            tol=tol,
+        )
         x = None
         nfev, njev, status = int(st["evaluations"]), int(st["iterations"]), int(st["status"])
         msg, ok = f"core LM status {status}", status > 0
     else:
         res = least_squares(
-            fun, x0, jac=jac, method="lm" if key == "linear" else "trf",
-            loss=grouped_loss(key, 3), f_scale=scale, ftol=tol, xtol=tol, gtol=tol, max_nfev=int(max_iter),
+            fun,
+            x0,
+            jac=jac,
+            method="lm" if key == "linear" else "trf",
+            loss=grouped_loss(key, 3),
+            f_scale=scale,
+            ftol=tol,
+            xtol=tol,
+            gtol=tol,
+            max_nfev=int(max_iter),
         )
         x, nfev, njev, status, ok, msg = res.x, int(res.nfev), int(res.njev or 0), int(res.status), bool(res.status > 0), res.message
     if x is None:  # the core's LM returned the pose itself
@@ -278,7 +294,12 @@ def ligt_refine(
         ok = False
     t1, frac = fix_translation_sign(R1, normalize(t1), f1, f2, w)
     return RefineResult(
-        R=R1, t=t1, cost_initial=cost0, cost_final=cost1, num_iterations=njev, success=ok, message=str(msg),
-        info={"nfev": nfev, "status": status, "loss": key, "normalization": norm, "loss_scale": scale if key != "linear" else None,
-              "positive_depth_fraction": frac},
+        R=R1,
+        t=t1,
+        cost_initial=cost0,
+        cost_final=cost1,
+        num_iterations=njev,
+        success=ok,
+        message=str(msg),
+        info={"nfev": nfev, "status": status, "loss": key, "normalization": norm, "loss_scale": scale if key != "linear" else None, "positive_depth_fraction": frac},
     )

@@ -117,6 +117,12 @@ def opengv_nonlinear(
     ww = np.ones(len(h)) if w is None else w
     frac = float(np.sum(ww * (h > 0)) / max(np.sum(ww), 1e-300))
     return RefineResult(
-        R=R1, t=normalize(t1), cost_initial=cost0, cost_final=cost1, num_iterations=nfev, success=ok, message=msg,
+        R=R1,
+        t=normalize(t1),
+        cost_initial=cost0,
+        cost_final=cost1,
+        num_iterations=nfev,
+        success=ok,
+        message=msg,
         info={"nfev": nfev, "status": status, "positive_depth_fraction": frac},
     )

@@ -22,8 +22,7 @@ from ..solvers.lirp import lirp_batch
 from ..twin import homography_twin
 from .ransac import RansacResult, core_seed, ransac_relpose
 
-__all__ = ["keep_better", "local_optimization", "make_rng", "msac_chiral", "noise_threshold", "refine_ligt", "rival_support_ratio",
-           "run_poseonly", "select_by_support"]
+__all__ = ["keep_better", "local_optimization", "make_rng", "msac_chiral", "noise_threshold", "refine_ligt", "rival_support_ratio", "run_poseonly", "select_by_support"]
 
 # noise-matched threshold: clip range relative to the user's threshold, steps of the fixed point
 NOISE_THRESHOLD_RANGE = (0.25, 3.0)
@@ -125,8 +124,7 @@ def local_optimization(R, t, f1, f2, thr, o: PoseonlyOptions):
     """The core's LO step at ``thr`` from the pose's cheirality-consistent inliers, on the points within
     4 thresholds: warm-started TLS IRLS on all-candidate LiRP (``lo="lirp"``) or Sampson LM with a
     Cauchy loss (``lo="sampson"``)."""
-    Rl, tl, ok = _core.relpose_lo(R, t, f1, f2, thr, float(o.lo_mu0), int(o.lo_iterations), get_residual(o.lo_residual).code,
-                                  LO_CODES[o.lo])
+    Rl, tl, ok = _core.relpose_lo(R, t, f1, f2, thr, float(o.lo_mu0), int(o.lo_iterations), get_residual(o.lo_residual).code, LO_CODES[o.lo])
     return (Rl, tl) if ok else (R, t)
 
 
@@ -159,9 +157,22 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
        earlier default): LO at a noise-matched threshold, then angular LiGTopt.
     """
     r = ransac_relpose(
-        f1, f2, tau, core_seed(o.seed), solver=o.solver, scoring=o.scoring, max_iterations=o.max_iterations,
-        min_iterations=o.min_iterations, confidence=o.confidence, max_lo=o.max_lo, lo_mu0=o.lo_mu0,
-        lo_iterations=o.lo_iterations, lo_residual=o.lo_residual, scores=scores, lo=o.lo, rival_distance=o.rival_distance,
+        f1,
+        f2,
+        tau,
+        core_seed(o.seed),
+        solver=o.solver,
+        scoring=o.scoring,
+        max_iterations=o.max_iterations,
+        min_iterations=o.min_iterations,
+        confidence=o.confidence,
+        max_lo=o.max_lo,
+        lo_mu0=o.lo_mu0,
+        lo_iterations=o.lo_iterations,
+        lo_residual=o.lo_residual,
+        scores=scores,
+        lo=o.lo,
+        rival_distance=o.rival_distance,
     )
     num_hyp = r.num_iterations * MAX_ROOTS_PER_SAMPLE + r.num_lo + FINAL_CANDIDATES
     diag: dict[str, Any] = {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored, "num_hypotheses": num_hyp}
@@ -179,8 +190,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                 thr = max(tau, float(m["decision"]))
                 if msac_chiral(*cand, f1, f2, thr) >= ML_KEEP_TOLERANCE * msac_chiral(R, t, f1, f2, thr):
                     R, t = cand
-                    diag.update(tau_effective=float(m["decision"]), sigma=float(m["sigma"]), ml_rounds=int(m["rounds"]),
-                                ml_inlier_fraction=float(m["inlier_fraction"]))
+                    diag.update(tau_effective=float(m["decision"]), sigma=float(m["sigma"]), ml_rounds=int(m["rounds"]), ml_inlier_fraction=float(m["inlier_fraction"]))
         return R, t, None, r.num_iterations, diag
     thr = noise_threshold(R, t, f1, f2, tau, o)
     R, t = keep_better((R, t), local_optimization(R, t, f1, f2, thr, o), f1, f2, thr)

@@ -75,8 +75,7 @@ class GNCOptions:
             raise ValueError(f"max_iterations must be a positive integer, got {self.max_iterations!r}")
         if self.mu0 is not None and not (_is_number(self.mu0) and np.isfinite(self.mu0) and self.mu0 > 0):
             raise ValueError(f"mu0 must be a finite number > 0 or None, got {self.mu0!r}")
-        for name, ok in (("c_factor", lambda v: v > 0), ("eps0", lambda v: v >= 0), ("sigma_floor", lambda v: v > 0),
-                         ("mu_factor", lambda v: v > 1)):
+        for name, ok in (("c_factor", lambda v: v > 0), ("eps0", lambda v: v >= 0), ("sigma_floor", lambda v: v > 0), ("mu_factor", lambda v: v > 1)):
             val = getattr(self, name)
             if not (_is_number(val) and np.isfinite(val) and ok(val)):
                 raise ValueError(f"{name} has an invalid value {val!r}")
@@ -135,7 +134,10 @@ def gnc_irls_batch(
     """
     est = estimator or lirp_estimator()
     opts = options or GNCOptions()
-    o = _core.gnc_irls_batch(np.ascontiguousarray(f1, dtype=float), np.ascontiguousarray(f2, dtype=float),
-                             None if w0 is None else np.ascontiguousarray(w0, dtype=float), opts.core_options(est, detect_cycles))
-    return GNCBatchResult(R=o["R"], t=o["t"], weights=o["weights"], residuals=o["residuals"], c=o["c"],
-                          num_iterations=o["num_iterations"], converged=o["converged"].astype(bool))
+    o = _core.gnc_irls_batch(
+        np.ascontiguousarray(f1, dtype=float),
+        np.ascontiguousarray(f2, dtype=float),
+        None if w0 is None else np.ascontiguousarray(w0, dtype=float),
+        opts.core_options(est, detect_cycles),
+    )
+    return GNCBatchResult(R=o["R"], t=o["t"], weights=o["weights"], residuals=o["residuals"], c=o["c"], num_iterations=o["num_iterations"], converged=o["converged"].astype(bool))

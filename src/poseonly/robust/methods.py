@@ -31,13 +31,11 @@ def run_gnc_ransac(f1: np.ndarray, f2: np.ndarray, o: GncRansacOptions, tau: flo
         raise InputError(f"sample_size n_s = {o.sample_size} is larger than the number of points {len(f1)}")
     est = lirp_estimator(o.residual)
     gopts = GNCOptions(schedule=o.schedule, scale=o.scale)
-    r = gnc_ransac(f1, f2, tau, rng, estimator=est, sample_size=o.sample_size, max_iterations=o.max_iterations,
-                   gnc_options=gopts, adaptive=o.adaptive, confidence=o.confidence)
+    r = gnc_ransac(f1, f2, tau, rng, estimator=est, sample_size=o.sample_size, max_iterations=o.max_iterations, gnc_options=gopts, adaptive=o.adaptive, confidence=o.confidence)
     R, t = r.R, r.t
     if o.refine:
         R, t = refine_ligt(R, t, f1, f2, r.inliers, tau)
-    return R, t, r.weights, r.num_iterations, {"best_sample_inliers": int(r.score),
-                                                          "num_hypotheses": r.num_iterations + 1}
+    return R, t, r.weights, r.num_iterations, {"best_sample_inliers": int(r.score), "num_hypotheses": r.num_iterations + 1}
 
 
 def run_gnc_irls(f1: np.ndarray, f2: np.ndarray, o: GncIrlsOptions, tau: float):
@@ -51,8 +49,7 @@ def run_gnc_irls(f1: np.ndarray, f2: np.ndarray, o: GncIrlsOptions, tau: float):
     R, t, w = g.R[0], g.t[0], g.weights[0]
     if o.refine:
         R, t = refine_ligt(R, t, f1, f2, w > 0.5, tau)
-    return R, t, w, int(g.num_iterations[0]), {"converged": bool(g.converged[0]), "noise_bound": float(g.c[0]),
-                                             "num_hypotheses": 1}
+    return R, t, w, int(g.num_iterations[0]), {"converged": bool(g.converged[0]), "noise_bound": float(g.c[0]), "num_hypotheses": 1}
 
 
 def run_lirp(f1: np.ndarray, f2: np.ndarray, o: CommonOptions, tau: float):
@@ -61,5 +58,4 @@ def run_lirp(f1: np.ndarray, f2: np.ndarray, o: CommonOptions, tau: float):
     return out["R"][0], out["t"][0], np.ones(len(f1)), 1, {"d_min": float(out["d_min"][0]), "num_hypotheses": 1}
 
 
-RUNNERS: dict[str, Runner] = {"poseonly": run_poseonly, "gnc-ransac": run_gnc_ransac, "gnc-irls": run_gnc_irls,
-                              "lirp": run_lirp}
+RUNNERS: dict[str, Runner] = {"poseonly": run_poseonly, "gnc-ransac": run_gnc_ransac, "gnc-irls": run_gnc_irls, "lirp": run_lirp}

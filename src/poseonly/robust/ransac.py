@@ -114,12 +114,36 @@ def ransac_relpose(
         raise ValueError(f"unknown scoring {scoring!r}; choose one of {sorted(SCORINGS)}")
     f1, f2 = _c(f1), _c(f2)
     order = None if scores is None else prosac_order(scores)
-    R, t, st = _core.ransac_relpose(f1, f2, float(threshold), core_seed(seed), _MINIMAL[solver], SCORINGS[scoring],
-                                    int(max_iterations), int(min_iterations), float(confidence), int(max_lo), float(lo_mu0),
-                                    int(lo_iterations), get_residual(lo_residual).code, order, _LO[lo], float(rival_distance))
+    R, t, st = _core.ransac_relpose(
+        f1,
+        f2,
+        float(threshold),
+        core_seed(seed),
+        _MINIMAL[solver],
+        SCORINGS[scoring],
+        int(max_iterations),
+        int(min_iterations),
+        float(confidence),
+        int(max_lo),
+        float(lo_mu0),
+        int(lo_iterations),
+        get_residual(lo_residual).code,
+        order,
+        _LO[lo],
+        float(rival_distance),
+    )
     v = get_residual("sampson")(R, t, f1, f2)
-    return RansacResult(R=R, t=t, inliers=v < threshold, residuals=v, score=float(st["cost"]), num_iterations=int(st["iterations"]),
-                        num_lo=int(st["num_lo"]), num_scored=int(st["num_models"]), stats=dict(st))
+    return RansacResult(
+        R=R,
+        t=t,
+        inliers=v < threshold,
+        residuals=v,
+        score=float(st["cost"]),
+        num_iterations=int(st["iterations"]),
+        num_lo=int(st["num_lo"]),
+        num_scored=int(st["num_models"]),
+        stats=dict(st),
+    )
 
 
 def gnc_ransac(
@@ -147,8 +171,8 @@ def gnc_ransac(
     est = estimator or lirp_estimator()
     opts = gnc_options or GNCOptions()
     f1, f2 = _c(f1), _c(f2)
-    R, t, w, st = _core.gnc_ransac(f1, f2, float(theta), core_seed(seed), int(min(sample_size, len(f1))), int(max_iterations),
-                                   bool(adaptive), float(confidence), opts.core_options(est))
+    R, t, w, st = _core.gnc_ransac(
+        f1, f2, float(theta), core_seed(seed), int(min(sample_size, len(f1))), int(max_iterations), bool(adaptive), float(confidence), opts.core_options(est)
+    )
     v = est.residual(R, t, f1, f2)
-    return RansacResult(R=R, t=t, inliers=v < theta, residuals=v, score=float(len(f1) - st["cost"]),
-                        num_iterations=int(st["iterations"]), weights=w, stats=dict(st))
+    return RansacResult(R=R, t=t, inliers=v < theta, residuals=v, score=float(len(f1) - st["cost"]), num_iterations=int(st["iterations"]), weights=w, stats=dict(st))

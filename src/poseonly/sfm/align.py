@@ -103,10 +103,12 @@ def relative_pose_errors(rotations: np.ndarray, centres: np.ndarray, R_gt: np.nd
     est = np.all(np.isfinite(rotations), axis=(1, 2)) & np.all(np.isfinite(centres), axis=1)
     Rs = np.where(est[:, None, None], rotations, np.eye(3))
     Cs = np.where(est[:, None], centres, 0.0)
+
     def rel(R, C):
         Rij = R[j] @ np.transpose(R[i], (0, 2, 1))
         t = np.einsum("pab,pb->pa", R[j], C[i] - C[j])
         return Rij, t / np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
+
     Re, te = rel(Rs, Cs)
     Rg, tg = rel(R_gt, C_gt)
     dR = angle_deg(np.einsum("pji,pjk->pik", Rg, Re))

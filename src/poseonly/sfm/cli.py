@@ -86,13 +86,14 @@ def cmd_sfm(args: argparse.Namespace) -> int:
             raise InputError(f"{d} holds {len(images)} images; global SfM needs at least 3")
         K = _read_K(args.K)
         ig = image_view_graph(images, K, options=opt, cache_dir=cache, progress=prog)
-    print(f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
-          f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)")
+    print(
+        f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
+        f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
+    )
     res = run_global(ig.graph, ig.bearings, float(0.5 * (K[0, 0] + K[1, 1])))
     est = np.all(np.isfinite(res.centres), axis=1)
     rec = res.reconstruction
-    print(f"cameras: {int(est.sum())}/{len(images)} posed; outlier edges: {len(res.rotation.outlier_edges)}; "
-          f"points: {rec.num_valid}/{len(res.tracks)} valid")
+    print(f"cameras: {int(est.sum())}/{len(images)} posed; outlier edges: {len(res.rotation.outlier_edges)}; points: {rec.num_valid}/{len(res.tracks)} valid")
     print("stages: " + ", ".join(f"{k} {v:.2f} s" for k, v in res.times_s.items()))
     colors = point_colors(images, [f.keypoints for f in ig.features], res.tracks, rec.base[:, 0])
     out.mkdir(parents=True, exist_ok=True)
@@ -102,8 +103,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         print(f"figure: {fig}")
     poses: dict[str, Any] = {"convention": "X_cam = R (X_world - c)", "images": []}
     for k, p in enumerate(images):
-        poses["images"].append({"name": p.name, "R": None if not est[k] else res.rotations[k].tolist(),
-                                "c": None if not est[k] else res.centres[k].tolist()})
+        poses["images"].append({"name": p.name, "R": None if not est[k] else res.rotations[k].tolist(), "c": None if not est[k] else res.centres[k].tolist()})
     poses["outlier_edges"] = res.rotation.outlier_edges
     poses["times_s"] = {**ig.times_s, **res.times_s}
     (out / "poses.json.tmp").write_text(json.dumps(poses, indent=1))
@@ -113,9 +113,19 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     except ImportError:
         print("pycolmap is not installed: COLMAP model not written (points.ply and poses.json are)")
     else:
-        model = build_colmap_reconstruction([p.name for p in images], ig.K, [f.image_size for f in ig.features],
-                                            [f.keypoints for f in ig.features], res.rotations, res.centres,
-                                            res.tracks, rec.points, rec.valid, rec.obs_valid, colors)
+        model = build_colmap_reconstruction(
+            [p.name for p in images],
+            ig.K,
+            [f.image_size for f in ig.features],
+            [f.keypoints for f in ig.features],
+            res.rotations,
+            res.centres,
+            res.tracks,
+            rec.points,
+            rec.valid,
+            rec.obs_valid,
+            colors,
+        )
         write_colmap_model(model, out / "sparse" / "0", binary=not args.text)
         print(f"COLMAP model: {out / 'sparse' / '0'} ({model.num_reg_images()} images, {model.num_points3D()} points)")
     print(f"total {time.perf_counter() - t0:.1f} s; outputs in {out}")

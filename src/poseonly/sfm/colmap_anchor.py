@@ -37,11 +37,9 @@ def _base_reconstruction(ig: ImageGraph, tracks: Tracks | None) -> Any:
     rec = pycolmap.Reconstruction()
     for k, f in enumerate(ig.features):
         K = ig.K[k]
-        cam = pycolmap.Camera(model="PINHOLE", width=int(f.image_size[0]), height=int(f.image_size[1]),
-                              params=[K[0, 0], K[1, 1], K[0, 2], K[1, 2]], camera_id=k + 1)
+        cam = pycolmap.Camera(model="PINHOLE", width=int(f.image_size[0]), height=int(f.image_size[1]), params=[K[0, 0], K[1, 1], K[0, 2], K[1, 2]], camera_id=k + 1)
         rec.add_camera_with_trivial_rig(cam)
-        rec.add_image_with_trivial_frame(pycolmap.Image(name=f"{k:06d}", keypoints=np.asarray(f.keypoints, dtype=np.float64),
-                                                        camera_id=k + 1, image_id=k + 1))
+        rec.add_image_with_trivial_frame(pycolmap.Image(name=f"{k:06d}", keypoints=np.asarray(f.keypoints, dtype=np.float64), camera_id=k + 1, image_id=k + 1))
     return rec
 
 
@@ -93,8 +91,7 @@ def run(ig: ImageGraph, tracks: Tracks) -> dict[str, dict[str, Any]]:
     if not ok:
         raise RuntimeError("pycolmap.run_global_positioning failed")
     R, C = _poses(rec, n)
-    return {"rotation averaging + global positioning": {"rotations": R, "centres": C, "time_s": t_ra + t_gp,
-                                                        "rotation_averaging_rotations": R_ra}}
+    return {"rotation averaging + global positioning": {"rotations": R, "centres": C, "time_s": t_ra + t_gp, "rotation_averaging_rotations": R_ra}}
 
 
 def write_database(db_path: Path, names: Sequence[str], ig: ImageGraph) -> None:
@@ -105,8 +102,7 @@ def write_database(db_path: Path, names: Sequence[str], ig: ImageGraph) -> None:
     with pycolmap.Database.open(str(db_path)) as db:
         for k, (name, f) in enumerate(zip(names, ig.features)):
             K = ig.K[k]
-            cam = pycolmap.Camera(model="PINHOLE", width=int(f.image_size[0]), height=int(f.image_size[1]),
-                                  params=[K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
+            cam = pycolmap.Camera(model="PINHOLE", width=int(f.image_size[0]), height=int(f.image_size[1]), params=[K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
             cam.has_prior_focal_length = True  # the calibration is known, as for our pipeline
             cid = db.write_camera(cam)
             sensor = pycolmap.sensor_t(pycolmap.SensorType.CAMERA, cid)
@@ -151,8 +147,7 @@ def run_mappers(ig: ImageGraph, image_paths: Sequence[str | os.PathLike]) -> dic
         iopt.random_seed = SEED
         iopt.ba_refine_focal_length = False
         iopt.ba_refine_extra_params = False
-        for label, fn, o in (("global mapper (GLOMAP)", pycolmap.global_mapping, gopt),
-                             ("incremental mapper", pycolmap.incremental_mapping, iopt)):
+        for label, fn, o in (("global mapper (GLOMAP)", pycolmap.global_mapping, gopt), ("incremental mapper", pycolmap.incremental_mapping, iopt)):
             sub = work / label.split()[0]
             sub.mkdir()
             t0 = time.perf_counter()

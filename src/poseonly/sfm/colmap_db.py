@@ -24,8 +24,9 @@ from .viewgraph import ViewGraph
 __all__ = ["database_view_graph"]
 
 
-def database_view_graph(db_path: str | os.PathLike, *, options: PairwiseOptions | None = None,
-                        cache_dir: str | os.PathLike | None = None, progress: Callable | None = None) -> tuple[ImageGraph, list[str]]:
+def database_view_graph(
+    db_path: str | os.PathLike, *, options: PairwiseOptions | None = None, cache_dir: str | os.PathLike | None = None, progress: Callable | None = None
+) -> tuple[ImageGraph, list[str]]:
     """``(ImageGraph, image names)`` from the COLMAP database ``db_path``."""
     import pycolmap
 
@@ -74,8 +75,7 @@ def database_view_graph(db_path: str | os.PathLike, *, options: PairwiseOptions 
             graph.rejected.append((i, j, f"{len(m)} putative matches"))
             stats.append((i, j, len(m), 0, "few_matches"))
             continue
-        r = two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, opt.seed + k, cache,
-                     focal_px=0.5 * (focal[i] + focal[j]))
+        r = two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, opt.seed + k, cache, focal_px=0.5 * (focal[i] + focal[j]))
         graph.add_result(i, j, r, m)
         stats.append((i, j, len(m), int(r.num_inliers), r.status))
     times["two_view"] = time.perf_counter() - t0

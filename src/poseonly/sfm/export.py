@@ -20,8 +20,7 @@ from .tracks import Tracks
 __all__ = ["build_colmap_reconstruction", "plot_reconstruction", "point_colors", "write_colmap_model", "write_ply"]
 
 
-def point_colors(image_paths: Sequence[str | os.PathLike], keypoints: Sequence[np.ndarray], tracks: Tracks,
-                 base_obs: np.ndarray) -> np.ndarray:
+def point_colors(image_paths: Sequence[str | os.PathLike], keypoints: Sequence[np.ndarray], tracks: Tracks, base_obs: np.ndarray) -> np.ndarray:
     """``(T, 3)`` uint8 RGB of every track, sampled at its base observation's keypoint
     (``base_obs (T,)`` observation indices, -1: grey)."""
     import cv2
@@ -118,8 +117,7 @@ def write_colmap_model(rec: Any, folder: str | os.PathLike, binary: bool = True)
     return dst
 
 
-def write_ply(path: str | os.PathLike, points: np.ndarray, colors: np.ndarray | None = None,
-              cameras: np.ndarray | None = None) -> Path:
+def write_ply(path: str | os.PathLike, points: np.ndarray, colors: np.ndarray | None = None, cameras: np.ndarray | None = None) -> Path:
     """Binary little-endian PLY of ``points (P, 3)`` with uint8 RGB ``colors (P, 3)``; camera
     centres ``(N, 3)`` (optional) are appended as red vertices. Written atomically."""
     P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
@@ -134,9 +132,11 @@ def write_ply(path: str | os.PathLike, points: np.ndarray, colors: np.ndarray | 
     rec = np.empty(len(P), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("r", "u1"), ("g", "u1"), ("b", "u1")])
     rec["x"], rec["y"], rec["z"] = P[:, 0], P[:, 1], P[:, 2]
     rec["r"], rec["g"], rec["b"] = col[:, 0], col[:, 1], col[:, 2]
-    header = ("ply\nformat binary_little_endian 1.0\n"
-              f"element vertex {len(P)}\nproperty float x\nproperty float y\nproperty float z\n"
-              "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n").encode()
+    header = (
+        "ply\nformat binary_little_endian 1.0\n"
+        f"element vertex {len(P)}\nproperty float x\nproperty float y\nproperty float z\n"
+        "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n"
+    ).encode()
     dst = Path(path)
     dst.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=dst.parent, suffix=".ply.tmp")
@@ -152,8 +152,9 @@ def write_ply(path: str | os.PathLike, points: np.ndarray, colors: np.ndarray | 
     return dst
 
 
-def plot_reconstruction(path: str | os.PathLike, points: np.ndarray, centres: np.ndarray, rotations: np.ndarray,
-                        colors: np.ndarray | None = None, max_points: int = 50000, seed: int = 0) -> Path | None:
+def plot_reconstruction(
+    path: str | os.PathLike, points: np.ndarray, centres: np.ndarray, rotations: np.ndarray, colors: np.ndarray | None = None, max_points: int = 50000, seed: int = 0
+) -> Path | None:
     """Figure of the cameras (centres and optical axes) and points, as the paper's last figure
     (3D view, matplotlib; ``None`` when matplotlib is missing). ``points (P, 3)``, ``centres
     (N, 3)``, ``rotations (N, 3, 3)`` world -> camera; at most ``max_points`` points drawn

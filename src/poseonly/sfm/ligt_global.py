@@ -84,9 +84,7 @@ def _non_base(tracks: Tracks, l_obs: np.ndarray) -> np.ndarray:
     return np.flatnonzero(other)
 
 
-def build_ligt_matrix(
-    num_views: int, tracks: Tracks, wb: np.ndarray, l_obs: np.ndarray, r_obs: np.ndarray
-) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+def build_ligt_matrix(num_views: int, tracks: Tracks, wb: np.ndarray, l_obs: np.ndarray, r_obs: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
     """The sparse LiGT matrix ``L (3 (M - T), 3 N)`` and the depth rows: ``g (T, 3)`` with the
     ``(l, r)`` views ``(T, 2)`` (depth of track t: ``g_t^T (c_l - c_r)``). ``wb (M, 3)`` world
     bearings, ``l_obs, r_obs (T,)`` base observation indices."""
@@ -102,7 +100,7 @@ def build_ligt_matrix(
     M2 = th2[t_i][:, None, None] * _skew_batch(wi)
     vl, vr, vi = views[l_obs][t_i], views[r_obs][t_i], views[oi]
     K = len(oi)
-    rows = (3 * np.arange(K)[:, None] + np.arange(3)[None, :])  # (K, 3)
+    rows = 3 * np.arange(K)[:, None] + np.arange(3)[None, :]  # (K, 3)
     blocks = ((M1, vr), (M2, vi), (-(M1 + M2), vl))
     R_idx, C_idx, V = [], [], []
     for Mb, vb in blocks:

@@ -117,8 +117,9 @@ class TwoView:
     status: str
 
 
-def two_view(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray | None, K2: np.ndarray | None, opt: PairwiseOptions,
-             seed: int, cache: Path | None, focal_px: float | None = None) -> TwoView:
+def two_view(
+    u1: np.ndarray, u2: np.ndarray, K1: np.ndarray | None, K2: np.ndarray | None, opt: PairwiseOptions, seed: int, cache: Path | None, focal_px: float | None = None
+) -> TwoView:
     """:func:`poseonly.estimate_relative_pose` of one pair (pixels ``(n, 2)`` with ``K1, K2``, or
     normalized coordinates with ``K = None`` and ``focal_px``), cached by the inputs and options."""
     f = None
@@ -167,8 +168,7 @@ def image_view_graph(
     cache = Path(cache_dir) if cache_dir is not None else None
     times: dict[str, float] = {}
     t0 = time.perf_counter()
-    feats = [extract_features(p, max_features=opt.max_features, cache_dir=None if cache is None else cache / "features")
-             for p in wrap(list(images), desc="features", total=n)]
+    feats = [extract_features(p, max_features=opt.max_features, cache_dir=None if cache is None else cache / "features") for p in wrap(list(images), desc="features", total=n)]
     digests = [_digest(f) for f in feats]
     times["features"] = time.perf_counter() - t0
     plist = [(i, j) for i in range(n) for j in range(i + 1, n)] if pairs is None else [(min(a, b), max(a, b)) for a, b in pairs]
@@ -195,8 +195,7 @@ def image_view_graph(
     return ImageGraph(feats, Ks, graph, stats, times, putative)
 
 
-def observation_bearings(tracks: Tracks, features: Sequence[Features], K: np.ndarray,
-                         normalized: Sequence[np.ndarray] | None = None) -> np.ndarray:
+def observation_bearings(tracks: Tracks, features: Sequence[Features], K: np.ndarray, normalized: Sequence[np.ndarray] | None = None) -> np.ndarray:
     """Unit camera-frame bearings ``(M, 3)`` of every track observation: from the pixels and
     ``K (N, 3, 3)``, or from undistorted ``normalized`` keypoints ``(m_k, 2)`` per image when given."""
     out = np.empty((tracks.num_observations, 3))

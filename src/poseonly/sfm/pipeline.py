@@ -83,18 +83,15 @@ def run_global(
         raise InputError("the view graph has no edges")
     times: dict[str, float] = {}
     t0 = time.perf_counter()
-    ra = average_rotations(graph.num_views, graph.pairs(), graph.rotations(), graph.weights(),
-                           max_error_deg=opt.max_rotation_error_deg, min_error_deg=opt.min_rotation_error_deg)
+    ra = average_rotations(graph.num_views, graph.pairs(), graph.rotations(), graph.weights(), max_error_deg=opt.max_rotation_error_deg, min_error_deg=opt.min_rotation_error_deg)
     times["rotation_averaging"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     tracks = build_tracks(graph, min_length=opt.min_track_length, conflicts=opt.conflicts, edge_mask=ra.inlier_edges)
     f = bearings_of(tracks)
     times["tracks"] = time.perf_counter() - t0
-    info: dict[str, object] = {"tracks_built": len(tracks), "observations_built": tracks.num_observations,
-                               "tracks_conflicting": tracks.num_conflicting}
+    info: dict[str, object] = {"tracks_built": len(tracks), "observations_built": tracks.num_observations, "tracks_conflicting": tracks.num_conflicting}
     t0 = time.perf_counter()
-    lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg,
-                            reweight_iterations=opt.ligt_reweight)
+    lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg, reweight_iterations=opt.ligt_reweight)
     times["ligt"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     rec = reconstruct_points(ra.rotations, lg.centres, tracks, f, focal=focal, max_error_px=opt.max_error_px)
@@ -105,8 +102,7 @@ def run_global(
             break
         t0 = time.perf_counter()
         tracks, f, _ = filter_observations(tracks, f, keep, opt.min_track_length)
-        lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg,
-                            reweight_iterations=opt.ligt_reweight)
+        lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg, reweight_iterations=opt.ligt_reweight)
         times["ligt"] += time.perf_counter() - t0
         t0 = time.perf_counter()
         rec = reconstruct_points(ra.rotations, lg.centres, tracks, f, focal=focal, max_error_px=opt.max_error_px)
@@ -116,4 +112,3 @@ def run_global(
     R[~lg.estimated] = np.nan
     info["points_valid"] = rec.num_valid
     return GlobalResult(R, lg.centres, tracks, f, rec, ra, lg, times, info)
-

@@ -42,7 +42,6 @@ __all__ = [
 ]
 
 
-
 def vec_to_mat(q: np.ndarray) -> np.ndarray:
     """Column-major ``vec`` -> matrix: ``(..., 9) -> (..., 3, 3)``."""
     q = np.asarray(q)
@@ -99,8 +98,6 @@ def epipolar_rows(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None) -
     return A
 
 
-
-
 def normalize_frobenius(E: np.ndarray) -> np.ndarray:
     """Scale ``(..., 3, 3)`` matrices to unit Frobenius norm (zero matrices stay zero)."""
     nrm = np.linalg.norm(E, axis=(-2, -1), keepdims=True)
@@ -144,9 +141,9 @@ def det_cubic_tensor(B: np.ndarray) -> np.ndarray:
     m = B.shape[-3]
     b1 = B[..., :, None, 1, :]
     b2 = B[..., None, :, 2, :]
-    cr = np.stack([b1[..., 1] * b2[..., 2] - b1[..., 2] * b2[..., 1],
-                   b1[..., 2] * b2[..., 0] - b1[..., 0] * b2[..., 2],
-                   b1[..., 0] * b2[..., 1] - b1[..., 1] * b2[..., 0]], axis=-1)  # (..., m, m, 3): B_j[1] x B_k[2]
+    cr = np.stack(
+        [b1[..., 1] * b2[..., 2] - b1[..., 2] * b2[..., 1], b1[..., 2] * b2[..., 0] - b1[..., 0] * b2[..., 2], b1[..., 0] * b2[..., 1] - b1[..., 1] * b2[..., 0]], axis=-1
+    )  # (..., m, m, 3): B_j[1] x B_k[2]
     D = np.matmul(B[..., :, 0, :], np.swapaxes(cr.reshape(cr.shape[:-3] + (m * m, 3)), -1, -2))
     return D.reshape(D.shape[:-2] + (m, m, m))
 
@@ -173,8 +170,8 @@ def cubic_template(B: np.ndarray, G: np.ndarray) -> np.ndarray:
     T = demazure_cubic_tensor(B)
     m = B.shape[-3]
     lead = T.shape[:-5]
-    Tt = np.swapaxes(T, -1, -2).reshape(lead + (m ** 3, 9))  # index 3 b + a
-    return np.matmul(np.swapaxes(Tt, -1, -2), G.reshape(m ** 3, -1))
+    Tt = np.swapaxes(T, -1, -2).reshape(lead + (m**3, 9))  # index 3 b + a
+    return np.matmul(np.swapaxes(Tt, -1, -2), G.reshape(m**3, -1))
 
 
 def pose_from_essentials(
@@ -212,8 +209,14 @@ def pose_from_essentials(
     if k == 0:
         R = np.full((h, 3, 3), np.nan)
         t = np.full((h, 3), np.nan)
-        info: dict[str, Any] = dict(best=np.full(h, -1), E=np.full((h, 3, 3), np.nan), cand_R=np.zeros((h, 0, 3, 3)),
-                    cand_t=np.zeros((h, 0, 3)), cand_valid=np.zeros((h, 0), bool), cand_cost=np.zeros((h, 0)))
+        info: dict[str, Any] = dict(
+            best=np.full(h, -1),
+            E=np.full((h, 3, 3), np.nan),
+            cand_R=np.zeros((h, 0, 3, 3)),
+            cand_t=np.zeros((h, 0, 3)),
+            cand_valid=np.zeros((h, 0), bool),
+            cand_cost=np.zeros((h, 0)),
+        )
     else:
         Es = np.where(mask[..., None, None], E, np.eye(3))  # harmless filler for empty slots
         Es = np.where(np.isfinite(Es), Es, 0.0)
@@ -226,8 +229,7 @@ def pose_from_essentials(
         idx = np.arange(h)
         Rb = np.where(none[:, None, None], np.nan, R[idx, best])
         tb = np.where(none[:, None], np.nan, t[idx, best])
-        info = dict(best=np.where(none, -1, best), E=np.where(none[:, None, None], np.nan, E[idx, best]),
-                    cand_R=R, cand_t=t, cand_valid=valid & mask, cand_cost=cost)
+        info = dict(best=np.where(none, -1, best), E=np.where(none[:, None, None], np.nan, E[idx, best]), cand_R=R, cand_t=t, cand_valid=valid & mask, cand_cost=cost)
         R, t = Rb, tb
     if single:
         info = {key: (val[0] if isinstance(val, np.ndarray) else val) for key, val in info.items()}

@@ -52,8 +52,7 @@ def lirp_batch(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None, *, a
     with ``all_costs=False`` only valid candidates are scored, the rest ``inf``, unless none is valid);
     ``singular_values (h, 9)`` of ``A``, ``d_min`` and ``d_min_C2 (h,)``.
     """
-    o = _core.lirp_batch(np.ascontiguousarray(f1, dtype=float), np.ascontiguousarray(f2, dtype=float),
-                         None if w is None else np.ascontiguousarray(w, dtype=float), all_costs)
+    o = _core.lirp_batch(np.ascontiguousarray(f1, dtype=float), np.ascontiguousarray(f2, dtype=float), None if w is None else np.ascontiguousarray(w, dtype=float), all_costs)
     o["cand_valid"] = o["cand_valid"].astype(bool)
     return o
 
