@@ -201,7 +201,9 @@ def superansac(threshold_px: float = SUPERANSAC_THRESHOLD_PX) -> MethodFn:
 
 
 METHODS: dict[str, MethodFn] = {
-    "poseonly": ours(),
+    # the default as the SIFT front-end calls it: the ratio test's 1 - ratio as match scores (PROSAC)
+    "poseonly": ours(use_scores=True),
+    "poseonly-noscores": ours(),
     "gnc-ransac": ours("gnc-ransac"),
     "poselib-1px": poselib(1.0),
     "poselib-2px": poselib(2.0),
