@@ -188,6 +188,40 @@ nb::tuple gnc_ransac(const BearingsIn& f1, const BearingsIn& f2, double theta, u
                         stats_dict(st));
 }
 
+nb::tuple robust_rotation(const BearingsIn& f1, const BearingsIn& f2, double chord, uint64_t seed, int max_iterations, double confidence) {
+  const Points P = points_of(f1, f2);
+  if (!(chord > 0.0 && std::isfinite(chord))) throw std::invalid_argument("chord threshold must be finite and > 0");
+  if (P.n < 2) throw std::invalid_argument("at least 2 points are needed");
+  const RansacOptions ro = ransac_options(max_iterations, 0, confidence, true, 1);
+  Mat3 best = Mat3::Identity();
+  RansacStats st;
+  std::vector<uint8_t> mask(P.n, 0);
+  {
+    nb::gil_scoped_release release;
+    RotationEstimator est(P);
+    UniformSampler s(P.n, 2, seed);
+    const CountScorer sc{chord};
+    st = ransac(est, sc, s, ro, &best);
+    // Kabsch on the inliers, twice, each kept only if the inliers do not drop
+    std::vector<int> inl, inl2;
+    inliers_of(est, best, sc, &inl);
+    for (int k = 0; k < 2 && inl.size() >= 3; ++k) {
+      Mat3 R = best;
+      if (!est.refine(&R, inl)) break;
+      inliers_of(est, R, sc, &inl2);
+      if (inl2.size() < inl.size()) break;
+      best = R;
+      inl.swap(inl2);
+    }
+    for (int i : inl) mask[i] = 1;
+  }
+  std::vector<double> R(9);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) R[3 * i + j] = best(i, j);
+  return nb::make_tuple(to_numpy(std::move(R), {3, 3}), to_numpy_t<uint8_t>(std::move(mask), {static_cast<size_t>(P.n)}),
+                        st.iterations + 2);
+}
+
 nb::tuple ransac_line(const nb::ndarray<const double, nb::ndim<2>, nb::c_contig>& xy, double threshold, uint64_t seed,
                       int max_iterations, double confidence, int max_lo, int scoring) {
   if (xy.shape(1) != 2) throw std::invalid_argument("points must have shape (n, 2)");
@@ -228,6 +262,10 @@ POSEONLY_BIND(robust) {
   m.def("gnc_ransac", &gnc_ransac, nb::arg("f1"), nb::arg("f2"), nb::arg("theta"), nb::arg("seed"), nb::arg("sample_size") = 30,
         nb::arg("max_iterations") = 50, nb::arg("adaptive") = false, nb::arg("confidence") = 0.99, nb::arg("gnc") = nb::dict(),
         "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats).");
+  m.def("robust_rotation", &robust_rotation, nb::arg("f1"), nb::arg("f2"), nb::arg("chord"), nb::arg("seed"),
+        nb::arg("max_iterations") = 10000, nb::arg("confidence") = 0.999,
+        "Rotation-only model by 2-point RANSAC (inliers |R f1 - f2| < chord) and Kabsch on the inliers: "
+        "(R, inlier mask (n,), hypotheses tested).");
   m.def("ransac_line", &ransac_line, nb::arg("xy"), nb::arg("threshold"), nb::arg("seed"), nb::arg("max_iterations") = 1000,
         nb::arg("confidence") = 0.999, nb::arg("max_lo") = 8, nb::arg("scoring") = 0,
         "The generic loop on a 2-D line estimator (tests): ((a, b, c), stats).");

@@ -166,6 +166,55 @@ class GncRansacEstimator {
   GncResult last_;
 };
 
+// Rotation-only model X2 ~ R X1 (pure rotation: no parallax): 2-point hypotheses (the frame of the
+// two rays and their normal in each view), residual the chord |R f1 - f2|, refine = Kabsch on the
+// inliers. The pure-rotation test of poseonly.analysis runs it through the same loop.
+class RotationEstimator {
+ public:
+  using Model = Mat3;
+  using Terms = Mat3;
+  explicit RotationEstimator(const Points& P) : P_(P) {}
+  int sample_size() const { return 2; }
+  int num_data() const { return P_.n; }
+  Terms terms(const Model& m) const { return m; }
+  double residual(const Terms& R, int i) const { return (R * P_.a(i) - P_.b(i)).norm(); }
+  double success_probability(double r) const { return r * r; }
+  double distance(const Model& a, const Model& b) const {
+    return 57.29577951308232 * std::acos(std::clamp(0.5 * ((a.transpose() * b).trace() - 1.0), -1.0, 1.0));
+  }
+  void generate(const std::vector<int>& s, std::vector<Model>* models) {
+    const Vec3 a1 = P_.a(s[0]), a2 = P_.a(s[1]), b1 = P_.b(s[0]), b2 = P_.b(s[1]);
+    Mat3 Fa, Fb;
+    if (!frame(a1, a2, &Fa) || !frame(b1, b2, &Fb)) return;
+    models->push_back(Fb * Fa.transpose());
+  }
+  // Kabsch: the rotation minimising sum |b_i - R a_i|^2 over the inliers
+  bool refine(Model* m, const std::vector<int>& inl) {
+    if (inl.size() < 3) return false;
+    Mat3 C = Mat3::Zero();
+    for (int i : inl) C += P_.b(i) * P_.a(i).transpose();
+    Eigen::JacobiSVD<Mat3> svd(C, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Mat3 D = Mat3::Identity();
+    D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
+    const Mat3 R = svd.matrixU() * D * svd.matrixV().transpose();
+    if (!R.allFinite()) return false;
+    *m = R;
+    return true;
+  }
+
+ private:
+  static bool frame(const Vec3& u, const Vec3& v, Mat3* F) {
+    const Vec3 w = u.cross(v);
+    const double nw = w.norm();
+    if (!(nw > 1e-12)) return false;
+    F->col(0) = u;
+    F->col(1) = w / nw;
+    F->col(2) = u.cross(F->col(1));
+    return true;
+  }
+  Points P_;
+};
+
 // A 2-D line a x + b y + c = 0 (a^2 + b^2 = 1) from 2 points; refine = total least squares on the
 // inliers. It exists to test that the loop is generic (ransac_test.cc in COLMAP does the same).
 struct Line {

@@ -87,3 +87,6 @@ def refine_ligt(
 def _refine_residuals(
     kind: int, R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], x: NDArray[np.float64], w: NDArray[np.float64] | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+def robust_rotation(
+    f1: NDArray[np.float64], f2: NDArray[np.float64], chord: float, seed: int, max_iterations: int = 10000, confidence: float = 0.999
+) -> tuple[NDArray[np.float64], NDArray[np.uint8], int]: ...

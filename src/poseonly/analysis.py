@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from . import _core
+
 from .geometry import rotation_error_deg
 from .residuals import v_sampson, v_sampson_chiral
 from .twin import homography_twin
@@ -31,7 +33,6 @@ __all__ = [
     "polish",
     "pure_rotation_test",
     "robust_rotation",
-    "rotations_from_pairs",
     "support",
 ]
 
@@ -189,18 +190,6 @@ ROTATION_THRESHOLD_FACTOR = 2.0
 EXTRA_FACTOR = 2.0
 
 
-def rotations_from_pairs(a1, a2, b1, b2) -> np.ndarray:
-    """Rotations ``(h, 3, 3)`` with ``R a1 = b1`` and ``R (a1 x a2)`` along ``b1 x b2`` (inputs
-    ``(h, 3)`` unit): the exact 2-point rotation when the pairs are consistent."""
-    from .geometry import cross, normalize
-
-    def frame(u, v):
-        w = normalize(cross(u, v))
-        return np.stack([u, w, cross(u, w)], axis=-1)
-
-    return frame(b1, b2) @ np.swapaxes(frame(a1, a2), -1, -2)
-
-
 def _rotation_inliers(Rs, f1, f2, thr) -> np.ndarray:
     """``(h, n)`` mask of ``|R f1 - f2| < 2 sin(thr / 2)`` (chord form: exact for tiny angles)."""
     d = np.einsum("hij,nj->hni", Rs, f1) - f2[None]
@@ -208,42 +197,15 @@ def _rotation_inliers(Rs, f1, f2, thr) -> np.ndarray:
 
 
 def robust_rotation(f1, f2, tau) -> tuple[np.ndarray, np.ndarray, int]:
-    """Best rotation-only model ``X2 ~ R X1`` over all matches: 2-point RANSAC with adaptive
-    stopping, then Kabsch on the inliers (twice). Returns ``(R, inliers (n,), hypotheses tested)``."""
-    n = len(f1)
-    thr = ROTATION_THRESHOLD_FACTOR * tau
-    rng = np.random.default_rng(ROTATION_SEED)
-    best_R, best_in, best_k = np.eye(3), np.zeros(n, bool), -1
-    it, needed, batch = 0, float(ROTATION_MAX_ITERATIONS), 64
-    while it < min(needed, ROTATION_MAX_ITERATIONS):
-        i = rng.integers(0, n, size=batch)
-        j = (i + rng.integers(1, n, size=batch)) % n
-        with np.errstate(all="ignore"):
-            Rs = rotations_from_pairs(f1[i], f1[j], f2[i], f2[j])
-        ok = np.all(np.isfinite(Rs), axis=(1, 2))
-        it += batch
-        if not ok.any():
-            continue
-        inl = _rotation_inliers(Rs[ok], f1, f2, thr)
-        cnt = inl.sum(axis=1)
-        k = int(np.argmax(cnt))
-        if cnt[k] > best_k:
-            best_R, best_in, best_k = Rs[ok][k], inl[k], int(cnt[k])
-            w = best_k / n
-            p_good = w * w
-            if 0 < p_good < 1:
-                needed = np.log(1 - ROTATION_CONFIDENCE) / np.log1p(-p_good)
-            elif p_good >= 1:
-                needed = 0
-    for _ in range(2):
-        if best_in.sum() < 3:
-            break
-        Rk = kabsch(f1[best_in], f2[best_in])
-        inl = _rotation_inliers(Rk[None], f1, f2, thr)[0]
-        if inl.sum() < best_in.sum():
-            break
-        best_R, best_in = Rk, inl
-    return best_R, best_in, it + 2
+    """Best rotation-only model ``X2 ~ R X1`` over all matches ``f1, f2 (n, 3)``: 2-point RANSAC with
+    adaptive stopping in the core (the generic loop with its rotation estimator), then Kabsch on the
+    inliers (twice, each kept if the inliers do not drop). Returns ``(R (3, 3), inliers (n,),
+    hypotheses tested)``."""
+    chord = 2.0 * np.sin(0.5 * ROTATION_THRESHOLD_FACTOR * tau)
+    R, mask, tests = _core.robust_rotation(
+        np.ascontiguousarray(f1, dtype=float), np.ascontiguousarray(f2, dtype=float), float(chord), ROTATION_SEED, ROTATION_MAX_ITERATIONS, ROTATION_CONFIDENCE
+    )
+    return R, mask.astype(bool), int(tests)
 
 
 def rotation_chance_rate(R, f1, f2, tau) -> float:
