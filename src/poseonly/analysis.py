@@ -14,7 +14,6 @@ from typing import Any
 import numpy as np
 
 from . import _core
-
 from .geometry import rotation_error_deg
 from .residuals import v_sampson, v_sampson_chiral
 from .twin import homography_twin
