@@ -168,6 +168,8 @@ def cmd_relpose(args) -> int:
     r = pr.result
     if args.draw and imgs:
         draw_matches(imgs[0], imgs[1], pr.u1, pr.u2, r.inliers, args.draw)
+    if args.save:
+        _save_result(args.save, r)
     if args.json:
         d = r.to_dict()
         d.update(num_matches=int(len(pr.u1)), time_features_s=pr.time_features_s, time_estimate_s=pr.time_estimate_s)
@@ -177,7 +179,38 @@ def cmd_relpose(args) -> int:
         print(f"inliers: {r.num_inliers} / {len(pr.u1)} matches ({100 * r.inlier_ratio:.1f}%)")
         print(f"status: {r.status}: {r.message}")
         print(f"time: features+matching {pr.time_features_s:.2f} s, estimation {pr.time_estimate_s * 1e3:.1f} ms")
-    return 0 if r.status != "degenerate" else 2
+    return exit_code(r.status)
+
+
+# exit codes of `poseonly relpose` (documented in the README): a pose to trust, a result whose status
+# says it is not one (planar_ambiguous, pure_rotation, too_few_inliers), no pose (degenerate) or an error
+EXIT_OK, EXIT_NOT_OK, EXIT_ERROR = 0, 1, 2
+
+
+def exit_code(status: str) -> int:
+    """0 for status ``ok``, 1 for a result that is not ``ok``, 2 for ``degenerate`` (as for errors)."""
+    return EXIT_OK if status == "ok" else (EXIT_ERROR if status == "degenerate" else EXIT_NOT_OK)
+
+
+def _save_result(path: str, r) -> None:
+    import io
+
+    from ._fileutil import atomic_write_bytes
+
+    if not path.endswith(".npz"):
+        raise CLIError(f"--save writes an .npz file; got {path!r}")
+    nan3 = np.full(3, np.nan)
+    buf = io.BytesIO()
+    np.savez(
+        buf,
+        R=r.R if r.R is not None else np.full((3, 3), np.nan),
+        t=r.t if r.t is not None else nan3,
+        E=r.E if r.E is not None else np.full((3, 3), np.nan),
+        inliers=np.asarray(r.inliers, bool),
+        status=np.array(r.status),
+        threshold_px=np.array(r.threshold_px),
+    )
+    atomic_write_bytes(path, buf.getvalue())
 
 
 def cmd_experiment(args) -> int:
@@ -232,7 +265,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--ratio", type=float, default=0.8, help="Lowe ratio")
     r.add_argument("--cache", help="feature cache directory")
     r.add_argument("--seed", type=_non_negative_int, default=0)
-    r.add_argument("--json", action="store_true")
+    r.add_argument("--json", action="store_true", help="print the result as strict JSON (R, t, E, inlier indices, status, threshold, timings)")
+    r.add_argument("--save", metavar="OUT.npz", help="write R, t, E, the inlier mask and the status to an .npz (atomically)")
     r.add_argument("--draw", help="write a match drawing (PNG)")
     r.set_defaults(func=cmd_relpose)
 
