@@ -63,11 +63,11 @@ def test_pixels_and_K_match_bearings():
 def test_deterministic():
     sc = make_scene(300, noise_px=1.0, outlier_fraction=0.5, seed=7)
     for m in ("poseonly", "gnc-ransac"):
-        a = estimate_relative_pose(sc.f1, sc.f2, method=m, seed=4)
-        b = estimate_relative_pose(sc.f1, sc.f2, method=m, seed=4)
+        a = estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, method=m, seed=4)
+        b = estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, method=m, seed=4)
         assert np.array_equal(a.R, b.R) and np.array_equal(a.inliers, b.inliers)
     g = np.random.default_rng(9)
-    c = estimate_relative_pose(sc.f1, sc.f2, seed=g)
+    c = estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, seed=g)
     assert c.R.shape == (3, 3)
 
 
@@ -106,7 +106,7 @@ def test_too_few_inliers_status():
 
 def test_degenerate_identical_points():
     f = np.tile([0.1, 0.2, 1.0], (20, 1))
-    r = estimate_relative_pose(f, f)
+    r = estimate_relative_pose(f, f, focal_px=800.0)
     assert r.status == "degenerate"
 
 
@@ -126,7 +126,7 @@ def test_degenerate_identical_points():
 def test_bad_options(kwargs, msg):
     sc = make_scene(100, seed=1)
     with pytest.raises(ValueError, match=msg):
-        estimate_relative_pose(sc.f1, sc.f2, **kwargs)
+        estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, **kwargs)
 
 
 def test_bad_inputs():
@@ -145,3 +145,22 @@ def test_bad_inputs():
         estimate_relative_pose(u, sc.u2, sc.K)
     with pytest.raises(ValueError, match="theta"):
         poseonly.gnc_ransac(sc.f1, sc.f2, theta=0.0)
+
+
+def test_pixels_without_K_and_bearings_without_focal_are_errors():
+    """Issue 13: pixel-sized (n, 2) coordinates without K are not read as normalized coordinates, and
+    normalized coordinates / bearings need ``focal_px`` for the pixel threshold (no silent f = 800)."""
+    sc = make_scene(60, camera="pinhole", seed=2)
+    with pytest.raises(poseonly.InputError, match="pixel-sized"):
+        estimate_relative_pose(sc.u1, sc.u2)
+    with pytest.raises(poseonly.InputError, match="pixel-sized"):
+        estimate_relative_pose(sc.u1, sc.u2, focal_px=800.0)
+    with pytest.raises(poseonly.InputError, match="focal_px"):
+        estimate_relative_pose(sc.f1, sc.f2)
+    x1, x2 = sc.f1[:, :2] / sc.f1[:, 2:], sc.f2[:, :2] / sc.f2[:, 2:]
+    with pytest.raises(poseonly.InputError, match="focal_px"):
+        estimate_relative_pose(x1, x2)
+    a = estimate_relative_pose(x1, x2, focal_px=float(sc.K[0, 0]))
+    b = estimate_relative_pose(sc.u1, sc.u2, sc.K)
+    assert a.status == b.status == "ok"
+    assert rotation_error_deg(a.R, b.R) < 1e-6

@@ -26,8 +26,13 @@ def test_demo_text_output(capsys):
 
 
 def test_unknown_method_is_a_clean_error(capsys):
-    assert main(["demo", "--no-draw", "--method", "nope"]) == 2
-    assert "unknown method" in capsys.readouterr().err
+    import pytest
+
+    with pytest.raises(SystemExit) as exc:  # argparse lists the choices and exits with 2
+        main(["demo", "--no-draw", "--method", "nope"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "invalid choice: 'nope'" in err and "gnc-ransac" in err
 
 
 def test_relpose_exit_codes_and_save(tmp_path):
@@ -46,3 +51,37 @@ def test_relpose_exit_codes_and_save(tmp_path):
     np.savez(tmp_path / "r.npz", u1=rng.uniform(0, 640, (60, 2)), u2=rng.uniform(0, 480, (60, 2)), K=sc.K)
     assert main(["relpose", "--matches", str(tmp_path / "r.npz")]) in (1, 2)
     assert main(["relpose", "--matches", str(tmp_path / "m.npz"), "--save", str(tmp_path / "out.txt")]) == 2
+
+
+def test_relpose_draw_with_matches_legend_and_epipolar_lines(tmp_path, capsys):
+    """Issue 13: ``--draw`` works with ``--matches`` when the images are given (an error without them),
+    the drawing has a legend and, with ``--epipolar N``, epipolar lines."""
+    import cv2
+    import numpy as np
+
+    from poseonly.cli import main
+    from poseonly.pipeline import _clip_line
+    from poseonly.sim import make_scene
+
+    sc = make_scene(200, noise_px=0.5, outlier_fraction=0.2, camera="pinhole", seed=1)
+    m = tmp_path / "m.npz"
+    np.savez(m, u1=sc.u1, u2=sc.u2, K=sc.K)
+    img = np.full((480, 640), 90, np.uint8)
+    for name in ("a.png", "b.png"):
+        cv2.imwrite(str(tmp_path / name), img)
+    assert main(["relpose", "--matches", str(m), "--draw", str(tmp_path / "x.png")]) == 2
+    assert "needs the two images" in capsys.readouterr().err
+    assert main(["relpose", "--matches", str(m), "--epipolar", "3"]) == 2
+    a, b = str(tmp_path / "a.png"), str(tmp_path / "b.png")
+    plain, epi = tmp_path / "plain.png", tmp_path / "epi.png"
+    assert main(["relpose", a, b, "--matches", str(m), "--draw", str(plain)]) == 0
+    assert main(["relpose", a, b, "--matches", str(m), "--draw", str(epi), "--epipolar", "10"]) == 0
+    p, e = cv2.imread(str(plain)), cv2.imread(str(epi))
+    assert p.shape == e.shape == (480, 1280, 3)
+    legend = p[:60, :400]
+    assert np.any(np.all(legend == 0, axis=2)) and np.any(legend[..., 1] > 150)  # black box with green text
+    blue = (e[..., 0] > 200) & (e[..., 2] < 100)  # epipolar lines are drawn in blue-orange (BGR 255,160,0)
+    assert np.count_nonzero(blue) > np.count_nonzero((p[..., 0] > 200) & (p[..., 2] < 100)) + 1000
+    seg = _clip_line(np.array([0.0, 1.0, -100.0]), 640, 480)  # the horizontal line y = 100
+    assert seg == ((0, 100), (639, 100))
+    assert _clip_line(np.array([0.0, 1.0, 1000.0]), 640, 480) is None

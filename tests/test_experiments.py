@@ -134,3 +134,18 @@ def test_atomic_writers_give_files_the_default_mode(tmp_path):
     for p in (a, tmp_path / "b.npz"):
         assert os.stat(p).st_mode & 0o777 == os.stat(ref).st_mode & 0o777
     assert sorted(q.name for q in tmp_path.iterdir()) == ["a.md", "b.npz", "plain.txt"]  # no temp files left
+
+
+def test_experiment_without_out_writes_a_new_folder_under_the_working_directory(tmp_path, monkeypatch):
+    """Issue 13: without ``--out`` an experiment never writes into ``docs/results`` of the working
+    directory; it creates a new folder ``poseonly-NAME-<date>-<time>`` there (a second run, another)."""
+    from poseonly._fileutil import new_results_dir
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "docs" / "results").mkdir(parents=True)
+    assert main(["experiment", "chirality", "--quick"]) == 0
+    made = sorted(p for p in tmp_path.iterdir() if p.name.startswith("poseonly-chirality-"))
+    assert len(made) == 1 and (made[0] / "chirality.md").is_file()
+    assert not any((tmp_path / "docs" / "results").iterdir())
+    a, b = new_results_dir("x"), new_results_dir("x")
+    assert a != b and a.parent == b.parent == tmp_path and not any(a.iterdir())

@@ -205,7 +205,7 @@ def test_scenes_every_method(sc, method, pixels):
     if pixels and np.all(sc.X[:, 2] > 0):
         r = call(poseonly.estimate_relative_pose, sc.u1, sc.u2, sc.K, method=method, **opts)
     else:
-        r = call(poseonly.estimate_relative_pose, sc.f1, sc.f2, method=method, **opts)
+        r = call(poseonly.estimate_relative_pose, sc.f1, sc.f2, focal_px=800.0, method=method, **opts)
     assert r is not None
     check_result(r, len(sc.f1))
     if np.linalg.norm(sc.t) == 0:  # pure rotation: never "ok"
@@ -217,7 +217,7 @@ def test_scenes_every_method(sc, method, pixels):
 def test_random_matches_never_ok(n, seed, bearings):
     rng = np.random.default_rng(seed)
     if bearings:
-        r = call(poseonly.estimate_relative_pose, rng.standard_normal((n, 3)), rng.standard_normal((n, 3)), **FAST)
+        r = call(poseonly.estimate_relative_pose, rng.standard_normal((n, 3)), rng.standard_normal((n, 3)), focal_px=800.0, **FAST)
     else:
         u1, u2 = rng.uniform((0, 0), (640, 480), (2, n, 2))
         r = call(poseonly.estimate_relative_pose, u1, u2, default_K(), **FAST)
@@ -238,7 +238,7 @@ def test_duplicated_and_collinear_points(n, m, seed, line):
         base1, base2 = rng.standard_normal((m, 2)) * 0.3, rng.standard_normal((m, 2)) * 0.3
         idx = rng.integers(0, m, n)
         x1, x2 = base1[idx], base2[idx]
-    r = call(poseonly.estimate_relative_pose, x1, x2, **FAST)
+    r = call(poseonly.estimate_relative_pose, x1, x2, focal_px=800.0, **FAST)
     assert r is not None
     check_result(r, n)
     if line or m < 3:
@@ -251,10 +251,10 @@ def test_options_of_every_type(data, method):
     sc = make_scene(30, seed=1)
     if method not in poseonly.METHODS:
         with pytest.raises(InputError):
-            poseonly.estimate_relative_pose(sc.f1, sc.f2, method=method)
+            poseonly.estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, method=method)
         return
     opts = data.draw(option_dicts(method))
-    r = call(poseonly.estimate_relative_pose, sc.f1, sc.f2, method=method, **opts)
+    r = call(poseonly.estimate_relative_pose, sc.f1, sc.f2, method=method, **{"focal_px": 800.0, **opts})
     if r is not None:
         check_result(r, 30)
 
@@ -271,13 +271,13 @@ def test_threshold_and_focal_extremes(thr, focal):
 
 def test_numpy_scalars_and_messages():
     sc = make_scene(30, seed=3)
-    r = poseonly.estimate_relative_pose(sc.f1, sc.f2, threshold_px=np.float32(2.0), min_inliers=np.int64(10), refine=np.True_, seed=np.int64(4), **FAST)
+    r = poseonly.estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, threshold_px=np.float32(2.0), min_inliers=np.int64(10), refine=np.True_, seed=np.int64(4), **FAST)
     check_result(r, 30)
     with pytest.raises(InputError, match="must be of type bool") as e:
-        poseonly.estimate_relative_pose(sc.f1, sc.f2, refine=1)
+        poseonly.estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, refine=1)
     assert "got int" in str(e.value)
     with pytest.raises(InputError, match="invalid value inf"):
-        poseonly.estimate_relative_pose(sc.f1, sc.f2, threshold_px=np.inf)
+        poseonly.estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, threshold_px=np.inf)
 
 
 # ------------------------------------------------------------------------------------------------

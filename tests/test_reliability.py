@@ -75,7 +75,7 @@ def test_bad_intrinsics(edit, msg):
 def test_threshold_overflow_is_an_error(kw):
     sc = make_scene(30, seed=1)
     with pytest.raises(InputError, match="threshold|focal"):
-        estimate_relative_pose(sc.f1, sc.f2, **kw)
+        estimate_relative_pose(sc.f1, sc.f2, **{"focal_px": 800.0, **kw})
 
 
 @pytest.mark.parametrize(
@@ -111,7 +111,7 @@ def test_low_level_numpy_scalars_accepted():
 def test_complex_input_rejected():
     sc = make_scene(30, seed=1)
     with pytest.raises(InputError, match="complex"):
-        estimate_relative_pose(sc.f1 + 0j, sc.f2)
+        estimate_relative_pose(sc.f1 + 0j, sc.f2, focal_px=800.0)
     with pytest.raises(InputError, match="complex"):
         estimate_relative_pose(sc.u1, sc.u2, sc.K.astype(complex))
 
@@ -122,8 +122,8 @@ def test_complex_input_rejected():
 
 def test_huge_bearing_components_keep_their_direction():
     sc = make_scene(60, noise_px=0.3, seed=4)
-    ref = estimate_relative_pose(sc.f1, sc.f2)
-    big = estimate_relative_pose(sc.f1 * 1e200, sc.f2 * 1e300)
+    ref = estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0)
+    big = estimate_relative_pose(sc.f1 * 1e200, sc.f2 * 1e300, focal_px=800.0)
     assert big.status == ref.status
     np.testing.assert_allclose(big.R, ref.R, atol=1e-9)
     rows = sc.f1.copy()
@@ -134,7 +134,7 @@ def test_huge_bearing_components_keep_their_direction():
 
 def test_degenerate_has_no_pose_and_json_is_strict():
     f = np.tile([0.1, 0.2, 1.0], (20, 1))
-    r = estimate_relative_pose(f, f)
+    r = estimate_relative_pose(f, f, focal_px=800.0)
     assert r.status == "degenerate" and r.R is None and r.t is None and r.E is None
     d = _json_strict(r)
     assert d["R"] is None and d["t"] is None and d["parallax_deg"] is None and d["inliers"] == []
@@ -142,7 +142,7 @@ def test_degenerate_has_no_pose_and_json_is_strict():
 
 def test_to_dict_has_E_and_inlier_indices():
     sc = make_scene(60, noise_px=0.3, seed=4)
-    r = estimate_relative_pose(sc.f1, sc.f2)
+    r = estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0)
     d = _json_strict(r)
     assert np.allclose(d["E"], r.E) and d["inliers"] == np.nonzero(r.inliers)[0].tolist()
     assert abs(np.linalg.norm(d["t"]) - 1) < 1e-12
@@ -150,10 +150,10 @@ def test_to_dict_has_E_and_inlier_indices():
 
 def test_numpy_bool_message_does_not_contradict_itself():
     sc = make_scene(30, seed=1)
-    r = estimate_relative_pose(sc.f1, sc.f2, refine=np.True_, threshold_px=np.float32(2), seed=np.int64(1))
+    r = estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, refine=np.True_, threshold_px=np.float32(2), seed=np.int64(1))
     assert r.R is not None
     with pytest.raises(InputError) as e:
-        estimate_relative_pose(sc.f1, sc.f2, refine=1)
+        estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, refine=1)
     assert "got int 1" in str(e.value) and "bool" in str(e.value)
 
 
@@ -161,7 +161,7 @@ def test_negative_seed_rejected_by_every_method():
     sc = make_scene(30, seed=1)
     for m in poseonly.METHODS:
         with pytest.raises(InputError, match="seed"):
-            estimate_relative_pose(sc.f1, sc.f2, method=m, seed=-1)
+            estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, method=m, seed=-1)
 
 
 def test_no_runtime_warnings_escape():
@@ -169,7 +169,7 @@ def test_no_runtime_warnings_escape():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         for m in poseonly.METHODS:
-            estimate_relative_pose(sc.f1 * 1e250, sc.f2, method=m, **({"max_iterations": 5} if m != "lirp" else {}))
+            estimate_relative_pose(sc.f1 * 1e250, sc.f2, focal_px=800.0, method=m, **({"max_iterations": 5} if m != "lirp" else {}))
         poseonly.lirp(sc.f1, sc.f2, np.full(40, 1e100))
 
 
@@ -179,11 +179,11 @@ def test_no_runtime_warnings_escape():
 
 def test_threads_give_the_serial_results():
     scs = [make_scene(80, noise_px=0.5, outlier_fraction=0.3, seed=s) for s in range(4)]
-    serial = [estimate_relative_pose(sc.f1, sc.f2, seed=1).R for sc in scs]
+    serial = [estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, seed=1).R for sc in scs]
     out: list = [None] * len(scs)
 
     def work(i):
-        out[i] = estimate_relative_pose(scs[i].f1, scs[i].f2, seed=1).R
+        out[i] = estimate_relative_pose(scs[i].f1, scs[i].f2, focal_px=800.0, seed=1).R
 
     th = [threading.Thread(target=work, args=(i,)) for i in range(len(scs))]
     for t in th:
@@ -201,8 +201,11 @@ def test_bearings_near_ninety_degrees_no_linalg_error(scale):
     rng = np.random.default_rng(7458)
     x1 = rng.standard_normal((25, 2)) * scale
     x2 = rng.standard_normal((25, 2))
+    with pytest.raises(InputError, match="pixel-sized"):  # as (n, 2) coordinates they read as pixels
+        estimate_relative_pose(x1, x2, focal_px=800.0)
+    b1 = np.column_stack([x1, np.ones(len(x1))])  # the same rays as bearing vectors
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
-        r = estimate_relative_pose(x1, x2, max_iterations=150)
+        r = estimate_relative_pose(b1, x2, focal_px=800.0, max_iterations=150)
     assert r.status != "ok" or r.R is not None
     _json_strict(r)

@@ -24,6 +24,7 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_text",
     "clean_stale_temps",
+    "new_results_dir",
     "publish",
 ]
 
@@ -131,3 +132,19 @@ def atomic_savefig(fig: Any, path: str | os.PathLike, **kw: Any) -> Path:
     with atomic_open(path, "wb") as fh:
         fig.savefig(fh, format=fmt, **kw)
     return path
+
+
+def new_results_dir(name: str, base: str | os.PathLike | None = None) -> Path:
+    """A new, empty folder ``poseonly-NAME-YYYYmmdd-HHMMSS[-k]`` under ``base`` (default: the working
+    directory): where experiments and benchmarks write when no ``--out`` is given, so that a run never
+    overwrites earlier results (a clone's committed docs/results included)."""
+    root = Path.cwd() if base is None else Path(base)
+    stem = f"poseonly-{name}-{time.strftime('%Y%m%d-%H%M%S')}"
+    for k in range(1000):
+        p = root / (stem if k == 0 else f"{stem}-{k}")
+        try:
+            p.mkdir(parents=True)
+            return p
+        except FileExistsError:
+            continue
+    raise FileExistsError(f"could not create a new results folder {stem}-* under {root}")

@@ -75,8 +75,6 @@ __all__ = [
 
 DEFAULT_METHOD = "poseonly"
 METHODS = tuple(OPTIONS)
-# focal length (pixels) of the pixel <-> angle conversion when neither K nor focal_px is given
-DEFAULT_FOCAL_PX = 800.0
 # the epipolar system of a pose needs rank >= 6 (relative singular-value cut-off below)
 MIN_EPIPOLAR_RANK = 6
 RANK_RTOL = 1e-9
@@ -101,7 +99,7 @@ def _focal(K1, K2, focal_px):
     if focal_px is not None:
         return float(focal_px)
     fs = [0.5 * float(K[0, 0]) + 0.5 * float(K[1, 1]) for K in (K1, K2) if K is not None]  # no overflow
-    return float(sum(f / len(fs) for f in fs)) if fs else DEFAULT_FOCAL_PX
+    return float(sum(f / len(fs) for f in fs))
 
 
 def _check_scores(scores: Any, n: int) -> np.ndarray | None:
@@ -144,7 +142,8 @@ def estimate_relative_pose(
     threshold; default 1.0 for the default method, 2.0 for the paper's methods. The default method's
     returned inliers are then those its ML refinement finds more likely inliers than not, and that
     decision threshold is reported as ``result.threshold_px``), ``min_inliers`` (15, for status ``ok``),
-    ``focal_px`` (focal for the pixel conversion when no ``K`` is given; default 800), ``seed``
+    ``focal_px`` (focal length in pixels converting ``threshold_px`` to an angle; required for
+    normalized coordinates and bearings, overrides the cameras' focal otherwise), ``seed``
     (int or ``numpy.random.Generator``; default 0), ``refine`` (LiGTopt on the inliers; default
     True). ``camera1``/``camera2`` (instead of ``K1``/``K2``; ``camera2`` defaults to ``camera1``): any
     camera of :func:`poseonly.cameras.as_camera` (pycolmap.Camera, ``{"model", "width", "height",
@@ -179,6 +178,11 @@ def estimate_relative_pose(
     if n < 6:
         raise InputError(f"at least 6 correspondences are needed, got {n}")
     scores = _check_scores(scores, n)
+    if K1 is None and cam_focal is None and o.focal_px is None:
+        raise InputError(
+            "normalized coordinates or bearing vectors need focal_px (the focal length in pixels that converts "
+            f"threshold_px = {float(o.threshold_px):g} to an angle); pass focal_px=..., or pixels with K1/K2 or camera1/camera2"
+        )
     focal = _focal(K1, K2, o.focal_px) if cam_focal is None or o.focal_px is not None else cam_focal
     thr_px = float(o.threshold_px)
     tau = check_angle("the angular threshold threshold_px / focal", thr_px / focal, f" (threshold_px = {thr_px:g}, focal = {focal:g} px)")

@@ -1,4 +1,4 @@
-"""Robust-estimation benchmark (issue 3): ``poseonly bench robust`` / ``python benchmarks/robust.py``.
+"""Robust-estimation benchmark: ``poseonly bench robust`` / ``python benchmarks/robust.py``.
 
 The paper's protocol -- n = 300, 1 px Gaussian noise, outlier fractions 0-80 %, normal and planar
 scenes -- on the wide OpenGV-style camera of the paper *and* on a 640x480 pinhole camera with
@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ._fileutil import new_results_dir
 from .experiments._common import atomic_write_text, machine, markdown_table, progress, savefig, single_thread, write_json
 from .geometry import rotation_error_deg
 from .sim import make_scene
@@ -181,11 +182,11 @@ def _figure(res: dict, path: Path) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="poseonly bench robust", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--trials", type=int, default=200)
+    ap.add_argument("--trials", type=int, default=200, help="seeded scenes per cell (default 200)")
     ap.add_argument("--quick", action="store_true", help="2 trials, outliers 0 / 0.5 / 0.8, pinhole only")
-    ap.add_argument("--cameras", nargs="+", default=["wide", "pinhole"], choices=["wide", "pinhole"])
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", default="docs/results")
+    ap.add_argument("--cameras", nargs="+", default=["wide", "pinhole"], choices=["wide", "pinhole"], help="cameras to run (default both)")
+    ap.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
+    ap.add_argument("--out", default=None, help="output folder (default: a new folder poseonly-robust-<date>-<time> under the working directory)")
     args = ap.parse_args(argv)
     outliers, cams, trials = OUTLIERS, tuple(args.cameras), args.trials
     if args.quick:
@@ -203,7 +204,7 @@ def main(argv: list[str] | None = None) -> int:
         f"single-threaded; {res['wall_s']:.0f} s; code `{res['code_version']}`; {res['machine']}).\n"
         f"Command: `poseonly bench robust {' '.join(argv if argv is not None else [])}`\n\n" + to_markdown(res)
     )
-    out = Path(args.out)
+    out = Path(args.out) if args.out else new_results_dir("robust")
     atomic_write_text(out / "robust.md", md)
     write_json(out / "robust.json", res)
     _figure(res, out / "robust.png")

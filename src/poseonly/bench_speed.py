@@ -41,6 +41,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ._fileutil import new_results_dir
 from .experiments._common import atomic_write_text, machine, markdown_table, single_thread
 
 THRESHOLD_PX = 1.0  # the anchors' default; the default method gets its own default (noise-matched)
@@ -231,13 +232,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--quick", action="store_true", help="few scenes and repeats (a smoke run)")
     p.add_argument("--scenes", type=int, default=10, help="scenes per cell (default 10)")
     p.add_argument("--repeats", type=int, default=3, help="calls per scene (default 3)")
-    p.add_argument("--out", default=None, help="output folder (default: a new folder speed-<time> under the working directory)")
+    p.add_argument("--out", default=None, help="output folder (default: a new folder poseonly-speed-<date>-<time> under the working directory)")
     p.add_argument("--no-fresh", action="store_true", help="skip the fresh-process row (it needs OpenCV for the demo matches)")
     a = p.parse_args(argv)
     if a.scenes < 1 or a.repeats < 1:
         p.error("--scenes and --repeats must be >= 1")
     scenes, repeats = (2, 1) if a.quick else (a.scenes, a.repeats)
-    out = Path(a.out) if a.out else Path.cwd() / time.strftime("speed-%Y%m%d-%H%M%S")
+    out = Path(a.out) if a.out else new_results_dir("speed")
     out.mkdir(parents=True, exist_ok=True)
     single_thread()
     data: dict[str, Any] = {"machine": machine(), "command": "poseonly bench speed " + " ".join(argv or sys.argv[1:])}

@@ -139,6 +139,10 @@ def cmd_relpose(args) -> int:
     from .pipeline import draw_matches, relpose_images, relpose_matches
 
     _check_draw_target(args.draw)
+    if args.epipolar and not args.draw:
+        raise CLIError("--epipolar draws into the match drawing: give --draw OUT.png as well")
+    if args.draw and not (args.image1 and args.image2):
+        raise CLIError("--draw needs the two images: poseonly relpose IMG1 IMG2 [--matches FILE] --draw OUT.png")
     opts = {"method": args.method, "seed": args.seed}
     if args.threshold is not None:
         opts["threshold_px"] = args.threshold
@@ -152,7 +156,7 @@ def cmd_relpose(args) -> int:
         if K1 is None:
             raise CLIError("no calibration: pass --K, --K1/--K2 or --focal/--pp, or store K in the npz")
         pr = relpose_matches(md.u1, md.u2, K1, K2, scores=md.scores, **opts)
-        imgs = None
+        imgs = (args.image1, args.image2) if args.image1 and args.image2 else None  # only for --draw
     else:
         if not (args.image1 and args.image2):
             raise CLIError("give two images (IMG1 IMG2) or --matches FILE")
@@ -167,7 +171,10 @@ def cmd_relpose(args) -> int:
         imgs = (args.image1, args.image2)
     r = pr.result
     if args.draw and imgs:
-        draw_matches(imgs[0], imgs[1], pr.u1, pr.u2, r.inliers, args.draw)
+        from .features import fundamental_from_pose
+
+        F = fundamental_from_pose(K1, K2, r.R, r.t) if r.R is not None and r.t is not None else None
+        draw_matches(imgs[0], imgs[1], pr.u1, pr.u2, r.inliers, args.draw, F=F, epipolar=args.epipolar if F is not None else 0, title=f"status: {r.status}")
     if args.save:
         _save_result(args.save, r)
     if args.json:
@@ -215,8 +222,12 @@ def _save_result(path: str, r) -> None:
 
 def cmd_experiment(args) -> int:
     from . import experiments
+    from ._fileutil import new_results_dir
 
     mod = experiments.load(args.name)
+    if getattr(args, "out", "") is None:
+        args.out = str(new_results_dir(args.name))
+        print(f"writing results to {args.out}", file=sys.stderr)
     return int(mod.run(args) or 0)
 
 
@@ -238,6 +249,11 @@ def cmd_bench(args) -> int:
     return int(importlib.import_module(BENCHES[args.name]).main(args.rest) or 0)
 
 
+# the methods of estimate_relative_pose (poseonly.options.OPTIONS; listed here to keep the CLI's import light)
+METHOD_CHOICES = ("poseonly", "gnc-ransac", "gnc-irls", "lirp")
+METHOD_HELP = "poseonly: the default (5-point MSAC search, local optimisation, ML refinement); gnc-ransac, gnc-irls, lirp: the paper's Algorithms 3, 2 and 1 (default poseonly)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="poseonly", description="Robust two-view relative pose founded on pose-only imaging geometry")
     p.add_argument("--version", action="version", version=f"poseonly {__version__}")
@@ -245,29 +261,30 @@ def build_parser() -> argparse.ArgumentParser:
 
     d = sub.add_parser("demo", help="run the whole pipeline on the embedded real image pair")
     d.add_argument("--draw", default="poseonly_demo_matches.png", help="where to write the match drawing")
-    d.add_argument("--no-draw", action="store_true")
-    d.add_argument("--json", action="store_true")
-    d.add_argument("--method", default="poseonly")
-    d.add_argument("--seed", type=_non_negative_int, default=0)
+    d.add_argument("--no-draw", action="store_true", help="do not write the match drawing")
+    d.add_argument("--json", action="store_true", help="print the result as strict JSON")
+    d.add_argument("--method", default="poseonly", choices=METHOD_CHOICES, help=METHOD_HELP)
+    d.add_argument("--seed", type=_non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     d.set_defaults(func=cmd_demo)
 
     r = sub.add_parser("relpose", help="relative pose of two images (or of a matches file)")
-    r.add_argument("image1", nargs="?")
-    r.add_argument("image2", nargs="?")
+    r.add_argument("image1", nargs="?", help="first image (SIFT features are matched unless --matches is given)")
+    r.add_argument("image2", nargs="?", help="second image")
     r.add_argument("--matches", help="npz with u1, u2 (and optionally K or K1, K2)")
     r.add_argument("--K", help="text file with the shared 3x3 calibration matrix")
-    r.add_argument("--K1")
-    r.add_argument("--K2")
-    r.add_argument("--focal", type=float)
-    r.add_argument("--pp", type=float, nargs=2, metavar=("CX", "CY"))
-    r.add_argument("--method", default="poseonly")
+    r.add_argument("--K1", help="text file with the 3x3 calibration matrix of the first image")
+    r.add_argument("--K2", help="text file with the 3x3 calibration matrix of the second image")
+    r.add_argument("--focal", type=float, help="focal length in pixels (a pinhole K with --pp or the image centre)")
+    r.add_argument("--pp", type=float, nargs=2, metavar=("CX", "CY"), help="principal point in pixels (with --focal; default: the image centre)")
+    r.add_argument("--method", default="poseonly", choices=METHOD_CHOICES, help=METHOD_HELP)
     r.add_argument("--threshold", type=float, default=None, help="inlier threshold in pixels (default: the method's; 1 px for the default method)")
     r.add_argument("--ratio", type=float, default=0.8, help="Lowe ratio")
     r.add_argument("--cache", help="feature cache directory")
-    r.add_argument("--seed", type=_non_negative_int, default=0)
+    r.add_argument("--seed", type=_non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     r.add_argument("--json", action="store_true", help="print the result as strict JSON (R, t, E, inlier indices, status, threshold, timings)")
     r.add_argument("--save", metavar="OUT.npz", help="write R, t, E, the inlier mask and the status to an .npz (atomically)")
-    r.add_argument("--draw", help="write a match drawing (PNG)")
+    r.add_argument("--draw", metavar="OUT.png", help="write a drawing of the matches (inliers green, outliers red, a legend with the counts); needs IMG1 IMG2, also with --matches")
+    r.add_argument("--epipolar", type=_non_negative_int, default=0, metavar="N", help="with --draw: also draw the epipolar lines of N random inliers in both images (default 0)")
     r.set_defaults(func=cmd_relpose)
 
     c = sub.add_parser("colmap", help="COLMAP database tools")
@@ -279,7 +296,7 @@ def build_parser() -> argparse.ArgumentParser:
     cv.set_defaults(func=cmd_colmap_verify)
 
     b = sub.add_parser("bench", help="benchmarks: speed, robust (synthetic) or real (real image pairs against the anchors)")
-    b.add_argument("name", choices=sorted(BENCHES))
+    b.add_argument("name", choices=sorted(BENCHES), help="speed: timing against PoseLib and OpenCV; robust: synthetic accuracy; real: real image pairs against the anchors")
     b.add_argument("rest", nargs=argparse.REMAINDER, help="options of the benchmark (see poseonly bench NAME --help)")
     b.set_defaults(func=cmd_bench)
 
@@ -291,8 +308,8 @@ def build_parser() -> argparse.ArgumentParser:
         ep = esub.add_parser(name)
         ep.add_argument("--trials", type=_positive_int, default=None, help="Monte Carlo trials (default: the paper's)")
         ep.add_argument("--quick", action="store_true", help="a few trials (smoke test)")
-        ep.add_argument("--out", default="docs/results", help="output directory for tables and figures")
-        ep.add_argument("--seed", type=_non_negative_int, default=0)
+        ep.add_argument("--out", default=None, help=f"output folder for tables and figures (default: a new folder poseonly-{name}-<date>-<time> under the working directory)")
+        ep.add_argument("--seed", type=_non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
         try:
             experiments.load(name).add_arguments(ep)
         except ImportError:

@@ -223,6 +223,11 @@ def _pixels_to_rays(a: np.ndarray, K: np.ndarray) -> np.ndarray:
     return r
 
 
+# median |coordinate| above which (n, 2) input without K is taken for pixels: a normalized coordinate
+# of 10 lies 84 deg off the optical axis, beyond any perspective camera's field of view
+PIXEL_LIKE_NORMALIZED = 10.0
+
+
 def as_bearings(x: np.ndarray, K: np.ndarray | None = None, name: str = "x") -> np.ndarray:
     """Accept pixels ``(n, 2)`` (with ``K``), normalized coordinates ``(n, 2)`` or bearings ``(n, 3)``.
 
@@ -233,6 +238,12 @@ def as_bearings(x: np.ndarray, K: np.ndarray | None = None, name: str = "x") -> 
     a = _check_finite_2d(x, name)
     if a.shape[1] == 2:
         if K is None:
+            med = float(np.median(np.abs(a))) if len(a) else 0.0
+            if med > PIXEL_LIKE_NORMALIZED:
+                raise InputError(
+                    f"{name}: (n, 2) coordinates without K have median |x| = {med:.4g}, which is pixel-sized, not a "
+                    f"normalized image coordinate (tan of the angle off the axis); pass K (or a camera) with pixels"
+                )
             return _unit_rows(np.concatenate([a, np.ones((len(a), 1))], axis=1), name)
         K = check_intrinsics(K, "K")
         m = np.max(np.abs(a), axis=1) if len(a) else np.zeros(0)

@@ -54,12 +54,61 @@ def relpose_images(img1, img2, K1, K2=None, *, ratio: float = 0.8, mutual: bool 
 DRAW_FORMATS = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
 
 
-def draw_matches(img1, img2, u1, u2, inliers, out: str | Path, max_lines: int = 400, seed: int = 0) -> Path:
-    """Side-by-side drawing: inliers green, outliers red (a random subset of ``max_lines``)."""
+# drawing colours (BGR) and layout
+INLIER_BGR, OUTLIER_BGR, EPIPOLAR_BGR = (0, 200, 0), (0, 0, 255), (255, 160, 0)
+LEGEND_ROW_PX = 22
+
+
+def _clip_line(line: np.ndarray, w: int, h: int) -> tuple[tuple[int, int], tuple[int, int]] | None:
+    """End points of the image line ``l = (a, b, c)``, ``a x + b y + c = 0``, inside a ``w x h`` image."""
+    a, b, c = (float(v) for v in line)
+    pts = []
+    if abs(b) > 1e-12:
+        pts += [(x, -(a * x + c) / b) for x in (0.0, w - 1.0)]
+    if abs(a) > 1e-12:
+        pts += [(-(b * y + c) / a, y) for y in (0.0, h - 1.0)]
+    inside = [(x, y) for x, y in pts if -0.5 <= x <= w - 0.5 and -0.5 <= y <= h - 0.5]
+    if len(inside) < 2:
+        return None
+    (x0, y0), (x1, y1) = inside[0], inside[-1]
+    return (int(round(x0)), int(round(y0))), (int(round(x1)), int(round(y1)))
+
+
+def draw_matches(
+    img1,
+    img2,
+    u1,
+    u2,
+    inliers,
+    out: str | Path,
+    max_lines: int = 400,
+    seed: int = 0,
+    *,
+    F: np.ndarray | None = None,
+    epipolar: int = 0,
+    title: str | None = None,
+) -> Path:
+    """Side-by-side drawing of matches ``u1, u2 (n, 2)`` (pixels): inliers green, outliers red (a
+    seeded random subset of ``max_lines``), a legend with the counts, and, with a fundamental matrix
+    ``F (3, 3)`` (``u2^T F u1 = 0``) and ``epipolar > 0``, the epipolar lines of that many inliers in
+    both images (``F u1`` in image 2, ``F^T u2`` in image 1). Written atomically."""
     import cv2
 
     from .features import read_image
 
+    out = Path(out)
+    ext = out.suffix.lower()
+    if out.is_dir():
+        raise InputError(f"--draw/out {out} is a directory; give an image file name (e.g. matches.png)")
+    if ext not in DRAW_FORMATS:
+        raise InputError(f"cannot write a match drawing as {out.name!r}: the suffix must be one of {list(DRAW_FORMATS)}")
+    u1 = np.asarray(u1, float)
+    u2 = np.asarray(u2, float)
+    inl = np.asarray(inliers, bool)
+    if not (u1.shape == u2.shape == (len(inl), 2)):
+        raise InputError(f"draw_matches: u1, u2 must be (n, 2) and inliers (n,), got {u1.shape}, {u2.shape}, {inl.shape}")
+    if epipolar and F is None:
+        raise InputError("epipolar lines need the fundamental matrix F (a pose and pinhole calibrations)")
     a = read_image(img1, grayscale=False)
     b = read_image(img2, grayscale=False)
     if a.ndim == 2:
@@ -70,21 +119,42 @@ def draw_matches(img1, img2, u1, u2, inliers, out: str | Path, max_lines: int = 
     canvas = np.zeros((h, a.shape[1] + b.shape[1], 3), np.uint8)
     canvas[: a.shape[0], : a.shape[1]] = a
     canvas[: b.shape[0], a.shape[1] :] = b
+    off = a.shape[1]
     rng = np.random.default_rng(seed)
     idx = rng.permutation(len(u1))[:max_lines]
     for i in idx:
-        p = tuple(int(round(v)) for v in u1[i])
-        q = (int(round(u2[i][0] + a.shape[1])), int(round(u2[i][1])))
-        col = (0, 200, 0) if inliers[i] else (0, 0, 255)
+        p = (int(round(u1[i, 0])), int(round(u1[i, 1])))
+        q = (int(round(u2[i, 0] + off)), int(round(u2[i, 1])))
+        col = INLIER_BGR if inl[i] else OUTLIER_BGR
         cv2.line(canvas, p, q, col, 1, cv2.LINE_AA)
         cv2.circle(canvas, p, 2, col, -1)
         cv2.circle(canvas, q, 2, col, -1)
-    out = Path(out)
-    ext = out.suffix.lower()
-    if out.is_dir():
-        raise InputError(f"--draw/out {out} is a directory; give an image file name (e.g. matches.png)")
-    if ext not in DRAW_FORMATS:
-        raise InputError(f"cannot write a match drawing as {out.name!r}: the suffix must be one of {list(DRAW_FORMATS)}")
+    n_epi = 0
+    if epipolar and F is not None:
+        Fm = np.asarray(F, float)
+        ids = np.flatnonzero(inl)
+        for i in rng.permutation(ids)[:epipolar]:
+            l2 = Fm @ np.array([u1[i, 0], u1[i, 1], 1.0])
+            l1 = Fm.T @ np.array([u2[i, 0], u2[i, 1], 1.0])
+            s2 = _clip_line(l2, b.shape[1], b.shape[0])
+            s1 = _clip_line(l1, a.shape[1], a.shape[0])
+            if s2 is not None:
+                cv2.line(canvas, (s2[0][0] + off, s2[0][1]), (s2[1][0] + off, s2[1][1]), EPIPOLAR_BGR, 2, cv2.LINE_AA)
+            if s1 is not None:
+                cv2.line(canvas, s1[0], s1[1], EPIPOLAR_BGR, 2, cv2.LINE_AA)
+            n_epi += int(s1 is not None or s2 is not None)
+    n, k = len(inl), int(np.count_nonzero(inl))
+    rows = [(f"inliers: {k} / {n} matches ({100.0 * k / max(n, 1):.1f}%)", INLIER_BGR), (f"outliers: {n - k}", OUTLIER_BGR)]
+    if len(idx) < n:
+        rows.append((f"drawn: {len(idx)} random matches of {n}", (255, 255, 255)))
+    if n_epi:
+        rows.append((f"epipolar lines of {n_epi} inliers", EPIPOLAR_BGR))
+    if title:
+        rows.insert(0, (title, (255, 255, 255)))
+    box_h = LEGEND_ROW_PX * len(rows) + 8
+    cv2.rectangle(canvas, (0, 0), (min(canvas.shape[1] - 1, 430), min(h - 1, box_h)), (0, 0, 0), -1)
+    for r, (text, col) in enumerate(rows):
+        cv2.putText(canvas, text, (8, LEGEND_ROW_PX * (r + 1)), cv2.FONT_HERSHEY_SIMPLEX, 0.55, col, 1, cv2.LINE_AA)
     ok, buf = cv2.imencode(ext, canvas)
     if not ok:
         raise InputError(f"could not encode the drawing as {ext}")

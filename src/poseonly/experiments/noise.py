@@ -56,7 +56,12 @@ INITIAL = {
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--n", type=int, default=30, help="points per scene (paper: 30)")
     p.add_argument("--levels", type=float, nargs="+", default=None, help="noise levels in px (default 0..10 step 1)")
-    p.add_argument("--noise-model", default="gaussian", choices=["gaussian", "opengv"])
+    p.add_argument(
+        "--noise-model",
+        default="gaussian",
+        choices=["gaussian", "opengv"],
+        help="gaussian: pixel noise on the image points; opengv: OpenGV's angular noise model (default gaussian)",
+    )
     p.add_argument("--no-npt", action="store_true", help="leave out the N-point SDP (slowest method)")
 
 

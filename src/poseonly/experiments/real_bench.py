@@ -1,4 +1,4 @@
-"""Real-data benchmark (issue 12): ``poseonly bench real DIR... [--seeds K] [--methods ...] [--out DIR]
+"""Real-data benchmark: ``poseonly bench real DIR... [--seeds K] [--methods ...] [--out DIR]
 [--cache DIR] [--max-pairs N]``.
 
 Every ``DIR`` is either a *realpairs* dataset folder (``pairs.json`` as described in
@@ -56,6 +56,7 @@ from typing import Any, NamedTuple, cast
 
 import numpy as np
 
+from .._fileutil import new_results_dir
 from ..geometry import (
     InputError,
     check_intrinsics,
@@ -901,7 +902,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("dirs", nargs="*", metavar="DIR", help="realpairs dataset folders and/or Strecha scene folders")
     p.add_argument("--seeds", type=int, default=1, help="run seeds 0..K-1 (AUC@10 spread; default 1)")
     p.add_argument("--methods", nargs="+", metavar="METHOD", help=f"default: {' '.join(DEFAULT_METHODS)}; registered: {' '.join(METHODS)}")
-    p.add_argument("--out", default="docs/results/real", help="output folder (default docs/results/real)")
+    p.add_argument("--out", default=None, help="output folder (default: a new folder poseonly-real-<date>-<time> under the working directory)")
     p.add_argument("--cache", help="feature/match cache folder (default <out>/cache)")
     p.add_argument("--max-pairs", type=int, help="at most N pairs per dataset, in file order")
     p.add_argument("--diagnose", type=int, metavar="N", default=0, help="also re-run the N pairs where the default loses most to PoseLib and write real_bench_diagnosis.md")
@@ -914,7 +915,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    out = Path(args.out)
+    out = Path(args.out) if args.out else new_results_dir("real")
     cache = Path(args.cache) if args.cache else out / "cache"
     cmd = "poseonly bench real " + " ".join(argv if argv is not None else sys.argv[1:])
     if args.from_json:

@@ -24,7 +24,7 @@ from ._common import markdown_table, progress, pyplot, write_outputs
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--n", type=int, default=30, help="points per scene (paper: 30)")
-    p.add_argument("--camera", default="wide", choices=["wide", "pinhole"])
+    p.add_argument("--camera", default="wide", choices=["wide", "pinhole"], help="wide: the paper's wide-angle bearings; pinhole: 640x480, f = 800 (default wide)")
     p.add_argument("--npt", action="store_true", help="add the N-point SDP column (needs cvxpy)")
 
 

@@ -133,8 +133,11 @@ def cmd_sfm(args: argparse.Namespace) -> int:
 
 
 def _cmd_global(args: argparse.Namespace) -> int:
+    from .._fileutil import new_results_dir
     from ..experiments import global_sfm
 
+    if args.out is None:
+        args.out = str(new_results_dir("global"))
     return int(global_sfm.run(args) or 0)
 
 
@@ -145,21 +148,21 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--K", help="text file with the 3x3 calibration matrix (not needed with --database)")
     s.add_argument("--database", help="COLMAP database with cameras, keypoints and matches (replaces our features and matching)")
     s.add_argument("--out", required=True, help="output folder")
-    s.add_argument("--max-features", type=int, default=8000)
+    s.add_argument("--max-features", type=int, default=8000, help="strongest SIFT features per image (default 8000)")
     s.add_argument("--max-images", type=int, help="use only the first N images (sorted by name)")
     s.add_argument("--threshold-px", type=float, default=2.0, help="two-view inlier threshold (px)")
     s.add_argument("--cache", help="feature / match cache (default OUT/cache)")
     s.add_argument("--text", action="store_true", help="write the COLMAP model as text")
-    s.add_argument("--no-progress", action="store_true")
-    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--no-progress", action="store_true", help="no progress bars")
+    s.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     s.set_defaults(func=cmd_sfm)
 
     from ..experiments import global_sfm
 
-    e = esub.add_parser("global", help="global SfM on Strecha scenes against the ground truth (issue 15)")
+    e = esub.add_parser("global", help="global SfM on Strecha scenes against the ground truth")
     e.add_argument("--trials", type=int, default=None, help=argparse.SUPPRESS)
     e.add_argument("--quick", action="store_true", help=argparse.SUPPRESS)
-    e.add_argument("--out", default="docs/results", help="output directory for the table and JSON")
-    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--out", default=None, help="output folder (default: a new folder poseonly-global-<date>-<time> under the working directory)")
+    e.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     global_sfm.add_arguments(e)
     e.set_defaults(func=_cmd_global)
