@@ -208,9 +208,14 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options) -> Iterator[list[PairRes
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
-    # spawn: workers start from a clean interpreter (no inherited threads or locks of the caller, the
-    # same on every platform) and are children of this process (their CPU time is accounted to it)
-    ctx = mp.get_context("spawn")
+    # workers never fork the caller (no inherited threads or locks): a fork server started from a clean
+    # interpreter that has imported poseonly once forks them where available (POSIX), else spawn;
+    # either way they are children of this process (their CPU time is accounted to it)
+    if "forkserver" in mp.get_all_start_methods():
+        ctx = mp.get_context("forkserver")
+        ctx.set_forkserver_preload(["poseonly.batch"])
+    else:  # pragma: no cover - Windows
+        ctx = mp.get_context("spawn")
     chunks = _chunks(pairs, chunk_size)
     limit = IN_FLIGHT_PER_WORKER * n_jobs
     ex = ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx)
