@@ -9,6 +9,8 @@ stacked ``(h, 3, 3)``, ``t (3,)`` or ``(h, 3)``; ``tau`` is an angle (radians).
 
 from __future__ import annotations
 
+import functools
+
 from typing import Any
 
 import numpy as np
@@ -128,10 +130,14 @@ CHANCE_MIN_REPEATS = 3
 CHANCE_MAX_REPEATS = 200
 
 
+@functools.lru_cache(maxsize=64)
 def _permutations(n: int) -> np.ndarray:
+    """The fixed re-pairings ``(reps, n)`` of ``n`` matches (seeded, so cached; read-only)."""
     rng = np.random.default_rng(CHANCE_SEED)
     reps = int(np.clip(np.ceil(CHANCE_PAIRS / max(n, 1)), CHANCE_MIN_REPEATS, CHANCE_MAX_REPEATS))
-    return np.stack([rng.permutation(n) for _ in range(reps)])
+    p = np.stack([rng.permutation(n) for _ in range(reps)])
+    p.setflags(write=False)
+    return p
 
 
 def chance_rate(R, t, f1, f2, tau) -> float:
@@ -139,7 +145,7 @@ def chance_rate(R, t, f1, f2, tau) -> float:
     with add-one smoothing (never 0)."""
     perms = _permutations(len(f1))
     reps = len(perms)
-    v = v_sampson(np.broadcast_to(R, (reps, 3, 3)), np.broadcast_to(t, (reps, 3)), np.broadcast_to(f1, (reps,) + f1.shape), f2[perms])  # (reps, n)
+    v = v_sampson(R, t, np.tile(f1, (reps, 1)), f2[perms.ravel()])  # (reps * n,): one core call
     return float((np.count_nonzero(v < tau) + 1) / (v.size + 2))
 
 
