@@ -30,12 +30,12 @@ candidate (the homography twin, notes section 5) can be exact too, which PPO can
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from itertools import product
 
 import numpy as np
 
 from poseonly.geometry import check_correspondences
+from poseonly.solvers.lirp import LiRPResult  # the result type is shared; the algorithm is the reference's own
 
 from .identify import identify_and_rank
 
@@ -229,40 +229,6 @@ def lirp_batch(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None, *, A
     idx = np.arange(len(best))
     out.update(cand_E=cE, cand_R=o["R"], cand_t=o["t"], cand_valid=o["valid"], cand_cost=o["cost"], best=best, R=o["R"][idx, best], t=o["t"][idx, best], E=cE[idx, best])
     return out
-
-
-@dataclass
-class LiRPResult:
-    """Result of :func:`lirp`.
-
-    ``R, t``: the identified pose (``X2 = R X1 + t``, unit ``t``); ``E``: its candidate essential
-    matrix; ``candidates_E/R/t``: all 18 candidates (order: 12 action-matrix, 3 det-cubic, q1, q2,
-    q3), ``candidate_valid`` (pose-only depth conditions), ``candidate_cost`` (weighted mean PPO);
-    ``d_min``: Table 2 indicator for ``C1`` (``d_min_C2`` for ``C2``); ``singular_values`` of ``A``;
-    ``rank``: numerical rank of ``A`` (8 general, 6 planar or pure rotation, < 6 degenerate);
-    ``status``: ``"ok"`` or ``"degenerate"`` (rank < 6: the null space is larger than 3-D and the
-    pose is not determined by the data).
-    """
-
-    R: np.ndarray
-    t: np.ndarray
-    E: np.ndarray
-    candidates_E: np.ndarray
-    candidates_R: np.ndarray
-    candidates_t: np.ndarray
-    candidate_valid: np.ndarray
-    candidate_cost: np.ndarray
-    best: int
-    d_min: float
-    d_min_C2: float
-    singular_values: np.ndarray
-    rank: int
-    status: str
-    notes: list[str] = field(default_factory=list)
-
-    @property
-    def ok(self) -> bool:
-        return self.status == "ok"
 
 
 def lirp(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, rank_tol: float = 1e-9) -> LiRPResult:
