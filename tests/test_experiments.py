@@ -89,9 +89,9 @@ def test_planar_twin_is_another_exact_pose_or_none():
 
 
 def test_robust_npt_keeps_the_last_estimate_when_a_later_solve_fails():
-    from poseonly.experiments.chirality import _solver_errors, robust_npt
+    from poseonly.experiments.chirality import robust_npt, solver_errors_types
 
-    assert all(isinstance(e, type) and issubclass(e, BaseException) for e in _solver_errors())
+    assert all(isinstance(e, type) and issubclass(e, BaseException) for e in solver_errors_types())
     sc = make_scene(40, "normal", "wide", 1.0, 0.2, seed=5)  # outliers: the weights change after the first solve
     calls = []
 
@@ -124,13 +124,13 @@ def test_atomic_writers_give_files_the_default_mode(tmp_path):
     """Outputs written through a temp file get the mode a plain open() gives (not mkstemp's 0600)."""
     import os
 
+    from poseonly._fileutil import atomic_savez
     from poseonly.experiments._common import atomic_write_text
-    from poseonly.features import _atomic_savez
 
     ref = tmp_path / "plain.txt"
     ref.write_text("x")
     a = atomic_write_text(tmp_path / "a.md", "x")
-    _atomic_savez(tmp_path / "b.npz", v=np.ones(2))
+    atomic_savez(tmp_path / "b.npz", v=np.ones(2))
     for p in (a, tmp_path / "b.npz"):
         assert os.stat(p).st_mode & 0o777 == os.stat(ref).st_mode & 0o777
     assert sorted(q.name for q in tmp_path.iterdir()) == ["a.md", "b.npz", "plain.txt"]  # no temp files left

@@ -50,10 +50,10 @@ CHILD = {
     # the feature cache
     "cache": """
         import numpy as np
-        from poseonly.features import _atomic_savez
+        from poseonly._fileutil import atomic_savez
         kp = np.arange(400_000, dtype=np.float64).reshape(-1, 2)
         while True:
-            _atomic_savez(Path(TARGET), keypoints=kp, descriptors=np.ones((len(kp), 128), np.float32)[:2000],
+            atomic_savez(Path(TARGET), keypoints=kp, descriptors=np.ones((len(kp), 128), np.float32)[:2000],
                           image_size=np.array([7, 9]))
     """,
     # match drawings (CLI --draw)

@@ -21,6 +21,7 @@ __all__ = [
     "TMP_SUFFIX",
     "atomic_open",
     "atomic_savefig",
+    "atomic_savez",
     "atomic_write_bytes",
     "atomic_write_text",
     "clean_stale_temps",
@@ -148,3 +149,12 @@ def new_results_dir(name: str, base: str | os.PathLike | None = None) -> Path:
         except FileExistsError:
             continue
     raise FileExistsError(f"could not create a new results folder {stem}-* under {root}")
+
+
+def atomic_savez(path: str | os.PathLike, **arrays: Any) -> None:
+    """``np.savez`` through :func:`atomic_open` (atomic; the temp files of killed writers are removed
+    on the next write of the same target)."""
+    import numpy as np
+
+    with atomic_open(path, "wb") as fh:
+        np.savez(fh, **arrays)

@@ -10,7 +10,6 @@ stacked ``(h, 3, 3)``, ``t (3,)`` or ``(h, 3)``; ``tau`` is an angle (radians).
 from __future__ import annotations
 
 import functools
-
 from typing import Any
 
 import numpy as np

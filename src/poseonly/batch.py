@@ -207,13 +207,16 @@ def _auto_chunk(default: int, total: int | None, workers: int) -> int:
 def _pool(pairs, n_jobs: int, chunk_size: int, options) -> Iterator[list[PairResult]]:
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from multiprocessing.context import BaseContext
 
     # workers never fork the caller (no inherited threads or locks): a fork server started from a clean
     # interpreter that has imported poseonly once forks them where available (POSIX), else spawn;
     # either way they are children of this process (their CPU time is accounted to it)
+    ctx: BaseContext
     if "forkserver" in mp.get_all_start_methods():
-        ctx = mp.get_context("forkserver")
-        ctx.set_forkserver_preload(["poseonly.batch"])
+        fs = mp.get_context("forkserver")
+        fs.set_forkserver_preload(["poseonly.batch"])
+        ctx = fs
     else:  # pragma: no cover - Windows
         ctx = mp.get_context("spawn")
     chunks = _chunks(pairs, chunk_size)

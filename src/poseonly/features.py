@@ -21,11 +21,11 @@ import os
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 
-from ._fileutil import atomic_open, clean_stale_temps
+from ._fileutil import atomic_savez, clean_stale_temps
 from .geometry import InputError, as_real_array, check_intrinsics, essential_from_pose
 
 __all__ = [
@@ -216,14 +216,6 @@ def _read_cache(f: Path) -> Features | None:
     return Features(kp, desc, (size[0], size[1]))
 
 
-def _atomic_savez(path: Path, **arrays: np.ndarray) -> None:
-    """``np.savez`` through :func:`poseonly._fileutil.atomic_open` (atomic; the temp files of
-    killed writers are removed on the next write of the same cache entry)."""
-    with atomic_open(path, "wb") as fh:
-        # numpy's stub lets **kwds bind savez's keyword allow_pickle: bool, so a dict of arrays does not type-check
-        np.savez(fh, **cast(dict[str, Any], arrays))
-
-
 def clean_cache(cache_dir: str | os.PathLike) -> int:
     """Remove temp files that killed cache writes left in ``cache_dir``; returns how many."""
     d = Path(cache_dir)
@@ -266,7 +258,7 @@ def extract_features(
     kp, desc = _sift(gray, max_features)
     feats = Features(kp, desc, (gray.shape[1], gray.shape[0]))
     if cache is not None:
-        _atomic_savez(cache, keypoints=kp, descriptors=desc, image_size=np.array(feats.image_size, dtype=np.int64))
+        atomic_savez(cache, keypoints=kp, descriptors=desc, image_size=np.array(feats.image_size, dtype=np.int64))
     return feats
 
 
@@ -449,7 +441,7 @@ def save_matches_npz(
         arrays["K1"] = np.asarray(K1, dtype=np.float64)
     if K2 is not None:
         arrays["K2"] = np.asarray(K2, dtype=np.float64)
-    _atomic_savez(p, **arrays)
+    atomic_savez(p, **arrays)
     return p
 
 

@@ -79,7 +79,7 @@ def _scene(gen: str, n: int, noise: float, frac: float, seed: int) -> sim.Scene:
     return make_scene_no_chirality(n, noise, frac, seed)
 
 
-def _solver_errors() -> tuple:
+def solver_errors_types() -> tuple:
     """Exceptions a failed SDP solve raises (cvxpy's ``SolverError`` when cvxpy is installed)."""
     errs = [ValueError, np.linalg.LinAlgError, ArithmeticError]
     try:
@@ -99,7 +99,7 @@ def robust_npt(f1: np.ndarray, f2: np.ndarray, npt_fn, c: float = 2.0 / 800.0, m
     w = np.ones(len(f1))
     R = t = None
     it = 0
-    errs = _solver_errors()
+    errs = solver_errors_types()
     for it in range(1, max_iterations + 1):
         try:
             R, t, info = npt_fn(f1, f2, w)
@@ -155,7 +155,7 @@ def compute(trials: int, n: int = 300, outliers=OUTLIERS, noise: float = 1.0, se
         "time_s": {},
     }
     tsum = {m: 0.0 for m in names}
-    solver_errs = _solver_errors()
+    solver_errs = solver_errors_types()
     ncall = 0
     behind = []
     total = len(GENERATORS) * len(outliers) * trials

@@ -132,9 +132,9 @@ def _stats(e: np.ndarray) -> dict:
 
 def compute(trials: int, n: int = 30, levels=LEVELS, seed: int = 0, noise_model: str = "gaussian", use_npt: bool = True) -> dict:
     ops, skipped = _optimisers(use_npt)
-    from .chirality import _solver_errors
+    from .chirality import solver_errors_types
 
-    solver_errors = _solver_errors()
+    solver_errors = solver_errors_types()
     methods_init = list(INITIAL)
     methods_opt = list(ops)
     res: dict[str, Any] = {

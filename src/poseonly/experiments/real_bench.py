@@ -388,7 +388,8 @@ def _read_match_cache(f: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray] | No
 
 def pair_matches(pair: Pair, cache: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``u1, u2 (k, 2)`` pixels and ``ratio (k,)`` of the pair's SIFT matches (cached)."""
-    from ..features import _atomic_savez, extract_features
+    from .._fileutil import atomic_savez
+    from ..features import extract_features
 
     f = _match_cache_file(cache, pair.im1, pair.im2)
     hit = _read_match_cache(f)
@@ -399,7 +400,7 @@ def pair_matches(pair: Pair, cache: Path) -> tuple[np.ndarray, np.ndarray, np.nd
     idx, r = ratio_matches(a.descriptors, b.descriptors)
     u1 = a.keypoints[idx[:, 0]].reshape(-1, 2)
     u2 = b.keypoints[idx[:, 1]].reshape(-1, 2)
-    _atomic_savez(f, u1=u1, u2=u2, ratio=r)
+    atomic_savez(f, u1=u1, u2=u2, ratio=r)
     return u1, u2, r
 
 

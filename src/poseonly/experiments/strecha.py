@@ -105,7 +105,8 @@ def _match_cache_file(cache: Path, p1: Path, p2: Path, ratio: float, max_feature
 
 def _pair_matches(scene, i: int, j: int, feats: dict, cache: Path, ratio: float, max_features: int | None):
     """Putative matches ``(u1, u2)`` of views ``i, j`` (cached in ``cache/matches``)."""
-    from ..features import _atomic_savez, extract_features, match_features
+    from .._fileutil import atomic_savez
+    from ..features import extract_features, match_features
 
     p1, p2 = scene.image_paths[i], scene.image_paths[j]
     f = _match_cache_file(cache, p1, p2, ratio, max_features)
@@ -124,7 +125,7 @@ def _pair_matches(scene, i: int, j: int, feats: dict, cache: Path, ratio: float,
     idx = match_features(feats[i].descriptors, feats[j].descriptors, ratio=ratio)
     u1 = feats[i].keypoints[idx[:, 0]].reshape(-1, 2)
     u2 = feats[j].keypoints[idx[:, 1]].reshape(-1, 2)
-    _atomic_savez(f, u1=u1, u2=u2)
+    atomic_savez(f, u1=u1, u2=u2)
     return u1, u2, time.perf_counter() - t0
 
 
