@@ -65,6 +65,13 @@ PAPER_TABLE3 = {
 }
 
 
+def _default_thresholds() -> str:
+    """The API's default thresholds of our methods, as the report states them."""
+    from ..options import OPTIONS
+
+    return "the API defaults (" + ", ".join(f"{m} {OPTIONS[m]().threshold_px:g} px" for m in ("poseonly", "gnc-ransac")) + ")"
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("path", nargs="?", default=os.environ.get("POSEONLY_STRECHA"), help="folder holding Strecha scene folders (or one scene folder); default $POSEONLY_STRECHA")
     p.add_argument("--scenes", nargs="+", metavar="NAME", help="only these scene folder names (default: all found)")
@@ -456,7 +463,7 @@ def to_markdown(res: dict, command: str | None = None) -> str:
         + (f" (strongest {cfg['max_features']} features)" if cfg["max_features"] else "")
         + f", brute-force matching with Lowe ratio {cfg['ratio']}; pairs with more than {cfg['min_matches']} putative "
         f"matches" + (f", at most {cfg['max_pairs']} per scene" if cfg["max_pairs"] else "") + ". "
-        f"Our methods at threshold {'the API default (2 px)' if not thr else ', '.join(f'{v:g} px' for v in thr)}; "
+        f"Our methods at threshold {_default_thresholds() if not thr else ', '.join(f'{v:g} px' for v in thr)}; "
         f"OpenCV / PoseLib at {cfg['anchor_threshold_px']:g} px; RANSAC+5pt (OpenGV) at "
         + (
             f"{cfg['opengv_threshold_px']:g} px"
