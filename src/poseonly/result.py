@@ -177,6 +177,7 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     :data:`poseonly.analysis.NFA_MAX` -> ``too_few_inliers``; a planar twin -> ``planar_ambiguous``;
     else ``ok``.
     """
+    tau_search = tau
     if "tau_effective" in diag:  # the default method's noise-matched threshold (<= the user's)
         tau = diag["tau_effective"]
         thr_px = tau * focal
@@ -192,7 +193,10 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     p_pose = chance_rate(R, t, f1, f2, tau)
     lnfa = log10_nfa(n_in, n, p_pose, num_tests, POSE_DOF)
     diag.update(chance_inliers=n * p_pose, chance_rate=p_pose, log10_nfa=lnfa)
-    rot = pure_rotation_test(f1, f2, tau, inl, p_pose, num_tests)
+    # the rotation-only alternative is fitted at the search threshold at least: at a decision threshold
+    # the pose itself shrank (an ML fit to a tight subset) a rotation would miss its own noisy inliers
+    tau_rot = max(tau, tau_search)
+    rot = pure_rotation_test(f1, f2, tau_rot, inl, p_pose, num_tests)
     R_rot = rot.pop("R_rotation_only")
     diag.update(rot)
     R_twin = t_twin = None
@@ -204,13 +208,13 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
         status = "pure_rotation"
         R = R_rot  # the robust rotation-only fit is the estimate of R here
         ang = _rotation_angles(R, f1, f2)
-        inl = _rotation_inliers_mask(R, f1, f2, tau)
+        inl = _rotation_inliers_mask(R, f1, f2, tau_rot)
         n_in = int(inl.sum())
         weights = inl.astype(float)
         residuals = ang * focal
         par = float(np.degrees(np.median(ang[inl]))) if n_in else float("nan")
         msg = (
-            f"a rotation without translation explains {n_in} matches within {2 * thr_px:g} px and the pose's "
+            f"a rotation without translation explains {n_in} matches within {2 * tau_rot * focal:g} px and the pose's "
             f"other inliers are no more than chance (median parallax {par:.3f} deg): R is reliable, the "
             "translation direction is not"
         )
