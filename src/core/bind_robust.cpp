@@ -200,7 +200,7 @@ nb::tuple robust_rotation(const BearingsIn& f1, const BearingsIn& f2, double cho
     nb::gil_scoped_release release;
     RotationEstimator est(P);
     UniformSampler s(P.n, 2, seed);
-    const CountScorer sc{chord};
+    const CountScorer sc{chord * chord};  // the estimator's residual is the squared chord
     st = ransac(est, sc, s, ro, &best);
     // Kabsch on the inliers, twice, each kept only if the inliers do not drop
     std::vector<int> inl, inl2;

@@ -177,7 +177,8 @@ class RotationEstimator {
   int sample_size() const { return 2; }
   int num_data() const { return P_.n; }
   Terms terms(const Model& m) const { return m; }
-  double residual(const Terms& R, int i) const { return (R * P_.a(i) - P_.b(i)).norm(); }
+  // squared chord |R a - b|^2 (no square root in the hot loop: callers threshold at chord^2)
+  double residual(const Terms& R, int i) const { return (R * P_.a(i) - P_.b(i)).squaredNorm(); }
   double success_probability(double r) const { return r * r; }
   double distance(const Model& a, const Model& b) const {
     return 57.29577951308232 * std::acos(std::clamp(0.5 * ((a.transpose() * b).trace() - 1.0), -1.0, 1.0));

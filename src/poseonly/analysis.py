@@ -129,23 +129,28 @@ CHANCE_MIN_REPEATS = 3
 CHANCE_MAX_REPEATS = 200
 
 
+def _c(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=float)
+
+
 @functools.lru_cache(maxsize=64)
 def _permutations(n: int) -> np.ndarray:
     """The fixed re-pairings ``(reps, n)`` of ``n`` matches (seeded, so cached; read-only)."""
     rng = np.random.default_rng(CHANCE_SEED)
     reps = int(np.clip(np.ceil(CHANCE_PAIRS / max(n, 1)), CHANCE_MIN_REPEATS, CHANCE_MAX_REPEATS))
-    p = np.stack([rng.permutation(n) for _ in range(reps)])
+    p = np.ascontiguousarray(np.stack([rng.permutation(n) for _ in range(reps)]), dtype=np.int64)
     p.setflags(write=False)
     return p
 
 
 def chance_rate(R, t, f1, f2, tau) -> float:
     """Probability that a randomly re-paired match is a Sampson inlier (``< tau``) of ``(R, t)``,
-    with add-one smoothing (never 0)."""
+    with add-one smoothing (never 0). One core call over the cached re-pairings."""
     perms = _permutations(len(f1))
-    reps = len(perms)
-    v = v_sampson(R, t, np.tile(f1, (reps, 1)), f2[perms.ravel()])  # (reps * n,): one core call
-    return float((np.count_nonzero(v < tau) + 1) / (v.size + 2))
+    t = np.asarray(t, dtype=float)
+    t = t / max(float(np.linalg.norm(t)), 1e-300)
+    hits = _core.chance_count(_c(R), _c(t), _c(f1), _c(f2), perms, float(tau))
+    return float((hits + 1) / (perms.size + 2))
 
 
 def chance_inliers(R, t, f1, f2, tau) -> float:
@@ -215,9 +220,9 @@ def robust_rotation(f1, f2, tau) -> tuple[np.ndarray, np.ndarray, int]:
 def rotation_chance_rate(R, f1, f2, tau) -> float:
     """Probability that a re-paired match fits the rotation ``R`` (add-one smoothing)."""
     perms = _permutations(len(f1))
-    d = (f1 @ R.T)[None] - f2[perms]
-    hit = np.einsum("rni,rni->rn", d, d) < (2.0 * np.sin(0.5 * ROTATION_THRESHOLD_FACTOR * tau)) ** 2
-    return float((np.count_nonzero(hit) + 1) / (hit.size + 2))
+    chord2 = (2.0 * np.sin(0.5 * ROTATION_THRESHOLD_FACTOR * tau)) ** 2
+    hits = _core.rotation_chance_count(_c(R), _c(f1), _c(f2), perms, float(chord2))
+    return float((hits + 1) / (perms.size + 2))
 
 
 def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests) -> dict[str, Any]:

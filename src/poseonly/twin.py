@@ -3,94 +3,47 @@
 Points on a plane ``n^T X1 = d`` satisfy ``X2 = (R + t n^T / d) X1 = H X1``. A homography has (up
 to sign) two decompositions ``(R, t, n)`` with all points in front of both cameras; both explain the
 plane's correspondences exactly, so no two-view residual can tell them apart. Given a pose and its
-inliers, :func:`homography_twin` fits the dominant plane to the triangulated inliers, forms ``H``
-and returns the other decomposition. Decomposition: Ma, Soatto, Kosecka, Sastry, *An Invitation to
-3-D Vision*, Sec. 5.3.3 (the SVD method of Faugeras & Lustman 1988).
+inliers, :func:`homography_twin` fits the dominant plane to the midpoint-triangulated inliers, forms
+``H`` and returns the other decomposition. Decomposition: Ma, Soatto, Kosecka, Sastry, *An Invitation
+to 3-D Vision*, Sec. 5.3.3 (the SVD method of Faugeras & Lustman 1988). Both run in the core
+(``src/core/analysis.cpp``); the numpy reference is ``tests/reference/twin.py``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .geometry import cross, normalize, project_to_so3, rotation_error_deg, triangulate_midpoint
+from . import _core
 
-__all__ = ["decompose_homography", "homography_twin", "fit_plane"]
+__all__ = ["decompose_homography", "homography_twin"]
+
+
+def _c(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=float)
 
 
 def decompose_homography(H: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The four ``(R, t/d, n)`` of a calibrated homography ``H ~ R + t n^T / d``.
+    """The four ``(R, t/d, n)`` of a calibrated homography ``H (3, 3) ~ R + t n^T / d``.
 
-    Returns ``R (4, 3, 3)``, ``T (4, 3)`` (``t / d``) and unit normals ``N (4, 3)``; the sign of
-    ``H`` is fixed so that the middle singular value is ``+1``.
+    Returns ``R (4, 3, 3)``, ``T (4, 3)`` (``t / d``) and unit normals ``N (4, 3)``, the middle
+    singular value of ``H`` scaled to 1. Raises :class:`ValueError` when ``H`` is not finite or has
+    a vanishing middle singular value.
     """
-    H = np.asarray(H, float)
-    s = np.linalg.svd(H, compute_uv=False)
-    H = H / s[1]
-    _, S2, Vt = np.linalg.svd(H.T @ H)
-    V = Vt.T
-    if np.linalg.det(V) < 0:
-        V = -V
-    s1, s3 = S2[0], S2[2]
-    v1, v2, v3 = V[:, 0], V[:, 1], V[:, 2]
-    den = np.sqrt(max(s1 - s3, 1e-300))
-    a = np.sqrt(max(1.0 - s3, 0.0))
-    b = np.sqrt(max(s1 - 1.0, 0.0))
-    # both decompositions at once (stacked over the two choices of u)
-    u = np.stack([(a * v1 + b * v3) / den, (a * v1 - b * v3) / den])  # (2, 3)
-    v2s = np.broadcast_to(v2, u.shape)
-    N = cross(v2s, u)
-    Hv2 = np.broadcast_to(H @ v2, u.shape)
-    Hu = u @ H.T
-    U = np.stack([v2s, u, N], axis=-1)  # columns v2, u, v2 x u
-    W = np.stack([Hv2, Hu, cross(Hv2, Hu)], axis=-1)
-    R = project_to_so3(W @ np.swapaxes(U, -1, -2))  # exact for an exact homography; noise leaves it slightly off SO(3)
-    T = np.einsum("kij,kj->ki", H - R, N)
-    return np.repeat(R, 2, axis=0), np.stack([T[0], -T[0], T[1], -T[1]]), np.stack([N[0], -N[0], N[1], -N[1]])
-
-
-def fit_plane(X: np.ndarray) -> tuple[np.ndarray, float, float]:
-    """Least-squares plane ``n^T X = d`` through points ``X (m, 3)``; returns ``n, d, rms / spread``."""
-    c = X.mean(axis=0)
-    _, s, Vt = np.linalg.svd(X - c, full_matrices=False)
-    n = Vt[2]
-    d = float(n @ c)
-    if d < 0:
-        n, d = -n, -d
-    return n, d, float(s[2] / max(s[1], 1e-300))
+    H = _c(H)
+    if H.shape != (3, 3):
+        raise ValueError(f"H must have shape (3, 3), got {H.shape}")
+    out = _core.decompose_homography(H)
+    if out is None:
+        raise ValueError("H must be finite with a non-zero middle singular value")
+    return out
 
 
 def homography_twin(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> tuple[np.ndarray, np.ndarray, float] | None:
     """The other physically valid decomposition of the homography induced by the dominant plane.
 
-    ``f1, f2`` are the inlier bearings of ``(R, t)``. Returns ``(R_twin, t_twin (unit), planarity)``
-    where planarity is the ratio of the smallest to the middle singular value of the centred points
-    (0 for an exact plane), or ``None`` when fewer than 4 points triangulate in front of the cameras
-    or the plane fit / decomposition is numerically degenerate.
+    ``R (3, 3)``, ``t (3,)``: the pose; ``f1, f2 (m, 3)``: its inlier bearings. Returns ``(R_twin,
+    t_twin (unit), planarity)`` where planarity is the ratio of the smallest to the middle singular
+    value of the centred triangulated points (0 for an exact plane), or ``None`` when fewer than 4
+    points triangulate in front of the cameras or the plane fit / decomposition is degenerate.
     """
-    t = normalize(np.asarray(t, float))
-    X1, z1, z2 = triangulate_midpoint(R, t, f1, f2)
-    ok = (z1 > 0) & (z2 > 0)
-    if ok.sum() < 4:
-        return None
-    if not np.all(np.isfinite(X1[ok])):
-        return None
-    try:
-        n, d, planarity = fit_plane(X1[ok])
-        if not (d > 0 and np.isfinite(d)):
-            return None
-        H = R + np.outer(t, n) / d
-        if not np.all(np.isfinite(H)):
-            return None
-        Rs, Ts, Ns = decompose_homography(H)
-    except np.linalg.LinAlgError:  # numerically degenerate inliers (e.g. bearings near 90 deg off-axis)
-        return None
-    # physically valid: the inliers lie in front of camera 1 on the plane side (n . f1 > 0)
-    front = np.mean(f1 @ Ns.T > 0, axis=0)
-    cand = np.nonzero((front > 0.5) & (np.linalg.norm(Ts, axis=1) > 1e-12))[0]
-    if len(cand) < 2:
-        return None
-    Tn = normalize(Ts[cand])
-    errs = rotation_error_deg(R, Rs[cand]) + np.degrees(np.arccos(np.clip(Tn @ t, -1, 1)))
-    # the decomposition closest to (R, t) is the pose itself; the other valid one is the twin
-    k = int(np.argsort(errs, kind="stable")[1])
-    return Rs[cand[k]], Tn[k], planarity
+    return _core.homography_twin(_c(R), _c(t), _c(f1), _c(f2))

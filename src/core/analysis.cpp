@@ -1,0 +1,146 @@
+#include "analysis.h"
+
+#include <algorithm>
+#include <numeric>
+#include <vector>
+
+#include "residuals.h"
+
+namespace poseonly {
+
+int64_t chance_count_sampson(const Pose& pose, const Points& P, const int64_t* perm, int reps, double tau) {
+  const PoseTerms pt(pose);
+  int64_t hits = 0;
+  for (int r = 0; r < reps; ++r) {
+    const int64_t* p = perm + static_cast<int64_t>(r) * P.n;
+    for (int i = 0; i < P.n; ++i) hits += sampson(pt.E, P.a(i), P.b(static_cast<int>(p[i]))) < tau;
+  }
+  return hits;
+}
+
+int64_t chance_count_rotation(const Mat3& R, const Points& P, const int64_t* perm, int reps, double chord2) {
+  std::vector<Vec3> Ra(P.n);
+  for (int i = 0; i < P.n; ++i) Ra[i] = R * P.a(i);
+  int64_t hits = 0;
+  for (int r = 0; r < reps; ++r) {
+    const int64_t* p = perm + static_cast<int64_t>(r) * P.n;
+    for (int i = 0; i < P.n; ++i) hits += (Ra[i] - P.b(static_cast<int>(p[i]))).squaredNorm() < chord2;
+  }
+  return hits;
+}
+
+namespace {
+
+Mat3 project_to_so3(const Mat3& M) {
+  Eigen::JacobiSVD<Mat3> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Mat3 D = Mat3::Identity();
+  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
+  return svd.matrixU() * D * svd.matrixV().transpose();
+}
+
+double rotation_error_deg(const Mat3& A, const Mat3& B) {
+  // angle of A^T B: atan2(|axis| , cos) is exact near 0 and 180 deg
+  const Mat3 M = A.transpose() * B;
+  const double c = 0.5 * (M.trace() - 1.0);
+  const Vec3 s(M(2, 1) - M(1, 2), M(0, 2) - M(2, 0), M(1, 0) - M(0, 1));
+  return 57.29577951308232 * std::atan2(0.5 * s.norm(), c);
+}
+
+}  // namespace
+
+bool decompose_homography(const Mat3& H0, HomographyDecomposition* out) {
+  if (!H0.allFinite()) return false;
+  const Eigen::JacobiSVD<Mat3> s0(H0);
+  const double s2 = s0.singularValues()(1);
+  if (!(s2 > 0.0)) return false;
+  const Mat3 H = H0 / s2;
+  Eigen::JacobiSVD<Mat3> svd(H.transpose() * H, Eigen::ComputeFullV);
+  Mat3 V = svd.matrixV();
+  if (V.determinant() < 0.0) V = -V;
+  const Vec3 S = svd.singularValues();
+  const double s1 = S(0), s3 = S(2);
+  const Vec3 v1 = V.col(0), v2 = V.col(1), v3 = V.col(2);
+  const double den = std::sqrt(std::max(s1 - s3, kTiny));
+  const double a = std::sqrt(std::max(1.0 - s3, 0.0)), b = std::sqrt(std::max(s1 - 1.0, 0.0));
+  const Vec3 Hv2 = H * v2;
+  for (int k = 0; k < 2; ++k) {
+    const Vec3 u = (a * v1 + (k ? -b : b) * v3) / den;
+    const Vec3 n = v2.cross(u);
+    const Vec3 Hu = H * u;
+    Mat3 U, W;
+    U << v2, u, n;
+    W << Hv2, Hu, Hv2.cross(Hu);
+    // exact for an exact homography; noise leaves W U^T slightly off SO(3)
+    const Mat3 R = project_to_so3(W * U.transpose());
+    const Vec3 T = (H - R) * n;
+    for (int sgn = 0; sgn < 2; ++sgn) {
+      const int j = 2 * k + sgn;
+      out->R[j] = R;
+      out->T[j] = sgn ? Vec3(-T) : T;
+      out->N[j] = sgn ? Vec3(-n) : n;
+    }
+  }
+  return true;
+}
+
+bool homography_twin(const Pose& pose, const Points& P, Pose* twin, double* planarity) {
+  const Mat3& R = pose.R;
+  const Vec3 t = pose.t.norm() > 0.0 ? Vec3(pose.t.normalized()) : pose.t;
+  // midpoint triangulation of the rays z1 R f1 + t and z2 f2 (geometry.triangulate_midpoint), in frame 1
+  std::vector<Vec3> X;
+  X.reserve(P.n);
+  for (int i = 0; i < P.n; ++i) {
+    const Vec3 a = R * P.a(i);
+    const Vec3 b = P.b(i);
+    const double ab = a.dot(b), at = a.dot(t), bt = b.dot(t);
+    const double d = 1.0 - ab * ab;
+    if (!(d > kParallelRays)) continue;  // zero depths: not in front
+    const double z1 = (ab * bt - at) / d, z2 = (bt - ab * at) / d;
+    if (!(z1 > 0.0 && z2 > 0.0)) continue;
+    X.push_back(R.transpose() * (0.5 * (z1 * a + t + z2 * b) - t));
+  }
+  const int m = static_cast<int>(X.size());
+  if (m < 4) return false;
+  Vec3 c = Vec3::Zero();
+  for (const Vec3& x : X) c += x;
+  c /= m;
+  Eigen::MatrixX3d Xc(m, 3);
+  for (int i = 0; i < m; ++i) Xc.row(i) = (X[i] - c).transpose();
+  if (!Xc.allFinite()) return false;
+  const Eigen::JacobiSVD<Eigen::MatrixX3d> svd(Xc, Eigen::ComputeThinV);
+  Vec3 n = svd.matrixV().col(2);
+  double d = n.dot(c);
+  if (d < 0.0) {
+    n = -n;
+    d = -d;
+  }
+  *planarity = svd.singularValues()(2) / std::max(svd.singularValues()(1), kTiny);
+  if (!(d > 0.0 && std::isfinite(d))) return false;
+  const Mat3 H = R + t * n.transpose() / d;
+  HomographyDecomposition dec;
+  if (!decompose_homography(H, &dec)) return false;
+  // physically valid: more than half of the inliers in front of camera 1 on the plane's side
+  std::array<int, 4> cand{};
+  int nc = 0;
+  for (int j = 0; j < 4; ++j) {
+    int front = 0;
+    for (int i = 0; i < P.n; ++i) front += P.a(i).dot(dec.N[j]) > 0.0;
+    if (2 * front > P.n && dec.T[j].norm() > 1e-12) cand[nc++] = j;
+  }
+  if (nc < 2) return false;
+  // the decomposition closest to (R, t) is the pose itself; the other valid one is the twin
+  std::array<double, 4> err{};
+  for (int k = 0; k < nc; ++k) {
+    const Vec3 tn = dec.T[cand[k]].normalized();
+    err[k] = rotation_error_deg(R, dec.R[cand[k]]) + 57.29577951308232 * std::acos(std::clamp(tn.dot(t), -1.0, 1.0));
+  }
+  std::array<int, 4> order{};
+  std::iota(order.begin(), order.begin() + nc, 0);
+  std::stable_sort(order.begin(), order.begin() + nc, [&](int x, int y) { return err[x] < err[y]; });
+  const int j = cand[order[1]];
+  twin->R = dec.R[j];
+  twin->t = dec.T[j].normalized();
+  return true;
+}
+
+}  // namespace poseonly

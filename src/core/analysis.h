@@ -1,0 +1,36 @@
+// Analysis of a final pose for the status decision (poseonly.analysis): chance inlier counts on
+// re-paired matches and the planar homography twin. numpy references: tests/reference/twin.py and
+// the formulas in poseonly/analysis.py's docstrings.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "common.h"
+
+namespace poseonly {
+
+// Matches of `P` re-paired by `perm` (reps x n indices into view 2) that are Sampson inliers
+// (< tau) of the pose (unit t): the numerator of the chance rate.
+int64_t chance_count_sampson(const Pose& pose, const Points& P, const int64_t* perm, int reps, double tau);
+
+// Re-paired matches with |R f1 - f2|^2 < chord2 (the rotation-only model's chance count).
+int64_t chance_count_rotation(const Mat3& R, const Points& P, const int64_t* perm, int reps, double chord2);
+
+// The four (R, t / d, n) of a calibrated homography H ~ R + t n^T / d (Ma, Soatto, Kosecka, Sastry,
+// "An Invitation to 3-D Vision", Sec. 5.3.3; SVD method of Faugeras & Lustman 1988); H is scaled so
+// that its middle singular value is 1. Order: (u+, +), (u+, -), (u-, +), (u-, -).
+struct HomographyDecomposition {
+  std::array<Mat3, 4> R;
+  std::array<Vec3, 4> T;  // t / d
+  std::array<Vec3, 4> N;  // unit plane normals
+};
+bool decompose_homography(const Mat3& H, HomographyDecomposition* out);
+
+// The other physically valid decomposition of the homography of the dominant plane through the
+// midpoint-triangulated inliers `P` of `pose` (unit t): R_twin, unit t_twin and the planarity
+// s3 / s2 of the centred points. False when fewer than 4 points triangulate in front of both
+// cameras, the plane or the decomposition is degenerate, or fewer than two decompositions are valid.
+bool homography_twin(const Pose& pose, const Points& P, Pose* twin, double* planarity);
+
+}  // namespace poseonly

@@ -1,0 +1,85 @@
+// Bindings of the final-pose analysis (chance counts, homography twin), GIL released.
+#include <nanobind/stl/optional.h>
+
+#include "analysis.h"
+#include "arrays.h"
+#include "register.h"
+
+namespace poseonly {
+
+using PermIn = nb::ndarray<const int64_t, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
+
+static int check_perm(const PermIn& perm, int n) {
+  if (static_cast<int>(perm.shape(1)) != n) throw std::invalid_argument("perm must have shape (reps, n)");
+  const int64_t* p = perm.data();
+  for (size_t k = 0; k < perm.size(); ++k)
+    if (p[k] < 0 || p[k] >= n) throw std::invalid_argument("perm entries must be indices in [0, n)");
+  return static_cast<int>(perm.shape(0));
+}
+
+static int64_t chance_count_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, const PermIn& perm,
+                               double tau) {
+  const Points P = points_of(f1, f2);
+  const Pose pose = pose_of(R, t);
+  const int reps = check_perm(perm, P.n);
+  nb::gil_scoped_release release;
+  return chance_count_sampson(pose, P, perm.data(), reps, tau);
+}
+
+static int64_t rotation_chance_count_py(const ArrayIn& R, const BearingsIn& f1, const BearingsIn& f2, const PermIn& perm, double chord2) {
+  const Points P = points_of(f1, f2);
+  if (R.size() != 9) throw std::invalid_argument("R must be (3, 3)");
+  Mat3 M;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) M(i, j) = R.data()[3 * i + j];
+  const int reps = check_perm(perm, P.n);
+  nb::gil_scoped_release release;
+  return chance_count_rotation(M, P, perm.data(), reps, chord2);
+}
+
+static nb::object homography_twin_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2) {
+  const Points P = points_of(f1, f2);
+  const Pose pose = pose_of(R, t);
+  Pose tw;
+  double planarity = 0.0;
+  bool ok;
+  {
+    nb::gil_scoped_release release;
+    ok = homography_twin(pose, P, &tw, &planarity);
+  }
+  if (!ok) return nb::none();
+  std::vector<double> Ro(9), to(3);
+  put_pose(tw, Ro.data(), to.data());
+  return nb::make_tuple(to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}), planarity);
+}
+
+static nb::object decompose_homography_py(const ArrayIn& H) {
+  if (H.size() != 9) throw std::invalid_argument("H must be (3, 3)");
+  Mat3 M;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) M(i, j) = H.data()[3 * i + j];
+  HomographyDecomposition d;
+  if (!decompose_homography(M, &d)) return nb::none();
+  std::vector<double> Ro(36), To(12), No(12);
+  for (int k = 0; k < 4; ++k)
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) Ro[9 * k + 3 * i + j] = d.R[k](i, j);
+      To[3 * k + i] = d.T[k](i);
+      No[3 * k + i] = d.N[k](i);
+    }
+  return nb::make_tuple(to_numpy(std::move(Ro), {4, 3, 3}), to_numpy(std::move(To), {4, 3}), to_numpy(std::move(No), {4, 3}));
+}
+
+}  // namespace poseonly
+
+POSEONLY_BIND(analysis) {
+  using namespace poseonly;
+  m.def("chance_count", &chance_count_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("perm"), nb::arg("tau"),
+        "Re-paired matches (f1[i], f2[perm[r, i]]) that are Sampson inliers (< tau) of (R, unit t); perm (reps, n) int64.");
+  m.def("rotation_chance_count", &rotation_chance_count_py, nb::arg("R"), nb::arg("f1"), nb::arg("f2"), nb::arg("perm"),
+        nb::arg("chord2"), "Re-paired matches with |R f1[i] - f2[perm[r, i]]|^2 < chord2; perm (reps, n) int64.");
+  m.def("homography_twin", &homography_twin_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
+        "The homography twin of (R, t) on its inliers f1, f2 (n, 3): (R_twin (3, 3), unit t_twin (3,), planarity) or None.");
+  m.def("decompose_homography", &decompose_homography_py, nb::arg("H"),
+        "The four (R (4, 3, 3), t/d (4, 3), n (4, 3)) of a calibrated homography, or None when H is not finite or singular.");
+}

@@ -1,0 +1,83 @@
+"""The core's final-pose analysis (src/core/analysis.cpp): chance counts on re-paired matches and the
+homography twin, against the numpy formulas and the numpy reference twin (tests/reference/twin.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from poseonly import _core
+from poseonly.analysis import ROTATION_THRESHOLD_FACTOR, _permutations, chance_rate, rotation_chance_rate
+from poseonly.geometry import rotation_error_deg, translation_error_deg
+from poseonly.residuals import v_sampson
+from poseonly.sim import make_scene
+from poseonly.twin import decompose_homography, homography_twin
+from reference import twin as ref_twin
+
+
+@pytest.mark.parametrize("outliers", [0.0, 0.5])
+def test_chance_rates_match_the_numpy_formulas(outliers):
+    sc = make_scene(200, camera="pinhole", noise_px=0.5, outlier_fraction=outliers, seed=3)
+    tau = 2.0 / 800.0
+    perms = _permutations(len(sc.f1))
+    v = v_sampson(sc.R, sc.t, np.tile(sc.f1, (len(perms), 1)), sc.f2[perms.ravel()])
+    assert chance_rate(sc.R, sc.t, sc.f1, sc.f2, tau) == (np.count_nonzero(v < tau) + 1) / (v.size + 2)
+    d = (sc.f1 @ sc.R.T)[None] - sc.f2[perms]
+    hit = np.einsum("rni,rni->rn", d, d) < (2.0 * np.sin(0.5 * ROTATION_THRESHOLD_FACTOR * tau)) ** 2
+    assert rotation_chance_rate(sc.R, sc.f1, sc.f2, tau) == (np.count_nonzero(hit) + 1) / (hit.size + 2)
+
+
+def test_chance_count_rejects_bad_permutations():
+    sc = make_scene(20, seed=0)
+    bad = np.zeros((2, 20), dtype=np.int64)
+    bad[0, 3] = 20
+    with pytest.raises(ValueError, match="indices"):
+        _core.chance_count(sc.R, sc.t, sc.f1, sc.f2, bad, 0.01)
+    with pytest.raises(ValueError, match="shape"):
+        _core.rotation_chance_count(sc.R, sc.f1, sc.f2, np.zeros((2, 19), dtype=np.int64), 0.01)
+
+
+@pytest.mark.parametrize("camera", ["wide", "pinhole"])
+def test_homography_twin_matches_the_reference(camera):
+    found = 0
+    for seed in range(30):
+        sc = make_scene(120, kind="planar", camera=camera, noise_px=0.3 * (seed % 3), seed=seed)
+        a = homography_twin(sc.R, sc.t, sc.f1, sc.f2)
+        b = ref_twin.homography_twin(sc.R, sc.t, sc.f1, sc.f2)
+        assert (a is None) == (b is None), seed
+        if a is None:
+            continue
+        found += 1
+        assert rotation_error_deg(a[0], b[0]) < 1e-7 and translation_error_deg(a[1], b[1]) < 1e-7, seed
+        assert abs(a[2] - b[2]) < 1e-9 * max(1.0, b[2])
+    assert found >= 10
+
+
+def test_homography_twin_is_exact_on_a_noise_free_plane():
+    """Noise-free planar scene: the twin reproduces the plane's correspondences exactly."""
+    for seed in range(20):
+        sc = make_scene(60, kind="planar", camera="pinhole", noise_px=0.0, seed=seed)
+        tw = homography_twin(sc.R, sc.t, sc.f1, sc.f2)
+        if tw is None:
+            continue
+        assert tw[2] < 1e-9  # exact plane
+        assert np.max(v_sampson(tw[0], tw[1], sc.f1, sc.f2)) < 1e-9
+        assert rotation_error_deg(sc.R, tw[0]) > 1e-3  # another pose, not the truth
+        return
+    pytest.fail("no scene gave a twin")
+
+
+def test_decompose_homography_matches_the_reference_and_rejects_bad_input():
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        H = np.eye(3) + 0.3 * rng.standard_normal((3, 3))
+        Rc, Tc, Nc = decompose_homography(H)
+        Rr, Tr, Nr = ref_twin.decompose_homography(H)
+        # the same set of four solutions (the order of the SVD's vectors may differ)
+        for k in range(4):
+            d = [np.max(np.abs(Rc[k] - Rr[j])) + np.max(np.abs(Tc[k] - Tr[j])) + np.max(np.abs(Nc[k] - Nr[j])) for j in range(4)]
+            assert min(d) < 1e-9
+    with pytest.raises(ValueError, match="finite"):
+        decompose_homography(np.full((3, 3), np.nan))
+    with pytest.raises(ValueError, match="shape"):
+        decompose_homography(np.eye(2))
