@@ -9,6 +9,9 @@
 #include "register.h"
 #include "sampling.h"
 
+#include <algorithm>
+#include <numeric>
+
 namespace poseonly {
 
 GncOptions gnc_options_from(const nb::dict& o);  // bind_lirp.cpp
@@ -188,21 +191,40 @@ nb::tuple gnc_ransac(const BearingsIn& f1, const BearingsIn& f2, double theta, u
                         stats_dict(st));
 }
 
-nb::tuple robust_rotation(const BearingsIn& f1, const BearingsIn& f2, double chord, uint64_t seed, int max_iterations, double confidence) {
+nb::tuple robust_rotation(const BearingsIn& f1, const BearingsIn& f2, double chord, uint64_t seed, int max_iterations, double confidence,
+                          int max_score_points) {
   const Points P = points_of(f1, f2);
   if (!(chord > 0.0 && std::isfinite(chord))) throw std::invalid_argument("chord threshold must be finite and > 0");
   if (P.n < 2) throw std::invalid_argument("at least 2 points are needed");
+  if (max_score_points < 0) throw std::invalid_argument("max_score_points must be >= 0 (0: all)");
   const RansacOptions ro = ransac_options(max_iterations, 0, confidence, true, 1);
   Mat3 best = Mat3::Identity();
   RansacStats st;
   std::vector<uint8_t> mask(P.n, 0);
   {
     nb::gil_scoped_release release;
-    RotationEstimator est(P);
-    UniformSampler s(P.n, 2, seed);
     const CountScorer sc{chord * chord};  // the estimator's residual is the squared chord
-    st = ransac(est, sc, s, ro, &best);
-    // Kabsch on the inliers, twice, each kept only if the inliers do not drop
+    // hypotheses are sampled and scored on a seeded random subset of at most max_score_points
+    // matches (the inlier ratio, hence the samples needed, is that of all matches); the Kabsch
+    // refinement below uses every match
+    PointBuffer sub;
+    Points Ps = P;
+    if (max_score_points > 0 && P.n > std::max(max_score_points, 2)) {
+      std::vector<int> idx(P.n);
+      std::iota(idx.begin(), idx.end(), 0);
+      Rng rng(seed ^ 0x9e3779b97f4a7c15ULL);
+      for (int i = 0; i < max_score_points; ++i) std::swap(idx[i], idx[i + rng.below(P.n - i)]);  // partial Fisher-Yates
+      std::sort(idx.begin(), idx.begin() + max_score_points);
+      for (int i = 0; i < max_score_points; ++i) sub.push(P.f1 + 3 * idx[i], P.f2 + 3 * idx[i]);
+      Ps = sub.view();
+    }
+    {
+      RotationEstimator es(Ps);
+      UniformSampler s(Ps.n, 2, seed);
+      st = ransac(es, sc, s, ro, &best);
+    }
+    // Kabsch on the inliers among all matches, twice, each kept only if the inliers do not drop
+    RotationEstimator est(P);
     std::vector<int> inl, inl2;
     inliers_of(est, best, sc, &inl);
     for (int k = 0; k < 2 && inl.size() >= 3; ++k) {
@@ -263,8 +285,9 @@ POSEONLY_BIND(robust) {
         nb::arg("max_iterations") = 50, nb::arg("adaptive") = false, nb::arg("confidence") = 0.99, nb::arg("gnc") = nb::dict(),
         "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats).");
   m.def("robust_rotation", &robust_rotation, nb::arg("f1"), nb::arg("f2"), nb::arg("chord"), nb::arg("seed"),
-        nb::arg("max_iterations") = 10000, nb::arg("confidence") = 0.999,
-        "Rotation-only model by 2-point RANSAC (inliers |R f1 - f2| < chord) and Kabsch on the inliers: "
+        nb::arg("max_iterations") = 10000, nb::arg("confidence") = 0.999, nb::arg("max_score_points") = 0,
+        "Rotation-only model by 2-point RANSAC (inliers |R f1 - f2| < chord; hypotheses scored on a seeded subset of "
+        "max_score_points matches, 0: all) and Kabsch on the inliers among all matches: "
         "(R, inlier mask (n,), hypotheses tested).");
   m.def("ransac_line", &ransac_line, nb::arg("xy"), nb::arg("threshold"), nb::arg("seed"), nb::arg("max_iterations") = 1000,
         nb::arg("confidence") = 0.999, nb::arg("max_lo") = 8, nb::arg("scoring") = 0,
