@@ -48,11 +48,13 @@ class RelativePoseEstimator {
   using Model = Pose;
   using Terms = PoseTerms;
 
-  RelativePoseEstimator(const Points& P, const Options& o) : P_(P), o_(o) {}
+  RelativePoseEstimator(const Points& P, const Options& o) : P_(P), o_(o), soa_(P) {}
   int sample_size() const { return o_.solver == MinimalSolver::FivePoint ? 5 : 6; }
   int num_data() const { return P_.n; }
   Terms terms(const Model& m) const { return PoseTerms(m); }
   double residual(const Terms& T, int i) const { return sampson(T.E, P_.a(i), P_.b(i)); }
+  // residual(T, i) for i in [i0, i0 + m) into out: the scorers' hot loop (ransac.h), vectorised
+  void residual_block(const Terms& T, int i0, int m, double* out) const { sampson_block(T.E, soa_, i0, m, out); }
   double success_probability(double r) const { return std::pow(r, sample_size()); }
   // max(rotation angle, angle between the translation directions), degrees
   double distance(const Model& a, const Model& b) const { return pose_distance_deg(a, b); }
@@ -113,6 +115,7 @@ class RelativePoseEstimator {
  private:
   Points P_;
   Options o_;
+  SoaPoints soa_;
   PointBuffer buf_;
   std::vector<double> w0_;
   LirpResult lr_;

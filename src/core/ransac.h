@@ -18,6 +18,8 @@
 
 #include <cmath>
 #include <limits>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace poseonly {
@@ -49,6 +51,25 @@ inline double samples_needed(double p, double confidence) {
   return std::log(1.0 - confidence) / std::log1p(-p);
 }
 
+// Residuals of points [i0, i0 + m) in one call when the estimator has residual_block (a vectorised
+// loop), else one by one; the scorers accumulate them in point order either way.
+template <class Est, class = void>
+struct HasResidualBlock : std::false_type {};
+template <class Est>
+struct HasResidualBlock<Est, std::void_t<decltype(std::declval<const Est&>().residual_block(
+                                 std::declval<const typename Est::Terms&>(), 0, 0, static_cast<double*>(nullptr)))>> : std::true_type {};
+
+constexpr int kScoreBlock = 32;
+
+template <class Est>
+inline void residuals_of(const Est& est, const typename Est::Terms& T, int i0, int m, double* out) {
+  if constexpr (HasResidualBlock<Est>::value) {
+    est.residual_block(T, i0, m, out);
+  } else {
+    for (int k = 0; k < m; ++k) out[k] = est.residual(T, i0 + k);
+  }
+}
+
 // Squared-error truncated at thr (MSAC, Torr and Zisserman 2000).
 struct MsacScorer {
   double thr;
@@ -59,10 +80,15 @@ struct MsacScorer {
     const double t2 = thr * thr;
     double c = 0.0;
     const int n = est.num_data();
-    for (int i = 0; i < n; ++i) {
-      const double v = est.residual(T, i);
-      c += std::isfinite(v) ? std::min(v * v, t2) : t2;
-      if (c > bail) return c;
+    double v[kScoreBlock];
+    for (int i0 = 0; i0 < n; i0 += kScoreBlock) {
+      const int b = std::min(kScoreBlock, n - i0);
+      residuals_of(est, T, i0, b, v);
+      for (int k = 0; k < b; ++k) v[k] = std::isfinite(v[k]) ? std::min(v[k] * v[k], t2) : t2;  // vectorised
+      for (int k = 0; k < b; ++k) {
+        c += v[k];
+        if (c > bail) return c;
+      }
     }
     return c;
   }
@@ -79,11 +105,18 @@ struct MultiMsacScorer {
     const double t2[3] = {thr * thr, 0.25 * thr * thr, 0.0625 * thr * thr};
     double c = 0.0;
     const int n = est.num_data();
-    for (int i = 0; i < n; ++i) {
-      const double v = est.residual(T, i);
-      const double v2 = std::isfinite(v) ? v * v : std::numeric_limits<double>::infinity();
-      for (double s : t2) c += std::min(v2, s) / s;
-      if (c > bail) return c;
+    double v[kScoreBlock];
+    for (int i0 = 0; i0 < n; i0 += kScoreBlock) {
+      const int b = std::min(kScoreBlock, n - i0);
+      residuals_of(est, T, i0, b, v);
+      for (int k = 0; k < b; ++k) {  // vectorised: each point's three normalised truncated terms
+        const double v2 = std::isfinite(v[k]) ? v[k] * v[k] : std::numeric_limits<double>::infinity();
+        v[k] = std::min(v2, t2[0]) / t2[0] + std::min(v2, t2[1]) / t2[1] + std::min(v2, t2[2]) / t2[2];
+      }
+      for (int k = 0; k < b; ++k) {
+        c += v[k];
+        if (c > bail) return c;
+      }
     }
     return c;
   }

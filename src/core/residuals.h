@@ -3,6 +3,8 @@
 // The numpy references live in tests/reference/residuals.py; tests compare to 1e-12.
 #pragma once
 
+#include <vector>
+
 #include "common.h"
 
 namespace poseonly {
@@ -28,13 +30,40 @@ struct PoseTerms {
 
 // Sampson distance on the unit sphere: |f2^T E f1| / sqrt(|P_f2 E f1|^2 + |P_f1 E^T f2|^2),
 // P_f = I - f f^T (tangent projections); radians, the quantity PoseLib and COLMAP threshold.
-inline double sampson(const Mat3& E, const Vec3& f1, const Vec3& f2) {
-  const Vec3 Ef1 = E * f1;
-  const Vec3 Etf2 = E.transpose() * f2;
-  const double num = f2.dot(Ef1);
-  const double den = Ef1.squaredNorm() + Etf2.squaredNorm() - 2.0 * num * num;
-  return std::abs(num) / std::sqrt(std::max(den, kTiny));
+// Written out in scalars (left to right) so that sampson_block below, the scorers' vectorised loop,
+// gives bit-identical values whatever Eigen's expression evaluation chooses.
+inline double sampson_terms(const Mat3& E, double x1, double y1, double z1, double x2, double y2, double z2) {
+  const double a0 = E(0, 0) * x1 + E(0, 1) * y1 + E(0, 2) * z1;
+  const double a1 = E(1, 0) * x1 + E(1, 1) * y1 + E(1, 2) * z1;
+  const double a2 = E(2, 0) * x1 + E(2, 1) * y1 + E(2, 2) * z1;
+  const double b0 = E(0, 0) * x2 + E(1, 0) * y2 + E(2, 0) * z2;
+  const double b1 = E(0, 1) * x2 + E(1, 1) * y2 + E(2, 1) * z2;
+  const double b2 = E(0, 2) * x2 + E(1, 2) * y2 + E(2, 2) * z2;
+  const double num = x2 * a0 + y2 * a1 + z2 * a2;
+  const double den = (a0 * a0 + a1 * a1 + a2 * a2) + (b0 * b0 + b1 * b1 + b2 * b2) - 2.0 * num * num;
+  return std::abs(num) / std::sqrt(den < kTiny ? kTiny : den);  // std::max(den, kTiny)
 }
+
+inline double sampson(const Mat3& E, const Vec3& f1, const Vec3& f2) {
+  return sampson_terms(E, f1(0), f1(1), f1(2), f2(0), f2(1), f2(2));
+}
+
+// Bearings as six coordinate arrays (structure of arrays) for loops the compiler vectorises.
+struct SoaPoints {
+  std::vector<double> x1, y1, z1, x2, y2, z2;
+  explicit SoaPoints(const Points& P) : x1(P.n), y1(P.n), z1(P.n), x2(P.n), y2(P.n), z2(P.n) {
+    for (int i = 0; i < P.n; ++i) {
+      x1[i] = P.f1[3 * i], y1[i] = P.f1[3 * i + 1], z1[i] = P.f1[3 * i + 2];
+      x2[i] = P.f2[3 * i], y2[i] = P.f2[3 * i + 1], z2[i] = P.f2[3 * i + 2];
+    }
+  }
+};
+
+// sampson(E, f1_i, f2_i) for i in [i0, i0 + m): the same operations in the same order per point
+// (bit-identical results), without a branch, so that the loop runs on SIMD lanes.
+// (residuals.cpp: an AVX2 clone is chosen at load time where the CPU has it; no FMA, so every
+// clone rounds as the scalar sampson() does)
+void sampson_block(const Mat3& E, const SoaPoints& S, int i0, int m, double* out);
 
 // Pose-only depth numerators h^T t = (R f1 x f2).(f2 x t) and h'^T t = (R f1 x f2).(R f1 x t)
 // (the equation after Eq. 7): both positive iff the point is in front of both cameras.
