@@ -237,26 +237,6 @@ double ppo_cost(const Pose& pose, const Points& P, const double* w) {
 
 namespace {
 
-// v_PPO from the bilinear forms ab = f2.R f1, bt = t.f2, h = h^T t and |e| = |f2^T [t]x R f1| (unit t):
-// with alpha = |t x f2|, beta = |f2 x R f1| (h^2 + e^2 = alpha^2 beta^2), |eps x f2|^2 =
-// 2 alpha^2 beta^2 (1 - cos gamma), eps . f2 = alpha ab + beta bt, both 1 - cos by half-angle forms
-// (an exact fit keeps a residual ~1e-16). Equal to residuals.h's ppo() to ~1e-15.
-inline double ppo_from_forms(double ab, double bt, double h, double e_abs) {
-  const double alpha = std::sqrt(std::max((1.0 - bt) * (1.0 + bt), 0.0));
-  const double beta = std::sqrt(std::max((1.0 - ab) * (1.0 + ab), 0.0));
-  const double p = alpha * ab + beta * bt;
-  const double rho = alpha * beta;
-  double q2 = 0.0;
-  if (rho > 0.0) {
-    const double omc = h > 0.0 ? e_abs * e_abs / (rho * (rho + h)) : (rho - h) / rho;
-    q2 = 2.0 * rho * rho * omc;
-  }
-  const double r = std::sqrt(p * p + q2);
-  if (!(r > 0.0)) return 1.0;  // eps = 0: normalize(eps) = 0, |0 - f2| = 1
-  const double omc2 = p > 0.0 ? q2 / (r * (r + p)) : (r - p) / r;
-  return std::sqrt(2.0 * omc2);
-}
-
 // SVD-free decomposition of E (geometry.essential_frames): v3 the right singular vector of the
 // smallest singular value, u3 = cof(E) v3 / |cof(E) v3| (E = U diag(s1, s2, s3') V^T, det U = det V
 // = 1), F = [u3]x U V^T; the two rotations are u3 v3^T +- F and t = +-u3.
@@ -293,93 +273,154 @@ inline double sgn(double x) { return static_cast<double>((x > 0.0) - (x < 0.0));
 
 namespace {
 
-// Identification sums over the points (loop 1 of identify); Weighted = false reads no weights.
-// Scalars hoisted out of Eigen's 3-vectors: the loop is the solver's hottest (18 candidates).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define POSEONLY_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define POSEONLY_SIMD_CLONES
+#endif
+
+// The points as coordinate arrays (built once per LiRP call, read by the 18 identifications) and
+// the effective weights (w_i where w_i > 0, else 0: such points add nothing).
+struct IdPoints {
+  int n = 0;
+  std::vector<double> x1, y1, z1, x2, y2, z2, w;
+  IdPoints(const Points& P, const double* wts) : n(P.n), x1(n), y1(n), z1(n), x2(n), y2(n), z2(n), w(n) {
+    for (int i = 0; i < n; ++i) {
+      x1[i] = P.f1[3 * i], y1[i] = P.f1[3 * i + 1], z1[i] = P.f1[3 * i + 2];
+      x2[i] = P.f2[3 * i], y2[i] = P.f2[3 * i + 1], z2[i] = P.f2[3 * i + 2];
+      w[i] = wts ? (wts[i] > 0.0 ? wts[i] : 0.0) : 1.0;
+    }
+  }
+};
+
+// Loop 1 of identify, per point of [i0, i0 + m): w sgn(h h'), w h h', w sgn(h) for both rotations
+// r (out[(3 r + j) kIdBlock + k]); branch-free, so the loop runs on SIMD lanes.
+inline double sgn_select(double x) { return (x > 0.0 ? 1.0 : 0.0) - (x < 0.0 ? 1.0 : 0.0); }
+
+constexpr int kIdBlock = 32;
+
+POSEONLY_SIMD_CLONES
+void sign_terms(const Frames& fr, const IdPoints& S, int i0, int m, double* out) {
+  const double v0 = fr.v3(0), v1 = fr.v3(1), v2 = fr.v3(2), u0 = fr.u3(0), u1 = fr.u3(1), u2 = fr.u3(2);
+  const double F00 = fr.F(0, 0), F01 = fr.F(0, 1), F02 = fr.F(0, 2), F10 = fr.F(1, 0), F11 = fr.F(1, 1), F12 = fr.F(1, 2),
+               F20 = fr.F(2, 0), F21 = fr.F(2, 1), F22 = fr.F(2, 2);
+  const double *X1 = S.x1.data() + i0, *Y1 = S.y1.data() + i0, *Z1 = S.z1.data() + i0;
+  const double *X2 = S.x2.data() + i0, *Y2 = S.y2.data() + i0, *Z2 = S.z2.data() + i0, *W = S.w.data() + i0;
+  double *m1a = out, *rwa = out + kIdBlock, *m2a = out + 2 * kIdBlock;
+  double *m1b = out + 3 * kIdBlock, *rwb = out + 4 * kIdBlock, *m2b = out + 5 * kIdBlock;
+  for (int k = 0; k < m; ++k) {
+    const double a0 = X1[k], a1 = Y1[k], a2 = Z1[k], b0 = X2[k], b1 = Y2[k], b2 = Z2[k], wi = W[k];
+    const double at = v0 * a0 + v1 * a1 + v2 * a2, bt = u0 * b0 + u1 * b1 + u2 * b2;
+    const double x = b0 * (F00 * a0 + F01 * a1 + F02 * a2) + b1 * (F10 * a0 + F11 * a1 + F12 * a2) + b2 * (F20 * a0 + F21 * a1 + F22 * a2);
+    const bool on = wi > 0.0;
+    // r = 0: ab = bt at + x; r = 1: ab = bt at - x
+    const double abA = bt * at + x, hA = abA * bt - at, hpA = bt - at * abA, hhA = hA * hpA;
+    const double abB = bt * at + -x, hB = abB * bt - at, hpB = bt - at * abB, hhB = hB * hpB;
+    m1a[k] = on ? wi * sgn_select(hhA) : 0.0;
+    rwa[k] = on ? wi * hhA : 0.0;
+    m2a[k] = on ? wi * sgn_select(hA) : 0.0;
+    m1b[k] = on ? wi * sgn_select(hhB) : 0.0;
+    rwb[k] = on ? wi * hhB : 0.0;
+    m2b[k] = on ? wi * sgn_select(hB) : 0.0;
+  }
+}
+
+// The identification sums (loop 1), accumulated in point order.
 struct SignSums {
   double m1[2] = {0.0, 0.0}, raw[2] = {0.0, 0.0}, m2[2] = {0.0, 0.0}, ws = 0.0;
 };
 
-template <bool Weighted>
-SignSums sign_sums(const Frames& fr, const Points& P, const double* w) {
-  SignSums S;
-  const double v0 = fr.v3(0), v1 = fr.v3(1), v2 = fr.v3(2), u0 = fr.u3(0), u1 = fr.u3(1), u2 = fr.u3(2);
-  const Mat3& F = fr.F;
-  for (int i = 0; i < P.n; ++i) {
-    double wi = 1.0;
-    if (Weighted) {
-      wi = w[i];
-      if (!(wi > 0.0)) continue;
-    }
-    S.ws += wi;
-    const double* a = P.f1 + 3 * i;
-    const double* b = P.f2 + 3 * i;
-    const double at = v0 * a[0] + v1 * a[1] + v2 * a[2], bt = u0 * b[0] + u1 * b[1] + u2 * b[2];
-    const double x = b[0] * (F(0, 0) * a[0] + F(0, 1) * a[1] + F(0, 2) * a[2]) +
-                     b[1] * (F(1, 0) * a[0] + F(1, 1) * a[1] + F(1, 2) * a[2]) +
-                     b[2] * (F(2, 0) * a[0] + F(2, 1) * a[1] + F(2, 2) * a[2]);
-    for (int r = 0; r < 2; ++r) {
-      const double ab = bt * at + (r ? -x : x);
-      const double h = ab * bt - at, hp = bt - at * ab;
-      const double hh = h * hp;
-      S.m1[r] += wi * sgn(hh);
-      S.raw[r] += wi * hh;
-      S.m2[r] += wi * sgn(h);
+SignSums sign_sums(const Frames& fr, const IdPoints& S) {
+  SignSums T;
+  double buf[6 * kIdBlock];
+  for (int i0 = 0; i0 < S.n; i0 += kIdBlock) {
+    const int m = std::min(kIdBlock, S.n - i0);
+    sign_terms(fr, S, i0, m, buf);
+    for (int k = 0; k < m; ++k) {
+      T.ws += S.w[i0 + k];
+      for (int r = 0; r < 2; ++r) {
+        T.m1[r] += buf[(3 * r) * kIdBlock + k];
+        T.raw[r] += buf[(3 * r + 1) * kIdBlock + k];
+        T.m2[r] += buf[(3 * r + 2) * kIdBlock + k];
+      }
     }
   }
-  return S;
+  return T;
 }
 
-// Sum of w_i v_PPO over the points for the rotation sign s and translation sign sigma (loop 2).
-template <bool Weighted>
-double ppo_sum(const Frames& fr, const Points& P, const double* w, double s, double sigma) {
+// v_PPO from the bilinear forms ab = f2.R f1, bt = t.f2, h = h^T t and |e| = |f2^T [t]x R f1| (unit t):
+// with alpha = |t x f2|, beta = |f2 x R f1| (h^2 + e^2 = alpha^2 beta^2), |eps x f2|^2 =
+// 2 alpha^2 beta^2 (1 - cos gamma), eps . f2 = alpha ab + beta bt, both 1 - cos by half-angle forms
+// (an exact fit keeps a residual ~1e-16). Equal to residuals.h's ppo() to ~1e-15.
+// Per point of [i0, i0 + m): w_i v_PPO for the rotation sign s and translation sign sigma (loop 2),
+// the branches as selects (both sides computed; -fno-trapping-math lets the compiler do so).
+POSEONLY_SIMD_CLONES
+void ppo_terms(const Frames& fr, const IdPoints& S, double s, double sigma, int i0, int m, double* out) {
   const double v0 = fr.v3(0), v1 = fr.v3(1), v2 = fr.v3(2), u0 = fr.u3(0), u1 = fr.u3(1), u2 = fr.u3(2);
   const Mat3 F = s * fr.F;
+  const double F00 = F(0, 0), F01 = F(0, 1), F02 = F(0, 2), F10 = F(1, 0), F11 = F(1, 1), F12 = F(1, 2), F20 = F(2, 0),
+               F21 = F(2, 1), F22 = F(2, 2);
   const Mat3& G = fr.G;
-  double c = 0.0;
-  for (int i = 0; i < P.n; ++i) {
-    double wi = 1.0;
-    if (Weighted) {
-      wi = w[i];
-      if (!(wi > 0.0)) continue;
-    }
-    const double* a = P.f1 + 3 * i;
-    const double* b = P.f2 + 3 * i;
-    const double at = v0 * a[0] + v1 * a[1] + v2 * a[2], bt = u0 * b[0] + u1 * b[1] + u2 * b[2];
-    const double x = b[0] * (F(0, 0) * a[0] + F(0, 1) * a[1] + F(0, 2) * a[2]) +
-                     b[1] * (F(1, 0) * a[0] + F(1, 1) * a[1] + F(1, 2) * a[2]) +
-                     b[2] * (F(2, 0) * a[0] + F(2, 1) * a[1] + F(2, 2) * a[2]);
-    const double e = b[0] * (G(0, 0) * a[0] + G(0, 1) * a[1] + G(0, 2) * a[2]) +
-                     b[1] * (G(1, 0) * a[0] + G(1, 1) * a[1] + G(1, 2) * a[2]) +
-                     b[2] * (G(2, 0) * a[0] + G(2, 1) * a[1] + G(2, 2) * a[2]);
-    const double ab = bt * at + x;
-    c += wi * ppo_from_forms(ab, sigma * bt, sigma * (ab * bt - at), std::abs(e));
+  const double G00 = G(0, 0), G01 = G(0, 1), G02 = G(0, 2), G10 = G(1, 0), G11 = G(1, 1), G12 = G(1, 2), G20 = G(2, 0),
+               G21 = G(2, 1), G22 = G(2, 2);
+  for (int k = 0; k < m; ++k) {
+    const int i = i0 + k;
+    const double a0 = S.x1[i], a1 = S.y1[i], a2 = S.z1[i], b0 = S.x2[i], b1 = S.y2[i], b2 = S.z2[i], wi = S.w[i];
+    const double at = v0 * a0 + v1 * a1 + v2 * a2, bt0 = u0 * b0 + u1 * b1 + u2 * b2;
+    const double x = b0 * (F00 * a0 + F01 * a1 + F02 * a2) + b1 * (F10 * a0 + F11 * a1 + F12 * a2) + b2 * (F20 * a0 + F21 * a1 + F22 * a2);
+    const double e = b0 * (G00 * a0 + G01 * a1 + G02 * a2) + b1 * (G10 * a0 + G11 * a1 + G12 * a2) + b2 * (G20 * a0 + G21 * a1 + G22 * a2);
+    const double ab = bt0 * at + x;
+    // the forms of the pose (s, sigma): ab, bt' = sigma bt, h = sigma (ab bt - at), |e|
+    const double bt = sigma * bt0, h = sigma * (ab * bt0 - at), e_abs = std::abs(e);
+    const double alpha = std::sqrt(std::max((1.0 - bt) * (1.0 + bt), 0.0));
+    const double beta = std::sqrt(std::max((1.0 - ab) * (1.0 + ab), 0.0));
+    const double p = alpha * ab + beta * bt;
+    const double rho = alpha * beta;
+    const double omc = h > 0.0 ? e_abs * e_abs / (rho * (rho + h)) : (rho - h) / rho;
+    const double q2 = rho > 0.0 ? 2.0 * rho * rho * omc : 0.0;
+    const double r = std::sqrt(p * p + q2);
+    const double omc2 = p > 0.0 ? q2 / (r * (r + p)) : (r - p) / r;
+    const double v = r > 0.0 ? std::sqrt(2.0 * omc2) : 1.0;  // eps = 0: normalize(eps) = 0, |0 - f2| = 1
+    out[k] = wi > 0.0 ? wi * v : 0.0;
+  }
+}
+
+double ppo_sum(const Frames& fr, const IdPoints& S, double s, double sigma) {
+  double c = 0.0, buf[kIdBlock];
+  for (int i0 = 0; i0 < S.n; i0 += kIdBlock) {
+    const int m = std::min(kIdBlock, S.n - i0);
+    ppo_terms(fr, S, s, sigma, i0, m, buf);
+    for (int k = 0; k < m; ++k) c += buf[k];
   }
   return c;
 }
 
-}  // namespace
-
-void identify(const Mat3& E, const Points& P, const double* w, CostMode mode, Identified* out) {
+void identify_points(const Mat3& E, const IdPoints& S, CostMode mode, Identified* out) {
   const Frames fr = essential_frames(E);
   // per point, with a = R f1: a.t = v3.f1 and b.t = u3.f2 for both rotations, a.b = bt at +- f2^T F f1;
   // h = (a x b).(b x t) = ab bt - at, h' = (a x b).(a x t) = bt - at ab (Lagrange identity)
-  const SignSums S = w ? sign_sums<true>(fr, P, w) : sign_sums<false>(fr, P, w);
-  const double norm = 1.0 / std::max(S.ws, kTiny);
+  const SignSums T = sign_sums(fr, S);
+  const double norm = 1.0 / std::max(T.ws, kTiny);
   // the twisted pair makes every depth product negative: keep the rotation with the larger M1
   // (tie: the larger raw sum of h h')
-  const int pick = (S.m1[1] > S.m1[0] || (S.m1[1] == S.m1[0] && S.raw[1] > S.raw[0])) ? 1 : 0;
+  const int pick = (T.m1[1] > T.m1[0] || (T.m1[1] == T.m1[0] && T.raw[1] > T.raw[0])) ? 1 : 0;
   const double s = pick ? -1.0 : 1.0;
-  out->M1 = S.m1[pick] * norm;
-  const double M2 = S.m2[pick] * norm;
+  out->M1 = T.m1[pick] * norm;
+  const double M2 = T.m2[pick] * norm;
   const double sigma = M2 < 0.0 ? -1.0 : 1.0;
   out->pose.R = fr.u3 * fr.v3.transpose() + s * fr.F;
   out->pose.t = sigma * fr.u3;
   out->valid = out->M1 > 0.0 && std::abs(M2) > 0.0;
   out->cost = kInf;
   if (mode == CostMode::Never || (mode == CostMode::IfValid && !out->valid)) return;
-  const double c = w ? ppo_sum<true>(fr, P, w, s, sigma) : ppo_sum<false>(fr, P, w, s, sigma);
-  const double cost = c * norm;
+  const double cost = ppo_sum(fr, S, s, sigma) * norm;
   out->cost = std::isfinite(cost) ? cost : kInf;
+}
+
+}  // namespace
+
+void identify(const Mat3& E, const Points& P, const double* w, CostMode mode, Identified* out) {
+  identify_points(E, IdPoints(P, w), mode, out);
 }
 
 int rank_best(const std::array<Identified, kLirpCandidates>& id) {
@@ -397,9 +438,10 @@ int rank_best(const std::array<Identified, kLirpCandidates>& id) {
 
 void lirp(const Points& P, const double* w, bool all_costs, LirpResult* out) {
   lirp_candidates(P, w, &out->cand);
+  const IdPoints S(P, w);
   bool any_valid_cost = false;
   for (int k = 0; k < kLirpCandidates; ++k) {
-    identify(out->cand.E[k], P, w, all_costs ? CostMode::Always : CostMode::IfValid, &out->id[k]);
+    identify_points(out->cand.E[k], S, all_costs ? CostMode::Always : CostMode::IfValid, &out->id[k]);
     any_valid_cost |= out->id[k].valid && std::isfinite(out->id[k].cost);
   }
   if (!all_costs && !any_valid_cost)  // no valid candidate: rank every candidate by its cost
