@@ -59,8 +59,7 @@ from .robust.default import make_rng, run_poseonly
 from .robust.gnc import GNCOptions, gnc_irls_batch
 from .robust.methods import RUNNERS
 from .robust.ransac import gnc_ransac as _gnc_ransac_loop
-from .solvers.lirp import LiRPResult
-from .solvers.lirp import lirp as _lirp
+from .solvers.lirp import LiRPResult, lirp_checked
 
 __all__ = [
     "DEFAULT_METHOD",
@@ -308,4 +307,4 @@ def lirp(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, r
     f1, f2, w = check_correspondences(f1, f2, weights)
     rank_tol = check_value("rank_tol", rank_tol, _SPEC_RANK_TOL)
     with np.errstate(all="ignore"):
-        return _lirp(f1, f2, w, rank_tol=rank_tol)
+        return lirp_checked(f1, f2, w, float(rank_tol))

@@ -36,7 +36,7 @@ import numpy as np
 from .. import _core
 from ..geometry import check_correspondences
 
-__all__ = ["lirp", "lirp_batch", "LiRPResult", "lirp_candidates", "NUM_CANDIDATES", "RANK_TOL"]
+__all__ = ["lirp", "lirp_batch", "lirp_checked", "LiRPResult", "lirp_candidates", "NUM_CANDIDATES", "RANK_TOL"]
 
 NUM_CANDIDATES = int(_core.LIRP_CANDIDATES)
 # numerical rank of A: singular values above RANK_TOL * sigma_1 count (8 general, 6 planar / rotation)
@@ -110,6 +110,13 @@ def lirp(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, r
     if isinstance(rank_tol, bool) or not isinstance(rank_tol, (int, float, np.integer, np.floating)) or not 0 < rank_tol < 1:
         raise ValueError(f"rank_tol must be a number in (0, 1), got {rank_tol!r}")
     f1, f2, w = check_correspondences(f1, f2, weights, min_points=6)
+    return lirp_checked(f1, f2, w, float(rank_tol))
+
+
+def lirp_checked(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None, rank_tol: float) -> LiRPResult:
+    """:func:`lirp` on input already validated (unit bearings ``(n, 3)``, ``n >= 6``, weights ``(n,)``
+    finite and non-negative or ``None``; ``0 < rank_tol < 1``): the public :func:`poseonly.lirp`
+    validates once and calls this."""
     o = lirp_batch(f1[None], f2[None], None if w is None else w[None])
     s = o["singular_values"][0]
     rank = int(np.count_nonzero(s > float(rank_tol) * max(s[0], 1e-300)))
