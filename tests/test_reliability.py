@@ -42,6 +42,25 @@ def test_pure_rotation_60pct_outliers_not_ok(seed):
     assert poseonly.rotation_error_deg(sc.R, r.R) < 0.5
 
 
+@pytest.mark.parametrize("outliers", [0.2, 0.6])
+def test_pure_rotation_with_many_matches(outliers):
+    """n = 2000 > ROTATION_SCORE_POINTS: the rotation hypotheses are scored on a 500-match subset, the
+    fit and the decision use every match; a pure rotation is still found, a translation still ok."""
+    from poseonly.analysis import ROTATION_SCORE_POINTS
+
+    n = 2000
+    assert n > ROTATION_SCORE_POINTS
+    sc = make_scene(n, "rotation", camera="pinhole", noise_px=0.5, outlier_fraction=outliers, seed=7)
+    r = estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=0, **FAST)
+    assert r.status == "pure_rotation", r.message
+    assert poseonly.rotation_error_deg(sc.R, r.R) < 0.1
+    assert r.num_inliers >= 0.9 * (1 - outliers) * n
+    sc = make_scene(n, camera="pinhole", noise_px=0.5, outlier_fraction=outliers, seed=7)
+    r = estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=0, **FAST)
+    assert r.status == "ok", r.message
+    assert r.diagnostics["pure_rotation"] is False
+
+
 def test_real_pose_stays_ok_with_small_support():
     """The a-contrario test does not reject a genuine pose with 80 % outliers."""
     sc = make_scene(150, camera="pinhole", noise_px=0.5, outlier_fraction=0.8, seed=5)
