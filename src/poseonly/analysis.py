@@ -44,6 +44,10 @@ TWIN_SUPPORT_RATIO = 0.9
 CHANCE_SEED = 20240611
 
 
+def _c(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=float)
+
+
 def support(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float) -> np.ndarray:
     """Inliers ``(h, n)`` of stacked poses ``(h,3,3), (h,3)``: Sampson error below ``tau`` and
     positive depths (``v_sampson_chiral`` is 1 where a depth is not positive, and ``tau`` is far
@@ -58,21 +62,27 @@ def plausible_twin(R, t, tw, f1, f2, tau) -> bool:
     return bool(sup[1] >= 0.3 * max(sup[0], 1))
 
 
-def polish(R, t, f1, f2, tau):
-    """Angular LiGTopt of a candidate on its cheirality-consistent inliers (twin comparison)."""
-    from .refine.ligt import ligt_refine
+POLISH_ITERATIONS = 20
+POLISH_TOL = 1e-12
 
+
+def polish(R, t, f1, f2, tau):
+    """Angular LiGTopt of a candidate on its cheirality-consistent inliers (twin comparison): the
+    core's LM with a Cauchy loss at ``tau`` (``poseonly.refine.ligt.ligt_refine(..., solver="lm")``
+    without its input conversion: the bearings here are already unit)."""
     inl = support(R[None], t[None], f1, f2, tau * 1.5)[0]
     if inl.sum() < 6:
         inl = v_sampson(R, t, f1, f2) < tau * 1.5
         if inl.sum() < 6:
             return R, t
     try:
-        r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization="angular", max_iter=20, solver=REFINE_SOLVER)
-    except ValueError:  # a degenerate candidate: keep it unpolished
+        Rr, tr, _ = _core.refine_ligt(
+            _c(R), _c(t), _c(f1[inl]), _c(f2[inl]), None, normalization="angular", loss="cauchy", loss_scale=float(tau), max_iterations=POLISH_ITERATIONS, tol=POLISH_TOL
+        )
+    except ValueError:  # a degenerate candidate (not a rotation, zero t): keep it unpolished
         return R, t
-    if np.all(np.isfinite(r.R)) and np.all(np.isfinite(r.t)):
-        return r.R, r.t
+    if np.all(np.isfinite(Rr)) and np.all(np.isfinite(tr)):
+        return Rr, tr
     return R, t
 
 
@@ -127,10 +137,6 @@ NFA_MAX = 1e-3
 CHANCE_PAIRS = 20000
 CHANCE_MIN_REPEATS = 3
 CHANCE_MAX_REPEATS = 200
-
-
-def _c(a: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(a, dtype=float)
 
 
 @functools.lru_cache(maxsize=64)
