@@ -4,6 +4,8 @@
 #include <numeric>
 #include <vector>
 
+#include "lirp.h"
+#include "refine.h"
 #include "residuals.h"
 
 namespace poseonly {
@@ -141,6 +143,95 @@ bool homography_twin(const Pose& pose, const Points& P, Pose* twin, double* plan
   twin->R = dec.R[j];
   twin->t = dec.T[j].normalized();
   return true;
+}
+
+int support_count(const Pose& pose, const Points& P, double thr) {
+  const PoseTerms T(pose);
+  int k = 0;
+  for (int i = 0; i < P.n; ++i) k += sampson_chiral(T, P.a(i), P.b(i)) < thr;
+  return k;
+}
+
+namespace {
+
+constexpr double kTwinSupportScreen = 0.3;  // analysis.plausible_twin: twin support >= 30 % of the pose's
+constexpr double kPolishWindow = 1.5;       // polish and screen at 1.5 tau
+constexpr int kPolishIterations = 20;
+constexpr double kPolishTol = 1e-12;
+constexpr int kLigtAngular = 2;             // refine_ligt normalization code of "angular"
+constexpr double kMaxSupportThreshold = 0.5;
+
+bool is_rotation(const Mat3& R) {
+  return R.allFinite() && (R.transpose() * R - Mat3::Identity()).cwiseAbs().maxCoeff() <= 1e-6 && R.determinant() >= 0.0;
+}
+
+}  // namespace
+
+Pose polish_candidate(const Pose& pose, const Points& P, double tau) {
+  const double thr = kPolishWindow * tau;
+  const double nt = pose.t.norm();
+  if (!is_rotation(pose.R) || !pose.t.allFinite() || !(nt > 1e-12)) return pose;
+  Pose p = pose;
+  p.t /= nt;
+  const PoseTerms T(p);
+  PointBuffer buf;
+  const double thr_c = std::min(thr, kMaxSupportThreshold);
+  for (int i = 0; i < P.n; ++i)
+    if (sampson_chiral(T, P.a(i), P.b(i)) < thr_c) buf.push(P.f1 + 3 * i, P.f2 + 3 * i);
+  if (buf.view().n < kRefineMinPoints) {
+    buf.clear();
+    for (int i = 0; i < P.n; ++i)
+      if (sampson(T.E, P.a(i), P.b(i)) < thr) buf.push(P.f1 + 3 * i, P.f2 + 3 * i);
+    if (buf.view().n < kRefineMinPoints) return pose;
+  }
+  RefineOptions o;
+  o.loss = RefineLoss::Cauchy;
+  o.loss_scale = tau;
+  o.max_iterations = kPolishIterations;
+  o.tol = kPolishTol;
+  refine_ligt(buf.view(), nullptr, o, kLigtAngular, &p);
+  return (p.R.allFinite() && p.t.allFinite()) ? p : pose;
+}
+
+Pose select_by_support(const Pose& pose0, const Points& P, double tau) {
+  Pose pose = pose0;
+  const double nt = pose.t.norm();
+  if (nt > 0.0) pose.t /= nt;
+  PointBuffer sel;
+  {
+    const PoseTerms T(pose);
+    for (int i = 0; i < P.n; ++i)
+      if (sampson(T.E, P.a(i), P.b(i)) < tau) sel.push(P.f1 + 3 * i, P.f2 + 3 * i);
+  }
+  const Points S = sel.view();
+  if (S.n < kLirpMinPoints) return pose0;
+  Identified id;
+  identify(essential(pose), S, nullptr, CostMode::Never, &id);
+  const Pose base = id.pose;
+  const double thr = std::min(tau, kMaxSupportThreshold);
+  const int inl = support_count(base, P, thr);
+  LirpResult lr;
+  lirp(S, nullptr, false, &lr);
+  std::vector<Pose> cand;
+  cand.reserve(kLirpCandidates + 2);
+  cand.push_back(base);
+  for (int k = 0; k < kLirpCandidates; ++k) cand.push_back(lr.id[k].pose);
+  Pose tw;
+  double planarity = 0.0;
+  if (homography_twin(base, S, &tw, &planarity)) {
+    const double thr_s = std::min(kPolishWindow * tau, kMaxSupportThreshold);
+    const int s0 = support_count(base, P, thr_s), s1 = support_count(tw, P, thr_s);
+    if (s1 >= kTwinSupportScreen * std::max(s0, 1)) cand.push_back(polish_candidate(tw, P, tau));
+  }
+  int best = 0, best_sup = -1;
+  for (size_t k = 0; k < cand.size(); ++k) {
+    const int s = support_count(cand[k], P, thr);
+    if (s > best_sup) {
+      best_sup = s;
+      best = static_cast<int>(k);
+    }
+  }
+  return best_sup > inl ? cand[best] : base;
 }
 
 }  // namespace poseonly

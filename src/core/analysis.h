@@ -33,4 +33,18 @@ bool decompose_homography(const Mat3& H, HomographyDecomposition* out);
 // cameras, the plane or the decomposition is degenerate, or fewer than two decompositions are valid.
 bool homography_twin(const Pose& pose, const Points& P, Pose* twin, double* planarity);
 
+// Cheirality-consistent support: matches with sampson_chiral < thr (pose with unit t).
+int support_count(const Pose& pose, const Points& P, double thr);
+
+// The twin comparison's polish: angular LiGTopt (Cauchy loss at tau, 20 evaluations) on the matches
+// with sampson_chiral < 1.5 tau (or, with fewer than 6 of them, Sampson < 1.5 tau); the pose itself
+// when it is not a rotation, too few points qualify or the result is not finite.
+Pose polish_candidate(const Pose& pose, const Points& P, double tau);
+
+// The default method's pose-only choice (poseonly.robust.default.select_by_support): the RANSAC pose
+// re-identified on its Sampson inliers (< tau), the 18 LiRP candidates of those inliers and, when
+// plausible, the polished homography twin; the candidate with the most cheirality-consistent support
+// at min(tau, 0.5) if it beats the re-identified pose's, else that pose. Fewer than 6 inliers: `pose`.
+Pose select_by_support(const Pose& pose, const Points& P, double tau);
+
 }  // namespace poseonly

@@ -70,6 +70,20 @@ static nb::object decompose_homography_py(const ArrayIn& H) {
   return nb::make_tuple(to_numpy(std::move(Ro), {4, 3, 3}), to_numpy(std::move(To), {4, 3}), to_numpy(std::move(No), {4, 3}));
 }
 
+static nb::tuple select_by_support_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double tau) {
+  const Points P = points_of(f1, f2);
+  const Pose pose = pose_of(R, t);
+  if (!(tau > 0.0 && std::isfinite(tau))) throw std::invalid_argument("tau must be finite and > 0");
+  Pose out;
+  {
+    nb::gil_scoped_release release;
+    out = select_by_support(pose, P, tau);
+  }
+  std::vector<double> Ro(9), to(3);
+  put_pose(out, Ro.data(), to.data());
+  return nb::make_tuple(to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}));
+}
+
 }  // namespace poseonly
 
 POSEONLY_BIND(analysis) {
@@ -80,6 +94,8 @@ POSEONLY_BIND(analysis) {
         nb::arg("chord2"), "Re-paired matches with |R f1[i] - f2[perm[r, i]]|^2 < chord2; perm (reps, n) int64.");
   m.def("homography_twin", &homography_twin_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
         "The homography twin of (R, t) on its inliers f1, f2 (n, 3): (R_twin (3, 3), unit t_twin (3,), planarity) or None.");
+  m.def("select_by_support", &select_by_support_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("tau"),
+        "The default method's pose-only choice (poseonly.robust.default.select_by_support): (R, t).");
   m.def("decompose_homography", &decompose_homography_py, nb::arg("H"),
         "The four (R (4, 3, 3), t/d (4, 3), n (4, 3)) of a calibrated homography, or None when H is not finite or singular.");
 }

@@ -13,13 +13,9 @@ from typing import Any
 import numpy as np
 
 from .. import _core
-from ..analysis import REFINE_SOLVER, plausible_twin, polish, support
-from ..geometry import essential_from_pose
-from ..identify import identify_poses
+from ..analysis import REFINE_SOLVER, support
 from ..options import PoseonlyOptions
 from ..residuals import get_residual, v_sampson, v_sampson_chiral
-from ..solvers.lirp import lirp_batch
-from ..twin import homography_twin
 from .ransac import RansacResult, core_seed, ransac_relpose
 
 __all__ = ["keep_better", "local_optimization", "make_rng", "msac_chiral", "noise_threshold", "refine_ligt", "rival_support_ratio", "run_poseonly", "select_by_support"]
@@ -56,25 +52,10 @@ def keep_better(a, b, f1, f2, tau, tol=1.0):
 
 def select_by_support(R, t, f1, f2, tau):
     """Best of ``(R, t)`` (re-identified on its Sampson inliers), its homography twin and the LiRP
-    candidates of its consensus set, by cheirality-consistent support."""
-    sel = np.nonzero(v_sampson(R, t, f1, f2) < tau)[0]
-    if len(sel) < 6:
-        return R, t
-    Ri, ti, _, _ = identify_poses(essential_from_pose(R, t)[None], f1[sel], f2[sel])
-    R, t = Ri[0], ti[0]
-    inl = support(R[None], t[None], f1, f2, tau)[0]
-    o = lirp_batch(f1[sel][None], f2[sel][None])
-    cR = [R[None], o["cand_R"][0]]
-    ct = [t[None], o["cand_t"][0]]
-    tw = homography_twin(R, t, f1[sel], f2[sel])
-    if tw is not None and plausible_twin(R, t, tw, f1, f2, tau):
-        Rt, tt = polish(tw[0], tw[1], f1, f2, tau)
-        cR.append(Rt[None])
-        ct.append(tt[None])
-    cRa, cta = np.concatenate(cR), np.concatenate(ct)
-    sup = support(cRa, cta, f1, f2, tau).sum(axis=1)
-    k = int(np.argmax(sup))
-    return (cRa[k], cta[k]) if sup[k] > inl.sum() else (R, t)
+    candidates of its consensus set, by cheirality-consistent support (the core's
+    ``src/core/analysis.cpp``, GIL released; numpy reference: ``tests/reference/select.py``)."""
+    c = np.ascontiguousarray
+    return _core.select_by_support(c(R, dtype=float), c(t, dtype=float), c(f1, dtype=float), c(f2, dtype=float), float(tau))
 
 
 def refine_ligt(R, t, f1, f2, inl, tau, normalization="none"):
