@@ -176,12 +176,17 @@ class RotationEstimator {
  public:
   using Model = Mat3;
   using Terms = Mat3;
-  explicit RotationEstimator(const Points& P) : P_(P) {}
+  explicit RotationEstimator(const Points& P) : P_(P), soa_(P) {}
   int sample_size() const { return 2; }
   int num_data() const { return P_.n; }
   Terms terms(const Model& m) const { return m; }
   // squared chord |R a - b|^2 (no square root in the hot loop: callers threshold at chord^2)
-  double residual(const Terms& R, int i) const { return (R * P_.a(i) - P_.b(i)).squaredNorm(); }
+  double residual(const Terms& R, int i) const {
+    const double* a = P_.f1 + 3 * i;
+    const double* b = P_.f2 + 3 * i;
+    return chord2_terms(R, a[0], a[1], a[2], b[0], b[1], b[2]);
+  }
+  void residual_block(const Terms& R, int i0, int m, double* out) const { chord2_block(R, soa_, i0, m, out); }
   double success_probability(double r) const { return r * r; }
   double distance(const Model& a, const Model& b) const {
     return 57.29577951308232 * std::acos(std::clamp(0.5 * ((a.transpose() * b).trace() - 1.0), -1.0, 1.0));
@@ -207,6 +212,7 @@ class RotationEstimator {
   }
 
  private:
+  SoaPoints soa_;
   static bool frame(const Vec3& u, const Vec3& v, Mat3* F) {
     const Vec3 w = u.cross(v);
     const double nw = w.norm();

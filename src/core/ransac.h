@@ -131,9 +131,15 @@ struct CountScorer {
     const auto T = est.terms(m);
     double c = 0.0;
     const int n = est.num_data();
-    for (int i = 0; i < n; ++i) {
-      c += !(est.residual(T, i) < thr);
-      if (c > bail) return c;
+    double v[kScoreBlock];
+    for (int i0 = 0; i0 < n; i0 += kScoreBlock) {
+      const int b = std::min(kScoreBlock, n - i0);
+      residuals_of(est, T, i0, b, v);
+      for (int k = 0; k < b; ++k) v[k] = v[k] < thr ? 0.0 : 1.0;  // vectorised
+      for (int k = 0; k < b; ++k) {
+        c += v[k];
+        if (c > bail) return c;
+      }
     }
     return c;
   }

@@ -65,6 +65,16 @@ struct SoaPoints {
 // clone rounds as the scalar sampson() does)
 void sampson_block(const Mat3& E, const SoaPoints& S, int i0, int m, double* out);
 
+// Squared chord |R f1 - f2|^2 of the rotation-only model, in scalars (the block below rounds the same).
+inline double chord2_terms(const Mat3& R, double x1, double y1, double z1, double x2, double y2, double z2) {
+  const double d0 = R(0, 0) * x1 + R(0, 1) * y1 + R(0, 2) * z1 - x2;
+  const double d1 = R(1, 0) * x1 + R(1, 1) * y1 + R(1, 2) * z1 - y2;
+  const double d2 = R(2, 0) * x1 + R(2, 1) * y1 + R(2, 2) * z1 - z2;
+  return d0 * d0 + d1 * d1 + d2 * d2;
+}
+
+void chord2_block(const Mat3& R, const SoaPoints& S, int i0, int m, double* out);
+
 // Pose-only depth numerators h^T t = (R f1 x f2).(f2 x t) and h'^T t = (R f1 x f2).(R f1 x t)
 // (the equation after Eq. 7): both positive iff the point is in front of both cameras.
 inline void depth_numerators(const Mat3& R, const Vec3& t, const Vec3& f1, const Vec3& f2, double* h, double* hp) {
