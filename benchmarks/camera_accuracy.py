@@ -1,6 +1,6 @@
 """Pose accuracy through distorted cameras vs the undistorted camera on the same scenes.
 
-    POSEONLY_NUMBA=0 PYTHONPATH=src python benchmarks/camera_accuracy.py [--scenes 12] [--points 200]
+    python benchmarks/camera_accuracy.py [--scenes 12] [--points 200]
 
 Scenes: poseonly.sim pinhole scenes (640x480, f = 800), 20 % outliers, imaged by a PINHOLE camera and
 by distorted OPENCV / OPENCV_FISHEYE cameras with the same f and principal point. Two noise models:

@@ -2,7 +2,7 @@
 two-view verification by pycolmap or by ``poseonly colmap verify`` -> pycolmap's incremental and
 global (GLOMAP) mappers -> camera errors against the ground truth after a similarity alignment.
 
-    POSEONLY_NUMBA=0 PYTHONPATH=src python benchmarks/colmap_roundtrip.py [--data /work/shared/data/strecha]
+    python benchmarks/colmap_roundtrip.py [--data /work/shared/data/strecha]
         [--scenes Herz-Jesus-P8 ...] [--max-image-size 1600] [--out DIR]
 
 Cameras: one shared PINHOLE camera with the scene's K (the images are undistorted). Errors per

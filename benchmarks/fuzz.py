@@ -8,7 +8,7 @@ run in-process under a per-case alarm (``--timeout`` s = a hang). A case ends as
 * ``invalid`` -- a result breaking an invariant, or a RuntimeWarning reaching the caller,
 * ``crash``   -- any other exception, ``hang`` -- the alarm fired.
 
-    POSEONLY_NUMBA=0 PYTHONPATH=src python benchmarks/fuzz.py --cases 10000 --out docs/results/fuzz.md
+    python benchmarks/fuzz.py --cases 10000 --out docs/results/fuzz.md
 
 Families: adversarial arrays (shapes, dtypes incl. complex/int/float32/lists, NaN/inf, 1e-320 ..
 1.7e308 magnitudes) with adversarial ``K`` (negative, mixed-sign, tiny, huge, NaN, non-triangular);
@@ -374,7 +374,7 @@ def main(argv: list[str] | None = None) -> int:
         total.update(c)
     rows = [f"| {fam} | {sum(c.values())} | {c['result']} | {c['error']} | {c['invalid']} | {c['crash']} | {c['hang']} |" for fam, c in sorted(counts.items())]
     rows.append(f"| **all** | {sum(total.values())} | {total['result']} | {total['error']} | {total['invalid']} | {total['crash']} | {total['hang']} |")
-    cmd = "POSEONLY_NUMBA=0 PYTHONPATH=src python benchmarks/fuzz.py " + " ".join(argv if argv is not None else sys.argv[1:])
+    cmd = "python benchmarks/fuzz.py " + " ".join(argv if argv is not None else sys.argv[1:])
     md = "\n".join(
         [
             "## Fuzzing the public API and the CLI (benchmarks/fuzz.py)",

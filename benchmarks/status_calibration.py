@@ -17,7 +17,7 @@ Every draw has its own seed (``SEED_BASE + draw``); the estimator runs with its 
 except ``max_iterations`` (``--max-iterations``; default the library's own 100000). The a-contrario
 test counts the hypotheses actually tried, so a lower cap changes the bound, not its validity.
 
-    POSEONLY_NUMBA=0 PYTHONPATH=src python benchmarks/status_calibration.py --out docs/results/status_calibration.md
+    python benchmarks/status_calibration.py --out docs/results/status_calibration.md
 
 Writes a markdown table (atomically) and prints it. Slow at the default cap (tens of seconds per
 random-match draw at n >= 200 on a loaded 2-core machine); ``--draws``/``--rotation-draws`` reduce it.
@@ -134,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         print(gen_rows[-1], flush=True)
     cap = "the library default (100000)" if a.max_iterations is None else str(a.max_iterations)
-    cmd = "POSEONLY_NUMBA=0 PYTHONPATH=src python benchmarks/status_calibration.py " + " ".join(argv or sys.argv[1:])
+    cmd = "python benchmarks/status_calibration.py " + " ".join(argv or sys.argv[1:])
     md = "\n".join(
         [
             "## Status calibration (benchmarks/status_calibration.py)",
