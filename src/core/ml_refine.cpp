@@ -2,6 +2,7 @@
 #include "ml_refine.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "refine.h"
 #include "residuals.h"
@@ -13,6 +14,13 @@ constexpr double kSqrt2OverPi = 0.7978845608028654;
 constexpr int kMinInliers = 6;
 constexpr int kEmSteps = 50;     // EM steps on fixed residuals per round
 constexpr double kEmTol = 1e-6;  // relative change of sigma (absolute of g) that ends them
+
+// rotation angle of R1 R0^T (radians), stable for small angles
+double rotation_angle(const Mat3& R1, const Mat3& R0) {
+  const Mat3 D = R1 * R0.transpose();
+  const Vec3 w(D(2, 1) - D(1, 2), D(0, 2) - D(2, 0), D(1, 0) - D(0, 1));
+  return std::atan2(0.5 * w.norm(), 0.5 * (D.trace() - 1.0));
+}
 
 void sampson_all(const Points& P, const Pose& pose, std::vector<double>* r) {
   const PoseTerms T(pose);
@@ -39,6 +47,7 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
   }
   std::nth_element(in.begin(), in.begin() + in.size() / 2, in.end());
   double sigma = std::max(1.4826 * in[in.size() / 2], opt.sigma_floor);
+  out->sigma_start = sigma;
   double g = std::min(static_cast<double>(in.size()) / P.n, 0.99);
   RefineOptions ro;
   ro.loss = RefineLoss::Linear;
@@ -79,20 +88,22 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
     Pose next = out->pose;
     refine_sampson(P, p.data(), ro, &next);
     if (!(next.R.allFinite() && next.t.allFinite())) break;
+    const double moved = std::max(rotation_angle(next.R, out->pose.R), (next.t - out->pose.t).norm());
     out->pose = next;
     out->rounds = k + 1;
     sampson_all(P, out->pose, &r);
+    if (moved <= opt.pose_tol) break;  // a fixed point of the EM: the next round would repeat this one
   }
-  // final posteriors at the returned pose
+  // final posteriors at the returned pose; the log-likelihood counts a match at or beyond T as an
+  // outlier at T's density (so poses that push matches out of range gain nothing)
+  double loglik = 0.0;
   for (int i = 0; i < P.n; ++i) {
-    if (!(r[i] < Tr)) {
-      p[i] = 0.0;
-      continue;
-    }
-    const double z = r[i] / sigma;
+    const double z = std::min(r[i], Tr) / sigma;
     const double lin = g * kSqrt2OverPi / sigma * std::exp(-0.5 * z * z);
-    p[i] = lin / (lin + (1.0 - g) / Tr);
+    loglik += std::log(lin + (1.0 - g) / Tr);
+    p[i] = r[i] < Tr ? lin / (lin + (1.0 - g) / Tr) : 0.0;
   }
+  out->log_likelihood = loglik;
   out->sigma = sigma;
   out->inlier_fraction = g;
   // p = 1/2 where g N+(r) = (1 - g) / T: r = sigma sqrt(2 ln(g T sqrt(2/pi) / ((1 - g) sigma)))

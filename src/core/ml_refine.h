@@ -14,16 +14,19 @@ namespace poseonly {
 
 struct MlOptions {
   double range = 3e-3;       // T (radians): the outlier range; the caller's maximal threshold
-  int rounds = 6;            // EM rounds
+  int rounds = 6;            // EM rounds at most
   int lm_iterations = 10;    // LM cost evaluations per round
+  double pose_tol = 0.0;     // stop when a round moves R (angle) and t by at most this (0: all rounds)
   double sigma_floor = 1e-7; // radians (~1e-4 px at f = 1000)
 };
 
 struct MlResult {
   Pose pose;
   double sigma = 0.0;           // inlier noise scale (radians)
+  double sigma_start = 0.0;     // EM's start: 1.4826 median of the errors below T / 2 at the start pose
   double inlier_fraction = 0.0; // g
   double decision = 0.0;        // residual where p = 1/2 (radians)
+  double log_likelihood = 0.0;  // of all matches under the fitted mixture (errors clamped at T)
   std::vector<double> posterior;
   int rounds = 0;
 };

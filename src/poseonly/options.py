@@ -203,6 +203,9 @@ class PoseonlyOptions(CommonOptions):
     lo: str = _opt("sampson", "str", choices=("lirp", "sampson"))
     final: str = _opt("ml", "str", choices=("ml", "ligt"))
     ml_range: float = _opt(3.0, "real", lo=1.0, hi=100.0, lo_open=True)
+    research_noise: float = _opt(
+        0.5, "real", "repeat the search at 3 sigma when the ML noise scale sigma exceeds this fraction of the threshold (0: never)", lo=0.0
+    )
     rival_distance: float = _opt(0.0, "real", lo=0.0, hi=180.0)
 
 
