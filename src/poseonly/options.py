@@ -204,7 +204,10 @@ class PoseonlyOptions(CommonOptions):
     final: str = _opt("ml", "str", choices=("ml", "ligt"))
     ml_range: float = _opt(3.0, "real", lo=1.0, hi=100.0, lo_open=True)
     research_noise: float = _opt(
-        0.5, "real", "repeat the search at 3 sigma when the ML noise scale sigma exceeds this fraction of the threshold (0: never)", lo=0.0
+        0.0,
+        "real",
+        "repeat the search at 3 sigma when the ML noise scale sigma exceeds this fraction of the threshold (0: never; 0.5 is the studied value)",
+        lo=0.0,
     )
     rival_distance: float = _opt(0.0, "real", lo=0.0, hi=180.0)
 

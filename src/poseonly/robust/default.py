@@ -179,12 +179,13 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
        mixture's decision threshold does not drop by more than 2 %; EM runs to its fixed point (at
        most ``ML_ROUNDS`` rounds); the returned inliers are those more likely inliers than not.
        ``final="ligt"`` (the earlier default): LO at a noise-matched threshold, then angular LiGTopt;
-    4. (``final="ml"``) when the noise scale (EM's sigma, or its start where EM shrank onto a few
-       matches) exceeds ``research_noise * tau`` (the matches are noisier than the threshold
-       assumes: at 1 px on 1 px noise the search scores a third of the inliers out and its pose sits
-       in the basin of the rest), steps 1-3 again at ``3 sigma`` (at most the mixture's range), whose
-       result is returned. Real SIFT matches (sigma ~0.15-0.35 px at 1 px) trigger it on 6 of 424
-       benchmark pairs.
+    4. (``final="ml"``, opt-in: ``research_noise > 0``) when the noise scale (EM's sigma, or its
+       start where EM shrank onto a few matches) exceeds ``research_noise * tau`` (the matches are
+       noisier than the threshold assumes: at 1 px on 1 px noise the search scores a third of the
+       inliers out and its pose sits in the basin of the rest), steps 1-3 again at ``3 sigma`` (at
+       most the mixture's range), whose result is returned. Measured (docs/RESULTS.md section 2,
+       ``benchmarks/research_study.py``): better at 80 % outliers, worse at 0-50 %, neutral on real
+       pairs (sigma ~0.15-0.35 px at 1 px triggers it on 6 of 424), hence off by default.
     """
     r = _search(f1, f2, tau, o, scores)
     num_hyp = r.num_iterations * MAX_ROOTS_PER_SAMPLE + r.num_lo + FINAL_CANDIDATES
