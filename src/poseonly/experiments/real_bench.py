@@ -223,6 +223,8 @@ METHODS: dict[str, MethodFn] = {
     "v-ml-1px-1000-slo": ours(final="ml", lo="sampson", threshold_px=1.0, min_iterations=1000, confidence=0.9999),
     "v-ml-1.5px-1000": ours(final="ml", threshold_px=1.5, min_iterations=1000, confidence=0.9999),
     "v-ligt-1px-1000": ours(final="ligt", threshold_px=1.0, min_iterations=1000, confidence=0.9999),
+    # the opt-in second search at 3 sigma (docs/RESULTS.md section 2)
+    "poseonly-research": ours(use_scores=True, research_noise=0.5),
 }
 DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")
 # the library each method needs (a missing one skips the method with a note)
