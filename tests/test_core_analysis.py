@@ -81,3 +81,37 @@ def test_decompose_homography_matches_the_reference_and_rejects_bad_input():
         decompose_homography(np.full((3, 3), np.nan))
     with pytest.raises(ValueError, match="shape"):
         decompose_homography(np.eye(2))
+
+
+def test_sign_test_is_the_exact_binomial_tail():
+    from math import comb, log10
+
+    from poseonly.analysis import sign_test
+
+    for a, b in [(5, 2), (29, 10), (33, 6), (4, 0), (0, 7), (841, 23)]:
+        m = a + b
+        tail = sum(comb(m, j) for j in range(a, m + 1)) / 2**m
+        assert sign_test(a, b) == pytest.approx(log10(tail), abs=1e-9)
+    assert sign_test(0, 0) == 0.0
+
+
+def test_planar_twin_flags_only_an_indistinguishable_distant_twin():
+    from poseonly.analysis import AMBIGUITY_LEVEL, TWIN_MIN_SEPARATION_DEG, TWIN_SUPPORT_RATIO, planar_twin
+
+    flagged = 0
+    for s in range(12):
+        sc = make_scene(200, "planar", camera="pinhole", noise_px=0.2, seed=s)
+        tau = 1.0 / 800.0
+        inl = v_sampson(sc.R, sc.t, sc.f1, sc.f2) < tau
+        twin, info = planar_twin(sc.R, sc.t, sc.f1, sc.f2, tau, inl)
+        if "twin_support" not in info:
+            assert twin is None
+            continue
+        rule = (
+            info["twin_support"] >= TWIN_SUPPORT_RATIO * info["support"]
+            and info["twin_log10_p"] >= np.log10(AMBIGUITY_LEVEL)
+            and info["twin_separation_deg"] > TWIN_MIN_SEPARATION_DEG
+        )
+        assert (twin is not None) == rule
+        flagged += twin is not None
+    assert flagged > 0  # exact planes: the twin explains every point as well as the truth

@@ -35,6 +35,9 @@ struct RansacOptions {
   double rival_distance = 0.0;
 };
 
+// rivals costing more than this times the best model's are not tracked (RansacOptions::rival_distance)
+constexpr double kRivalCostFactor = 1.5;
+
 struct RansacStats {
   int iterations = 0;
   int num_models = 0;
@@ -181,9 +184,12 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
     est.generate(sample, &models);
     for (const Model& m : models) {
       ++st.num_models;
-      const double c = scorer.cost(est, m, track ? st.rival_cost : st.cost);
+      // a rival is scored up to kRivalCostFactor times the best cost at most (a model that far behind
+      // cannot rival the result; without the cap every model is scored in full until a rival exists)
+      const double bound = track ? std::min(st.rival_cost, kRivalCostFactor * st.cost) : st.cost;
+      const double c = scorer.cost(est, m, std::max(bound, st.cost));
       if (!(c < st.cost)) {
-        if (track && c < st.rival_cost && est.distance(*best, m) > opt.rival_distance) {
+        if (track && c <= bound && c < st.rival_cost && est.distance(*best, m) > opt.rival_distance) {
           *rival = m;
           st.rival_cost = c;
         }

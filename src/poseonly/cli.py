@@ -190,7 +190,7 @@ def cmd_relpose(args) -> int:
 
 
 # exit codes of `poseonly relpose` (documented in the README): a pose to trust, a result whose status
-# says it is not one (planar_ambiguous, pure_rotation, too_few_inliers), no pose (degenerate) or an error
+# says it is not one (planar_ambiguous, ambiguous, pure_rotation, too_few_inliers), no pose (degenerate) or an error
 EXIT_OK, EXIT_NOT_OK, EXIT_ERROR = 0, 1, 2
 
 

@@ -11,6 +11,8 @@ our status             COLMAP configuration    row content
 ``ok``                 ``CALIBRATED``          inliers, E, F (pinhole cameras only), cam2_from_cam1
 ``planar_ambiguous``   ``PLANAR_OR_PANORAMIC`` same + H (DLT on the inlier keypoints)
 ``pure_rotation``      ``PANORAMIC``           inliers, H, cam2_from_cam1 with ``t = 0``
+``ambiguous``          ``MULTIPLE``            no inliers (two poses explain the matches: which
+                                               matches are right is not known)
 ``too_few_inliers``,   ``DEGENERATE``          no inliers (also: fewer than :data:`MIN_MATCHES`
 ``degenerate``                                 matches with valid keypoints)
 invalid input          ``UNDEFINED``           no inliers
@@ -43,6 +45,7 @@ __all__ = ["MIN_MATCHES", "STATUS_CONFIG", "VerifySummary", "add_arguments", "ru
 STATUS_CONFIG = {
     "ok": "CALIBRATED",
     "planar_ambiguous": "PLANAR_OR_PANORAMIC",
+    "ambiguous": "MULTIPLE",
     "pure_rotation": "PANORAMIC",
     "too_few_inliers": "DEGENERATE",
     "degenerate": "DEGENERATE",

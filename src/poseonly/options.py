@@ -209,7 +209,14 @@ class PoseonlyOptions(CommonOptions):
         "repeat the search at 3 sigma when the ML noise scale sigma exceeds this fraction of the threshold (0: never; 0.5 is the studied value)",
         lo=0.0,
     )
-    rival_distance: float = _opt(0.0, "real", lo=0.0, hi=180.0)
+    rival_distance: float = _opt(
+        5.0,
+        "real",
+        "uniqueness test: the search keeps its best model this many degrees from the result, refines it, and the status is"
+        " 'ambiguous' when it explains as many matches of its own as the result (0: no test)",
+        lo=0.0,
+        hi=180.0,
+    )
 
 
 @dataclass(frozen=True)

@@ -21,13 +21,14 @@ from .analysis import (
     parallax_deg,
     planar_twin,
     pure_rotation_test,
+    rival_test,
 )
 from .geometry import essential_from_pose, rotation_error_deg
 from .residuals import v_sampson
 
 __all__ = ["STATUSES", "RelativePoseResult", "degenerate_result", "finish", "valid_pose"]
 
-STATUSES = ("ok", "planar_ambiguous", "pure_rotation", "too_few_inliers", "degenerate")
+STATUSES = ("ok", "planar_ambiguous", "ambiguous", "pure_rotation", "too_few_inliers", "degenerate")
 
 
 # a returned R must satisfy |R^T R - I|_max < ORTHO_TOL and det R > 0 (else no valid pose was found)
@@ -78,6 +79,9 @@ class RelativePoseResult:
       planar twin;
     * ``"planar_ambiguous"`` -- the inliers are (near) planar and the homography twin (``R_twin``,
       ``t_twin``) explains them about as well; the caller must decide (e.g. with a third view);
+    * ``"ambiguous"`` -- a second pose far from this one (``diagnostics["rival_R"]``,
+      ``["rival_t"]``, at least ``rival_distance`` degrees of rotation away) explains at least as
+      many matches of its own: the two views do not single out the pose;
     * ``"pure_rotation"`` -- a rotation without translation explains the matches and the pose's
       extra inliers are no more than chance: ``R`` is the robust rotation-only fit and reliable,
       ``t`` (a unit vector, the epipolar fit's) is not; ``inliers`` are the rotation's;
@@ -175,7 +179,8 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     Order of the decision: no valid model -> ``degenerate``; a significant rotation-only model
     and no significant translation -> ``pure_rotation``; too few inliers or an NFA above
     :data:`poseonly.analysis.NFA_MAX` -> ``too_few_inliers``; a planar twin -> ``planar_ambiguous``;
-    else ``ok``.
+    a rival pose (``diag["rival_R"]``, the default method's uniqueness test) that explains as many
+    matches of its own -> ``ambiguous``; else ``ok``.
     """
     tau_search = tau
     if "tau_effective" in diag:  # the default method's noise-matched threshold (<= the user's)
@@ -236,7 +241,20 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
                 f"(planar scene: the homography twin keeps {twin_n} inliers in front of both cameras); see R_twin, t_twin"
             )
         else:
-            status, msg = "ok", f"{n_in} inliers within {thr_px:g} px (expected false alarms 10^{lnfa:.0f})"
+            amb = None
+            if diag.get("rival_R") is not None:
+                # compared at the search threshold, as the search scored both
+                amb = rival_test(R, t, diag["rival_R"], _unit(diag["rival_t"]), f1, f2, tau_search, diag["rival_distance"])
+                diag.update(amb)
+            if amb is not None and amb["ambiguous"]:
+                status = "ambiguous"
+                msg = (
+                    f"a second pose {amb['rival_separation_deg']:.1f} deg away (diagnostics rival_R, rival_t) explains "
+                    f"{amb['rival_only']} matches the pose does not, against the pose's {amb['pose_only']} it does not: "
+                    "the matches do not single out the pose"
+                )
+            else:
+                status, msg = "ok", f"{n_in} inliers within {thr_px:g} px (expected false alarms 10^{lnfa:.0f})"
     return RelativePoseResult(
         R=R,
         t=t,

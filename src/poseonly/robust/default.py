@@ -191,8 +191,12 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
     r = _search(f1, f2, tau, o, scores)
     num_hyp = r.num_iterations * MAX_ROOTS_PER_SAMPLE + r.num_lo + FINAL_CANDIDATES
     diag: dict[str, Any] = {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored, "num_hypotheses": num_hyp}
-    if o.rival_distance > 0:
+    if o.rival_distance > 0 and np.isfinite(float(r.stats.get("rival_cost", np.inf))):
+        # the uniqueness test's rival (decided in poseonly.result.finish): the best model the search
+        # scored rival_distance or more from its result, refined as the result was
         diag["rival_support_ratio"] = rival_support_ratio(r, len(f1), tau, o.scoring)
+        Rv, tv = local_optimization(np.asarray(r.stats["rival_R"]), np.asarray(r.stats["rival_t"]), f1, f2, tau, o)
+        diag.update(rival_R=Rv, rival_t=tv, rival_distance=float(o.rival_distance))
     R, t = select_by_support(r.R, r.t, f1, f2, tau)
     if o.final == "ml":
         diag["tau_effective"] = tau

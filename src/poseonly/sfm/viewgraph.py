@@ -9,7 +9,7 @@ Edge use by status (the two-view API's meaning of each status):
 * ``"ok"`` -- rotation and translation trusted;
 * ``"pure_rotation"`` -- rotation trusted, translation direction not (``use_translation`` False);
   its inlier matches still join tracks (LiGT drops low-parallax tracks itself);
-* anything else (``planar_ambiguous``, ``too_few_inliers``, ``degenerate``) -- not added; the caller
+* anything else (``planar_ambiguous``, ``ambiguous``, ``too_few_inliers``, ``degenerate``) -- not added; the caller
   gets the reason from :meth:`ViewGraph.add_result`.
 """
 
