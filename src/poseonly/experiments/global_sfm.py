@@ -49,7 +49,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scenes", nargs="+", help="only these scene names")
     p.add_argument("--cache", default=DEFAULT_CACHE, help=f"feature / match / two-view cache (default {DEFAULT_CACHE})")
     p.add_argument("--max-features", type=int, default=8000, help="strongest SIFT features per image (default 8000)")
-    p.add_argument("--threshold-px", type=float, default=2.0, help="two-view RANSAC threshold in pixels")
+    p.add_argument("--threshold-px", type=float, default=None, help="two-view RANSAC threshold in pixels (default: the method's, 1 px)")
     p.add_argument("--reweight", type=int, default=0, help="LiGT reweighting iterations (default 0 = openMVG's LiGT)")
     p.add_argument("--no-anchor", action="store_true", help="skip pycolmap's rotation averaging / global positioning")
     p.add_argument("--ba", action="store_true", help="also report our result after an optional pycolmap bundle adjustment")

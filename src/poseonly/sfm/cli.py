@@ -150,7 +150,7 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--out", required=True, help="output folder")
     s.add_argument("--max-features", type=int, default=8000, help="strongest SIFT features per image (default 8000)")
     s.add_argument("--max-images", type=int, help="use only the first N images (sorted by name)")
-    s.add_argument("--threshold-px", type=float, default=2.0, help="two-view inlier threshold (px)")
+    s.add_argument("--threshold-px", type=float, default=None, help="two-view inlier threshold (px; default: the method's, 1 px)")
     s.add_argument("--cache", help="feature / match cache (default OUT/cache)")
     s.add_argument("--text", action="store_true", help="write the COLMAP model as text")
     s.add_argument("--no-progress", action="store_true", help="no progress bars")

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import __version__
 from .._fileutil import publish
 from ..api import estimate_relative_pose
 from ..features import Features, extract_features, match_features
@@ -30,21 +31,27 @@ from .viewgraph import ViewGraph
 __all__ = ["ImageGraph", "PairwiseOptions", "TwoView", "image_view_graph", "observation_bearings", "two_view"]
 
 MIN_PUTATIVE = 30
+# part of the two-view cache key with the package version: bump when the default estimator's results
+# change between versions (2: the core-era default at its own threshold, with match scores)
+TWO_VIEW_CACHE_TAG = 2
 
 
 @dataclass(frozen=True)
 class PairwiseOptions:
     """Feature, matching and two-view options: ``max_features`` per image, Lowe ``ratio``,
-    ``mutual`` nearest neighbours, minimum putative matches per pair, ``threshold_px`` and ``method``
-    of :func:`poseonly.estimate_relative_pose`, base ``seed``."""
+    ``mutual`` nearest neighbours, minimum putative matches per pair, ``threshold_px`` (``None``: the
+    method's default, 1 px for the default method) and ``method`` of
+    :func:`poseonly.estimate_relative_pose`, base ``seed``; ``use_scores`` passes each match's
+    ratio-test quality ``1 - d1 / d2`` as ``scores`` (PROSAC order, as the two-view benchmark does)."""
 
     max_features: int | None = 8000
     ratio: float = 0.8
     mutual: bool = True
     min_matches: int = MIN_PUTATIVE
-    threshold_px: float = 2.0
+    threshold_px: float | None = None
     method: str = "poseonly"
     seed: int = 0
+    use_scores: bool = True
 
 
 @dataclass
@@ -88,7 +95,23 @@ def _digest(f: Features) -> str:
     return h.hexdigest()
 
 
-def _matches(fa: Features, fb: Features, da: str, db: str, opt: PairwiseOptions, cache: Path | None) -> np.ndarray:
+def _ratio_scores(fa: Features, fb: Features, idx: np.ndarray) -> np.ndarray:
+    """The ratio-test quality ``1 - d1 / d2`` of the matches ``idx (k, 2)`` (their nearest and
+    second-nearest descriptor distances; what :func:`match_features` returns with ``return_scores``)."""
+    if len(idx) == 0 or len(fb.descriptors) < 2:
+        return np.zeros(len(idx))
+    import cv2
+
+    dist, _ = cv2.batchDistance(
+        np.ascontiguousarray(fa.descriptors[idx[:, 0]], dtype=np.float32), np.ascontiguousarray(fb.descriptors, dtype=np.float32), cv2.CV_32F, normType=cv2.NORM_L2, K=2
+    )
+    d = dist.astype(float)
+    return 1.0 - d[:, 0] / np.maximum(d[:, 1], 1e-300)
+
+
+def _matches(fa: Features, fb: Features, da: str, db: str, opt: PairwiseOptions, cache: Path | None) -> tuple[np.ndarray, np.ndarray]:
+    """Putative matches ``(k, 2)`` and their ratio-test scores ``(k,)`` (cached; entries written
+    before the scores were stored get them from the descriptors)."""
     f = None
     if cache is not None:
         key = f"{da}-{db}-{opt.ratio}-{int(opt.mutual)}".encode()
@@ -96,13 +119,18 @@ def _matches(fa: Features, fb: Features, da: str, db: str, opt: PairwiseOptions,
         if f.is_file():
             try:
                 with np.load(f) as z:
-                    return z["idx"]
+                    idx = z["idx"]
+                    scores = z["scores"] if "scores" in z.files else None
+                if scores is None:
+                    scores = _ratio_scores(fa, fb, idx)
+                    _atomic_save(f, idx=idx, scores=scores)
+                return idx, scores
             except Exception:  # noqa: BLE001, S110 - unreadable cache entry: recompute
                 pass
-    idx = match_features(fa.descriptors, fb.descriptors, ratio=opt.ratio, mutual=opt.mutual)
+    idx, scores = match_features(fa.descriptors, fb.descriptors, ratio=opt.ratio, mutual=opt.mutual, return_scores=True)
     if f is not None:
-        _atomic_save(f, idx=idx)
-    return idx
+        _atomic_save(f, idx=idx, scores=scores)
+    return idx, scores
 
 
 @dataclass(frozen=True)
@@ -118,17 +146,27 @@ class TwoView:
 
 
 def two_view(
-    u1: np.ndarray, u2: np.ndarray, K1: np.ndarray | None, K2: np.ndarray | None, opt: PairwiseOptions, seed: int, cache: Path | None, focal_px: float | None = None
+    u1: np.ndarray,
+    u2: np.ndarray,
+    K1: np.ndarray | None,
+    K2: np.ndarray | None,
+    opt: PairwiseOptions,
+    seed: int,
+    cache: Path | None,
+    focal_px: float | None = None,
+    scores: np.ndarray | None = None,
 ) -> TwoView:
     """:func:`poseonly.estimate_relative_pose` of one pair (pixels ``(n, 2)`` with ``K1, K2``, or
-    normalized coordinates with ``K = None`` and ``focal_px``), cached by the inputs and options."""
+    normalized coordinates with ``K = None`` and ``focal_px``; match ``scores (n,)`` used when
+    ``opt.use_scores``), cached by the inputs, the options and the package version."""
+    scores = scores if opt.use_scores else None
     f = None
     if cache is not None:
         h = hashlib.sha1()
-        for a in (u1, u2, K1, K2):
+        for a in (u1, u2, K1, K2, scores):
             if a is not None:
                 h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
-        h.update(f"{opt.method}-{opt.threshold_px}-{seed}-{focal_px}".encode())
+        h.update(f"{__version__}-{TWO_VIEW_CACHE_TAG}-{opt.method}-{opt.threshold_px}-{seed}-{focal_px}-{scores is not None}".encode())
         f = cache / "twoview" / f"r_{h.hexdigest()[:24]}.npz"
         if f.is_file():
             try:
@@ -137,7 +175,9 @@ def two_view(
             except Exception:  # noqa: BLE001, S110 - unreadable cache entry: recompute
                 pass
     extra: dict[str, Any] = {} if focal_px is None else {"focal_px": float(focal_px)}
-    r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, threshold_px=opt.threshold_px, seed=seed, **extra)
+    if opt.threshold_px is not None:
+        extra["threshold_px"] = float(opt.threshold_px)
+    r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, seed=seed, scores=scores, **extra)
     out = TwoView(np.asarray(r.R), np.asarray(r.t), np.asarray(r.inliers, dtype=bool), int(r.num_inliers), str(r.status))
     if f is not None:
         _atomic_save(f, R=out.R, t=out.t, inliers=out.inliers, num_inliers=np.array(out.num_inliers), status=np.array(out.status))
@@ -178,7 +218,7 @@ def image_view_graph(
     tm = te = 0.0
     for k, (i, j) in enumerate(wrap(plist, desc="pairs", total=len(plist))):
         t1 = time.perf_counter()
-        idx = _matches(feats[i], feats[j], digests[i], digests[j], opt, cache)
+        idx, scores = _matches(feats[i], feats[j], digests[i], digests[j], opt, cache)
         tm += time.perf_counter() - t1
         putative[(i, j)] = idx
         if len(idx) < opt.min_matches:
@@ -186,7 +226,7 @@ def image_view_graph(
             stats.append((i, j, len(idx), 0, "few_matches"))
             continue
         t1 = time.perf_counter()
-        r = two_view(feats[i].keypoints[idx[:, 0]], feats[j].keypoints[idx[:, 1]], Ks[i], Ks[j], opt, opt.seed + k, cache)
+        r = two_view(feats[i].keypoints[idx[:, 0]], feats[j].keypoints[idx[:, 1]], Ks[i], Ks[j], opt, opt.seed + k, cache, scores=scores)
         te += time.perf_counter() - t1
         graph.add_result(i, j, r, idx)
         stats.append((i, j, len(idx), int(r.num_inliers), r.status))
