@@ -19,9 +19,19 @@ GncOptions gnc_options_from(const nb::dict& o);  // bind_lirp.cpp
 namespace {
 
 enum class Scoring : int { Msac = 0, MultiMsac = 1, Count = 2 };
+static_assert(HasPlainCost<ChiralScorer<MultiMsacScorer>>::value && !HasPlainCost<MultiMsacScorer>::value,
+              "ransac() tracks rivals by ChiralScorer's plain cost");
 
 template <class Est, class Sampler, class Model>
-RansacStats run_scored(Est& est, Scoring scoring, double thr, Sampler& sampler, const RansacOptions& ro, Model* best, Model* rival) {
+RansacStats run_scored(Est& est, Scoring scoring, double thr, Sampler& sampler, const RansacOptions& ro, Model* best, Model* rival,
+                       bool chiral = false) {
+  if (chiral) {
+    switch (scoring) {
+      case Scoring::Msac: return ransac(est, ChiralScorer<MsacScorer>{{thr}}, sampler, ro, best, rival);
+      case Scoring::MultiMsac: return ransac(est, ChiralScorer<MultiMsacScorer>{{thr}}, sampler, ro, best, rival);
+      case Scoring::Count: return ransac(est, ChiralScorer<CountScorer>{{thr}}, sampler, ro, best, rival);
+    }
+  }
   switch (scoring) {
     case Scoring::Msac: return ransac(est, MsacScorer{thr}, sampler, ro, best, rival);
     case Scoring::MultiMsac: return ransac(est, MultiMsacScorer{thr}, sampler, ro, best, rival);
@@ -33,13 +43,13 @@ RansacStats run_scored(Est& est, Scoring scoring, double thr, Sampler& sampler, 
 // Uniform sampling, or PROSAC when an order (best first) is given.
 template <class Est, class Model>
 RansacStats run_sampled(Est& est, Scoring scoring, double thr, const std::vector<int>& order, uint64_t seed,
-                        const RansacOptions& ro, Model* best, Model* rival = nullptr) {
+                        const RansacOptions& ro, Model* best, Model* rival = nullptr, bool chiral = false) {
   if (order.empty()) {
     UniformSampler s(est.num_data(), est.sample_size(), seed);
-    return run_scored(est, scoring, thr, s, ro, best, rival);
+    return run_scored(est, scoring, thr, s, ro, best, rival, chiral);
   }
   ProsacSampler s(order, est.sample_size(), ro.max_iterations, seed);
-  return run_scored(est, scoring, thr, s, ro, best, rival);
+  return run_scored(est, scoring, thr, s, ro, best, rival, chiral);
 }
 
 std::vector<int> order_of(const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order, int n) {
@@ -82,7 +92,7 @@ nb::dict stats_dict(const RansacStats& st) {
 nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double threshold, uint64_t seed, int solver, int scoring,
                          int max_iterations, int min_iterations, double confidence, int max_lo, double lo_mu0, int lo_iterations,
                          int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order,
-                         int lo, double rival_distance) {
+                         int lo, double rival_distance, bool chiral) {
   const Points P = points_of(f1, f2);
   if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
   RansacOptions ro = ransac_options(max_iterations, min_iterations, confidence, true, max_lo);
@@ -100,7 +110,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   {
     nb::gil_scoped_release release;
     RelativePoseEstimator est(P, eo);
-    st = run_sampled(est, static_cast<Scoring>(scoring), threshold, ord, seed, ro, &best, &rival);
+    st = run_sampled(est, static_cast<Scoring>(scoring), threshold, ord, seed, ro, &best, &rival, chiral);
   }
   std::vector<double> R(9), t(3), Rr(9), tr(3);
   put_pose(best, R.data(), t.data());
@@ -272,10 +282,11 @@ POSEONLY_BIND(robust) {
   m.def("ransac_relpose", &ransac_relpose, nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"), nb::arg("seed"), nb::arg("solver") = 0,
         nb::arg("scoring") = 1, nb::arg("max_iterations") = 100000, nb::arg("min_iterations") = 50, nb::arg("confidence") = 0.999,
         nb::arg("max_lo") = 8, nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1,
-        nb::arg("order") = Order(), nb::arg("lo") = 0, nb::arg("rival_distance") = 0.0,
+        nb::arg("order") = Order(), nb::arg("lo") = 0, nb::arg("rival_distance") = 0.0, nb::arg("chiral") = false,
         "LO-RANSAC of minimal hypotheses (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
         "Sampson error against `threshold` (radians); scoring 0 msac, 1 multi-scale msac, 2 count; `order` "
-        "(a permutation, best match first) switches to PROSAC; lo 0: LiRP GNC-IRLS, 1: Sampson LM; rival_distance > 0 (degrees) also returns the best model that far "
+        "(a permutation, best match first) switches to PROSAC; lo 0: LiRP GNC-IRLS, 1: Sampson LM; chiral: a match "
+        "whose point is behind either camera scores as an outlier; rival_distance > 0 (degrees) also returns the best model that far "
         "from the result (rival_R, rival_t, rival_cost in stats). Returns (R, t, stats).");
   m.def("relpose_lo", &relpose_lo, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"),
         nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1, nb::arg("lo") = 0,

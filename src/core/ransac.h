@@ -73,12 +73,33 @@ inline void residuals_of(const Est& est, const typename Est::Terms& T, int i0, i
   }
 }
 
+// The cheirality-aware residuals of [i0, i0 + m) (a point behind either camera scores the largest
+// term) when Chiral and the estimator has residual_block_chiral, else residuals_of.
+template <class Est, class = void>
+struct HasChiralBlock : std::false_type {};
+template <class Est>
+struct HasChiralBlock<Est, std::void_t<decltype(std::declval<const Est&>().residual_block_chiral(
+                               std::declval<const typename Est::Terms&>(), 0, 0, static_cast<double*>(nullptr)))>> : std::true_type {};
+
+template <bool Chiral, class Est>
+inline void scored_residuals(const Est& est, const typename Est::Terms& T, int i0, int m, double* out) {
+  if constexpr (Chiral && HasChiralBlock<Est>::value) {
+    est.residual_block_chiral(T, i0, m, out);
+  } else {
+    residuals_of(est, T, i0, m, out);
+  }
+}
+
 // Squared-error truncated at thr (MSAC, Torr and Zisserman 2000).
 struct MsacScorer {
   double thr;
   bool inlier(double v) const { return v < thr; }
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
+    return pass<false>(est, m, bail);
+  }
+  template <bool Chiral, class Est, class Model>
+  double pass(const Est& est, const Model& m, double bail) const {
     const auto T = est.terms(m);
     const double t2 = thr * thr;
     double c = 0.0;
@@ -86,7 +107,7 @@ struct MsacScorer {
     double v[kScoreBlock];
     for (int i0 = 0; i0 < n; i0 += kScoreBlock) {
       const int b = std::min(kScoreBlock, n - i0);
-      residuals_of(est, T, i0, b, v);
+      scored_residuals<Chiral>(est, T, i0, b, v);
       for (int k = 0; k < b; ++k) v[k] = std::isfinite(v[k]) ? std::min(v[k] * v[k], t2) : t2;  // vectorised
       for (int k = 0; k < b; ++k) {
         c += v[k];
@@ -104,6 +125,10 @@ struct MultiMsacScorer {
   bool inlier(double v) const { return v < thr; }
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
+    return pass<false>(est, m, bail);
+  }
+  template <bool Chiral, class Est, class Model>
+  double pass(const Est& est, const Model& m, double bail) const {
     const auto T = est.terms(m);
     const double t2[3] = {thr * thr, 0.25 * thr * thr, 0.0625 * thr * thr};
     double c = 0.0;
@@ -111,7 +136,7 @@ struct MultiMsacScorer {
     double v[kScoreBlock];
     for (int i0 = 0; i0 < n; i0 += kScoreBlock) {
       const int b = std::min(kScoreBlock, n - i0);
-      residuals_of(est, T, i0, b, v);
+      scored_residuals<Chiral>(est, T, i0, b, v);
       for (int k = 0; k < b; ++k) {  // vectorised: each point's three normalised truncated terms
         const double v2 = std::isfinite(v[k]) ? v[k] * v[k] : std::numeric_limits<double>::infinity();
         v[k] = std::min(v2, t2[0]) / t2[0] + std::min(v2, t2[1]) / t2[1] + std::min(v2, t2[2]) / t2[2];
@@ -131,13 +156,17 @@ struct CountScorer {
   bool inlier(double v) const { return v < thr; }
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
+    return pass<false>(est, m, bail);
+  }
+  template <bool Chiral, class Est, class Model>
+  double pass(const Est& est, const Model& m, double bail) const {
     const auto T = est.terms(m);
     double c = 0.0;
     const int n = est.num_data();
     double v[kScoreBlock];
     for (int i0 = 0; i0 < n; i0 += kScoreBlock) {
       const int b = std::min(kScoreBlock, n - i0);
-      residuals_of(est, T, i0, b, v);
+      scored_residuals<Chiral>(est, T, i0, b, v);
       for (int k = 0; k < b; ++k) v[k] = v[k] < thr ? 0.0 : 1.0;  // vectorised
       for (int k = 0; k < b; ++k) {
         c += v[k];
@@ -148,12 +177,50 @@ struct CountScorer {
   }
 };
 
+// Base's cost with the cheirality-aware residuals: a match whose point the model puts behind either
+// camera is an outlier (the objective of the LO and of select_by_support). Exact and cheap: the plain
+// pass runs first with the same bail-out (the chiral cost is never below it), the chiral pass only for
+// the models that survive it.
+template <class Base>
+struct ChiralScorer {
+  Base base;
+  bool inlier(double v) const { return base.inlier(v); }
+  template <class Est, class Model>
+  double cost(const Est& est, const Model& m, double bail) const {
+    const double c = base.template pass<false>(est, m, bail);
+    if (c > bail) return c;
+    return base.template pass<true>(est, m, bail);
+  }
+  // the plain cost alone: what ransac() tracks rivals with (no chiral pass for the models near the best)
+  template <class Est, class Model>
+  double plain(const Est& est, const Model& m, double bail) const {
+    return base.template pass<false>(est, m, bail);
+  }
+};
+
+template <class Scorer, class = void>
+struct HasPlainCost : std::false_type {};
+template <class Scorer>
+struct HasPlainCost<Scorer, std::void_t<decltype(&Scorer::template plain<int, int>)>> : std::true_type {};
+
+// The model's inliers under the scorer's residuals (cheirality-aware for a ChiralScorer, so that the
+// LO starts from and the adaptive stop counts the matches the score counts).
 template <class Est, class Model, class Scorer>
 void inliers_of(const Est& est, const Model& m, const Scorer& sc, std::vector<int>* inl) {
   inl->clear();
   const auto T = est.terms(m);
-  for (int i = 0; i < est.num_data(); ++i)
-    if (sc.inlier(est.residual(T, i))) inl->push_back(i);
+  if constexpr (HasPlainCost<Scorer>::value && HasChiralBlock<Est>::value) {
+    double v[kScoreBlock];
+    for (int i0 = 0; i0 < est.num_data(); i0 += kScoreBlock) {
+      const int b = std::min(kScoreBlock, est.num_data() - i0);
+      est.residual_block_chiral(T, i0, b, v);
+      for (int k = 0; k < b; ++k)
+        if (sc.inlier(v[k])) inl->push_back(i0 + k);
+    }
+  } else {
+    for (int i = 0; i < est.num_data(); ++i)
+      if (sc.inlier(est.residual(T, i))) inl->push_back(i);
+  }
 }
 
 template <class Est, class Scorer, class Sampler, class Model>
@@ -187,7 +254,15 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       // a rival is scored up to kRivalCostFactor times the best cost at most (a model that far behind
       // cannot rival the result; without the cap every model is scored in full until a rival exists)
       const double bound = track ? std::min(st.rival_cost, kRivalCostFactor * st.cost) : st.cost;
-      const double c = scorer.cost(est, m, std::max(bound, st.cost));
+      double c;
+      if constexpr (HasPlainCost<Scorer>::value) {
+        // a scorer with a costlier exact pass (ChiralScorer): the plain cost up to the rival bound,
+        // the exact one only for a candidate best
+        const double cp = scorer.plain(est, m, std::max(bound, st.cost));
+        c = cp <= st.cost ? scorer.cost(est, m, st.cost) : cp;
+      } else {
+        c = scorer.cost(est, m, std::max(bound, st.cost));
+      }
       if (!(c < st.cost)) {
         if (track && c <= bound && c < st.rival_cost && est.distance(*best, m) > opt.rival_distance) {
           *rival = m;

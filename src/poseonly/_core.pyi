@@ -29,6 +29,7 @@ def ransac_relpose(
     order: NDArray[np.int64] | None = None,
     lo: int = 0,
     rival_distance: float = 0.0,
+    chiral: bool = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def relpose_lo(
     R: NDArray[np.float64],

@@ -195,6 +195,7 @@ class PoseonlyOptions(CommonOptions):
     solver: str = _opt("5pt", "str", "minimal solver", choices=("5pt", "lirp"))
     max_lo: int = _opt(8, "int", lo=0)
     scoring: str = _opt("msac-multi", "str", choices=("msac", "msac-multi", "count"))
+    chiral_scoring: bool = _opt(True, "bool", "the search scores a match whose point a hypothesis puts behind either camera as an outlier")
     lo_residual: str = _opt("sampson-chiral", "name", "residual")
     lo_mu0: float = _opt(1e3, "real", lo=0.0, lo_open=True)
     lo_iterations: int = _opt(10, "int", lo=1)

@@ -146,6 +146,7 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
         scores=scores,
         lo=o.lo,
         rival_distance=o.rival_distance,
+        chiral=o.chiral_scoring,
     )
 
 

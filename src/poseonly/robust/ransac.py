@@ -95,6 +95,7 @@ def ransac_relpose(
     scores: np.ndarray | None = None,
     lo: str = "lirp",
     rival_distance: float = 0.0,
+    chiral: bool = False,
 ) -> RansacResult:
     """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
@@ -104,7 +105,9 @@ def ransac_relpose(
     or ``"sampson"`` (Levenberg-Marquardt on the Sampson error, Cauchy loss at the threshold).
     ``rival_distance > 0`` (degrees) also keeps the best-scoring model at least that far from the
     result in rotation or translation direction: ``stats["rival_cost"]`` (``inf`` if none),
-    ``stats["rival_R"]``, ``stats["rival_t"]`` (a uniqueness test of the result).
+    ``stats["rival_R"]``, ``stats["rival_t"]`` (a uniqueness test of the result). ``chiral``: a match
+    whose point the hypothesis puts behind either camera scores as an outlier (exact: the plain cost
+    bails out first, the cheirality-aware pass runs only for models that survive it).
     """
     if lo not in _LO:
         raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(_LO)}")
@@ -131,6 +134,7 @@ def ransac_relpose(
         order,
         _LO[lo],
         float(rival_distance),
+        bool(chiral),
     )
     v = get_residual("sampson")(R, t, f1, f2)
     return RansacResult(
