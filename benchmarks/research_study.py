@@ -2,12 +2,13 @@
 
 Usage::
 
-    python benchmarks/research_study.py --camera pinhole --scene normal --outliers 0.8 --trials 60
+    python benchmarks/research_study.py --camera pinhole --scene normal --outliers 0.8 --trials 60 [--study chiral]
 
 Prints, for the scenes ``make_scene(300, scene, camera, 1.0, outliers, seed)`` (seed < trials, the
 scenes of ``poseonly bench robust``), the median rotation error over the median noise floor of the
 default (``research_noise=0``: no second search) and with ``research_noise=0.5``; planar scenes count the
-nearer of the truth and the scene's homography twin.
+nearer of the truth and the scene's homography twin. ``--study chiral`` compares the default with
+``chiral_scoring=False`` instead.
 """
 
 from __future__ import annotations
@@ -21,7 +22,10 @@ from poseonly.bench_robust import _twin_R, ml_floor
 from poseonly.geometry import rotation_error_deg
 from poseonly.sim import make_scene
 
-VARIANTS = {"research_noise=0.5": {"research_noise": 0.5}, "default (research_noise=0)": {}}
+STUDIES = {
+    "research": {"research_noise=0.5": {"research_noise": 0.5}, "default (research_noise=0)": {}},
+    "chiral": {"chiral_scoring=False": {"chiral_scoring": False}, "default (chiral_scoring=True)": {}},
+}
 
 
 def main() -> None:
@@ -30,13 +34,15 @@ def main() -> None:
     ap.add_argument("--scene", default="normal", choices=("normal", "planar"))
     ap.add_argument("--outliers", type=float, default=0.8)
     ap.add_argument("--trials", type=int, default=60)
+    ap.add_argument("--study", default="research", choices=tuple(STUDIES), help="research: the second search; chiral: the cheirality-aware search scoring")
     a = ap.parse_args()
-    floor, err = [], {k: [] for k in VARIANTS}
+    variants = STUDIES[a.study]
+    floor, err = [], {k: [] for k in variants}
     for s in range(a.trials):
         sc = make_scene(300, a.scene, a.camera, 1.0, a.outliers, s)
         floor.append(rotation_error_deg(sc.R, ml_floor(sc)))
         twin = _twin_R(sc) if a.scene == "planar" else None
-        for k, opts in VARIANTS.items():
+        for k, opts in variants.items():
             if a.camera == "pinhole":
                 r = poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=s, **opts)
             else:

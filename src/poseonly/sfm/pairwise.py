@@ -32,8 +32,9 @@ __all__ = ["ImageGraph", "PairwiseOptions", "TwoView", "image_view_graph", "obse
 
 MIN_PUTATIVE = 30
 # part of the two-view cache key with the package version: bump when the default estimator's results
-# change between versions (2: the core-era default at its own threshold, with match scores)
-TWO_VIEW_CACHE_TAG = 2
+# change between versions (2: the core-era default at its own threshold, with match scores; 3: its
+# cheirality-aware search)
+TWO_VIEW_CACHE_TAG = 3
 
 
 @dataclass(frozen=True)
