@@ -17,68 +17,58 @@ using Vec10 = Eigen::Matrix<double, 10, 1>;
 
 // Monomials of (x, y, z, 1): linear (4: x, y, z, 1), quadratic (10: x^2, xy, y^2, xz, yz, z^2, x, y,
 // z, 1) and cubic (20: poseonly.solvers.fivept.MONOMIALS: the ten cubic terms, then the quadratic
-// ones). Tables of the products linear x linear -> quadratic and quadratic x linear -> cubic.
+// ones).
 constexpr int kCubic[20][3] = {{3, 0, 0}, {2, 1, 0}, {1, 2, 0}, {0, 3, 0}, {2, 0, 1}, {1, 1, 1}, {0, 2, 1},
                                {1, 0, 2}, {0, 1, 2}, {0, 0, 3}, {2, 0, 0}, {1, 1, 0}, {0, 2, 0}, {1, 0, 1},
                                {0, 1, 1}, {0, 0, 2}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
-
-struct MonomialTables {
-  int q11[4][4];
-  int c21[10][4];
-  MonomialTables() {
-    // exponents (x, y, z) of the quadratic and cubic bases
-    static const int quad[10][3] = {{2, 0, 0}, {1, 1, 0}, {0, 2, 0}, {1, 0, 1}, {0, 1, 1},
-                                    {0, 0, 2}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, 0, 0}};
-    const auto& cub = kCubic;
-    auto unit = [](int i, int e[3]) {
-      e[0] = e[1] = e[2] = 0;
-      if (i < 3) e[i] = 1;
-    };
-    auto find = [](const int (*tab)[3], int m, const int e[3]) {
-      for (int k = 0; k < m; ++k)
-        if (tab[k][0] == e[0] && tab[k][1] == e[1] && tab[k][2] == e[2]) return k;
-      return -1;
-    };
-    for (int i = 0; i < 4; ++i)
-      for (int j = 0; j < 4; ++j) {
-        int a[3], b[3], e[3];
-        unit(i, a);
-        unit(j, b);
-        for (int d = 0; d < 3; ++d) e[d] = a[d] + b[d];
-        q11[i][j] = find(quad, 10, e);
-      }
-    for (int q = 0; q < 10; ++q)
-      for (int j = 0; j < 4; ++j) {
-        int b[3], e[3];
-        unit(j, b);
-        for (int d = 0; d < 3; ++d) e[d] = quad[q][d] + b[d];
-        c21[q][j] = find(cub, 20, e);
-      }
-  }
-};
-
-const MonomialTables& tables() {
-  static const MonomialTables t;
-  return t;
-}
 
 using P1 = std::array<double, 4>;
 using P2 = std::array<double, 10>;
 using P3 = std::array<double, 20>;
 
-inline void mul11_add(const P1& a, const P1& b, double s, P2* out, const MonomialTables& T) {
-  for (int i = 0; i < 4; ++i)
-    for (int j = 0; j < 4; ++j) (*out)[T.q11[i][j]] += s * a[i] * b[j];
+// a * b (linear x linear -> quadratic) and q * b (quadratic x linear -> cubic) scaled by s, added to
+// out: the products of the monomial tables above written out (the table-driven loops scattered every
+// term through an index and cost ~3x more)
+inline void mul11_add(const P1& a, const P1& b, double s, P2* out) {
+  P2& o = *out;
+  o[0] += s * (a[0] * b[0]);
+  o[1] += s * (a[0] * b[1] + a[1] * b[0]);
+  o[2] += s * (a[1] * b[1]);
+  o[3] += s * (a[0] * b[2] + a[2] * b[0]);
+  o[4] += s * (a[1] * b[2] + a[2] * b[1]);
+  o[5] += s * (a[2] * b[2]);
+  o[6] += s * (a[0] * b[3] + a[3] * b[0]);
+  o[7] += s * (a[1] * b[3] + a[3] * b[1]);
+  o[8] += s * (a[2] * b[3] + a[3] * b[2]);
+  o[9] += s * (a[3] * b[3]);
 }
 
-inline void mul21_add(const P2& a, const P1& b, double s, P3* out, const MonomialTables& T) {
-  for (int q = 0; q < 10; ++q)
-    for (int j = 0; j < 4; ++j) (*out)[T.c21[q][j]] += s * a[q] * b[j];
+inline void mul21_add(const P2& q, const P1& b, double s, P3* out) {
+  P3& o = *out;
+  o[0] += s * (q[0] * b[0]);
+  o[1] += s * (q[0] * b[1] + q[1] * b[0]);
+  o[2] += s * (q[1] * b[1] + q[2] * b[0]);
+  o[3] += s * (q[2] * b[1]);
+  o[4] += s * (q[0] * b[2] + q[3] * b[0]);
+  o[5] += s * (q[1] * b[2] + q[3] * b[1] + q[4] * b[0]);
+  o[6] += s * (q[2] * b[2] + q[4] * b[1]);
+  o[7] += s * (q[3] * b[2] + q[5] * b[0]);
+  o[8] += s * (q[4] * b[2] + q[5] * b[1]);
+  o[9] += s * (q[5] * b[2]);
+  o[10] += s * (q[0] * b[3] + q[6] * b[0]);
+  o[11] += s * (q[1] * b[3] + q[6] * b[1] + q[7] * b[0]);
+  o[12] += s * (q[2] * b[3] + q[7] * b[1]);
+  o[13] += s * (q[3] * b[3] + q[6] * b[2] + q[8] * b[0]);
+  o[14] += s * (q[4] * b[3] + q[7] * b[2] + q[8] * b[1]);
+  o[15] += s * (q[5] * b[3] + q[8] * b[2]);
+  o[16] += s * (q[6] * b[3] + q[9] * b[0]);
+  o[17] += s * (q[7] * b[3] + q[9] * b[1]);
+  o[18] += s * (q[8] * b[3] + q[9] * b[2]);
+  o[19] += s * (q[9] * b[3]);
 }
 
 // The 10 x 20 template of E = x X + y Y + z Z + W (rows: Demazure cubic (a, c) -> 3 c + a, det).
 void build_template(const Mat3 basis[4], Eigen::Matrix<double, 10, 20>* A) {
-  const MonomialTables& T = tables();
   P1 e[3][3];
   for (int a = 0; a < 3; ++a)
     for (int c = 0; c < 3; ++c)
@@ -87,7 +77,7 @@ void build_template(const Mat3 basis[4], Eigen::Matrix<double, 10, 20>* A) {
   for (int a = 0; a < 3; ++a)
     for (int b = a; b < 3; ++b) {
       P2 s{};
-      for (int d = 0; d < 3; ++d) mul11_add(e[a][d], e[b][d], 1.0, &s, T);
+      for (int d = 0; d < 3; ++d) mul11_add(e[a][d], e[b][d], 1.0, &s);
       eet[a][b] = s;
       eet[b][a] = s;
     }
@@ -96,22 +86,22 @@ void build_template(const Mat3 basis[4], Eigen::Matrix<double, 10, 20>* A) {
   for (int a = 0; a < 3; ++a)
     for (int c = 0; c < 3; ++c) {
       P3 d{};
-      for (int b = 0; b < 3; ++b) mul21_add(eet[a][b], e[b][c], 2.0, &d, T);
-      mul21_add(tr, e[a][c], -1.0, &d, T);
+      for (int b = 0; b < 3; ++b) mul21_add(eet[a][b], e[b][c], 2.0, &d);
+      mul21_add(tr, e[a][c], -1.0, &d);
       for (int m = 0; m < 20; ++m) (*A)(3 * c + a, m) = d[m];
     }
   // det E by the first row's cofactors
   P2 m0{}, m1{}, m2{};
-  mul11_add(e[1][1], e[2][2], 1.0, &m0, T);
-  mul11_add(e[1][2], e[2][1], -1.0, &m0, T);
-  mul11_add(e[1][2], e[2][0], 1.0, &m1, T);
-  mul11_add(e[1][0], e[2][2], -1.0, &m1, T);
-  mul11_add(e[1][0], e[2][1], 1.0, &m2, T);
-  mul11_add(e[1][1], e[2][0], -1.0, &m2, T);
+  mul11_add(e[1][1], e[2][2], 1.0, &m0);
+  mul11_add(e[1][2], e[2][1], -1.0, &m0);
+  mul11_add(e[1][2], e[2][0], 1.0, &m1);
+  mul11_add(e[1][0], e[2][2], -1.0, &m1);
+  mul11_add(e[1][0], e[2][1], 1.0, &m2);
+  mul11_add(e[1][1], e[2][0], -1.0, &m2);
   P3 det{};
-  mul21_add(m0, e[0][0], 1.0, &det, T);
-  mul21_add(m1, e[0][1], 1.0, &det, T);
-  mul21_add(m2, e[0][2], 1.0, &det, T);
+  mul21_add(m0, e[0][0], 1.0, &det);
+  mul21_add(m1, e[0][1], 1.0, &det);
+  mul21_add(m2, e[0][2], 1.0, &det);
   for (int m = 0; m < 20; ++m) (*A)(9, m) = det[m];
 }
 
@@ -206,13 +196,12 @@ int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots) {
   // --- template, elimination, action matrix
   Eigen::Matrix<double, 10, 20> A;
   build_template(basis, &A);
-  Mat10 LU = A.leftCols<10>();
-  int piv[10];
-  if (!linalg::lu_inplace<10>(&LU, piv, 0.0) || !LU.diagonal().allFinite()) return 0;  // singular template
-  Mat10 G = A.rightCols<10>();
-  for (int c = 0; c < 10; ++c) linalg::lu_solve<10>(LU, piv, G.col(c).data());
+  // G = A1^-1 A2 by Gauss-Jordan elimination with partial pivoting on the row-major template (the
+  // rows of [A1 | A2] are contiguous, so each update is one vectorised row operation)
+  Eigen::Matrix<double, 10, 20, Eigen::RowMajor> T = A;
+  if (!linalg::gauss_jordan<10, 20>(&T)) return 0;  // singular template
   Mat10 M = Mat10::Zero();
-  for (int rr = 0; rr < 6; ++rr) M.row(rr) = -G.row(kActionRows[rr]);
+  for (int rr = 0; rr < 6; ++rr) M.row(rr) = -T.row(kActionRows[rr]).tail<10>();
   for (int rr = 0; rr < 4; ++rr) M(6 + rr, kUnitCols[rr]) = 1.0;
   if (!M.allFinite()) return 0;
   // --- eigenvalues: balancing, Hessenberg reduction, Francis QR; eigenvectors by inverse iteration
@@ -320,6 +309,9 @@ namespace {
 
 constexpr int kPoseNewtonSteps = 4;  // at most; stops when a step no longer lowers the residual
 constexpr double kPoseStepTol = 1e-15;  // |dx| below which the iteration has converged
+// largest epipolar residual (a triple product of unit vectors) at which the pose is exact to rounding:
+// a further step could not lower it measurably
+constexpr double kPoseResidualTol = 1e-15;
 
 double epipolar_residuals(const Pose& P, const Points& p, double r[5]) {
   double m = 0.0;
@@ -338,7 +330,7 @@ double epipolar_residuals(const Pose& P, const Points& p, double r[5]) {
 void polish_pose(const Points& p, Pose* pose) {
   double r[5];
   double f = epipolar_residuals(*pose, p, r);
-  for (int it = 0; it < kPoseNewtonSteps && f > 0.0; ++it) {
+  for (int it = 0; it < kPoseNewtonSteps && f > kPoseResidualTol; ++it) {
     Eigen::Index k;
     pose->t.cwiseAbs().minCoeff(&k);
     Vec3 e = Vec3::Zero();

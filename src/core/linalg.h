@@ -56,6 +56,32 @@ void lu_solve(const Eigen::Matrix<double, N, N>& L, const int piv[N], double* b)
   }
 }
 
+// Gauss-Jordan elimination with partial pivoting of a row-major N x C matrix [A1 | A2] (C >= N):
+// on return the left N x N block is the identity and the right block A1^-1 A2. False if a pivot is
+// exactly zero or not finite (singular A1).
+template <int N, int C>
+bool gauss_jordan(Eigen::Matrix<double, N, C, Eigen::RowMajor>* T) {
+  Eigen::Matrix<double, N, C, Eigen::RowMajor>& a = *T;
+  for (int k = 0; k < N; ++k) {
+    int pk = k;
+    double big = std::abs(a(k, k));
+    for (int i = k + 1; i < N; ++i)
+      if (std::abs(a(i, k)) > big) {
+        big = std::abs(a(i, k));
+        pk = i;
+      }
+    if (!(big > 0.0) || !std::isfinite(big)) return false;
+    if (pk != k) a.row(k).swap(a.row(pk));
+    a.row(k) *= 1.0 / a(k, k);
+    for (int i = 0; i < N; ++i) {
+      if (i == k) continue;
+      const double f = a(i, k);
+      if (f != 0.0) a.row(i) -= f * a.row(k);
+    }
+  }
+  return true;
+}
+
 // Parlett-Reinsch balancing in place (Numerical Recipes balanc; powers of 2, no rounding).
 template <int N>
 void balance(Eigen::Matrix<double, N, N>* A) {
