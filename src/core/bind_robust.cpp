@@ -92,11 +92,13 @@ nb::dict stats_dict(const RansacStats& st) {
 nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double threshold, uint64_t seed, int solver, int scoring,
                          int max_iterations, int min_iterations, double confidence, int max_lo, double lo_mu0, int lo_iterations,
                          int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order,
-                         int lo, double rival_distance, bool chiral) {
+                         int lo, double rival_distance, bool chiral, int min_hits) {
   const Points P = points_of(f1, f2);
   if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
+  if (min_hits < 1 || min_hits > 64) throw std::invalid_argument("min_hits must be in [1, 64]");
   RansacOptions ro = ransac_options(max_iterations, min_iterations, confidence, true, max_lo);
   ro.rival_distance = rival_distance;
+  ro.min_hits = min_hits;
   RelativePoseEstimator::Options eo;
   eo.solver = static_cast<MinimalSolver>(solver);
   eo.lo_threshold = threshold;
@@ -282,12 +284,12 @@ POSEONLY_BIND(robust) {
   m.def("ransac_relpose", &ransac_relpose, nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"), nb::arg("seed"), nb::arg("solver") = 0,
         nb::arg("scoring") = 1, nb::arg("max_iterations") = 100000, nb::arg("min_iterations") = 50, nb::arg("confidence") = 0.999,
         nb::arg("max_lo") = 8, nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1,
-        nb::arg("order") = Order(), nb::arg("lo") = 0, nb::arg("rival_distance") = 0.0, nb::arg("chiral") = false,
+        nb::arg("order") = Order(), nb::arg("lo") = 0, nb::arg("rival_distance") = 0.0, nb::arg("chiral") = false, nb::arg("min_hits") = 1,
         "LO-RANSAC of minimal hypotheses (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
         "Sampson error against `threshold` (radians); scoring 0 msac, 1 multi-scale msac, 2 count; `order` "
         "(a permutation, best match first) switches to PROSAC; lo 0: LiRP GNC-IRLS, 1: Sampson LM; chiral: a match "
         "whose point is behind either camera scores as an outlier; rival_distance > 0 (degrees) also returns the best model that far "
-        "from the result (rival_R, rival_t, rival_cost in stats). Returns (R, t, stats).");
+        "from the result (rival_R, rival_t, rival_cost in stats); min_hits: adaptive stopping waits for that many all-inlier samples at `confidence`. Returns (R, t, stats).");
   m.def("relpose_lo", &relpose_lo, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"),
         nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1, nb::arg("lo") = 0,
         "The default method's LO step at `threshold` from the pose's cheirality-consistent inliers: (R, t, ok).");

@@ -30,6 +30,7 @@ struct RansacOptions {
   double confidence = 0.999;
   bool adaptive = true;
   int max_lo = 8;  // LO runs at most this often (on each new best model)
+  int min_hits = 1;  // adaptive stopping waits for this many good samples at `confidence` (samples_needed)
   // > 0: also keep the best *rival*, the best-scoring model at least this far (estimator.distance)
   // from the returned one; its cost says whether the data single out one model (a uniqueness test)
   double rival_distance = 0.0;
@@ -47,11 +48,44 @@ struct RansacStats {
   double rival_cost = std::numeric_limits<double>::infinity();  // inf: no rival tracked or found
 };
 
-// Samples needed to draw one good sample with `confidence` when one sample is good with probability p.
-inline double samples_needed(double p, double confidence) {
+// log P(Bin(k, p) < hits): the chance that k samples, each good with probability p, hold fewer
+// than `hits` good ones (0 < p < 1, hits >= 1).
+inline double log_fewer_good(double k, double p, int hits) {
+  const double lp = std::log(p), lq = std::log1p(-p), lk = std::lgamma(k + 1.0);
+  double m = -std::numeric_limits<double>::infinity();
+  double terms[64];
+  const int h = std::min(hits, 64);
+  for (int j = 0; j < h && j <= k; ++j) {
+    terms[j] = lk - std::lgamma(j + 1.0) - std::lgamma(k - j + 1.0) + j * lp + (k - j) * lq;
+    m = std::max(m, terms[j]);
+  }
+  double s = 0.0;
+  for (int j = 0; j < h && j <= k; ++j) s += std::exp(terms[j] - m);
+  return m + std::log(s);
+}
+
+// Samples needed so that, with `confidence`, at least `hits` of them are good when one sample is
+// good with probability p. hits = 1 is the classical rule log(1 - confidence) / log(1 - p); more hits
+// keep the search going until the best consensus has been drawn several times (a single good
+// minimal sample's model is noisy and may score below a wrong model's consensus), which costs
+// little where good samples are frequent. Exact binomial tail, bisection over integer k.
+inline double samples_needed(double p, double confidence, int hits = 1) {
   if (!(p > 0.0)) return std::numeric_limits<double>::infinity();
-  if (p >= 1.0) return 1.0;
-  return std::log(1.0 - confidence) / std::log1p(-p);
+  if (p >= 1.0) return static_cast<double>(std::max(hits, 1));
+  if (hits <= 1) return std::log(1.0 - confidence) / std::log1p(-p);
+  const double target = std::log(1.0 - confidence);
+  // integers lo < hi with P(lo) > target >= P(hi)
+  double lo = hits - 1, hi = std::ceil(std::max(2.0 * hits / p, static_cast<double>(hits)));
+  while (log_fewer_good(hi, p, hits) > target) {
+    lo = hi;
+    hi *= 2.0;
+    if (hi > 1e15) return std::numeric_limits<double>::infinity();
+  }
+  while (hi - lo > 1.0) {
+    const double mid = std::floor(0.5 * (lo + hi));
+    (log_fewer_good(mid, p, hits) > target ? lo : hi) = mid;
+  }
+  return hi;
 }
 
 // Residuals of points [i0, i0 + m) in one call when the estimator has residual_block (a vectorised
@@ -282,7 +316,7 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       }
       inliers_of(est, *best, scorer, &inl);
       st.num_inliers = static_cast<int>(inl.size());
-      if (opt.adaptive) needed = samples_needed(est.success_probability(static_cast<double>(inl.size()) / n), opt.confidence);
+      if (opt.adaptive) needed = samples_needed(est.success_probability(static_cast<double>(inl.size()) / n), opt.confidence, opt.min_hits);
     }
   }
   if (!have) st.num_inliers = 0;

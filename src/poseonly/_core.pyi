@@ -30,6 +30,7 @@ def ransac_relpose(
     lo: int = 0,
     rival_distance: float = 0.0,
     chiral: bool = False,
+    min_hits: int = 1,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def relpose_lo(
     R: NDArray[np.float64],

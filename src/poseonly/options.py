@@ -192,6 +192,7 @@ class PoseonlyOptions(CommonOptions):
     max_iterations: int = _opt(100000, "int", lo=1)
     min_iterations: int = _opt(500, "int", lo=0)
     confidence: float = _opt(0.9999, "real", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    min_hits: int = _opt(1, "int", "adaptive stopping waits for this many all-inlier samples at `confidence`", lo=1, hi=64)
     solver: str = _opt("5pt", "str", "minimal solver", choices=("5pt", "lirp"))
     max_lo: int = _opt(8, "int", lo=0)
     scoring: str = _opt("msac-multi", "str", choices=("msac", "msac-multi", "count"))

@@ -147,6 +147,7 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
         lo=o.lo,
         rival_distance=o.rival_distance,
         chiral=o.chiral_scoring,
+        min_hits=o.min_hits,
     )
 
 

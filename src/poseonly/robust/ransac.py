@@ -96,6 +96,7 @@ def ransac_relpose(
     lo: str = "lirp",
     rival_distance: float = 0.0,
     chiral: bool = False,
+    min_hits: int = 1,
 ) -> RansacResult:
     """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
@@ -107,7 +108,9 @@ def ransac_relpose(
     result in rotation or translation direction: ``stats["rival_cost"]`` (``inf`` if none),
     ``stats["rival_R"]``, ``stats["rival_t"]`` (a uniqueness test of the result). ``chiral``: a match
     whose point the hypothesis puts behind either camera scores as an outlier (exact: the plain cost
-    bails out first, the cheirality-aware pass runs only for models that survive it).
+    bails out first, the cheirality-aware pass runs only for models that survive it). ``min_hits``:
+    adaptive stopping waits until, at ``confidence``, that many all-inlier samples of the best
+    model's consensus have been drawn (1: the classical rule; exact binomial tail).
     """
     if lo not in _LO:
         raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(_LO)}")
@@ -135,6 +138,7 @@ def ransac_relpose(
         _LO[lo],
         float(rival_distance),
         bool(chiral),
+        int(min_hits),
     )
     v = get_residual("sampson")(R, t, f1, f2)
     return RansacResult(

@@ -1,0 +1,71 @@
+"""Adaptive stopping of the core's RANSAC with ``min_hits`` (``samples_needed`` in ransac.h)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from poseonly import estimate_relative_pose
+from poseonly.robust.ransac import ransac_relpose
+from poseonly.sim import make_scene
+
+CONF = 0.9999
+TAU = 1.0 / 800
+
+
+def fewer_good(k: int, p: float, hits: int) -> float:
+    """P(Bin(k, p) < hits), the reference of the core's log_fewer_good."""
+    return sum(math.comb(k, j) * p**j * (1 - p) ** (k - j) for j in range(min(hits, k + 1)))
+
+
+def needed(p: float, hits: int) -> int:
+    """Smallest k with P(Bin(k, p) < hits) <= 1 - CONF (hits = 1: the classical formula)."""
+    if hits == 1:
+        return math.ceil(math.log(1 - CONF) / math.log1p(-p))
+    k = hits
+    while fewer_good(k, p, hits) > 1 - CONF:
+        k += 1
+    return k
+
+
+@pytest.mark.parametrize("rate", [0.0, 0.3, 0.5])
+def test_stop_waits_for_min_hits(rate):
+    """The loop never stops before the samples the final consensus needs for ``min_hits`` good
+    samples, and more hits never mean fewer samples."""
+    sc = make_scene(300, camera="pinhole", noise_px=0.5, outlier_fraction=rate, seed=100)
+    its = []
+    for hits in (1, 3, 5):
+        r = ransac_relpose(sc.f1, sc.f2, TAU, 0, min_iterations=0, confidence=CONF, lo="sampson", chiral=True, min_hits=hits)
+        p = (int(r.stats["num_inliers"]) / len(sc.f1)) ** 5
+        assert r.num_iterations >= needed(p, hits) >= hits
+        its.append(r.num_iterations)
+    assert its[0] <= its[1] <= its[2]
+    assert its[2] > its[0]
+
+
+def test_stop_terminates_when_good_samples_are_frequent():
+    """Good-sample probabilities near 1 (a clean pair: few samples needed) end the loop at the exact
+    count (a non-integer bisection bound once looped forever here)."""
+    sc = make_scene(1200, camera="pinhole", noise_px=0.3, outlier_fraction=0.02, seed=100)
+    for hits in (2, 3, 5, 8):
+        r = ransac_relpose(sc.f1, sc.f2, TAU, 0, min_iterations=0, confidence=CONF, lo="sampson", chiral=True, min_hits=hits)
+        p = (int(r.stats["num_inliers"]) / len(sc.f1)) ** 5
+        assert needed(p, hits) <= r.num_iterations <= 3 * needed(p, hits)
+
+
+def test_min_hits_is_validated():
+    sc = make_scene(50, seed=1)
+    with pytest.raises(ValueError, match="min_hits"):
+        estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, min_hits=0)
+    with pytest.raises(ValueError, match="min_hits"):
+        ransac_relpose(sc.f1, sc.f2, TAU, 0, min_hits=0)
+
+
+def test_binomial_reference_matches_classical_rule():
+    """For one hit the exact tail is the classical formula (the reference agrees with itself)."""
+    for p in (0.01, 0.2, 0.7):
+        k = needed(p, 1)
+        assert fewer_good(k, p, 1) <= 1 - CONF < fewer_good(k - 1, p, 1)
+    assert np.isclose(fewer_good(10, 0.5, 3), sum(math.comb(10, j) for j in range(3)) / 2**10)
