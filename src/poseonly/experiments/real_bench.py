@@ -216,6 +216,9 @@ METHODS: dict[str, MethodFn] = {
     "poseonly@1px-fixed-thr": ours(threshold_px=1.0, adaptive_threshold=False),
     "poseonly-no-refine": ours(refine=False),
     "poseonly-min1000": ours(min_iterations=1000, confidence=0.9999),  # PoseLib's min_iterations / success_prob
+    # the sample floor: none (adaptive stopping only), and none with three all-inlier samples waited for
+    "poseonly-min0": ours(use_scores=True, min_iterations=0),
+    "poseonly-min0-hits3": ours(use_scores=True, min_iterations=0, min_hits=3),
     # variants of the core-era default (C++ search, ML refinement)
     "v-ml-2px": ours(final="ml", threshold_px=2.0),
     "v-ml-1px-1000": ours(final="ml", threshold_px=1.0, min_iterations=1000, confidence=0.9999),
