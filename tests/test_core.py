@@ -172,3 +172,23 @@ def test_ransac_score_is_the_cost_of_its_model(scoring, n):
     scales = [tau**2] if scoring == "msac" else [tau**2, tau**2 / 4, tau**2 / 16]
     cost = sum(np.sum(np.minimum(v2, s)) / (1.0 if scoring == "msac" else s) for s in scales)
     assert r.score == pytest.approx(cost, rel=1e-9)
+
+
+def test_epipolar_singular_values_match_numpy():
+    """The API's rank test: the core's singular values of the n x 9 epipolar matrix are numpy's
+    (to 1e-12 relative), for generic, planar-ish and rank-deficient (repeated point) input."""
+    from poseonly import _core
+    from poseonly.sim import make_scene
+
+    for seed, n in [(1, 6), (2, 9), (3, 40), (4, 300)]:
+        sc = make_scene(n, "planar" if seed % 2 else "normal", seed=seed)
+        cases = [(sc.f1, sc.f2), (np.repeat(sc.f1[:3], 4, axis=0), np.repeat(sc.f2[:3], 4, axis=0))]
+        for f1, f2 in cases:
+            f1 = np.ascontiguousarray(f1)
+            f2 = np.ascontiguousarray(f2)
+            A = (f1[:, :, None] * f2[:, None, :]).reshape(len(f1), 9)
+            ref = np.zeros(9)
+            sv = np.linalg.svd(A, compute_uv=False)
+            ref[: len(sv)] = sv
+            s = _core.epipolar_singular_values(f1, f2)
+            np.testing.assert_allclose(s, ref, rtol=0, atol=1e-12 * ref[0])

@@ -170,6 +170,20 @@ GncOptions gnc_options_from(const nb::dict& o) { return gnc_options(o); }
 
 POSEONLY_BIND(lirp) {
   using namespace poseonly;
+  m.def(
+      "epipolar_singular_values",
+      [](const BearingsIn& f1, const BearingsIn& f2) {
+        const Points P = points_of(f1, f2);
+        Vec9 s;
+        {
+          nb::gil_scoped_release release;
+          s = epipolar_singular_values(P);
+        }
+        std::vector<double> out(s.data(), s.data() + 9);
+        return to_numpy(std::move(out), {9});
+      },
+      nb::arg("f1"), nb::arg("f2"),
+      "Singular values (9,), descending, of the n x 9 epipolar matrix of bearings f1, f2 (n, 3) (zeros beyond n).");
   m.def("lirp_batch", &lirp_batch, nb::arg("f1"), nb::arg("f2"), nb::arg("w") = nb::none(), nb::arg("all_costs") = true,
         "LiRP (Alg. 1) on h stacked problems f1, f2 (h, n, 3), weights (h, n) or None: the 18 candidates "
         "(cand_E, cand_R, cand_t, cand_valid, cand_M1, cand_cost), the identified best (R, t, E, best), "

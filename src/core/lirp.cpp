@@ -222,6 +222,13 @@ void lirp_candidates(const Points& P, const double* w, LirpCandidates* out) {
   out->E[c++] = unit_or(q3, q3);
 }
 
+Vec9 epipolar_singular_values(const Points& P) {
+  Mat9 V;
+  Vec9 s;
+  null_space(P, nullptr, &V, &s);
+  return s;
+}
+
 double ppo_cost(const Pose& pose, const Points& P, const double* w) {
   const PoseTerms pt(pose);
   double s = 0.0, ws = 0.0;

@@ -36,6 +36,10 @@ struct LirpResult {
 // weights neither overflow nor underflow the factorisation.
 void lirp_candidates(const Points& P, const double* w, LirpCandidates* out);
 
+// Singular values (descending) of the unweighted n x 9 epipolar matrix (rows kron(f1_i, f2_i)): the
+// rank test of the public API (Householder QR + one-sided Jacobi SVD, as LiRP's null space).
+Vec9 epipolar_singular_values(const Points& P);
+
 enum class CostMode : int { Never = 0, IfValid = 1, Always = 2 };
 
 // Decompose E into its two rotations, keep the one with the larger M1, flip t when M2 < 0

@@ -50,6 +50,7 @@ from typing import Any, cast
 
 import numpy as np
 
+from . import _core
 from .analysis import REFINE_SOLVER
 from .estimator import lirp_estimator
 from .geometry import InputError, as_bearings, check_correspondences, check_intrinsics
@@ -115,9 +116,9 @@ def _check_scores(scores: Any, n: int) -> np.ndarray | None:
 
 
 def _epipolar_rank(f1: np.ndarray, f2: np.ndarray) -> int:
-    n = len(f1)
-    A = (f1[:, :, None] * f2[:, None, :]).reshape(1, n, 9)
-    s = np.linalg.svd(np.linalg.qr(A, mode="r")[0] if n > 9 else A[0], compute_uv=False)
+    """Numerical rank of the ``n x 9`` epipolar matrix (singular values above ``RANK_RTOL`` times the
+    largest; the core's QR + Jacobi SVD, GIL released)."""
+    s = _core.epipolar_singular_values(np.ascontiguousarray(f1, dtype=float), np.ascontiguousarray(f2, dtype=float))
     return int(np.count_nonzero(s > RANK_RTOL * s[0]))
 
 
@@ -185,8 +186,7 @@ def estimate_relative_pose(
     focal = _focal(K1, K2, o.focal_px) if cam_focal is None or o.focal_px is not None else cam_focal
     thr_px = float(o.threshold_px)
     tau = check_angle("the angular threshold threshold_px / focal", thr_px / focal, f" (threshold_px = {thr_px:g}, focal = {focal:g} px)")
-    with _blas_single_thread(), np.errstate(all="ignore"):
-        rank = _epipolar_rank(f1, f2)
+    rank = _epipolar_rank(f1, f2)
     if rank < MIN_EPIPOLAR_RANK:
         return degenerate_result(n, rank, method, thr_px, focal, t0)
     # overflow / invalid values inside the numerics end up as non-finite models, which finish()
