@@ -80,18 +80,22 @@ def test_dask_lost_worker():
     import signal
 
     distributed = pytest.importorskip("dask.distributed")
-    pairs = _pairs(8)
+    pairs = _pairs(24)
     serial = _summary(poseonly.estimate_relative_poses(pairs, progress=False))
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc, distributed.Client(lc) as client:
         out = []
-        for k, r in enumerate(poseonly.estimate_relative_poses(pairs, client=client, chunk_size=1, progress=False)):
+        killed = None
+        for r in poseonly.estimate_relative_poses(pairs, client=client, chunk_size=1, progress=False):
             out.append(r)
-            if k == 0:
+            if killed is None:
+                # the first moment a worker holds a task (between two results both may be idle)
                 busy = [w for w, ts in client.processing().items() if ts]
-                assert busy
-                pid = client.run(os.getpid, workers=busy[:1])[busy[0]]
-                os.kill(pid, signal.SIGKILL)  # a worker process of this test's own cluster
-        assert busy[0] not in client.scheduler_info()["workers"]  # the worker was really lost
+                if busy:
+                    pid = client.run(os.getpid, workers=busy[:1])[busy[0]]
+                    os.kill(pid, signal.SIGKILL)  # a worker process of this test's own cluster
+                    killed = busy[0]
+        assert killed is not None, "no worker was busy while results arrived"
+        assert killed not in client.scheduler_info()["workers"]  # the worker was really lost
     _same(serial, _summary(out))
 
 
