@@ -8,7 +8,7 @@ Prints, for the scenes ``make_scene(300, scene, camera, 1.0, outliers, seed)`` (
 scenes of ``poseonly bench robust``), the median rotation error over the median noise floor of the
 default (``research_noise=0``: no second search) and with ``research_noise=0.5``; planar scenes count the
 nearer of the truth and the scene's homography twin. ``--study chiral`` compares the default with
-``chiral_scoring=False`` instead.
+``chiral_scoring=False`` instead, ``--study tails`` with the Gaussian ML stage (``ml_tails="gauss"``).
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from poseonly.sim import make_scene
 STUDIES = {
     "research": {"research_noise=0.5": {"research_noise": 0.5}, "default (research_noise=0)": {}},
     "chiral": {"chiral_scoring=False": {"chiral_scoring": False}, "default (chiral_scoring=True)": {}},
+    "tails": {"ml_tails=gauss": {"ml_tails": "gauss"}, "default (ml_tails=student)": {}},
 }
 
 
@@ -34,7 +35,7 @@ def main() -> None:
     ap.add_argument("--scene", default="normal", choices=("normal", "planar"))
     ap.add_argument("--outliers", type=float, default=0.8)
     ap.add_argument("--trials", type=int, default=60)
-    ap.add_argument("--study", default="research", choices=tuple(STUDIES), help="research: the second search; chiral: the cheirality-aware search scoring")
+    ap.add_argument("--study", default="research", choices=tuple(STUDIES), help="research: the second search; chiral: the cheirality-aware search scoring; tails: the ML stage's t")
     a = ap.parse_args()
     variants = STUDIES[a.study]
     floor, err = [], {k: [] for k in variants}

@@ -150,7 +150,7 @@ nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, c
 }
 
 nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double range, int rounds,
-                      int lm_iterations, double pose_tol) {
+                      int lm_iterations, double pose_tol, bool student) {
   const Points P = points_of(f1, f2);
   if (!(range > 0.0 && std::isfinite(range))) throw std::invalid_argument("range must be finite and > 0");
   MlOptions mo;
@@ -158,6 +158,7 @@ nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, 
   mo.rounds = rounds;
   mo.lm_iterations = lm_iterations;
   mo.pose_tol = pose_tol;
+  mo.student = student;
   MlResult r;
   {
     nb::gil_scoped_release release;
@@ -169,9 +170,11 @@ nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, 
   d["R"] = to_numpy(std::move(Ro), {3, 3});
   d["t"] = to_numpy(std::move(to), {3});
   d["sigma"] = r.sigma;
+  d["nu"] = r.nu;
   d["sigma_start"] = r.sigma_start;
   d["inlier_fraction"] = r.inlier_fraction;
   d["decision"] = r.decision;
+  d["decision_gauss"] = r.decision_gauss;
   d["rounds"] = r.rounds;
   d["log_likelihood"] = r.log_likelihood;
   d["posterior"] = to_numpy(std::move(r.posterior), {static_cast<size_t>(P.n)});
@@ -294,9 +297,10 @@ POSEONLY_BIND(robust) {
         nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1, nb::arg("lo") = 0,
         "The default method's LO step at `threshold` from the pose's cheirality-consistent inliers: (R, t, ok).");
   m.def("ml_refine", &ml_refine_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("range"),
-        nb::arg("rounds") = 6, nb::arg("lm_iterations") = 10, nb::arg("pose_tol") = 0.0,
-        "ML pose under a Gaussian-uniform mixture of Sampson errors (EM + weighted Sampson LM; outlier range "
-        "`range`, radians; at most `rounds` rounds, ending early when a round moves the pose by at most `pose_tol`): dict R, t, sigma, sigma_start, inlier_fraction, decision, rounds, log_likelihood, posterior (n,).");
+        nb::arg("rounds") = 6, nb::arg("lm_iterations") = 10, nb::arg("pose_tol") = 0.0, nb::arg("student") = true,
+        "ML pose under a mixture of Student-t inlier (`student`: nu chosen by the data, inf included; else Gaussian) and uniform outlier Sampson errors "
+        "(EM + weighted Sampson LM; outlier range `range`, radians; at most `rounds` rounds, ending early when a round moves the pose "
+        "by at most `pose_tol`): dict R, t, sigma, nu, sigma_start, inlier_fraction, decision, decision_gauss (the Gaussian mixture's at the pose), rounds, log_likelihood, posterior (n,).");
   m.def("gnc_ransac", &gnc_ransac, nb::arg("f1"), nb::arg("f2"), nb::arg("theta"), nb::arg("seed"), nb::arg("sample_size") = 30,
         nb::arg("max_iterations") = 50, nb::arg("adaptive") = false, nb::arg("confidence") = 0.99, nb::arg("gnc") = nb::dict(),
         "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats).");

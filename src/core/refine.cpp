@@ -232,6 +232,7 @@ struct Problem {
   RefineLoss loss;
   double scale;
   const Chart& chart;
+  bool outer = false;  // w_i multiplies rho instead of scaling r (RefineOptions::weights_outside)
   int dim() const { return kind == 0 ? 1 : 3; }
 
   void point(const Frame& F, int i, bool want, double r[3], double J[3][5]) const {
@@ -249,8 +250,9 @@ struct Problem {
     double cost = 0.0;
     double r[3], J[3][5];
     for (int i = 0; i < p.n; ++i) {
+      if (outer && w && w[i] == 0.0) continue;
       point(F, i, want, r, J);
-      const double sw = w ? std::sqrt(w[i]) : 1.0;
+      const double sw = (w && !outer) ? std::sqrt(w[i]) : 1.0;
       double sq = 0.0;
       for (int c = 0; c < m; ++c) {
         r[c] *= sw;
@@ -258,6 +260,10 @@ struct Problem {
       }
       double rho, drho;
       rho_of(loss, sq / s2, &rho, &drho);
+      if (outer && w) {
+        rho *= w[i];
+        drho *= w[i];
+      }
       cost += s2 * rho;
       if (!want) continue;
       for (int c = 0; c < m; ++c)
@@ -404,7 +410,7 @@ RefineStats refine(const Points& p, const double* w, const RefineOptions& opt, i
   double scale = 1.0;
   if (opt.loss != RefineLoss::Linear) scale = opt.loss_scale > 0.0 ? opt.loss_scale : default_scale(p, w, kind, chart);
   st.loss_scale = scale;
-  const Problem pr{p, w, kind, opt.loss, scale, chart};
+  const Problem pr{p, w, kind, opt.loss, scale, chart, opt.weights_outside};
   const double x0[5] = {0, 0, 0, 0, 0};
   const double cost0 = pr.eval(x0, false, nullptr, nullptr);
   st.initial_cost = cost0;

@@ -34,6 +34,8 @@ struct RefineOptions {
   RefineLoss loss = RefineLoss::Linear;
   double loss_scale = 0.0;           // s; <= 0: the default 1.4826 median_{w_i > 0} |sqrt(w_i) r_i| at the start (>= 1e-12)
   double tol = 1e-12;                // ftol = xtol = gtol
+  bool weights_outside = false;      // cost s^2 sum_i w_i rho(r_i^2 / s^2) (w_i a point's probability
+                                     // of being an inlier) instead of scaling the residuals by sqrt(w_i)
 };
 
 struct RefineStats {

@@ -45,7 +45,15 @@ def relpose_lo(
     lo: int = 0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]: ...
 def ml_refine(
-    R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], range: float, rounds: int = 6, lm_iterations: int = 10, pose_tol: float = 0.0
+    R: NDArray[np.float64],
+    t: NDArray[np.float64],
+    f1: NDArray[np.float64],
+    f2: NDArray[np.float64],
+    range: float,
+    rounds: int = 6,
+    lm_iterations: int = 10,
+    pose_tol: float = 0.0,
+    student: bool = True,
 ) -> dict[str, Any]: ...
 def gnc_ransac(
     f1: NDArray[np.float64],

@@ -205,6 +205,12 @@ class PoseonlyOptions(CommonOptions):
     lo: str = _opt("sampson", "str", choices=("lirp", "sampson"))
     final: str = _opt("ml", "str", choices=("ml", "ligt"))
     ml_range: float = _opt(3.0, "real", lo=1.0, hi=100.0, lo_open=True)
+    ml_tails: str = _opt(
+        "student",
+        "str",
+        "the ML stage's inlier errors: Student-t with its degrees of freedom estimated (heavy-tailed real matches), or 'gauss' (MLESAC)",
+        choices=("student", "gauss"),
+    )
     research_noise: float = _opt(
         0.0,
         "real",

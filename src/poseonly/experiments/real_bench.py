@@ -226,6 +226,8 @@ METHODS: dict[str, MethodFn] = {
     "v-ml-1px-1000-slo": ours(final="ml", lo="sampson", threshold_px=1.0, min_iterations=1000, confidence=0.9999),
     "v-ml-1.5px-1000": ours(final="ml", threshold_px=1.5, min_iterations=1000, confidence=0.9999),
     "v-ligt-1px-1000": ours(final="ligt", threshold_px=1.0, min_iterations=1000, confidence=0.9999),
+    # the ML stage's inlier errors Gaussian (MLESAC's mixture; the default before the Student-t)
+    "poseonly-gauss": ours(use_scores=True, ml_tails="gauss"),
     # the opt-in second search at 3 sigma (docs/RESULTS.md section 2)
     "poseonly-research": ours(use_scores=True, research_noise=0.5),
 }

@@ -151,15 +151,15 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
     )
 
 
-def _ml_stage(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float, T: float) -> tuple[np.ndarray, np.ndarray, dict[str, Any]] | None:
+def _ml_stage(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float, T: float, student: bool = True) -> tuple[np.ndarray, np.ndarray, dict[str, Any]] | None:
     """The ML pose from the search's ``(R, t)`` (outlier range ``T``), or None when EM did not run
     or its pose loses more than ``1 - ML_KEEP_TOLERANCE`` of the cheirality-aware MSAC score at the
     larger of ``tau`` and the mixture's decision threshold (the truncated score at a tight tau
     favours the pose fitted to that truncation)."""
-    m = _core.ml_refine(R, t, f1, f2, T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL)
-    if not (m["rounds"] > 0 and m["decision"] > 0 and np.all(np.isfinite(m["R"]))):
+    m = _core.ml_refine(R, t, f1, f2, T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student)
+    if not (m["rounds"] > 0 and m["decision_gauss"] > 0 and np.all(np.isfinite(m["R"]))):
         return None
-    thr = max(tau, float(m["decision"]))
+    thr = max(tau, float(m["decision_gauss"]))
     if msac_chiral(m["R"], m["t"], f1, f2, thr) < ML_KEEP_TOLERANCE * msac_chiral(R, t, f1, f2, thr):
         return None
     return m["R"], m["t"], m
@@ -176,11 +176,15 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
        and the LiRP candidates of its consensus set, by cheirality-consistent support
        (:func:`select_by_support`: the Sampson score cannot tell a planar scene's twin from the truth,
        depth signs can);
-    3. ``final="ml"``: the ML pose under a Gaussian-uniform mixture of Sampson errors
+    3. ``final="ml"``: the ML pose under a mixture of inlier and uniform outlier Sampson errors
        (``poseonly._core.ml_refine``: EM with the noise scale estimated, outliers uniform up to
-       ``ml_range * tau``), kept if its cheirality-aware MSAC score at the larger of ``tau`` and the
-       mixture's decision threshold does not drop by more than 2 %; EM runs to its fixed point (at
-       most ``ML_ROUNDS`` rounds); the returned inliers are those more likely inliers than not.
+       ``ml_range * tau``; ``ml_tails="student"``: the inliers' errors Student-t with the degrees of
+       freedom chosen by the profile likelihood, the Gaussian among the choices, since real match
+       errors are heavy-tailed; ``"gauss"``: MLESAC's Gaussian), kept if its cheirality-aware MSAC
+       score at the larger of ``tau`` and the mixture's decision threshold does not drop by more
+       than 2 %; EM runs to its fixed point (at most ``ML_ROUNDS`` rounds); the returned inliers are
+       those more likely inliers than not under the Gaussian mixture fitted at the ML pose (the t's
+       own p = 1/2 point lies far out in its tail).
        ``final="ligt"`` (the earlier default): LO at a noise-matched threshold, then angular LiGTopt;
     4. (``final="ml"``, opt-in: ``research_noise > 0``) when the noise scale (EM's sigma, or its
        start where EM shrank onto a few matches) exceeds ``research_noise * tau`` (the matches are
@@ -205,7 +209,8 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
         iterations = r.num_iterations
         if o.refine:
             T = float(o.ml_range) * tau
-            best = _ml_stage(R, t, f1, f2, tau, T)
+            student = o.ml_tails == "student"
+            best = _ml_stage(R, t, f1, f2, tau, T, student)
             # noise scale: EM's, or its start (the MAD at the search's pose) where EM shrank sigma
             # onto the few matches a pose can fit exactly
             sig = max(best[2]["sigma"], best[2]["sigma_start"]) if best is not None else 0.0
@@ -219,11 +224,20 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                 diag["num_hypotheses"] += r2.num_iterations * MAX_ROOTS_PER_SAMPLE + r2.num_lo + FINAL_CANDIDATES
                 R2, t2 = select_by_support(r2.R, r2.t, f1, f2, tau2)
                 diag.update(research_threshold=tau2, tau_effective=tau2)
-                second = _ml_stage(R2, t2, f1, f2, tau2, float(o.ml_range) * tau2)
+                second = _ml_stage(R2, t2, f1, f2, tau2, float(o.ml_range) * tau2, student)
                 R, t, best = R2, t2, second
             if best is not None:
                 R, t, m = best
-                diag.update(tau_effective=float(m["decision"]), sigma=float(m["sigma"]), ml_rounds=int(m["rounds"]), ml_inlier_fraction=float(m["inlier_fraction"]))
+                # the inliers: more likely inliers than not under the Gaussian mixture at the ML pose
+                # (the t's heavy tail puts its own p = 1/2 point far out)
+                diag.update(
+                    tau_effective=float(m["decision_gauss"]),
+                    ml_decision=float(m["decision"]),
+                    sigma=float(m["sigma"]),
+                    ml_nu=float(m["nu"]),
+                    ml_rounds=int(m["rounds"]),
+                    ml_inlier_fraction=float(m["inlier_fraction"]),
+                )
         return R, t, None, iterations, diag
     thr = noise_threshold(R, t, f1, f2, tau, o)
     R, t = keep_better((R, t), local_optimization(R, t, f1, f2, thr, o), f1, f2, thr)
