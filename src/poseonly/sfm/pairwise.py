@@ -33,8 +33,8 @@ __all__ = ["ImageGraph", "PairwiseOptions", "TwoView", "image_view_graph", "obse
 MIN_PUTATIVE = 30
 # part of the two-view cache key with the package version: bump when the default estimator's results
 # change between versions (2: the core-era default at its own threshold, with match scores; 3: its
-# cheirality-aware search)
-TWO_VIEW_CACHE_TAG = 3
+# cheirality-aware search; 4: the Student-t ML stage)
+TWO_VIEW_CACHE_TAG = 4
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,59 @@
+"""Per-pair rotation-error ratio of two methods of a ``poseonly bench real`` JSON.
+
+Usage::
+
+    python benchmarks/pair_ratio.py docs/results/real/student_seeds5/real_bench.json poseonly poseonly-gauss
+
+Prints, per dataset and pooled, the geometric mean of ``R_err(A) / R_err(B)`` over the pairs and
+seeds where both methods are within ``WITHIN_DEG`` of the truth (Strecha: the overlapping pairs only),
+with one standard error of the mean log ratio, and the fraction of pairs where A is closer. Medians
+of a few dozen pairs move by several per cent with one pair; the per-pair ratio uses every pair.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+import numpy as np
+
+from poseonly.experiments.real_bench import _subsets
+
+WITHIN_DEG = 5.0
+FLOOR_DEG = 1e-6  # errors are floored here before the log
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("json")
+    ap.add_argument("a")
+    ap.add_argument("b")
+    a = ap.parse_args()
+    with open(a.json, encoding="utf-8") as f:
+        d = json.load(f)
+    recs = d["pairs"] if "pairs" in d else d["records"]
+    by: dict[str, list[float]] = {}
+    subset = {ds: next(iter(_subsets(kind).values())) for ds, kind in d["config"]["datasets"].items()}  # Strecha: overlapping
+    for r in recs:
+        if not subset[r["dataset"]](r):
+            continue
+        for x, y in zip(r["methods"][a.a], r["methods"][a.b], strict=True):
+            ex, ey = x["R_err"], y["R_err"]
+            if ex is None or ey is None or ex > WITHIN_DEG or ey > WITHIN_DEG:
+                continue
+            by.setdefault(r["dataset"], []).append(math.log(max(ex, FLOOR_DEG) / max(ey, FLOOR_DEG)))
+    pooled: list[float] = []
+    for name, v in by.items():
+        pooled += v
+        _row(name, np.array(v))
+    _row("pooled", np.array(pooled))
+
+
+def _row(name: str, v: np.ndarray) -> None:
+    se = v.std() / math.sqrt(len(v))
+    print(f"{name:20s} n={len(v):4d}  geo-mean ratio {math.exp(v.mean()):.3f} +- {se:.3f}  A closer {np.mean(v < 0):.2f}")
+
+
+if __name__ == "__main__":
+    main()
