@@ -2,9 +2,13 @@
 
 Wraps the stages of ``estimate_relative_pose`` (input conversion, the core's search, the pose-only
 choice, the ML stage, the status analysis and its parts) with timers and prints their mean per pair.
-Nested stages are included in their parents' times. Synthetic scenes of :func:`poseonly.sim.make_scene`.
+Nested stages are included in their parents' times. Synthetic scenes of :func:`poseonly.sim.make_scene`,
+or with ``--real DIR`` the first ``--pairs`` pairs of a ``poseonly bench real`` dataset folder (its
+cached SIFT matches, ``1 - ratio`` as scores, as the bench calls the default; ``--ml-tails`` picks
+the ML stage's inlier model).
 
     python benchmarks/stage_times.py --outliers 0.5 --camera pinhole
+    python benchmarks/stage_times.py --real /work/shared/data/realpairs/kitti_seq1 --pairs 20 --ml-tails gauss
 """
 
 from __future__ import annotations
@@ -23,6 +27,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--points", type=int, default=300)
     ap.add_argument("--pairs", type=int, default=8)
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--real", default=None, help="a realpairs or Strecha folder instead of synthetic scenes")
+    ap.add_argument("--cache", default="/tmp/realbench_cache", help="the real benchmark's match cache")
+    ap.add_argument("--ml-tails", default="student", choices=("student", "gauss"))
     a = ap.parse_args(argv)
     import poseonly.analysis as A
     import poseonly.api as API
@@ -55,16 +62,31 @@ def main(argv: list[str] | None = None) -> int:
         for n in names:
             if hasattr(mod, n):
                 wrap(mod, n)
-    scs = [sim.make_scene(a.points, camera=a.camera, noise_px=0.5, outlier_fraction=a.outliers, seed=300 + s) for s in range(a.pairs)]
-    for sc in scs:  # warm-up
-        estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K)
+    calls: list[tuple[tuple[Any, ...], dict[str, Any]]] = []
+    if a.real is None:
+        for s in range(a.pairs):
+            sc = sim.make_scene(a.points, camera=a.camera, noise_px=0.5, outlier_fraction=a.outliers, seed=300 + s)
+            calls.append(((sc.u1, sc.u2, sc.K, sc.K), {"ml_tails": a.ml_tails}))
+        what = f"{a.camera}, {a.points} points, {100 * a.outliers:.0f} % outliers"
+    else:
+        from pathlib import Path
+
+        from poseonly.experiments import real_bench as rb
+
+        for name, pairs in rb.load_datasets([a.real]).items():
+            for p in pairs[: a.pairs]:
+                u1, u2, ratio = rb.pair_matches(p, Path(a.cache))
+                calls.append(((u1, u2, p.K1, p.K2), {"scores": 1.0 - ratio, "ml_tails": a.ml_tails}))
+            what = f"{name}, first {len(calls)} pairs, ml_tails={a.ml_tails}"
+    for args, kw in calls:  # warm-up
+        estimate_relative_pose(*args, **kw)
     acc.clear()
     t0 = time.perf_counter()
     for _ in range(a.repeats):
-        for sc in scs:
-            estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K)
-    n = a.repeats * a.pairs
-    print(f"{a.camera}, {a.points} points, {100 * a.outliers:.0f} % outliers: {1e3 * (time.perf_counter() - t0) / n:.2f} ms per pair")
+        for args, kw in calls:
+            estimate_relative_pose(*args, **kw)
+    n = a.repeats * len(calls)
+    print(f"{what}: {1e3 * (time.perf_counter() - t0) / n:.2f} ms per pair")
     for k, v in sorted(acc.items(), key=lambda kv: -kv[1]):
         print(f"  {k:32s} {1e3 * v / n:7.3f} ms")
     return 0
