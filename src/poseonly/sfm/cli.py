@@ -56,7 +56,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         write_colmap_model,
         write_ply,
     )
-    from .pairwise import PairwiseOptions, image_view_graph
+    from .pairwise import PairwiseOptions, image_view_graph, parse_estimator_options
     from .pipeline import run_global
 
     d = Path(args.images)
@@ -64,7 +64,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         raise InputError(f"image folder not found: {d}")
     out = Path(args.out)
     t0 = time.perf_counter()
-    opt = PairwiseOptions(max_features=args.max_features, threshold_px=args.threshold_px, seed=args.seed)
+    opt = PairwiseOptions(max_features=args.max_features, threshold_px=args.threshold_px, seed=args.seed, estimator_options=parse_estimator_options(args.two_view_option))
     cache = args.cache if args.cache else out / "cache"
     prog = None if args.no_progress else _progress
     if args.database:
@@ -155,6 +155,7 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--text", action="store_true", help="write the COLMAP model as text")
     s.add_argument("--no-progress", action="store_true", help="no progress bars")
     s.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
+    s.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
     s.set_defaults(func=cmd_sfm)
 
     from ..experiments import global_sfm

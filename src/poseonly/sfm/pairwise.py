@@ -28,7 +28,7 @@ from ..geometry import InputError, bearings_from_normalized, bearings_from_pixel
 from .tracks import Tracks
 from .viewgraph import ViewGraph
 
-__all__ = ["ImageGraph", "PairwiseOptions", "TwoView", "image_view_graph", "observation_bearings", "two_view"]
+__all__ = ["ImageGraph", "PairwiseOptions", "TwoView", "image_view_graph", "observation_bearings", "parse_estimator_options", "two_view"]
 
 MIN_PUTATIVE = 30
 # part of the two-view cache key with the package version: bump when the default estimator's results
@@ -43,7 +43,9 @@ class PairwiseOptions:
     ``mutual`` nearest neighbours, minimum putative matches per pair, ``threshold_px`` (``None``: the
     method's default, 1 px for the default method) and ``method`` of
     :func:`poseonly.estimate_relative_pose`, base ``seed``; ``use_scores`` passes each match's
-    ratio-test quality ``1 - d1 / d2`` as ``scores`` (PROSAC order, as the two-view benchmark does)."""
+    ratio-test quality ``1 - d1 / d2`` as ``scores`` (PROSAC order, as the two-view benchmark does);
+    ``estimator_options``: further keyword options of the method, as ``(name, value)`` pairs (e.g.
+    ``(("ml_tails", "gauss"),)``), checked at construction (:func:`poseonly.options.parse_options`)."""
 
     max_features: int | None = 8000
     ratio: float = 0.8
@@ -53,6 +55,33 @@ class PairwiseOptions:
     method: str = "poseonly"
     seed: int = 0
     use_scores: bool = True
+    estimator_options: tuple[tuple[str, Any], ...] = ()
+
+    def __post_init__(self) -> None:
+        from ..options import parse_options
+
+        reserved = {"seed", "scores", "threshold_px", "focal_px", "method"} & {k for k, _ in self.estimator_options}
+        if reserved:
+            raise InputError(f"estimator_options: {sorted(reserved)} are set by the pipeline (use the PairwiseOptions fields)")
+        parse_options(self.method, dict(self.estimator_options))  # unknown names and wrong types raise here
+
+
+def parse_estimator_options(items: Sequence[str] | None) -> tuple[tuple[str, Any], ...]:
+    """``KEY=VALUE`` strings (the CLI's ``--two-view-option``) as ``(name, value)`` pairs; a VALUE that
+    parses as JSON (numbers, true / false, null) is that value, else the string."""
+    import json
+
+    out: list[tuple[str, Any]] = []
+    for it in items or ():
+        key, sep, val = it.partition("=")
+        if not sep or not key.strip():
+            raise InputError(f"--two-view-option expects KEY=VALUE, got {it!r}")
+        try:
+            value: Any = json.loads(val)
+        except ValueError:
+            value = val
+        out.append((key.strip(), value))
+    return tuple(out)
 
 
 @dataclass
@@ -168,6 +197,8 @@ def two_view(
             if a is not None:
                 h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
         h.update(f"{__version__}-{TWO_VIEW_CACHE_TAG}-{opt.method}-{opt.threshold_px}-{seed}-{focal_px}-{scores is not None}".encode())
+        if opt.estimator_options:
+            h.update(repr(sorted(opt.estimator_options)).encode())
         f = cache / "twoview" / f"r_{h.hexdigest()[:24]}.npz"
         if f.is_file():
             try:
@@ -178,7 +209,7 @@ def two_view(
     extra: dict[str, Any] = {} if focal_px is None else {"focal_px": float(focal_px)}
     if opt.threshold_px is not None:
         extra["threshold_px"] = float(opt.threshold_px)
-    r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, seed=seed, scores=scores, **extra)
+    r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, seed=seed, scores=scores, **dict(opt.estimator_options), **extra)
     out = TwoView(np.asarray(r.R), np.asarray(r.t), np.asarray(r.inliers, dtype=bool), int(r.num_inliers), str(r.status))
     if f is not None:
         _atomic_save(f, R=out.R, t=out.t, inliers=out.inliers, num_inliers=np.array(out.num_inliers), status=np.array(out.status))

@@ -1,0 +1,45 @@
+"""The SfM pipeline's two-view estimator options (``PairwiseOptions.estimator_options``, the CLI's
+``--two-view-option KEY=VALUE``): passed to the estimator, part of the cache key, checked early."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from poseonly import InputError, estimate_relative_pose
+from poseonly.sfm.pairwise import PairwiseOptions, parse_estimator_options, two_view
+from poseonly.sim import make_scene
+
+
+def test_parse_estimator_options():
+    assert parse_estimator_options(["ml_tails=gauss", "min_hits=3", "chiral_scoring=false"]) == (
+        ("ml_tails", "gauss"),
+        ("min_hits", 3),
+        ("chiral_scoring", False),
+    )
+    assert parse_estimator_options(None) == ()
+    for bad in ("ml_tails", "=gauss"):
+        with pytest.raises(InputError, match="KEY=VALUE"):
+            parse_estimator_options([bad])
+
+
+def test_options_are_checked_at_construction():
+    PairwiseOptions(estimator_options=(("ml_tails", "gauss"),))
+    with pytest.raises(InputError, match="unknown option"):
+        PairwiseOptions(estimator_options=(("no_such_option", 1),))
+    with pytest.raises(ValueError, match="ml_tails"):
+        PairwiseOptions(estimator_options=(("ml_tails", "laplace"),))
+    with pytest.raises(InputError, match="set by the pipeline"):
+        PairwiseOptions(estimator_options=(("seed", 3),))
+
+
+def test_two_view_passes_the_options_and_keys_the_cache_by_them(tmp_path):
+    sc = make_scene(200, "normal", "pinhole", 0.5, 0.3, 4)
+    gauss = PairwiseOptions(use_scores=False, estimator_options=(("ml_tails", "gauss"),))
+    a = two_view(sc.u1, sc.u2, sc.K, sc.K, gauss, 0, tmp_path)
+    ref = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0, ml_tails="gauss")
+    np.testing.assert_array_equal(a.R, ref.R)
+    b = two_view(sc.u1, sc.u2, sc.K, sc.K, PairwiseOptions(use_scores=False), 0, tmp_path)  # the default: its own entry
+    default = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0)
+    np.testing.assert_array_equal(b.R, default.R)
+    assert len(list((tmp_path / "twoview").iterdir())) == 2
