@@ -80,25 +80,40 @@ def test_noise_free_matches_give_the_exact_pose():
     assert np.linalg.norm(m["t"] - sc.t) < 1e-8
 
 
-def test_student_log_likelihood_and_decision():
-    sc, u1, u2 = _heavy_scene(5)
-    f1, f2 = _bearings(u1, sc.K), _bearings(u2, sc.K)
-    T = T_PX / sc.K[0, 0]
-    m = _core.ml_refine(sc.R, sc.t, f1, f2, T, rounds=50, pose_tol=1e-10)
+def _t_density(nu: float, s: float):
     from scipy.special import gammaln
 
+    c = 2 * np.exp(gammaln((nu + 1) / 2) - gammaln(nu / 2)) / (np.sqrt(nu * np.pi) * s)
+    return lambda r: c * (1 + (r / s) ** 2 / nu) ** (-(nu + 1) / 2)
+
+
+# the grid's exponents (nu + 1) / 2 = 5/4, 3/2, 2 (quarter, half and whole powers); the scenes' nu and
+# scale that choose them (the t is not renormalised on [0, T), which biases the choice lighter when
+# the scale is a large part of T: measured, docs/CORE.md)
+@pytest.mark.parametrize(("want_nu", "nu", "scale_px"), [(1.5, 1.0, 0.1), (2.0, 2.0, 0.3), (3.0, 2.0, 0.3)])
+def test_student_log_likelihood_posteriors_and_decision(want_nu, nu, scale_px):
+    for seed in range(40):
+        sc, u1, u2 = _heavy_scene(seed, nu=nu, scale_px=scale_px)
+        f1, f2 = _bearings(u1, sc.K), _bearings(u2, sc.K)
+        T = T_PX / sc.K[0, 0]
+        m = _core.ml_refine(sc.R, sc.t, f1, f2, T, rounds=50, pose_tol=1e-10)
+        if m["nu"] == want_nu:
+            break
+    else:
+        pytest.fail(f"no scene chose nu = {want_nu}")
     s, g, nu = m["sigma"], m["inlier_fraction"], m["nu"]
-    assert np.isfinite(nu)
-
-    def f(r):
-        return 2 * np.exp(gammaln((nu + 1) / 2) - gammaln(nu / 2)) / (np.sqrt(nu * np.pi) * s) * (1 + (r / s) ** 2 / nu) ** (-(nu + 1) / 2)
-
+    f = _t_density(nu, s)
     r = np.minimum(v_sampson(m["R"][None], m["t"][None], f1, f2)[0], T)
     assert m["log_likelihood"] == pytest.approx(np.sum(np.log(g * f(r) + (1 - g) / T)), rel=1e-9)
     post = np.where(r < T, g * f(r) / (g * f(r) + (1 - g) / T), 0.0)
     np.testing.assert_allclose(m["posterior"], post, rtol=1e-9, atol=1e-12)
     d = m["decision"]
-    assert 0 < d < T and g * f(d) == pytest.approx((1 - g) / T, rel=1e-9)
+    assert 0 < d <= T
+    if d < T:  # where the t's density meets the outliers' (else it stays above it up to T)
+        assert g * f(d) == pytest.approx((1 - g) / T, rel=1e-9)
+    else:
+        assert g * f(T) >= (1 - g) / T
+    assert 0 < m["decision_gauss"] < d and 0 < m["sigma_gauss"]
 
 
 def test_option_switches_the_tails():

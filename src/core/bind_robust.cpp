@@ -171,6 +171,7 @@ nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, 
   d["t"] = to_numpy(std::move(to), {3});
   d["sigma"] = r.sigma;
   d["nu"] = r.nu;
+  d["sigma_gauss"] = r.sigma_gauss;
   d["sigma_start"] = r.sigma_start;
   d["inlier_fraction"] = r.inlier_fraction;
   d["decision"] = r.decision;
@@ -300,7 +301,7 @@ POSEONLY_BIND(robust) {
         nb::arg("rounds") = 6, nb::arg("lm_iterations") = 10, nb::arg("pose_tol") = 0.0, nb::arg("student") = true,
         "ML pose under a mixture of Student-t inlier (`student`: nu chosen by the data, inf included; else Gaussian) and uniform outlier Sampson errors "
         "(EM + weighted Sampson LM; outlier range `range`, radians; at most `rounds` rounds, ending early when a round moves the pose "
-        "by at most `pose_tol`): dict R, t, sigma, nu, sigma_start, inlier_fraction, decision, decision_gauss (the Gaussian mixture's at the pose), rounds, log_likelihood, posterior (n,).");
+        "by at most `pose_tol`): dict R, t, sigma, nu, sigma_gauss, sigma_start, inlier_fraction, decision, decision_gauss (the Gaussian mixture's at the pose), rounds, log_likelihood, posterior (n,).");
   m.def("gnc_ransac", &gnc_ransac, nb::arg("f1"), nb::arg("f2"), nb::arg("theta"), nb::arg("seed"), nb::arg("sample_size") = 30,
         nb::arg("max_iterations") = 50, nb::arg("adaptive") = false, nb::arg("confidence") = 0.99, nb::arg("gnc") = nb::dict(),
         "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats).");

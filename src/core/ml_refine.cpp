@@ -212,8 +212,15 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
     out->pose = next;
     out->rounds = k + 1;
     sampson_all(P, out->pose, &r);
-    // a fixed point of the EM: the next round would repeat this one
-    if (moved <= opt.pose_tol && !(opt.student && k + 1 < kNuRounds)) break;
+    // a fixed point of the EM: the next round would repeat this one (its nu choice included: the
+    // errors did not move)
+    if (moved <= opt.pose_tol) break;
+  }
+  // the t's parameters at the returned pose (warm-started; the Gaussian stage reports those of its
+  // last E-step, as before)
+  if (std::isfinite(nu)) {
+    double sv = sigma, gv = g;
+    if (fit_scale(r, Tr, nu, opt.sigma_floor, kEmSteps, kEmTol, &sv, &gv, nullptr)) sigma = sv, g = gv;
   }
   // final posteriors at the returned pose
   const InlierModel M(sigma, nu);
@@ -229,9 +236,12 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
   out->decision = decision(M, g, Tr);
   if (M.student()) {
     double sg = sigma0, gg = g0;
-    out->decision_gauss = fit_scale(r, Tr, INFINITY, opt.sigma_floor, kEmSteps, kEmTol, &sg, &gg, nullptr) ? decision(InlierModel(sg, INFINITY), gg, Tr) : 0.0;
+    const bool fitted = fit_scale(r, Tr, INFINITY, opt.sigma_floor, kEmSteps, kEmTol, &sg, &gg, nullptr);
+    out->decision_gauss = fitted ? decision(InlierModel(sg, INFINITY), gg, Tr) : 0.0;
+    out->sigma_gauss = fitted ? sg : 0.0;
   } else {
     out->decision_gauss = out->decision;
+    out->sigma_gauss = sigma;
   }
   out->posterior = p;
 }

@@ -16,6 +16,8 @@
 // structured outliers beyond T, and the inlier decision p_i >= 1/2 follows the measured noise.
 #pragma once
 
+#include <cmath>
+
 #include "common.h"
 
 namespace poseonly {
@@ -32,7 +34,8 @@ struct MlOptions {
 struct MlResult {
   Pose pose;
   double sigma = 0.0;           // inlier noise scale s (radians): the t's scale, or the Gaussian's sigma
-  double nu = 0.0;              // the t's degrees of freedom (inf: Gaussian)
+  double nu = NAN;              // the t's degrees of freedom (inf: Gaussian; NaN: EM did not run)
+  double sigma_gauss = 0.0;     // the Gaussian mixture's sigma at the returned pose (= sigma for the Gaussian)
   double sigma_start = 0.0;     // EM's start: 1.4826 median of the errors below T / 2 at the start pose
   double inlier_fraction = 0.0; // g
   double decision = 0.0;        // residual where p = 1/2 (radians)

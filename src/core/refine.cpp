@@ -300,7 +300,8 @@ double median(std::vector<double> v) {
 }
 
 // default scale: 1.4826 median over the points with positive weight (all if none) of |sqrt(w_i) r_i|
-double default_scale(const Points& p, const double* w, int kind, const Chart& chart) {
+// (of |r_i| with outer weights)
+double default_scale(const Points& p, const double* w, int kind, const Chart& chart, bool outer) {
   Frame F;
   const double x0[5] = {0, 0, 0, 0, 0};
   chart.eval(x0, false, &F.R, &F.t, &F.Jl, &F.Jt);
@@ -312,8 +313,9 @@ double default_scale(const Points& p, const double* w, int kind, const Chart& ch
   for (int i = 0; i < p.n; ++i) {
     pr.point(F, i, false, r, J);
     const double sw = w ? std::sqrt(w[i]) : 1.0;
+    const double rs = outer ? 1.0 : sw;  // outer weights do not scale the residuals
     double sq = 0.0;
-    for (int c = 0; c < pr.dim(); ++c) sq += (sw * r[c]) * (sw * r[c]);
+    for (int c = 0; c < pr.dim(); ++c) sq += (rs * r[c]) * (rs * r[c]);
     all.push_back(std::sqrt(sq));
     if (sw > 0.0) pos.push_back(all.back());
   }
@@ -408,7 +410,7 @@ RefineStats refine(const Points& p, const double* w, const RefineOptions& opt, i
   start.t = start.t.normalized();
   const Chart chart(start);
   double scale = 1.0;
-  if (opt.loss != RefineLoss::Linear) scale = opt.loss_scale > 0.0 ? opt.loss_scale : default_scale(p, w, kind, chart);
+  if (opt.loss != RefineLoss::Linear) scale = opt.loss_scale > 0.0 ? opt.loss_scale : default_scale(p, w, kind, chart, opt.weights_outside);
   st.loss_scale = scale;
   const Problem pr{p, w, kind, opt.loss, scale, chart, opt.weights_outside};
   const double x0[5] = {0, 0, 0, 0, 0};

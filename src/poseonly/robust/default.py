@@ -211,9 +211,9 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
             T = float(o.ml_range) * tau
             student = o.ml_tails == "student"
             best = _ml_stage(R, t, f1, f2, tau, T, student)
-            # noise scale: EM's, or its start (the MAD at the search's pose) where EM shrank sigma
-            # onto the few matches a pose can fit exactly
-            sig = max(best[2]["sigma"], best[2]["sigma_start"]) if best is not None else 0.0
+            # noise scale: the Gaussian mixture's sigma at the ML pose, or EM's start (the MAD at the
+            # search's pose) where EM shrank sigma onto the few matches a pose can fit exactly
+            sig = max(best[2]["sigma_gauss"], best[2]["sigma_start"]) if best is not None else 0.0
             if best is not None and o.research_noise > 0 and sig > o.research_noise * tau:
                 # the matches are noisier than the threshold assumes: the search scored a part of the
                 # inliers and its pose sits in that part's basin. Search again at 3 sigma (at most the
