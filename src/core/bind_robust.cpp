@@ -150,9 +150,13 @@ nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, c
 }
 
 nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double range, int rounds,
-                      int lm_iterations, double pose_tol, bool student) {
+                      int lm_iterations, double pose_tol, bool student, const std::optional<VectorIn>& scales) {
   const Points P = points_of(f1, f2);
   if (!(range > 0.0 && std::isfinite(range))) throw std::invalid_argument("range must be finite and > 0");
+  const double* sc = weights_of(scales, P.n);
+  if (sc)
+    for (int i = 0; i < P.n; ++i)
+      if (!(std::isfinite(sc[i]) && sc[i] > 0.0)) throw std::invalid_argument("scales must be finite and > 0");
   MlOptions mo;
   mo.range = range;
   mo.rounds = rounds;
@@ -162,7 +166,7 @@ nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, 
   MlResult r;
   {
     nb::gil_scoped_release release;
-    ml_refine(P, pose_of(R, t), mo, &r);
+    ml_refine(P, pose_of(R, t), mo, &r, sc);
   }
   std::vector<double> Ro(9), to(3);
   put_pose(r.pose, Ro.data(), to.data());
@@ -171,6 +175,7 @@ nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, 
   d["t"] = to_numpy(std::move(to), {3});
   d["sigma"] = r.sigma;
   d["nu"] = r.nu;
+  d["alpha"] = r.alpha;
   d["sigma_gauss"] = r.sigma_gauss;
   d["sigma_start"] = r.sigma_start;
   d["inlier_fraction"] = r.inlier_fraction;
@@ -299,9 +304,11 @@ POSEONLY_BIND(robust) {
         "The default method's LO step at `threshold` from the pose's cheirality-consistent inliers: (R, t, ok).");
   m.def("ml_refine", &ml_refine_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("range"),
         nb::arg("rounds") = 6, nb::arg("lm_iterations") = 10, nb::arg("pose_tol") = 0.0, nb::arg("student") = true,
+        nb::arg("scales") = nb::none(),
         "ML pose under a mixture of Student-t inlier (`student`: nu chosen by the data, inf included; else Gaussian) and uniform outlier Sampson errors "
         "(EM + weighted Sampson LM; outlier range `range`, radians; at most `rounds` rounds, ending early when a round moves the pose "
-        "by at most `pose_tol`): dict R, t, sigma, nu, sigma_gauss, sigma_start, inlier_fraction, decision, decision_gauss (the Gaussian mixture's at the pose), rounds, log_likelihood, posterior (n,).");
+        "by at most `pose_tol`; `scales` (n,) > 0: relative noise scales, a match's inlier scale sigma (scale_i / median)^alpha, "
+        "alpha in {0, 1/2, 1} chosen with nu): dict R, t, sigma, nu, alpha, sigma_gauss, sigma_start, inlier_fraction, decision, decision_gauss (the Gaussian mixture's at the pose), rounds, log_likelihood, posterior (n,).");
   m.def("gnc_ransac", &gnc_ransac, nb::arg("f1"), nb::arg("f2"), nb::arg("theta"), nb::arg("seed"), nb::arg("sample_size") = 30,
         nb::arg("max_iterations") = 50, nb::arg("adaptive") = false, nb::arg("confidence") = 0.99, nb::arg("gnc") = nb::dict(),
         "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats).");

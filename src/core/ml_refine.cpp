@@ -23,6 +23,11 @@ constexpr int kNuRounds = 2;          // nu is chosen at the start pose and afte
 constexpr int kNuSample = 512;        // ... on at most this many of the errors below T (evenly strided)
 constexpr int kNuEmSteps = 30;        // EM steps per grid point (warm-started from the previous one)
 constexpr double kNuEmTol = 1e-3;
+// with per-match noise scales c_i (relative to their median), the inliers' scale is s c_i^alpha,
+// alpha chosen with nu by the profile likelihood: 0 (the scales say nothing), 1/2, 1 (the noise
+// proportional to the scale, as a keypoint's localisation error to its detection scale)
+constexpr double kAlphaGrid[] = {0.0, 0.5, 1.0};
+constexpr double kMaxScaleRatio = 1e3;  // relative scales are clamped to [1e-3, 1e3]
 
 // rotation angle of R1 R0^T (radians), stable for small angles
 double rotation_angle(const Mat3& R1, const Mat3& R0) {
@@ -82,20 +87,23 @@ struct InlierModel {
 // The mixture's scale s and inlier share g at fixed nu on fixed errors r (EM from the given s, g, at
 // most `steps` steps, until s moves by at most tol relative and g by tol): false when fewer than
 // kMinInliers expected inliers remain. `p` (optional) gets the posteriors at the result.
-bool fit_scale(const std::vector<double>& r, double Tr, double nu, double floor, int steps, double tol, double* s, double* g,
-               std::vector<double>* p) {
+// q (optional, as r): per-match inverse noise scales, the inlier density of r_i being q_i f(q_i r_i).
+bool fit_scale(const std::vector<double>& r, const std::vector<double>* q, double Tr, double nu, double floor, int steps, double tol,
+               double* s, double* g, std::vector<double>* p) {
   for (int e = 0; e < steps; ++e) {
     const InlierModel M(*s, nu);
     const double out_density = (1.0 - *g) / Tr;
     int nT = 0;
     double sp = 0.0, spur2 = 0.0;
-    for (double x : r) {
+    for (size_t i = 0; i < r.size(); ++i) {
+      const double x = r[i];
       if (!(x < Tr)) continue;
       ++nT;
-      const double lin = *g * M.density(x);
+      const double qi = q ? (*q)[i] : 1.0, z = qi * x;
+      const double lin = *g * qi * M.density(z);
       const double pi = lin / (lin + out_density);
       sp += pi;
-      spur2 += pi * M.precision(x) * x * x;
+      spur2 += pi * M.precision(z) * z * z;
     }
     if (sp < kMinInliers) return false;
     const double s0 = *s, g0 = *g;
@@ -108,7 +116,8 @@ bool fit_scale(const std::vector<double>& r, double Tr, double nu, double floor,
     const double out_density = (1.0 - *g) / Tr;
     p->resize(r.size());
     for (size_t i = 0; i < r.size(); ++i) {
-      const double lin = r[i] < Tr ? *g * M.density(r[i]) : 0.0;
+      const double qi = q ? (*q)[i] : 1.0;
+      const double lin = r[i] < Tr ? *g * qi * M.density(qi * r[i]) : 0.0;
       (*p)[i] = r[i] < Tr ? lin / (lin + out_density) : 0.0;
     }
   }
@@ -116,36 +125,56 @@ bool fit_scale(const std::vector<double>& r, double Tr, double nu, double floor,
 }
 
 // observed log-likelihood of the errors (a match at or beyond T counts at T's density)
-double log_likelihood(const std::vector<double>& r, double Tr, double nu, double s, double g) {
+double log_likelihood(const std::vector<double>& r, const std::vector<double>* q, double Tr, double nu, double s, double g) {
   const InlierModel M(s, nu);
   const double out_density = (1.0 - g) / Tr;
   double ll = 0.0;
-  for (double x : r) ll += std::log(g * M.density(std::min(x, Tr)) + out_density);
+  for (size_t i = 0; i < r.size(); ++i) {
+    const double qi = q ? (*q)[i] : 1.0;
+    ll += std::log(g * qi * M.density(qi * std::min(r[i], Tr)) + out_density);
+  }
   return ll;
 }
 
-// nu maximising the profile likelihood max_{s, g} L(s, g, nu) over kNuGrid on an even subsample of
-// the errors below T (the first grid point's EM starts from the given s, g, each next one from the
-// previous one's fit)
-double select_nu(const std::vector<double>& r, double Tr, double floor, double s, double g) {
-  std::vector<double> sub;
+// q_i = c_i^-alpha for the relative scales c (alpha on kAlphaGrid)
+void inverse_scales(const std::vector<double>& c, double alpha, std::vector<double>* q) {
+  q->resize(c.size());
+  for (size_t i = 0; i < c.size(); ++i) (*q)[i] = alpha == 0.0 ? 1.0 : alpha == 1.0 ? 1.0 / c[i] : 1.0 / std::sqrt(c[i]);
+}
+
+// (nu, alpha) maximising the profile likelihood max_{s, g} L(s, g, nu, alpha) over kNuGrid (only
+// inf when !student) x kAlphaGrid (only 0 without scales c) on an even subsample of the errors below
+// T (per alpha, the first grid point's EM starts from the given s, g, each next one from the previous
+// one's fit)
+void select_tails(const std::vector<double>& r, const std::vector<double>& c, bool student, double Tr, double floor, double s, double g,
+                  double* nu_out, double* alpha_out) {
+  std::vector<double> sub, csub, q;
   int nT = 0;
   for (double x : r) nT += x < Tr;
   const int stride = std::max(1, (nT + kNuSample - 1) / kNuSample);
   int k = 0;
-  for (double x : r)
-    if (x < Tr && k++ % stride == 0) sub.push_back(x);
-  double best_nu = INFINITY, best_ll = -INFINITY;
-  double sv = s, gv = g;
-  for (double nu : kNuGrid) {
-    if (!fit_scale(sub, Tr, nu, floor, kNuEmSteps, kNuEmTol, &sv, &gv, nullptr)) {
-      sv = s, gv = g;
-      continue;
+  for (size_t i = 0; i < r.size(); ++i)
+    if (r[i] < Tr && k++ % stride == 0) {
+      sub.push_back(r[i]);
+      if (!c.empty()) csub.push_back(c[i]);
     }
-    const double ll = log_likelihood(sub, Tr, nu, sv, gv);
-    if (ll > best_ll) best_ll = ll, best_nu = nu;
+  double best_ll = -INFINITY;
+  *nu_out = INFINITY, *alpha_out = 0.0;
+  for (double alpha : kAlphaGrid) {
+    if (alpha != 0.0 && c.empty()) break;
+    inverse_scales(csub, alpha, &q);
+    const std::vector<double>* qp = c.empty() ? nullptr : &q;
+    double sv = s, gv = g;
+    for (double nu : kNuGrid) {
+      if (!student && std::isfinite(nu)) continue;
+      if (!fit_scale(sub, qp, Tr, nu, floor, kNuEmSteps, kNuEmTol, &sv, &gv, nullptr)) {
+        sv = s, gv = g;
+        continue;
+      }
+      const double ll = log_likelihood(sub, qp, Tr, nu, sv, gv);
+      if (ll > best_ll) best_ll = ll, *nu_out = nu, *alpha_out = alpha;
+    }
   }
-  return best_nu;
 }
 
 // the residual where the posterior is 1/2: g f(r) = (1 - g) / T (f decreases in r; 0 when no r < T
@@ -165,7 +194,7 @@ double decision(const InlierModel& M, double g, double Tr) {
 
 }  // namespace
 
-void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResult* out) {
+void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResult* out, const double* scales) {
   const double Tr = opt.range;
   out->pose = start;
   std::vector<double> r, p(P.n, 0.0);
@@ -180,33 +209,58 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
     out->posterior.assign(P.n, 0.0);
     return;
   }
+  // the relative noise scales c_i = scale_i / median (empty without scales)
+  std::vector<double> c;
+  if (scales) {
+    c.assign(scales, scales + P.n);
+    std::vector<double> tmp(c);
+    std::nth_element(tmp.begin(), tmp.begin() + tmp.size() / 2, tmp.end());
+    const double med = tmp[tmp.size() / 2];
+    for (double& x : c) x = (std::isfinite(x) && x > 0.0 && med > 0.0) ? std::clamp(x / med, 1.0 / kMaxScaleRatio, kMaxScaleRatio) : 1.0;
+  }
   std::nth_element(in.begin(), in.begin() + in.size() / 2, in.end());
   const double sigma0 = std::max(1.4826 * in[in.size() / 2], opt.sigma_floor);
   const double g0 = std::min(static_cast<double>(in.size()) / P.n, 0.99);
   out->sigma_start = sigma0;
-  double sigma = sigma0, g = g0, nu = INFINITY;
+  double sigma = sigma0, g = g0, nu = INFINITY, alpha = 0.0;
+  std::vector<double> q;  // inverse noise scales c_i^-alpha (empty: all 1)
+  const std::vector<double>* qp = nullptr;
+  std::vector<double> v;  // the pose step's weights
   for (int k = 0; k < opt.rounds; ++k) {
-    if (opt.student && k < kNuRounds) {
-      nu = select_nu(r, Tr, opt.sigma_floor, sigma0, g0);
+    if ((opt.student || !c.empty()) && k < kNuRounds) {
+      select_tails(r, c, opt.student, Tr, opt.sigma_floor, sigma0, g0, &nu, &alpha);
       sigma = sigma0, g = g0;
+      qp = nullptr;
+      if (alpha != 0.0) inverse_scales(c, alpha, &q), qp = &q;
     }
     // E: the mixture's parameters to convergence on the current errors, then the posteriors
-    if (!fit_scale(r, Tr, nu, opt.sigma_floor, kEmSteps, kEmTol, &sigma, &g, &p)) break;
-    // M: the pose maximising sum p_i log f(r_i): weighted least squares (Gaussian) or, for the t,
-    // the Cauchy loss of scale sqrt(nu) s with the posteriors as outer weights (its IRLS weights are
-    // the t's precisions, recomputed at every LM step)
+    if (!fit_scale(r, qp, Tr, nu, opt.sigma_floor, kEmSteps, kEmTol, &sigma, &g, &p)) break;
+    // M: the pose maximising sum p_i log f(q_i r_i): weighted least squares with weights p_i q_i^2
+    // (Gaussian) or, for the t, the Cauchy loss of scale sqrt(nu) s on q_i r_i with the posteriors as
+    // outer weights (its IRLS weights are the t's precisions, recomputed at every LM step)
     RefineOptions ro;
     ro.max_iterations = opt.lm_iterations;
     ro.tol = 1e-10;
+    const double* w = p.data();
     if (std::isfinite(nu)) {
       ro.loss = RefineLoss::Cauchy;
       ro.loss_scale = std::sqrt(nu) * sigma;
       ro.weights_outside = true;
+      if (qp) {
+        v.resize(P.n);
+        for (int i = 0; i < P.n; ++i) v[i] = q[i] * q[i];
+        ro.residual_weights = v.data();
+      }
     } else {
       ro.loss = RefineLoss::Linear;
+      if (qp) {
+        v.resize(P.n);
+        for (int i = 0; i < P.n; ++i) v[i] = p[i] * q[i] * q[i];
+        w = v.data();
+      }
     }
     Pose next = out->pose;
-    refine_sampson(P, p.data(), ro, &next);
+    refine_sampson(P, w, ro, &next);
     if (!(next.R.allFinite() && next.t.allFinite())) break;
     const double moved = std::max(rotation_angle(next.R, out->pose.R), (next.t - out->pose.t).norm());
     out->pose = next;
@@ -218,25 +272,27 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
   }
   // the t's parameters at the returned pose (warm-started; the Gaussian stage reports those of its
   // last E-step, as before)
-  if (std::isfinite(nu)) {
+  if (std::isfinite(nu) || qp) {
     double sv = sigma, gv = g;
-    if (fit_scale(r, Tr, nu, opt.sigma_floor, kEmSteps, kEmTol, &sv, &gv, nullptr)) sigma = sv, g = gv;
+    if (fit_scale(r, qp, Tr, nu, opt.sigma_floor, kEmSteps, kEmTol, &sv, &gv, nullptr)) sigma = sv, g = gv;
   }
   // final posteriors at the returned pose
   const InlierModel M(sigma, nu);
   const double out_density = (1.0 - g) / Tr;
-  out->log_likelihood = log_likelihood(r, Tr, nu, sigma, g);
+  out->log_likelihood = log_likelihood(r, qp, Tr, nu, sigma, g);
   for (int i = 0; i < P.n; ++i) {
-    const double lin = r[i] < Tr ? g * M.density(r[i]) : 0.0;
+    const double qi = qp ? q[i] : 1.0;
+    const double lin = r[i] < Tr ? g * qi * M.density(qi * r[i]) : 0.0;
     p[i] = r[i] < Tr ? lin / (lin + out_density) : 0.0;
   }
   out->sigma = sigma;
   out->nu = nu;
+  out->alpha = alpha;
   out->inlier_fraction = g;
   out->decision = decision(M, g, Tr);
-  if (M.student()) {
+  if (M.student() || qp) {
     double sg = sigma0, gg = g0;
-    const bool fitted = fit_scale(r, Tr, INFINITY, opt.sigma_floor, kEmSteps, kEmTol, &sg, &gg, nullptr);
+    const bool fitted = fit_scale(r, nullptr, Tr, INFINITY, opt.sigma_floor, kEmSteps, kEmTol, &sg, &gg, nullptr);
     out->decision_gauss = fitted ? decision(InlierModel(sg, INFINITY), gg, Tr) : 0.0;
     out->sigma_gauss = fitted ? sg : 0.0;
   } else {

@@ -3,6 +3,9 @@
 // beyond T are outliers. Inliers have Sampson errors |r| of a Student-t of scale s and nu degrees of
 // freedom (Lange, Little and Taylor 1989), nu chosen by the profile likelihood on a grid that
 // includes nu = inf, the half-normal of MLESAC (`student = false`: the half-normal only).
+// Known noise scales (`scales`): a match's inlier density is that of q_i r_i, q_i = c_i^-alpha for
+// its relative noise scale c_i, alpha chosen with nu by the profile likelihood on {0, 1/2, 1} (0: the
+// scales explain nothing and the stage is the one without them).
 // Why the t: real match errors are heavy-tailed (a keypoint's localisation error depends on its
 // scale, so the inliers are a scale mixture of Gaussians): on the SIFT matches of the five real
 // datasets the chosen nu is 1.5-3, and on Gaussian errors it is inf, where the stage is MLESAC's.
@@ -35,10 +38,11 @@ struct MlResult {
   Pose pose;
   double sigma = 0.0;           // inlier noise scale s (radians): the t's scale, or the Gaussian's sigma
   double nu = NAN;              // the t's degrees of freedom (inf: Gaussian; NaN: EM did not run)
+  double alpha = 0.0;           // the noise scales' exponent: a match's inlier scale is sigma c_i^alpha
   double sigma_gauss = 0.0;     // the Gaussian mixture's sigma at the returned pose (= sigma for the Gaussian)
   double sigma_start = 0.0;     // EM's start: 1.4826 median of the errors below T / 2 at the start pose
   double inlier_fraction = 0.0; // g
-  double decision = 0.0;        // residual where p = 1/2 (radians)
+  double decision = 0.0;        // residual where p = 1/2 (radians; for a match of the median scale)
   double decision_gauss = 0.0;  // the same for the Gaussian mixture fitted at the returned pose (the
                                 // t's decision itself lies far out in its heavy tail)
   double log_likelihood = 0.0;  // of all matches under the fitted mixture (errors clamped at T)
@@ -46,6 +50,9 @@ struct MlResult {
   int rounds = 0;
 };
 
-void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResult* out);
+// scales (optional, (n,)): each match's relative noise scale (e.g. sqrt(size1 size2) of its SIFT
+// keypoints; only ratios matter, c_i = scale_i / median; non-positive or non-finite entries count as
+// the median, ratios are clamped to [1e-3, 1e3]).
+void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResult* out, const double* scales = nullptr);
 
 }  // namespace poseonly

@@ -233,6 +233,9 @@ struct Problem {
   double scale;
   const Chart& chart;
   bool outer = false;  // w_i multiplies rho instead of scaling r (RefineOptions::weights_outside)
+  const double* v = nullptr;  // with outer: residual weights scaling r (RefineOptions::residual_weights)
+  // sqrt of the weight that scales point i's residual
+  double inner(int i) const { return outer ? (v ? std::sqrt(v[i]) : 1.0) : (w ? std::sqrt(w[i]) : 1.0); }
   int dim() const { return kind == 0 ? 1 : 3; }
 
   void point(const Frame& F, int i, bool want, double r[3], double J[3][5]) const {
@@ -252,7 +255,7 @@ struct Problem {
     for (int i = 0; i < p.n; ++i) {
       if (outer && w && w[i] == 0.0) continue;
       point(F, i, want, r, J);
-      const double sw = (w && !outer) ? std::sqrt(w[i]) : 1.0;
+      const double sw = inner(i);
       double sq = 0.0;
       for (int c = 0; c < m; ++c) {
         r[c] *= sw;
@@ -300,12 +303,12 @@ double median(std::vector<double> v) {
 }
 
 // default scale: 1.4826 median over the points with positive weight (all if none) of |sqrt(w_i) r_i|
-// (of |r_i| with outer weights)
-double default_scale(const Points& p, const double* w, int kind, const Chart& chart, bool outer) {
+// (of |sqrt(v_i) r_i| with outer weights w and residual weights v)
+double default_scale(const Points& p, const double* w, int kind, const Chart& chart, bool outer, const double* v) {
   Frame F;
   const double x0[5] = {0, 0, 0, 0, 0};
   chart.eval(x0, false, &F.R, &F.t, &F.Jl, &F.Jt);
-  const Problem pr{p, w, kind, RefineLoss::Linear, 1.0, chart};
+  const Problem pr{p, w, kind, RefineLoss::Linear, 1.0, chart, outer, v};
   std::vector<double> all, pos;
   all.reserve(p.n);
   pos.reserve(p.n);
@@ -313,7 +316,7 @@ double default_scale(const Points& p, const double* w, int kind, const Chart& ch
   for (int i = 0; i < p.n; ++i) {
     pr.point(F, i, false, r, J);
     const double sw = w ? std::sqrt(w[i]) : 1.0;
-    const double rs = outer ? 1.0 : sw;  // outer weights do not scale the residuals
+    const double rs = pr.inner(i);  // outer weights do not scale the residuals
     double sq = 0.0;
     for (int c = 0; c < pr.dim(); ++c) sq += (rs * r[c]) * (rs * r[c]);
     all.push_back(std::sqrt(sq));
@@ -410,9 +413,9 @@ RefineStats refine(const Points& p, const double* w, const RefineOptions& opt, i
   start.t = start.t.normalized();
   const Chart chart(start);
   double scale = 1.0;
-  if (opt.loss != RefineLoss::Linear) scale = opt.loss_scale > 0.0 ? opt.loss_scale : default_scale(p, w, kind, chart, opt.weights_outside);
+  if (opt.loss != RefineLoss::Linear) scale = opt.loss_scale > 0.0 ? opt.loss_scale : default_scale(p, w, kind, chart, opt.weights_outside, opt.residual_weights);
   st.loss_scale = scale;
-  const Problem pr{p, w, kind, opt.loss, scale, chart, opt.weights_outside};
+  const Problem pr{p, w, kind, opt.loss, scale, chart, opt.weights_outside, opt.weights_outside ? opt.residual_weights : nullptr};
   const double x0[5] = {0, 0, 0, 0, 0};
   const double cost0 = pr.eval(x0, false, nullptr, nullptr);
   st.initial_cost = cost0;

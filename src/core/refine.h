@@ -36,6 +36,9 @@ struct RefineOptions {
   double tol = 1e-12;                // ftol = xtol = gtol
   bool weights_outside = false;      // cost s^2 sum_i w_i rho(r_i^2 / s^2) (w_i a point's probability
                                      // of being an inlier) instead of scaling the residuals by sqrt(w_i)
+  const double* residual_weights = nullptr;  // with weights_outside: (n,) v_i > 0 scaling the residuals
+                                     // by sqrt(v_i) inside the loss, s^2 sum_i w_i rho(v_i r_i^2 / s^2)
+                                     // (v_i the inverse variance of a match of known noise scale)
 };
 
 struct RefineStats {

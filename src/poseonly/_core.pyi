@@ -54,6 +54,7 @@ def ml_refine(
     lm_iterations: int = 10,
     pose_tol: float = 0.0,
     student: bool = True,
+    scales: NDArray[np.float64] | None = None,
 ) -> dict[str, Any]: ...
 def gnc_ransac(
     f1: NDArray[np.float64],

@@ -115,6 +115,19 @@ def _check_scores(scores: Any, n: int) -> np.ndarray | None:
     return a
 
 
+def _check_noise_scales(noise_scales: Any, n: int) -> np.ndarray | None:
+    """``noise_scales`` as a finite positive real ``(n,)`` array (or None)."""
+    if noise_scales is None:
+        return None
+    a = np.asarray(noise_scales)
+    if a.shape != (n,) or a.dtype.kind not in "biuf":
+        raise InputError(f"noise_scales must be a real array of shape ({n},), got {a.dtype} {a.shape}")
+    a = np.ascontiguousarray(a, dtype=float)
+    if not np.all(np.isfinite(a) & (a > 0)):
+        raise InputError("noise_scales must be finite and > 0")
+    return a
+
+
 def _epipolar_rank(f1: np.ndarray, f2: np.ndarray) -> int:
     """Numerical rank of the ``n x 9`` epipolar matrix (singular values above ``RANK_RTOL`` times the
     largest; the core's QR + Jacobi SVD, GIL released)."""
@@ -132,6 +145,7 @@ def estimate_relative_pose(
     camera1: Any = None,
     camera2: Any = None,
     scores: np.ndarray | None = None,
+    noise_scales: np.ndarray | None = None,
     **options: Any,
 ) -> RelativePoseResult:
     """Estimate the relative pose ``X2 = R X1 + t`` from point matches.
@@ -151,6 +165,11 @@ def estimate_relative_pose(
     the cameras' mean focal length. ``scores (n,)``: match quality, higher is better (e.g. ``1 - ratio``
     of the ratio test, or a matcher's confidence); the default method then samples PROSAC-style, best
     matches first (PoseLib's ``progressive_sampling``, OpenCV's ``SAMPLING_PROSAC``).
+    ``noise_scales (n,)``: each match's relative localisation scale (> 0; only ratios matter), e.g.
+    ``sqrt(size1 * size2)`` of its SIFT keypoints' sizes (a keypoint's localisation error grows with
+    its detection scale); the default method's ML refinement then weights the matches by them, as
+    far as the likelihood of its errors says they explain the noise (``result.diagnostics["ml_alpha"]``:
+    0 when they explain nothing). The paper's methods ignore ``scores`` and ``noise_scales``.
     The options of each method are the fields of its dataclass in :mod:`poseonly.options`.
     Raises :class:`ValueError` (:class:`poseonly.InputError`) for invalid input or options;
     degenerate input returns a result whose ``status`` says so.
@@ -178,6 +197,7 @@ def estimate_relative_pose(
     if n < 6:
         raise InputError(f"at least 6 correspondences are needed, got {n}")
     scores = _check_scores(scores, n)
+    noise_scales = _check_noise_scales(noise_scales, n)
     if K1 is None and cam_focal is None and o.focal_px is None:
         raise InputError(
             "normalized coordinates or bearing vectors need focal_px (the focal length in pixels that converts "
@@ -195,7 +215,7 @@ def estimate_relative_pose(
     with _blas_single_thread(), np.errstate(all="ignore"):
         try:
             if method == "poseonly":
-                R, t, w, iters, diag = run_poseonly(f1, f2, cast(PoseonlyOptions, o), tau, scores)
+                R, t, w, iters, diag = run_poseonly(f1, f2, cast(PoseonlyOptions, o), tau, scores, noise_scales)
             else:
                 R, t, w, iters, diag = RUNNERS[method](f1, f2, o, tau)
             diag["rank"] = rank

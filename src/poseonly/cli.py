@@ -155,7 +155,7 @@ def cmd_relpose(args) -> int:
             K1, K2 = md.K1, md.K2
         if K1 is None:
             raise CLIError("no calibration: pass --K, --K1/--K2 or --focal/--pp, or store K in the npz")
-        pr = relpose_matches(md.u1, md.u2, K1, K2, scores=md.scores, **opts)
+        pr = relpose_matches(md.u1, md.u2, K1, K2, scores=md.scores, noise_scales=md.noise_scales, **opts)
         imgs = (args.image1, args.image2) if args.image1 and args.image2 else None  # only for --draw
     else:
         if not (args.image1 and args.image2):

@@ -36,6 +36,7 @@ __all__ = [
     "extract_features",
     "match_features",
     "match_images",
+    "match_noise_scales",
     "load_matches_npz",
     "save_matches_npz",
     "fundamental_from_pose",
@@ -43,7 +44,7 @@ __all__ = [
     "sampson_error_px",
 ]
 
-_CACHE_VERSION = 1
+_CACHE_VERSION = 2  # 2: keypoint sizes cached
 
 
 def _cv2() -> Any:
@@ -63,12 +64,14 @@ class Features:
     """SIFT features of one image.
 
     ``keypoints (m, 2)`` float64 pixel coordinates, ``descriptors (m, 128)`` float32,
-    ``image_size = (width, height)``.
+    ``image_size = (width, height)``, ``sizes (m,)`` the keypoints' diameters in pixels (OpenCV's
+    ``KeyPoint.size``, proportional to the detection scale; ``None`` when unknown).
     """
 
     keypoints: np.ndarray
     descriptors: np.ndarray
     image_size: tuple[int, int]
+    sizes: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.keypoints)
@@ -80,7 +83,9 @@ class Matches:
 
     ``u1, u2 (k, 2)`` pixel coordinates, ``idx (k, 2)`` indices into the two keypoint arrays,
     ``image_size1, image_size2 = (width, height)``, ``scores (k,)`` match quality ``1 - ratio``
-    (higher is better; ``None`` when unknown).
+    (higher is better; ``None`` when unknown), ``noise_scales (k,)`` the geometric mean
+    ``sqrt(size1 * size2)`` of the two keypoints' sizes (a match's relative localisation scale, for
+    :func:`poseonly.estimate_relative_pose`'s ``noise_scales``; ``None`` when unknown).
     """
 
     u1: np.ndarray
@@ -89,6 +94,7 @@ class Matches:
     image_size1: tuple[int, int]
     image_size2: tuple[int, int]
     scores: np.ndarray | None = None
+    noise_scales: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.u1)
@@ -106,6 +112,7 @@ class MatchData:
     K1: np.ndarray | None = None
     K2: np.ndarray | None = None
     scores: np.ndarray | None = None  # (k,) match quality, higher is better (optional key 'scores')
+    noise_scales: np.ndarray | None = None  # (k,) > 0 relative localisation scales (optional key 'noise_scales')
 
     def __len__(self) -> int:
         return len(self.u1)
@@ -173,14 +180,16 @@ def _to_u8(a: np.ndarray) -> np.ndarray:
 # features
 
 
-def _sift(gray: np.ndarray, max_features: int | None) -> tuple[np.ndarray, np.ndarray]:
+def _sift(gray: np.ndarray, max_features: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Keypoints ``(m, 2)``, descriptors ``(m, 128)`` and sizes ``(m,)`` of OpenCV's SIFT."""
     cv2 = _cv2()
     sift = cv2.SIFT_create(nfeatures=int(max_features or 0))
     kps, desc = sift.detectAndCompute(gray, None)
     if not kps or desc is None:
-        return np.zeros((0, 2)), np.zeros((0, 128), np.float32)
+        return np.zeros((0, 2)), np.zeros((0, 128), np.float32), np.zeros(0)
     kp = np.array([k.pt for k in kps], dtype=np.float64).reshape(-1, 2)
-    return kp, np.ascontiguousarray(desc, dtype=np.float32)
+    size = np.array([k.size for k in kps], dtype=np.float64)
+    return kp, np.ascontiguousarray(desc, dtype=np.float32), size
 
 
 def _cache_file(path: Path, max_features: int | None, cache_dir: Path) -> Path:
@@ -209,11 +218,12 @@ def _read_cache(f: Path) -> Features | None:
             kp = np.asarray(z["keypoints"], dtype=np.float64)
             desc = np.asarray(z["descriptors"])
             size = tuple(int(s) for s in z["image_size"])
+            sizes = np.asarray(z["sizes"], dtype=np.float64)
     except Exception:  # noqa: BLE001 - any unreadable cache is simply recomputed
         return None
-    if kp.ndim != 2 or kp.shape[1] != 2 or desc.shape != (len(kp), 128) or desc.dtype != np.float32 or len(size) != 2:
+    if kp.ndim != 2 or kp.shape[1] != 2 or desc.shape != (len(kp), 128) or desc.dtype != np.float32 or len(size) != 2 or sizes.shape != (len(kp),):
         return None
-    return Features(kp, desc, (size[0], size[1]))
+    return Features(kp, desc, (size[0], size[1]), sizes)
 
 
 def clean_cache(cache_dir: str | os.PathLike) -> int:
@@ -241,8 +251,8 @@ def extract_features(
         raise InputError(f"max_features must be >= 0 or None, got {max_features}")
     if isinstance(image_or_path, np.ndarray):
         gray = _to_gray_u8(image_or_path)
-        kp, desc = _sift(gray, max_features)
-        return Features(kp, desc, (gray.shape[1], gray.shape[0]))
+        kp, desc, sizes = _sift(gray, max_features)
+        return Features(kp, desc, (gray.shape[1], gray.shape[0]), sizes)
 
     path = Path(image_or_path)
     cache = None
@@ -255,10 +265,10 @@ def extract_features(
         if hit is not None:
             return hit
     gray = read_image(path)
-    kp, desc = _sift(gray, max_features)
-    feats = Features(kp, desc, (gray.shape[1], gray.shape[0]))
+    kp, desc, sizes = _sift(gray, max_features)
+    feats = Features(kp, desc, (gray.shape[1], gray.shape[0]), sizes)
     if cache is not None:
-        atomic_savez(cache, keypoints=kp, descriptors=desc, image_size=np.array(feats.image_size, dtype=np.int64))
+        atomic_savez(cache, keypoints=kp, descriptors=desc, image_size=np.array(feats.image_size, dtype=np.int64), sizes=sizes)
     return feats
 
 
@@ -324,7 +334,19 @@ def match_images(
     f1 = extract_features(img1, max_features=max_features, cache_dir=cache_dir)
     f2 = extract_features(img2, max_features=max_features, cache_dir=cache_dir)
     idx, scores = match_features(f1.descriptors, f2.descriptors, ratio=ratio, mutual=mutual, return_scores=True)
-    return Matches(f1.keypoints[idx[:, 0]], f2.keypoints[idx[:, 1]], idx, f1.image_size, f2.image_size, scores)
+    return Matches(f1.keypoints[idx[:, 0]], f2.keypoints[idx[:, 1]], idx, f1.image_size, f2.image_size, scores, match_noise_scales(f1, f2, idx))
+
+
+def match_noise_scales(f1: Features, f2: Features, idx: np.ndarray) -> np.ndarray | None:
+    """``sqrt(size1 * size2) (k,)`` of the matched keypoints ``idx (k, 2)`` (``None`` without sizes;
+    non-positive sizes count as the median)."""
+    if f1.sizes is None or f2.sizes is None:
+        return None
+    s = np.sqrt(np.asarray(f1.sizes, float)[idx[:, 0]] * np.asarray(f2.sizes, float)[idx[:, 1]])
+    ok = np.isfinite(s) & (s > 0)
+    if not ok.all():
+        s = np.where(ok, s, np.median(s[ok]) if ok.any() else 1.0)
+    return s
 
 
 # --------------------------------------------------------------------------------------------
@@ -344,7 +366,7 @@ def _check_pixels(a: Any, name: str, src: str) -> np.ndarray:
     return a
 
 
-def _check_match_arrays(u1: Any, u2: Any, K1: Any, K2: Any, K: Any, src: str, scores: Any = None) -> MatchData:
+def _check_match_arrays(u1: Any, u2: Any, K1: Any, K2: Any, K: Any, src: str, scores: Any = None, noise_scales: Any = None) -> MatchData:
     u1 = _check_pixels(u1, "u1", src)
     u2 = _check_pixels(u2, "u2", src)
     if len(u1) != len(u2):
@@ -369,12 +391,19 @@ def _check_match_arrays(u1: Any, u2: Any, K1: Any, K2: Any, K: Any, src: str, sc
         if sc.shape != (len(u1),) or sc.dtype.kind not in "biuf" or not np.all(np.isfinite(sc)):
             raise InputError(f"{src}: 'scores' must be a finite real array of shape ({len(u1)},), got {sc.dtype} {sc.shape}")
         sc = sc.astype(float)
-    return MatchData(u1, u2, k1, k2, sc)
+    ns = None
+    if noise_scales is not None:
+        ns = np.asarray(noise_scales)
+        if ns.shape != (len(u1),) or ns.dtype.kind not in "biuf" or not np.all(np.isfinite(ns) & (ns > 0)):
+            raise InputError(f"{src}: 'noise_scales' must be a finite positive real array of shape ({len(u1)},), got {ns.dtype} {ns.shape}")
+        ns = ns.astype(float)
+    return MatchData(u1, u2, k1, k2, sc, ns)
 
 
 def load_matches_npz(path: str | os.PathLike) -> MatchData:
     """Load a match file (keys ``u1``, ``u2``; optional ``K1``, ``K2`` or shared ``K``; optional
-    ``scores (k,)``, match quality, higher is better).
+    ``scores (k,)``, match quality, higher is better; optional ``noise_scales (k,) > 0``, each match's
+    relative localisation scale, e.g. ``sqrt(size1 * size2)`` of its keypoints).
 
     Raises :class:`InputError` with a clear message if the file is missing, not an ``.npz``
     archive, truncated, lacks a required key, or holds arrays of the wrong shape or with NaN/inf.
@@ -406,7 +435,7 @@ def load_matches_npz(path: str | os.PathLike) -> MatchData:
                 f"{src} lacks required key(s) {missing}; expected 'u1', 'u2' ((k, 2) pixels) and optionally 'K1', 'K2' or 'K' (3x3); found {sorted(keys) or 'no keys'}"
             )
         arrays: dict[str, np.ndarray | None] = {}
-        for k in ("u1", "u2", "K1", "K2", "K", "scores"):
+        for k in ("u1", "u2", "K1", "K2", "K", "scores", "noise_scales"):
             if k not in keys:
                 arrays[k] = None
                 continue
@@ -414,7 +443,7 @@ def load_matches_npz(path: str | os.PathLike) -> MatchData:
                 arrays[k] = z[k]
             except (ValueError, OSError, EOFError, zipfile.BadZipFile, KeyError) as exc:
                 raise InputError(f"{src}: cannot read key '{k}' ({type(exc).__name__}: {exc})") from None
-    return _check_match_arrays(arrays["u1"], arrays["u2"], arrays["K1"], arrays["K2"], arrays["K"], src, arrays["scores"])
+    return _check_match_arrays(arrays["u1"], arrays["u2"], arrays["K1"], arrays["K2"], arrays["K"], src, arrays["scores"], arrays["noise_scales"])
 
 
 def save_matches_npz(
@@ -425,16 +454,19 @@ def save_matches_npz(
     K2: np.ndarray | None = None,
     K: np.ndarray | None = None,
     scores: np.ndarray | None = None,
+    noise_scales: np.ndarray | None = None,
 ) -> Path:
     """Validate and write a match file atomically (see the module docstring for the keys).
 
     Returns the path written (``.npz`` is not appended: the given name is used as is).
     """
     p = Path(path)
-    data = _check_match_arrays(u1, u2, K1, K2, K, "matches to save", scores)
+    data = _check_match_arrays(u1, u2, K1, K2, K, "matches to save", scores, noise_scales)
     arrays = {"u1": data.u1, "u2": data.u2}
     if data.scores is not None:
         arrays["scores"] = data.scores
+    if data.noise_scales is not None:
+        arrays["noise_scales"] = data.noise_scales
     if K is not None:
         arrays["K"] = np.asarray(K, dtype=np.float64)
     if K1 is not None:

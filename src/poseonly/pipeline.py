@@ -46,6 +46,7 @@ def relpose_images(img1, img2, K1, K2=None, *, ratio: float = 0.8, mutual: bool 
     if len(m.u1) < 6:
         raise InputError(f"only {len(m.u1)} matches between {img1} and {img2}: at least 6 are needed")
     options.setdefault("scores", m.scores)  # the ratio test's quality drives PROSAC sampling
+    options.setdefault("noise_scales", m.noise_scales)  # the keypoints' sizes weight the ML refinement
     pr = relpose_matches(m.u1, m.u2, K1, K1 if K2 is None else K2, **options)
     pr.time_features_s = tf
     return pr

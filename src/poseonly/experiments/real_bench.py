@@ -52,7 +52,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple, cast
+from typing import Any, NamedTuple, Protocol, cast
 
 import numpy as np
 
@@ -84,7 +84,7 @@ AUC_DEG = (5.0, 10.0, 20.0)
 WRONG_DEG = 5.0  # an `ok` pose with a larger rotation error is dishonest
 GOOD_DEG = 2.0  # a pose within this rotation error of the truth is good
 REFERENCE = "poselib-1px"  # time ratios and the "good pose" reference
-_CACHE_VERSION = 1
+_CACHE_VERSION = 2  # 2: the matches' noise scales (keypoint sizes) cached
 
 
 # ------------------------------------------------------------------------------------------------
@@ -101,17 +101,23 @@ class MethodOutput(NamedTuple):
     status: str | None
 
 
-MethodFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int], MethodOutput]
+class MethodFn(Protocol):
+    """``(u1, u2 (n, 2) pixels, K1, K2, scores (n,), seed, noise_scales (n,) | None) -> MethodOutput``."""
+
+    def __call__(self, u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, scores: np.ndarray, seed: int, noise_scales: np.ndarray | None = None) -> MethodOutput: ...
 
 
-def ours(method: str = "poseonly", use_scores: bool = False, **options: Any) -> MethodFn:
+def ours(method: str = "poseonly", use_scores: bool = False, use_scales: bool = False, **options: Any) -> MethodFn:
     """poseonly's :func:`~poseonly.estimate_relative_pose` with ``method`` and fixed ``options``;
-    ``use_scores`` passes the match scores (PROSAC sampling)."""
+    ``use_scores`` passes the match scores (PROSAC sampling), ``use_scales`` the matches' noise
+    scales (the keypoints' sizes)."""
 
-    def run(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, scores: np.ndarray, seed: int) -> MethodOutput:
+    def run(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, scores: np.ndarray, seed: int, noise_scales: np.ndarray | None = None) -> MethodOutput:
         from ..api import estimate_relative_pose
 
-        extra = {"scores": scores} if use_scores else {}
+        extra: dict[str, Any] = {"scores": scores} if use_scores else {}
+        if use_scales and noise_scales is not None:
+            extra["noise_scales"] = noise_scales
         r = estimate_relative_pose(u1, u2, K1, K2, method=method, seed=int(seed), **extra, **options)
         good = r.status not in ("degenerate", "failed") and r.R is not None and np.all(np.isfinite(r.R))
         return MethodOutput(r.R if good else None, r.t if good else None, np.asarray(r.inliers, bool), r.status)
@@ -123,7 +129,7 @@ def poselib(threshold_px: float) -> MethodFn:
     """``poselib.estimate_relative_pose`` (PINHOLE cameras, its defaults) at ``max_epipolar_error``
     ``threshold_px`` (:func:`poseonly.anchors.poselib_relpose`)."""
 
-    def run(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, scores: np.ndarray, seed: int) -> MethodOutput:
+    def run(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, scores: np.ndarray, seed: int, noise_scales: np.ndarray | None = None) -> MethodOutput:
         from ..anchors import poselib_relpose
 
         R, t, inl, _ = poselib_relpose(u1, u2, K1, K2, threshold_px=threshold_px, seed=int(seed))
@@ -136,7 +142,7 @@ def opencv_magsac(threshold_px: float = 1.0) -> MethodFn:
     """``cv2.findEssentialMat(..., USAC_MAGSAC, prob 0.999, threshold)`` + ``cv2.recoverPose``
     (:func:`poseonly.anchors.opencv_relpose`; OpenCV's default threshold is 1 px)."""
 
-    def run(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, scores: np.ndarray, seed: int) -> MethodOutput:
+    def run(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, scores: np.ndarray, seed: int, noise_scales: np.ndarray | None = None) -> MethodOutput:
         import cv2
 
         from ..anchors import opencv_relpose
@@ -166,7 +172,7 @@ def superansac(threshold_px: float = SUPERANSAC_THRESHOLD_PX) -> MethodFn:
     decreasing score order (PROSAC), then ``cv2.recoverPose`` on the normalised inliers (as the
     authors' benchmark does)."""
 
-    def run(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, scores: np.ndarray, seed: int) -> MethodOutput:
+    def run(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray, scores: np.ndarray, seed: int, noise_scales: np.ndarray | None = None) -> MethodOutput:
         import cv2
         import pysuperansac as sr
 
@@ -202,8 +208,10 @@ def superansac(threshold_px: float = SUPERANSAC_THRESHOLD_PX) -> MethodFn:
 
 
 METHODS: dict[str, MethodFn] = {
-    # the default as the SIFT front-end calls it: the ratio test's 1 - ratio as match scores (PROSAC)
-    "poseonly": ours(use_scores=True),
+    # the default as the SIFT front-end calls it: the ratio test's 1 - ratio as match scores (PROSAC),
+    # the keypoints' sizes as noise scales
+    "poseonly": ours(use_scores=True, use_scales=True),
+    "poseonly-noscale": ours(use_scores=True),
     "poseonly-noscores": ours(),
     "gnc-ransac": ours("gnc-ransac"),
     "poselib-1px": poselib(1.0),
@@ -227,9 +235,10 @@ METHODS: dict[str, MethodFn] = {
     "v-ml-1.5px-1000": ours(final="ml", threshold_px=1.5, min_iterations=1000, confidence=0.9999),
     "v-ligt-1px-1000": ours(final="ligt", threshold_px=1.0, min_iterations=1000, confidence=0.9999),
     # the ML stage's inlier errors Gaussian (MLESAC's mixture; the default before the Student-t)
-    "poseonly-gauss": ours(use_scores=True, ml_tails="gauss"),
+    "poseonly-gauss": ours(use_scores=True, use_scales=True, ml_tails="gauss"),
+    "poseonly-gauss-noscale": ours(use_scores=True, ml_tails="gauss"),
     # the opt-in second search at 3 sigma (docs/RESULTS.md section 2)
-    "poseonly-research": ours(use_scores=True, research_noise=0.5),
+    "poseonly-research": ours(use_scores=True, use_scales=True, research_noise=0.5),
 }
 DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")
 # the library each method needs (a missing one skips the method with a note)
@@ -379,24 +388,26 @@ def ratio_matches(d1: np.ndarray, d2: np.ndarray, ratio: float = RATIO) -> tuple
     return np.stack([i1, nn[keep, 0].astype(np.int64)], axis=1), r
 
 
-def _read_match_cache(f: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """Cached ``(u1, u2, ratio)``; ``None`` when absent, unreadable or inconsistent (recomputed)."""
+def _read_match_cache(f: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """Cached ``(u1, u2, ratio, noise_scales)``; ``None`` when absent, unreadable or inconsistent (recomputed)."""
     if not f.is_file():
         return None
     try:
         with np.load(f, allow_pickle=False) as z:
             u1, u2, r = np.asarray(z["u1"], float), np.asarray(z["u2"], float), np.asarray(z["ratio"], float)
+            sc = np.asarray(z["noise_scales"], float)
     except Exception:  # noqa: BLE001 - any unreadable cache file is recomputed
         return None
-    if u1.ndim == 2 and u1.shape[1:] == (2,) and u1.shape == u2.shape and r.shape == (len(u1),):
-        return u1, u2, r
+    if u1.ndim == 2 and u1.shape[1:] == (2,) and u1.shape == u2.shape and r.shape == (len(u1),) and sc.shape == r.shape:
+        return u1, u2, r, sc
     return None
 
 
-def pair_matches(pair: Pair, cache: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``u1, u2 (k, 2)`` pixels and ``ratio (k,)`` of the pair's SIFT matches (cached)."""
+def pair_match_data(pair: Pair, cache: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``u1, u2 (k, 2)`` pixels, ``ratio (k,)`` and ``noise_scales (k,)`` (``sqrt(size1 size2)`` of
+    the keypoints) of the pair's SIFT matches (cached)."""
     from .._fileutil import atomic_savez
-    from ..features import extract_features
+    from ..features import extract_features, match_noise_scales
 
     f = _match_cache_file(cache, pair.im1, pair.im2)
     hit = _read_match_cache(f)
@@ -407,7 +418,15 @@ def pair_matches(pair: Pair, cache: Path) -> tuple[np.ndarray, np.ndarray, np.nd
     idx, r = ratio_matches(a.descriptors, b.descriptors)
     u1 = a.keypoints[idx[:, 0]].reshape(-1, 2)
     u2 = b.keypoints[idx[:, 1]].reshape(-1, 2)
-    atomic_savez(f, u1=u1, u2=u2, ratio=r)
+    sc = match_noise_scales(a, b, idx)
+    sc = np.ones(len(idx)) if sc is None else sc
+    atomic_savez(f, u1=u1, u2=u2, ratio=r, noise_scales=sc)
+    return u1, u2, r, sc
+
+
+def pair_matches(pair: Pair, cache: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``u1, u2 (k, 2)`` pixels and ``ratio (k,)`` of the pair's SIFT matches (cached)."""
+    u1, u2, r, _ = pair_match_data(pair, cache)
     return u1, u2, r
 
 
@@ -423,7 +442,7 @@ def _errors(pair: Pair, o: MethodOutput) -> tuple[float, float]:
     return er, min(et, 180.0 - et)  # SuperGlue: the sign of t is not scored
 
 
-def run_pair(pair: Pair, u1: np.ndarray, u2: np.ndarray, ratio: np.ndarray, methods: list[str], seeds: int) -> dict:
+def run_pair(pair: Pair, u1: np.ndarray, u2: np.ndarray, ratio: np.ndarray, methods: list[str], seeds: int, noise_scales: np.ndarray | None = None) -> dict:
     """Per-method, per-seed results of one pair: ``{method: [{"R_err", "t_err", "status", ...}]}``."""
     from ..features import sampson_error_px
 
@@ -439,7 +458,7 @@ def run_pair(pair: Pair, u1: np.ndarray, u2: np.ndarray, ratio: np.ndarray, meth
                 continue
             t0 = time.perf_counter()
             try:
-                o = METHODS[m](u1, u2, pair.K1, pair.K2, scores, s)
+                o = METHODS[m](u1, u2, pair.K1, pair.K2, scores, s, noise_scales)
                 err = None
             except (ValueError, np.linalg.LinAlgError) as exc:  # a method refusing the input is a failure
                 o, err = MethodOutput(None, None, np.zeros(n, bool), "failed"), f"{type(exc).__name__}: {exc}"
@@ -453,14 +472,14 @@ def run_pair(pair: Pair, u1: np.ndarray, u2: np.ndarray, ratio: np.ndarray, meth
     return rec
 
 
-def warm_up(plan: list[Pair], matches: list[tuple[np.ndarray, np.ndarray, np.ndarray]], methods: list[str]) -> None:
+def warm_up(plan: list[Pair], matches: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]], methods: list[str]) -> None:
     """One untimed call of every method on the first pair with enough matches, so that imports and
     first-call costs are not charged to the first timed pair."""
-    for p, (u1, u2, r) in zip(plan, matches):
+    for p, (u1, u2, r, sc) in zip(plan, matches):
         if len(u1) > MIN_MATCHES:
             for m in methods:
                 try:
-                    METHODS[m](u1, u2, p.K1, p.K2, 1.0 - r, 0)
+                    METHODS[m](u1, u2, p.K1, p.K2, 1.0 - r, 0, sc)
                 except (ValueError, np.linalg.LinAlgError):
                     pass
             return
@@ -478,10 +497,10 @@ def compute(dirs: list[str | Path], *, methods: list[str] | None = None, seeds: 
     single_thread()
     plan = [p for pairs in data.values() for p in pairs[: max_pairs or None]]
     t_start = time.perf_counter()
-    matches = [pair_matches(p, cache) for p in progress(plan, total=len(plan), desc="matching")]
+    matches = [pair_match_data(p, cache) for p in progress(plan, total=len(plan), desc="matching")]
     t_match = time.perf_counter() - t_start
     warm_up(plan, matches, ms)
-    records = [run_pair(p, mt[0], mt[1], mt[2], ms, seeds) for p, mt in progress(zip(plan, matches), total=len(plan), desc="real pairs")]
+    records = [run_pair(p, mt[0], mt[1], mt[2], ms, seeds, mt[3]) for p, mt in progress(zip(plan, matches), total=len(plan), desc="real pairs")]
     res = {
         "config": {
             "dirs": [str(d) for d in dirs],

@@ -151,12 +151,14 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
     )
 
 
-def _ml_stage(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float, T: float, student: bool = True) -> tuple[np.ndarray, np.ndarray, dict[str, Any]] | None:
+def _ml_stage(
+    R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float, T: float, student: bool = True, scales: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]] | None:
     """The ML pose from the search's ``(R, t)`` (outlier range ``T``), or None when EM did not run
     or its pose loses more than ``1 - ML_KEEP_TOLERANCE`` of the cheirality-aware MSAC score at the
     larger of ``tau`` and the mixture's decision threshold (the truncated score at a tight tau
     favours the pose fitted to that truncation)."""
-    m = _core.ml_refine(R, t, f1, f2, T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student)
+    m = _core.ml_refine(R, t, f1, f2, T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student, scales=scales)
     if not (m["rounds"] > 0 and m["decision_gauss"] > 0 and np.all(np.isfinite(m["R"]))):
         return None
     thr = max(tau, float(m["decision_gauss"]))
@@ -165,7 +167,7 @@ def _ml_stage(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau:
     return m["R"], m["t"], m
 
 
-def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float, scores: np.ndarray | None = None):
+def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float, scores: np.ndarray | None = None, noise_scales: np.ndarray | None = None):
     """The default method; returns ``(R, t, weights | None, iterations, diagnostics)``.
 
     1. LO-RANSAC in the core (``poseonly.robust.ransac.ransac_relpose``): minimal hypotheses, MSAC-type
@@ -184,7 +186,11 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
        score at the larger of ``tau`` and the mixture's decision threshold does not drop by more
        than 2 %; EM runs to its fixed point (at most ``ML_ROUNDS`` rounds); the returned inliers are
        those more likely inliers than not under the Gaussian mixture fitted at the ML pose (the t's
-       own p = 1/2 point lies far out in its tail).
+       own p = 1/2 point lies far out in its tail). With ``noise_scales`` (each match's relative
+       localisation scale, e.g. ``sqrt(size1 size2)`` of its SIFT keypoints) a match's inlier scale is
+       ``sigma c_i^alpha`` (``c_i`` its scale over the median), ``alpha`` in {0, 1/2, 1} chosen with
+       the degrees of freedom by the profile likelihood (0: the scales explain nothing); the inliers
+       and the status analysis keep the Gaussian mixture without the scales;
        ``final="ligt"`` (the earlier default): LO at a noise-matched threshold, then angular LiGTopt;
     4. (``final="ml"``, opt-in: ``research_noise > 0``) when the noise scale (EM's sigma, or its
        start where EM shrank onto a few matches) exceeds ``research_noise * tau`` (the matches are
@@ -210,7 +216,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
         if o.refine:
             T = float(o.ml_range) * tau
             student = o.ml_tails == "student"
-            best = _ml_stage(R, t, f1, f2, tau, T, student)
+            best = _ml_stage(R, t, f1, f2, tau, T, student, noise_scales)
             # noise scale: the Gaussian mixture's sigma at the ML pose, or EM's start (the MAD at the
             # search's pose) where EM shrank sigma onto the few matches a pose can fit exactly
             sig = max(best[2]["sigma_gauss"], best[2]["sigma_start"]) if best is not None else 0.0
@@ -224,7 +230,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                 diag["num_hypotheses"] += r2.num_iterations * MAX_ROOTS_PER_SAMPLE + r2.num_lo + FINAL_CANDIDATES
                 R2, t2 = select_by_support(r2.R, r2.t, f1, f2, tau2)
                 diag.update(research_threshold=tau2, tau_effective=tau2)
-                second = _ml_stage(R2, t2, f1, f2, tau2, float(o.ml_range) * tau2, student)
+                second = _ml_stage(R2, t2, f1, f2, tau2, float(o.ml_range) * tau2, student, noise_scales)
                 R, t, best = R2, t2, second
             if best is not None:
                 R, t, m = best
@@ -235,6 +241,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                     ml_decision=float(m["decision"]),
                     sigma=float(m["sigma"]),
                     ml_nu=float(m["nu"]),
+                    ml_alpha=float(m["alpha"]),
                     ml_rounds=int(m["rounds"]),
                     ml_inlier_fraction=float(m["inlier_fraction"]),
                 )
