@@ -214,8 +214,10 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
   if (scales) {
     c.assign(scales, scales + P.n);
     std::vector<double> tmp(c);
-    std::nth_element(tmp.begin(), tmp.begin() + tmp.size() / 2, tmp.end());
-    const double med = tmp[tmp.size() / 2];
+    const size_t h = tmp.size() / 2;
+    std::nth_element(tmp.begin(), tmp.begin() + h, tmp.end());
+    double med = tmp[h];
+    if (tmp.size() % 2 == 0) med = 0.5 * (med + *std::max_element(tmp.begin(), tmp.begin() + h));  // numpy's median
     for (double& x : c) x = (std::isfinite(x) && x > 0.0 && med > 0.0) ? std::clamp(x / med, 1.0 / kMaxScaleRatio, kMaxScaleRatio) : 1.0;
   }
   std::nth_element(in.begin(), in.begin() + in.size() / 2, in.end());

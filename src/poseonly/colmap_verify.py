@@ -131,7 +131,11 @@ class _Source:
                 continue
             self.pending[pid] = (i1, i2, m)
             c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
-            yield Pair(b1[m[:, 0]], b2[m[:, 1]], key=pid, options={"focal_px": 0.5 * (c1.focal_px + c2.focal_px)})
+            opts: dict[str, Any] = {"focal_px": 0.5 * (c1.focal_px + c2.focal_px)}
+            s1, s2 = self.db.keypoint_scales(i1), self.db.keypoint_scales(i2)
+            if s1 is not None and s2 is not None:
+                opts["noise_scales"] = np.sqrt(s1[m[:, 0]] * s2[m[:, 1]])  # the keypoints' scales weight the ML refinement
+            yield Pair(b1[m[:, 0]], b2[m[:, 1]], key=pid, options=opts)
 
     def row(self, pr: PairResult) -> GeometryRow:
         pid = pr.key

@@ -27,9 +27,20 @@ import numpy as np
 from ..cameras import Camera, as_camera
 from ..geometry import InputError
 
-__all__ = ["KEYPOINT_CACHE_IMAGES", "ColmapDatabase", "GeometryRow"]
+__all__ = ["KEYPOINT_CACHE_IMAGES", "ColmapDatabase", "GeometryRow", "keypoint_scales"]
 
 KEYPOINT_CACHE_IMAGES = 512  # images whose keypoints (and bearings) are kept in memory (LRU)
+
+
+def keypoint_scales(raw: np.ndarray) -> np.ndarray | None:
+    """Scales ``(k,)`` of COLMAP keypoint rows ``(k, c)``: ``x, y, scale, orientation`` (c = 4) or
+    ``x, y, a11, a12, a21, a22`` (c = 6, the affine shape: ``sqrt(|det A|)``); ``None`` for
+    positions only (c = 2) or when a scale is not finite and positive (the noise scales of
+    :func:`poseonly.estimate_relative_pose` need every one)."""
+    if raw.ndim != 2 or raw.shape[1] not in (4, 6) or len(raw) == 0:
+        return None
+    s = raw[:, 2].copy() if raw.shape[1] == 4 else np.sqrt(np.abs(raw[:, 2] * raw[:, 5] - raw[:, 3] * raw[:, 4]))
+    return s if bool(np.all(np.isfinite(s) & (s > 0))) else None
 
 
 @dataclass
@@ -84,7 +95,7 @@ class ColmapDatabase:
         for pid in pair_ids:
             i1, i2 = self._pc.pair_id_to_image_pair(pid)
             self._pairs.append((pid, int(i1), int(i2)))
-        self._kp: OrderedDict[int, np.ndarray] = OrderedDict()
+        self._kp: OrderedDict[int, tuple[np.ndarray, np.ndarray | None]] = OrderedDict()
         images = self.db.read_all_images()
         cams = {c.camera_id: c for c in self.db.read_all_cameras()}
         self.image_names = {int(im.image_id): str(im.name) for im in images}
@@ -138,15 +149,25 @@ class ColmapDatabase:
 
     def keypoints(self, image_id: int) -> np.ndarray:
         """``(k, 2)`` keypoint pixel positions (float64), LRU-cached."""
-        kp = self._kp.get(image_id)
-        if kp is None:
-            kp = np.asarray(self.db.read_keypoints(image_id), dtype=np.float64)[:, :2].copy()
-            self._kp[image_id] = kp
+        return self._keypoint_entry(image_id)[0]
+
+    def keypoint_scales(self, image_id: int) -> np.ndarray | None:
+        """``(k,)`` keypoint scales (:func:`keypoint_scales`; ``None`` when the database stores
+        positions only), LRU-cached."""
+        return self._keypoint_entry(image_id)[1]
+
+    def _keypoint_entry(self, image_id: int) -> tuple[np.ndarray, np.ndarray | None]:
+        e = self._kp.get(image_id)
+        if e is None:
+            raw = np.asarray(self.db.read_keypoints(image_id), dtype=np.float64)
+            raw = raw.reshape(len(raw), -1) if raw.size else np.zeros((0, 2))
+            e = (raw[:, :2].copy(), keypoint_scales(raw))
+            self._kp[image_id] = e
             if len(self._kp) > KEYPOINT_CACHE_IMAGES:
                 self._kp.popitem(last=False)
         else:
             self._kp.move_to_end(image_id)
-        return kp
+        return e
 
     def read_geometry(self, image_id1: int, image_id2: int) -> dict[str, Any]:
         """The stored row as a dict (``config`` as a name, arrays as numpy)."""

@@ -16,8 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..features import Features
+from ..features import Features, match_noise_scales
 from ..geometry import InputError
+from ..io.colmap_db import keypoint_scales
 from .pairwise import ImageGraph, PairwiseOptions, two_view
 from .viewgraph import ViewGraph
 
@@ -45,8 +46,10 @@ def database_view_graph(
         feats, normalized, Ks, focal = [], [], [], []
         for im in images:
             cam = cams[im.camera_id]
-            kp = np.asarray(db.read_keypoints(im.image_id), dtype=np.float64)[:, :2]
-            feats.append(Features(kp, np.zeros((len(kp), 0), np.float32), (int(cam.width), int(cam.height))))
+            raw = np.asarray(db.read_keypoints(im.image_id), dtype=np.float64)
+            raw = raw.reshape(len(raw), -1) if raw.size else np.zeros((0, 2))
+            kp = raw[:, :2]
+            feats.append(Features(kp, np.zeros((len(kp), 0), np.float32), (int(cam.width), int(cam.height)), keypoint_scales(raw)))
             normalized.append(np.asarray(cam.cam_from_img(kp), dtype=np.float64).reshape(-1, 2) if len(kp) else np.zeros((0, 2)))
             K = np.asarray(cam.calibration_matrix(), dtype=np.float64)
             Ks.append(K)
@@ -75,7 +78,8 @@ def database_view_graph(
             graph.rejected.append((i, j, f"{len(m)} putative matches"))
             stats.append((i, j, len(m), 0, "few_matches"))
             continue
-        r = two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, opt.seed + k, cache, focal_px=0.5 * (focal[i] + focal[j]))
+        ns = match_noise_scales(feats[i], feats[j], m)
+        r = two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, opt.seed + k, cache, focal_px=0.5 * (focal[i] + focal[j]), noise_scales=ns)
         graph.add_result(i, j, r, m)
         stats.append((i, j, len(m), int(r.num_inliers), r.status))
     times["two_view"] = time.perf_counter() - t0

@@ -23,7 +23,7 @@ import numpy as np
 from .. import __version__
 from .._fileutil import publish
 from ..api import estimate_relative_pose
-from ..features import Features, extract_features, match_features
+from ..features import Features, extract_features, match_features, match_noise_scales
 from ..geometry import InputError, bearings_from_normalized, bearings_from_pixels
 from .tracks import Tracks
 from .viewgraph import ViewGraph
@@ -33,8 +33,8 @@ __all__ = ["ImageGraph", "PairwiseOptions", "TwoView", "image_view_graph", "obse
 MIN_PUTATIVE = 30
 # part of the two-view cache key with the package version: bump when the default estimator's results
 # change between versions (2: the core-era default at its own threshold, with match scores; 3: its
-# cheirality-aware search; 4: the Student-t ML stage)
-TWO_VIEW_CACHE_TAG = 4
+# cheirality-aware search; 4: the Student-t ML stage; 5: the keypoints' sizes as noise scales)
+TWO_VIEW_CACHE_TAG = 5
 
 
 @dataclass(frozen=True)
@@ -44,7 +44,8 @@ class PairwiseOptions:
     method's default, 1 px for the default method) and ``method`` of
     :func:`poseonly.estimate_relative_pose`, base ``seed``; ``use_scores`` passes each match's
     ratio-test quality ``1 - d1 / d2`` as ``scores`` (PROSAC order, as the two-view benchmark does);
-    ``estimator_options``: further keyword options of the method, as ``(name, value)`` pairs (e.g.
+    ``use_noise_scales`` passes ``sqrt(size1 * size2)`` of its keypoints as ``noise_scales`` (when the
+    features have sizes); ``estimator_options``: further keyword options of the method, as ``(name, value)`` pairs (e.g.
     ``(("ml_tails", "gauss"),)``), checked at construction (:func:`poseonly.options.parse_options`)."""
 
     max_features: int | None = 8000
@@ -55,12 +56,13 @@ class PairwiseOptions:
     method: str = "poseonly"
     seed: int = 0
     use_scores: bool = True
+    use_noise_scales: bool = True
     estimator_options: tuple[tuple[str, Any], ...] = ()
 
     def __post_init__(self) -> None:
         from ..options import parse_options
 
-        reserved = {"seed", "scores", "threshold_px", "focal_px", "method"} & {k for k, _ in self.estimator_options}
+        reserved = {"seed", "scores", "noise_scales", "threshold_px", "focal_px", "method"} & {k for k, _ in self.estimator_options}
         if reserved:
             raise InputError(f"estimator_options: {sorted(reserved)} are set by the pipeline (use the PairwiseOptions fields)")
         parse_options(self.method, dict(self.estimator_options))  # unknown names and wrong types raise here
@@ -185,18 +187,21 @@ def two_view(
     cache: Path | None,
     focal_px: float | None = None,
     scores: np.ndarray | None = None,
+    noise_scales: np.ndarray | None = None,
 ) -> TwoView:
     """:func:`poseonly.estimate_relative_pose` of one pair (pixels ``(n, 2)`` with ``K1, K2``, or
     normalized coordinates with ``K = None`` and ``focal_px``; match ``scores (n,)`` used when
-    ``opt.use_scores``), cached by the inputs, the options and the package version."""
+    ``opt.use_scores``, ``noise_scales (n,)`` when ``opt.use_noise_scales``), cached by the inputs,
+    the options and the package version."""
     scores = scores if opt.use_scores else None
+    noise_scales = noise_scales if opt.use_noise_scales else None
     f = None
     if cache is not None:
         h = hashlib.sha1()
-        for a in (u1, u2, K1, K2, scores):
+        for a in (u1, u2, K1, K2, scores, noise_scales):
             if a is not None:
                 h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
-        h.update(f"{__version__}-{TWO_VIEW_CACHE_TAG}-{opt.method}-{opt.threshold_px}-{seed}-{focal_px}-{scores is not None}".encode())
+        h.update(f"{__version__}-{TWO_VIEW_CACHE_TAG}-{opt.method}-{opt.threshold_px}-{seed}-{focal_px}-{scores is not None}-{noise_scales is not None}".encode())
         if opt.estimator_options:
             h.update(repr(sorted(opt.estimator_options)).encode())
         f = cache / "twoview" / f"r_{h.hexdigest()[:24]}.npz"
@@ -209,7 +214,7 @@ def two_view(
     extra: dict[str, Any] = {} if focal_px is None else {"focal_px": float(focal_px)}
     if opt.threshold_px is not None:
         extra["threshold_px"] = float(opt.threshold_px)
-    r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, seed=seed, scores=scores, **dict(opt.estimator_options), **extra)
+    r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, seed=seed, scores=scores, noise_scales=noise_scales, **dict(opt.estimator_options), **extra)
     out = TwoView(np.asarray(r.R), np.asarray(r.t), np.asarray(r.inliers, dtype=bool), int(r.num_inliers), str(r.status))
     if f is not None:
         _atomic_save(f, R=out.R, t=out.t, inliers=out.inliers, num_inliers=np.array(out.num_inliers), status=np.array(out.status))
@@ -258,7 +263,8 @@ def image_view_graph(
             stats.append((i, j, len(idx), 0, "few_matches"))
             continue
         t1 = time.perf_counter()
-        r = two_view(feats[i].keypoints[idx[:, 0]], feats[j].keypoints[idx[:, 1]], Ks[i], Ks[j], opt, opt.seed + k, cache, scores=scores)
+        ns = match_noise_scales(feats[i], feats[j], idx)
+        r = two_view(feats[i].keypoints[idx[:, 0]], feats[j].keypoints[idx[:, 1]], Ks[i], Ks[j], opt, opt.seed + k, cache, scores=scores, noise_scales=ns)
         te += time.perf_counter() - t1
         graph.add_result(i, j, r, idx)
         stats.append((i, j, len(idx), int(r.num_inliers), r.status))
