@@ -1,7 +1,7 @@
 """Option variants of the default method over seeds on one realpairs dataset (the sample-floor study).
 
 For each variant (a JSON list of option dicts) and seeds 0..S-1, the default method runs on every
-pair of the dataset with the SIFT front-end's ratio scores (the real benchmark's cached matches);
+pair of the dataset with the SIFT front-end's ratio scores and keypoint-size noise scales (the real benchmark's cached matches);
 prints the mean over seeds of the median rotation error, of AUC@5/10/20 of max(rotation,
 translation-direction error), the seed spread of AUC@10 and the median time per pair.
 
@@ -27,18 +27,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cache", type=Path, default=Path("/tmp/realbench_cache"), help="the real benchmark's match cache")
     a = ap.parse_args(argv)
     import poseonly
-    from poseonly.experiments.real_bench import load_datasets, pair_matches, pose_auc
+    from poseonly.experiments.real_bench import load_datasets, pair_match_data, pose_auc
     from poseonly.geometry import rotation_error_deg, translation_error_deg
 
     pairs = next(iter(load_datasets([str(a.dataset)]).values()))
-    data = [(p, *pair_matches(p, a.cache)) for p in pairs]
+    data = [(p, *pair_match_data(p, a.cache)) for p in pairs]
     for opts in json.loads(a.variants):
         meds, aucs, times = [], [], []
         for seed in range(a.seeds):
             e, te = [], []
-            for p, u1, u2, ratio in data:
+            for p, u1, u2, ratio, scales in data:
                 t0 = time.perf_counter()
-                r = poseonly.estimate_relative_pose(u1, u2, p.K1, K2=p.K2, scores=1 - ratio, seed=seed, **opts)
+                r = poseonly.estimate_relative_pose(u1, u2, p.K1, K2=p.K2, scores=1 - ratio, noise_scales=scales, seed=seed, **opts)
                 times.append(time.perf_counter() - t0)
                 e.append(rotation_error_deg(p.R, r.R) if r.R is not None else 180.0)
                 te.append(float(translation_error_deg(p.t, r.t, sign_invariant=True)) if r.t is not None else 180.0)

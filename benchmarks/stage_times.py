@@ -4,11 +4,13 @@ Wraps the stages of ``estimate_relative_pose`` (input conversion, the core's sea
 choice, the ML stage, the status analysis and its parts) with timers and prints their mean per pair.
 Nested stages are included in their parents' times. Synthetic scenes of :func:`poseonly.sim.make_scene`,
 or with ``--real DIR`` the first ``--pairs`` pairs of a ``poseonly bench real`` dataset folder (its
-cached SIFT matches, ``1 - ratio`` as scores, as the bench calls the default; ``--ml-tails`` picks
-the ML stage's inlier model).
+cached SIFT matches, ``1 - ratio`` as scores and the keypoints' sizes as noise scales, as the bench
+calls the default; ``--ml-tails`` picks the ML stage's inlier model, ``--no-scales`` leaves the noise
+scales out).
 
     python benchmarks/stage_times.py --outliers 0.5 --camera pinhole
     python benchmarks/stage_times.py --real /work/shared/data/realpairs/kitti_seq1 --pairs 20 --ml-tails gauss
+    python benchmarks/stage_times.py --real /work/shared/data/realpairs/kitti_seq1 --pairs 20 --no-scales
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--real", default=None, help="a realpairs or Strecha folder instead of synthetic scenes")
     ap.add_argument("--cache", default="/tmp/realbench_cache", help="the real benchmark's match cache")
     ap.add_argument("--ml-tails", default="student", choices=("student", "gauss"))
+    ap.add_argument("--no-scales", action="store_true", help="real pairs: no noise scales")
     a = ap.parse_args(argv)
     import poseonly.analysis as A
     import poseonly.api as API
@@ -75,9 +78,12 @@ def main(argv: list[str] | None = None) -> int:
 
         for name, pairs in rb.load_datasets([a.real]).items():
             for p in pairs[: a.pairs]:
-                u1, u2, ratio = rb.pair_matches(p, Path(a.cache))
-                calls.append(((u1, u2, p.K1, p.K2), {"scores": 1.0 - ratio, "ml_tails": a.ml_tails}))
-            what = f"{name}, first {len(calls)} pairs, ml_tails={a.ml_tails}"
+                u1, u2, ratio, scales = rb.pair_match_data(p, Path(a.cache))
+                kw: dict[str, Any] = {"scores": 1.0 - ratio, "ml_tails": a.ml_tails}
+                if not a.no_scales:
+                    kw["noise_scales"] = scales
+                calls.append(((u1, u2, p.K1, p.K2), kw))
+            what = f"{name}, first {len(calls)} pairs, ml_tails={a.ml_tails}, noise scales {'no' if a.no_scales else 'yes'}"
     for args, kw in calls:  # warm-up
         estimate_relative_pose(*args, **kw)
     acc.clear()
