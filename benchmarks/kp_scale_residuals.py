@@ -2,10 +2,11 @@
 
 Usage::
 
-    python benchmarks/kp_scale_residuals.py [--pairs N] DATASET...
+    python benchmarks/kp_scale_residuals.py [--pairs N] [--cache DIR] DATASET...
 
-For the first ``N`` pairs of each dataset (``poseonly bench real``'s folders), OpenCV SIFT with
-the bench's ratio-0.8 matching, keeping each keypoint's ``size``; the matches within ``WITHIN_PX``
+For the first ``N`` pairs of each dataset (``poseonly bench real``'s folders and its match cache:
+OpenCV SIFT, ratio-0.8 matching, each match's noise scale ``sqrt(size1 * size2)`` of its
+keypoints' sizes); the matches within ``WITHIN_PX``
 of the ground-truth epipolar geometry are binned in quintiles of ``sqrt(size1 * size2)`` and the
 robust spread of their Sampson errors (1.4826 x median |e|) is printed per bin. If a keypoint's
 localisation error grows with its scale, the spread grows along the bins, and per-match noise
@@ -20,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from poseonly.experiments import real_bench as rb
-from poseonly.features import read_image, sampson_error_px
+from poseonly.features import sampson_error_px
 
 WITHIN_PX = 2.0
 MIN_PAIR = 30
@@ -28,35 +29,23 @@ QUANTILES = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0)
 MAD_TO_SIGMA = 1.4826
 
 
-def _sift(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    import cv2
-
-    kps, desc = cv2.SIFT_create().detectAndCompute(read_image(path), None)
-    pt = np.array([k.pt for k in kps], float).reshape(-1, 2)
-    size = np.array([k.size for k in kps], float)
-    return pt, size, np.ascontiguousarray(desc, np.float32)
-
-
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("dirs", nargs="+")
-    ap.add_argument("--pairs", type=int, default=8)
+    ap.add_argument("--pairs", type=int, default=1000)
+    ap.add_argument("--cache", type=Path, default=Path("/tmp/realbench_cache"))
     a = ap.parse_args(argv)
     for name, pairs in rb.load_datasets(a.dirs).items():
         sz_all, err_all = [], []
-        feats: dict[Path, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         for p in pairs[: a.pairs]:
-            for im in (p.im1, p.im2):
-                if im not in feats:
-                    feats[im] = _sift(im)
-            (x1, s1, d1), (x2, s2, d2) = feats[p.im1], feats[p.im2]
-            idx, _ = rb.ratio_matches(d1, d2)
-            u1, u2 = x1[idx[:, 0]], x2[idx[:, 1]]
+            u1, u2, _, scales = rb.pair_match_data(p, a.cache)
+            if len(u1) < MIN_PAIR:
+                continue
             e = sampson_error_px(u1, u2, p.K1, p.K2, p.R, p.t)
             m = e < WITHIN_PX
             if m.sum() < MIN_PAIR:
                 continue
-            sz_all.append(np.sqrt(s1[idx[:, 0]] * s2[idx[:, 1]])[m])
+            sz_all.append(scales[m])
             err_all.append(e[m])
         if not sz_all:
             print(f"{name}: no pair with {MIN_PAIR} matches within {WITHIN_PX} px")
