@@ -4,7 +4,9 @@ For every dataset and method: the median and mean rotation error (degrees; Strec
 pairs, >= 30 matches within 1 px of the truth; a pair without a pose counts 180 deg in the median and
 is left out of the mean), per seed and their average; the wrong ``ok`` poses (rotation error above
 5 deg) per seed against the ``ok`` count; and the share of the pairs where the reference method
-(PoseLib 1 px by default) is within 2 deg that stay ``ok``. The bench's own tables show seed 0 only.
+(PoseLib 1 px by default) is within 2 deg that stay ``ok``; on the datasets that are not Strecha
+scenes, the pose AUC@5/10/20 of max(rotation, translation-direction error) averaged over the seeds and
+the seed spread (standard deviation) of AUC@10. The bench's own tables show seed 0 only.
 
     python benchmarks/seed_summary.py docs/results/real/floor_seeds5/real_bench.json
 """
@@ -16,6 +18,8 @@ import json
 from pathlib import Path
 
 import numpy as np
+
+from poseonly.experiments.real_bench import pose_auc
 
 STRECHA = ("Herz-Jesus-P8", "entry-P10", "fountain-P11")
 OVERLAP_GT_MATCHES = 30
@@ -29,6 +33,12 @@ def _err(rec: dict) -> float:
     return NO_POSE_DEG if e is None else float(e)
 
 
+def _pose_err(rec: dict) -> float:
+    """max(R err, t err); a pair without a pose is an infinite error (as the bench's AUC)."""
+    r, t = rec.get("R_err"), rec.get("t_err")
+    return float("inf") if r is None or t is None else max(float(r), float(t))
+
+
 def summarize(bench: dict, reference: str = "poselib-1px") -> list[str]:
     """Lines of the summary of one ``real_bench.json`` (see the module docstring)."""
     out = []
@@ -39,7 +49,7 @@ def summarize(bench: dict, reference: str = "poselib-1px") -> list[str]:
         out.append(f"{ds} ({len(P)} pairs, {int(ov.sum())} scored)")
         for m in P[0]["methods"]:
             seeds = len(P[0]["methods"][m])
-            meds, means, wrong, oks, kept = [], [], [], [], []
+            meds, means, wrong, oks, kept, aucs = [], [], [], [], [], []
             for s in range(seeds):
                 e = np.array([_err(p["methods"][m][s]) for p in P])
                 ok = np.array([p["methods"][m][s]["status"] == "ok" for p in P])
@@ -47,6 +57,8 @@ def summarize(bench: dict, reference: str = "poselib-1px") -> list[str]:
                 means.append(float(np.mean(e[ov & (e < NO_POSE_DEG)])))
                 wrong.append(int(np.count_nonzero(ok & (e > WRONG_DEG))))
                 oks.append(int(ok.sum()))
+                if ds not in STRECHA:
+                    aucs.append(pose_auc(np.array([_pose_err(p["methods"][m][s]) for p in P])))
                 if reference in P[0]["methods"]:
                     good = np.array([_err(p["methods"][reference][s]) < REF_GOOD_DEG for p in P])
                     kept.append(float(np.count_nonzero(ok & good) / max(int(good.sum()), 1)))
@@ -57,6 +69,9 @@ def summarize(bench: dict, reference: str = "poselib-1px") -> list[str]:
             )
             if kept and m != reference:
                 line += f"  kept {100 * np.mean(kept):.1f} %"
+            if aucs:
+                A = np.array(aucs)
+                line += f"  AUC@5/10/20 {'/'.join(f'{x:.2f}' for x in A.mean(0))} (AUC@10 std {A[:, 1].std():.2f})"
             out.append(line)
     return out
 
