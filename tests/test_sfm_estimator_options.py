@@ -43,3 +43,18 @@ def test_two_view_passes_the_options_and_keys_the_cache_by_them(tmp_path):
     default = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0)
     np.testing.assert_array_equal(b.R, default.R)
     assert len(list((tmp_path / "twoview").iterdir())) == 2
+
+
+def test_two_view_passes_the_noise_scales_unless_turned_off(tmp_path):
+    rng = np.random.default_rng(5)
+    sc = make_scene(200, "normal", "pinhole", 0.0, 0.3, 5)
+    c = np.exp(rng.uniform(0.0, np.log(8.0), sc.n))
+    u1 = sc.u1 + 0.15 * c[:, None] * rng.normal(size=sc.u1.shape)
+    u2 = sc.u2 + 0.15 * c[:, None] * rng.normal(size=sc.u2.shape)
+    on = two_view(u1, u2, sc.K, sc.K, PairwiseOptions(use_scores=False), 0, tmp_path, noise_scales=c)
+    off = two_view(u1, u2, sc.K, sc.K, PairwiseOptions(use_scores=False, use_noise_scales=False), 0, tmp_path, noise_scales=c)
+    with_scales = estimate_relative_pose(u1, u2, sc.K, sc.K, seed=0, noise_scales=c)
+    without = estimate_relative_pose(u1, u2, sc.K, sc.K, seed=0)
+    np.testing.assert_allclose(on.R, with_scales.R, atol=1e-12)
+    np.testing.assert_allclose(off.R, without.R, atol=1e-12)
+    assert not np.allclose(on.R, off.R, atol=1e-9)  # two cache entries, not one

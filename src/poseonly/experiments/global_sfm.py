@@ -51,6 +51,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-features", type=int, default=8000, help="strongest SIFT features per image (default 8000)")
     p.add_argument("--threshold-px", type=float, default=None, help="two-view RANSAC threshold in pixels (default: the method's, 1 px)")
     p.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
+    p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
     p.add_argument("--reweight", type=int, default=0, help="LiGT reweighting iterations (default 0 = openMVG's LiGT)")
     p.add_argument("--no-anchor", action="store_true", help="skip pycolmap's rotation averaging / global positioning")
     p.add_argument("--ba", action="store_true", help="also report our result after an optional pycolmap bundle adjustment")
@@ -79,7 +80,13 @@ def _scores(R: np.ndarray, C: np.ndarray, R_gt: np.ndarray, C_gt: np.ndarray) ->
 def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
     sc = load_scene(path)
     R_gt, C_gt = _gt(sc)
-    opt = PairwiseOptions(max_features=args.max_features, threshold_px=args.threshold_px, seed=args.seed, estimator_options=parse_estimator_options(args.two_view_option))
+    opt = PairwiseOptions(
+        max_features=args.max_features,
+        threshold_px=args.threshold_px,
+        seed=args.seed,
+        use_noise_scales=not args.no_noise_scales,
+        estimator_options=parse_estimator_options(args.two_view_option),
+    )
     t0 = time.perf_counter()
     ig = image_view_graph(sc.image_paths, sc.K, options=opt, cache_dir=args.cache, progress=lambda it, **kw: progress(it, **kw))
     t_pairs = time.perf_counter() - t0

@@ -64,7 +64,13 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         raise InputError(f"image folder not found: {d}")
     out = Path(args.out)
     t0 = time.perf_counter()
-    opt = PairwiseOptions(max_features=args.max_features, threshold_px=args.threshold_px, seed=args.seed, estimator_options=parse_estimator_options(args.two_view_option))
+    opt = PairwiseOptions(
+        max_features=args.max_features,
+        threshold_px=args.threshold_px,
+        seed=args.seed,
+        use_noise_scales=not args.no_noise_scales,
+        estimator_options=parse_estimator_options(args.two_view_option),
+    )
     cache = args.cache if args.cache else out / "cache"
     prog = None if args.no_progress else _progress
     if args.database:
@@ -156,6 +162,7 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--no-progress", action="store_true", help="no progress bars")
     s.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     s.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
+    s.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
     s.set_defaults(func=cmd_sfm)
 
     from ..experiments import global_sfm
