@@ -57,4 +57,5 @@ def test_two_view_passes_the_noise_scales_unless_turned_off(tmp_path):
     without = estimate_relative_pose(u1, u2, sc.K, sc.K, seed=0)
     np.testing.assert_allclose(on.R, with_scales.R, atol=1e-12)
     np.testing.assert_allclose(off.R, without.R, atol=1e-12)
-    assert not np.allclose(on.R, off.R, atol=1e-9)  # two cache entries, not one
+    assert not np.allclose(on.R, off.R, atol=1e-9)
+    assert len(list((tmp_path / "twoview").glob("*.npz"))) == 2  # two cache entries, not one

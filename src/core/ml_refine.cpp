@@ -27,7 +27,8 @@ constexpr double kNuEmTol = 1e-3;
 // alpha chosen with nu by the profile likelihood: 0 (the scales say nothing), 1/2, 1 (the noise
 // proportional to the scale, as a keypoint's localisation error to its detection scale)
 constexpr double kAlphaGrid[] = {0.0, 0.5, 1.0};
-constexpr double kMaxScaleRatio = 1e3;  // relative scales are clamped to [1e-3, 1e3]
+constexpr double kMaxScaleRatio = 32.0;  // relative scales are clamped to [1/32, 32] (pose-step weights
+                                         // within 1e3 of the median's at alpha = 1; SIFT sizes span ~1-100x)
 
 // rotation angle of R1 R0^T (radians), stable for small angles
 double rotation_angle(const Mat3& R1, const Mat3& R0) {
@@ -213,7 +214,10 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
   std::vector<double> c;
   if (scales) {
     c.assign(scales, scales + P.n);
-    std::vector<double> tmp(c);
+    std::vector<double> tmp;
+    for (double x : c)
+      if (std::isfinite(x) && x > 0.0) tmp.push_back(x);
+    if (tmp.empty()) tmp.push_back(1.0);
     const size_t h = tmp.size() / 2;
     std::nth_element(tmp.begin(), tmp.begin() + h, tmp.end());
     double med = tmp[h];
@@ -230,8 +234,11 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
   std::vector<double> v;  // the pose step's weights
   for (int k = 0; k < opt.rounds; ++k) {
     if ((opt.student || !c.empty()) && k < kNuRounds) {
+      const double alpha_before = alpha;
       select_tails(r, c, opt.student, Tr, opt.sigma_floor, sigma0, g0, &nu, &alpha);
-      sigma = sigma0, g = g0;
+      // the EM restarts from its start after a choice (as the t always did); the Gaussian without
+      // the scales (alpha = 0 again) carries on as the stage without scales does
+      if (opt.student || alpha != alpha_before) sigma = sigma0, g = g0;
       qp = nullptr;
       if (alpha != 0.0) inverse_scales(c, alpha, &q), qp = &q;
     }

@@ -51,8 +51,10 @@ struct MlResult {
 };
 
 // scales (optional, (n,)): each match's relative noise scale (e.g. sqrt(size1 size2) of its SIFT
-// keypoints; only ratios matter, c_i = scale_i / median; non-positive or non-finite entries count as
-// the median, ratios are clamped to [1e-3, 1e3]).
+// keypoints; only ratios matter, c_i = scale_i / median of the finite positive ones; other entries
+// count as the median, ratios are clamped to [1/32, 32]). Open: as for the t, the inlier density is
+// not renormalised on [0, T), which biases the choice towards alpha = 0 when a large-scale match's
+// inlier scale is a sizeable part of T.
 void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResult* out, const double* scales = nullptr);
 
 }  // namespace poseonly

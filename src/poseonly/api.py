@@ -169,7 +169,8 @@ def estimate_relative_pose(
     ``sqrt(size1 * size2)`` of its SIFT keypoints' sizes (a keypoint's localisation error grows with
     its detection scale); the default method's ML refinement then weights the matches by them, as
     far as the likelihood of its errors says they explain the noise (``result.diagnostics["ml_alpha"]``:
-    0 when they explain nothing). The paper's methods ignore ``scores`` and ``noise_scales``.
+    0 when they explain nothing). The paper's methods ignore ``scores`` and ``noise_scales``, and so
+    does the default without its ML refinement (``refine=False`` or ``final="ligt"``).
     The options of each method are the fields of its dataclass in :mod:`poseonly.options`.
     Raises :class:`ValueError` (:class:`poseonly.InputError`) for invalid input or options;
     degenerate input returns a result whose ``status`` says so.

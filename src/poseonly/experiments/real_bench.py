@@ -822,9 +822,10 @@ def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly",
     out = []
     for r in recs:
         p = pairs[(r["dataset"], r["id"])]
-        u1, u2, _ = pair_matches(p, cache)
+        u1, u2, ratio, scales = pair_match_data(p, cache)
+        front: dict[str, Any] = {"scores": 1.0 - ratio, "noise_scales": scales}  # as the bench's "poseonly" runs
         e_gt = sampson_error_px(u1, u2, p.K1, p.K2, p.R, p.t)
-        o = estimate_relative_pose(u1, u2, p.K1, p.K2, seed=0)
+        o = estimate_relative_pose(u1, u2, p.K1, p.K2, seed=0, **front)
         Ro, to = cast(np.ndarray, o.R), cast(np.ndarray, o.t)  # None only for status "degenerate"
         Rp, tp, inlp, _ = poselib_relpose(u1, u2, p.K1, p.K2, threshold_px=1.0, seed=0)
         d: dict[str, Any] = {
@@ -849,14 +850,14 @@ def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly",
                 ref_inliers_far=int(np.count_nonzero(inlp & (e_gt > FAR_PX))),
                 ref_msac=_msac_cost(u1, u2, p, Rp, tp),
             )
-        d["R_err_seeds"] = [float(rotation_error_deg(p.R, cast(np.ndarray, estimate_relative_pose(u1, u2, p.K1, p.K2, seed=s).R))) for s in range(seeds)]
+        d["R_err_seeds"] = [float(rotation_error_deg(p.R, cast(np.ndarray, estimate_relative_pose(u1, u2, p.K1, p.K2, seed=s, **front).R))) for s in range(seeds)]
         for name, opts in (
             ("@1px", {"threshold_px": 1.0}),
             ("fixed-thr", {"adaptive_threshold": False}),
             ("no-refine", {"refine": False}),
             ("min1000", {"min_iterations": 1000, "confidence": 0.9999}),
         ):
-            d[f"R_err_{name}"] = float(rotation_error_deg(p.R, cast(np.ndarray, estimate_relative_pose(u1, u2, p.K1, p.K2, seed=0, **opts).R)))
+            d[f"R_err_{name}"] = float(rotation_error_deg(p.R, cast(np.ndarray, estimate_relative_pose(u1, u2, p.K1, p.K2, seed=0, **front, **opts).R)))
         out.append(d)
     return out
 

@@ -9,7 +9,9 @@ For every scene folder under ``PATH`` (:func:`poseonly.io.strecha.find_scenes`: 
 ``--min-matches`` (30) putative SIFT matches (full resolution, Lowe ratio ``--ratio``), every
 method estimates the relative pose from the same matches:
 
-* ``poseonly`` -- :func:`poseonly.estimate_relative_pose` with its defaults;
+* ``poseonly`` -- :func:`poseonly.estimate_relative_pose` with its defaults, on the matches alone (no
+  match scores, no noise scales: the paper's protocol; ``poseonly bench real`` runs the default as the
+  SIFT front-end calls it);
 * ``gnc-ransac+LiGTopt`` / ``gnc-ransac`` -- the paper's Algorithm 3 as written (``method="gnc-ransac"``)
   with and without the LiGTopt refinement;
 * ``opengv-ransac-5pt`` -- RANSAC + 5pt with OpenGV's defaults (when
