@@ -33,8 +33,9 @@ __all__ = ["ImageGraph", "PairwiseOptions", "TwoView", "image_view_graph", "obse
 MIN_PUTATIVE = 30
 # part of the two-view cache key with the package version: bump when the default estimator's results
 # change between versions (2: the core-era default at its own threshold, with match scores; 3: its
-# cheirality-aware search; 4: the Student-t ML stage; 5: the keypoints' sizes as noise scales)
-TWO_VIEW_CACHE_TAG = 5
+# cheirality-aware search; 4: the Student-t ML stage; 5: the keypoints' sizes as noise scales; 6: their
+# review fixes)
+TWO_VIEW_CACHE_TAG = 6
 
 
 @dataclass(frozen=True)
