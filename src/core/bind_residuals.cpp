@@ -5,6 +5,9 @@
 #include "register.h"
 #include "residuals.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace poseonly {
 
 // Residuals of k stacked poses R (k, 3, 3), unit t (k, 3) on n points: (k, n).
@@ -30,6 +33,43 @@ static NpArray residual_matrix(int kind, const ArrayIn& R, const ArrayIn& t, con
   return to_numpy(std::move(out), {k, static_cast<size_t>(P.n)});
 }
 
+// Rows of a (n, 3) scaled to unit length (poseonly.geometry._unit_rows): when every row's largest
+// |component| m lies in (1e-150, 1e150), the plain norm sqrt(x x + y y + z z) and zero rows those of
+// norm < zero; otherwise plain rows as before and the others divided by m first (no overflow or
+// underflow), zero rows those with m < zero / sqrt(3). Returns (unit rows, number of zero rows).
+static nb::tuple unit_rows(const BearingsIn& a, double zero) {
+  if (a.shape(1) != 3) throw std::invalid_argument("a must have shape (n, 3)");
+  const size_t n = a.shape(0);
+  std::vector<double> out(3 * n);
+  int64_t zeros = 0;
+  {
+    nb::gil_scoped_release release;
+    const double* x = a.data();
+    constexpr double kHuge = 1e150, kTiny = 1e-150;
+    bool plain = true;
+    for (size_t i = 0; i < n && plain; ++i) {
+      const double m = std::max({std::abs(x[3 * i]), std::abs(x[3 * i + 1]), std::abs(x[3 * i + 2])});
+      plain = m < kHuge && m > kTiny;
+    }
+    for (size_t i = 0; i < n; ++i) {
+      const double* r = x + 3 * i;
+      double* o = out.data() + 3 * i;
+      const double m = std::max({std::abs(r[0]), std::abs(r[1]), std::abs(r[2])});
+      if (plain || (m < kHuge && m > kTiny)) {
+        const double nrm = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+        if (plain ? nrm < zero : m < zero / std::sqrt(3.0)) ++zeros;
+        for (int c = 0; c < 3; ++c) o[c] = r[c] / nrm;
+      } else {
+        if (m < zero / std::sqrt(3.0)) ++zeros;
+        const double b0 = r[0] / m, b1 = r[1] / m, b2 = r[2] / m;
+        const double nb_ = std::sqrt(b0 * b0 + b1 * b1 + b2 * b2);
+        o[0] = b0 / nb_, o[1] = b1 / nb_, o[2] = b2 / nb_;
+      }
+    }
+  }
+  return nb::make_tuple(to_numpy(std::move(out), {n, static_cast<size_t>(3)}), zeros);
+}
+
 }  // namespace poseonly
 
 POSEONLY_BIND(residuals) {
@@ -37,5 +77,7 @@ POSEONLY_BIND(residuals) {
   m.def("residual_matrix", &residual_matrix, nb::arg("kind"), nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
         "Residuals (k, n) of k poses R (k,3,3), unit t (k,3) on bearings f1, f2 (n,3); kind: 0 sampson, "
         "1 sampson-chiral, 2 ligt, 3 coplanar, 4 ppo, 5 ba, 6 opengv, 7 opengv-symmetric (the order of RESIDUAL_KINDS).");
+  m.def("unit_rows", &unit_rows, nb::arg("a"), nb::arg("zero"),
+        "Rows of a (n, 3) scaled to unit length without overflow or underflow: (unit rows (n, 3), number of rows shorter than `zero`).");
   m.attr("RESIDUAL_KINDS") = nb::make_tuple("sampson", "sampson-chiral", "ligt", "coplanar", "ppo", "ba", "opengv", "opengv-symmetric");
 }

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _core
+
 __all__ = [
     "InputError",
     "as_bearings",
@@ -172,30 +174,17 @@ def check_intrinsics(K: np.ndarray, name: str = "K") -> np.ndarray:
 
 
 def _unit_rows(a: np.ndarray, name: str) -> np.ndarray:
-    """Rows of ``a (n, 3)`` scaled to unit length without overflow or underflow.
+    """Rows of ``a (n, 3)`` scaled to unit length without overflow or underflow (the core's
+    ``unit_rows``; its numpy reference is ``tests/reference/bearings.py``).
 
-    Rows whose components are all of moderate size take the plain norm (bit for bit
-    ``np.linalg.norm``); the others are first divided by their largest absolute component, so
-    components up to ``1.8e308`` keep their direction. Rows shorter than :data:`ZERO_BEARING`
-    raise :class:`InputError`.
+    When every row's components are of moderate size (largest in (1e-150, 1e150)) the plain norm is
+    used; otherwise the other rows are first divided by their largest absolute component, so
+    components up to ``1.8e308`` keep their direction. Rows shorter than :data:`ZERO_BEARING` raise
+    :class:`InputError`.
     """
-    m = np.max(np.abs(a), axis=1)
-    plain = (m < 1e150) & (m > 1e-150)
-    if plain.all():
-        nrm = np.sqrt(a[:, 0] * a[:, 0] + a[:, 1] * a[:, 1] + a[:, 2] * a[:, 2])  # = np.linalg.norm(a, axis=1) bit for bit
-        zero = nrm < ZERO_BEARING
-        if zero.any():
-            raise InputError(f"{name} contains {int(np.count_nonzero(zero))} zero-length bearing vectors")
-        return a / nrm[:, None]
-    zero = m < ZERO_BEARING / np.sqrt(3.0)  # |row| <= sqrt(3) m (no overflow for m near 1.8e308)
-    if zero.any():
-        raise InputError(f"{name} contains {int(np.count_nonzero(zero))} zero-length bearing vectors")
-    out = np.empty_like(a)
-    ap = a[plain]
-    nrm = np.sqrt(np.sum(ap * ap, axis=1))
-    out[plain] = ap / nrm[:, None]
-    b = a[~plain] / m[~plain, None]
-    out[~plain] = b / np.sqrt(np.sum(b * b, axis=1))[:, None]
+    out, zeros = _core.unit_rows(np.ascontiguousarray(a, dtype=np.float64), ZERO_BEARING)
+    if zeros:
+        raise InputError(f"{name} contains {zeros} zero-length bearing vectors")
     return out
 
 

@@ -1,0 +1,46 @@
+"""The core's bearing normalisation (``poseonly.geometry._unit_rows``, ``_core.unit_rows``) against
+its numpy reference: the same unit rows on moderate, huge, tiny and mixed magnitudes, the same zero
+rows rejected."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from poseonly import InputError
+from poseonly.geometry import _unit_rows
+from reference.bearings import unit_rows as unit_rows_ref
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-6, 1e140, 1e160, 1e300])
+def test_unit_rows_match_the_reference(scale):
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(200, 3)) * scale
+    np.testing.assert_allclose(_unit_rows(a, "a"), unit_rows_ref(a), rtol=1e-15, atol=1e-16)
+    np.testing.assert_allclose(np.linalg.norm(_unit_rows(a, "a"), axis=1), 1.0, rtol=1e-15)
+
+
+def test_mixed_magnitudes_keep_their_directions():
+    rng = np.random.default_rng(1)
+    d = rng.normal(size=(50, 3))
+    a = d * np.where(np.arange(50) % 3 == 0, 1e300, np.where(np.arange(50) % 3 == 1, 1e-6, 1.0))[:, None]
+    got = _unit_rows(a, "a")
+    np.testing.assert_allclose(got, unit_rows_ref(a), rtol=1e-15, atol=1e-16)
+    np.testing.assert_allclose(got, d / np.linalg.norm(d, axis=1, keepdims=True), rtol=1e-14, atol=1e-15)
+
+
+@pytest.mark.parametrize("row", [[0.0, 0.0, 0.0], [1e-13, 0.0, 0.0], [1e-300, 1e-300, 0.0]])
+@pytest.mark.parametrize("other", [1.0, 1e300])
+def test_zero_rows_are_rejected_like_the_reference(row, other):
+    a = np.array([[other, 0.5, 0.25], row, [0.0, 1.0, 0.0]])
+    with pytest.raises(InputError, match="1 zero-length"):
+        unit_rows_ref(a, "f1")
+    with pytest.raises(InputError, match="f1 contains 1 zero-length"):
+        _unit_rows(a, "f1")
+
+
+def test_non_contiguous_and_integer_input():
+    a = np.arange(1, 19, dtype=np.int64).reshape(6, 3)
+    np.testing.assert_allclose(_unit_rows(a, "a"), unit_rows_ref(a.astype(float)), rtol=1e-15)
+    b = np.asfortranarray(np.random.default_rng(2).normal(size=(7, 3)))
+    np.testing.assert_allclose(_unit_rows(b, "b"), unit_rows_ref(b), rtol=1e-15)
