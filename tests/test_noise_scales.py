@@ -164,3 +164,31 @@ def test_colmap_keypoint_scales():
     a = 2.0 * np.array([[np.cos(0.3), -np.sin(0.3)], [np.sin(0.3), np.cos(0.3)]])  # similarity of scale 2
     np.testing.assert_allclose(keypoint_scales(np.array([[1.0, 2.0, *a.ravel()]])), [2.0])
     assert keypoint_scales(np.array([[1.0, 2.0, 0.0, 0.1]])) is None  # a zero scale: not usable
+
+
+def test_colmap_database_keypoint_scales_reach_the_pairs(tmp_path):
+    """A database whose keypoints carry an affine shape gives each verified pair the matches'
+    ``sqrt(s1 s2)`` as noise scales; positions-only keypoints give none."""
+    pycolmap = pytest.importorskip("pycolmap")
+    from poseonly.colmap_verify import _Source
+    from poseonly.io.colmap_db import ColmapDatabase
+
+    sc = make_scene(60, "normal", "pinhole", 0.5, 0.0, 0)
+    sizes = [np.linspace(1.0, 4.0, sc.n), np.linspace(2.0, 3.0, sc.n)]
+    path = tmp_path / "db.db"
+    db = pycolmap.Database.open(str(path))
+    cid = db.write_camera(pycolmap.Camera(model="PINHOLE", width=640, height=480, params=[sc.K[0, 0], sc.K[1, 1], sc.K[0, 2], sc.K[1, 2]]))
+    ids = []
+    for k, u in enumerate((sc.u1, sc.u2)):
+        iid = db.write_image(pycolmap.Image(name=f"im{k}.jpg", camera_id=cid))
+        ids.append(iid)
+        s = sizes[k]
+        rows = np.column_stack([u, s, np.zeros(sc.n), np.zeros(sc.n), s])  # x, y, a11, a12, a21, a22: scale s
+        db.write_keypoints(iid, rows.astype(np.float32))
+    db.write_matches(ids[0], ids[1], np.column_stack([np.arange(sc.n), np.arange(sc.n)]).astype(np.uint32))
+    db.close()
+    with ColmapDatabase(path) as cdb:
+        np.testing.assert_allclose(cdb.keypoint_scales(ids[0]), sizes[0], rtol=1e-6)
+        pairs = list(_Source(cdb, cdb.matched_pairs(), {}))
+    assert len(pairs) == 1
+    np.testing.assert_allclose(pairs[0].options["noise_scales"], np.sqrt(sizes[0] * sizes[1]), rtol=1e-6)
