@@ -1,5 +1,6 @@
 """COLMAP round trip on the Strecha scenes: pycolmap SIFT + exhaustive matching (no verification) ->
-two-view verification by pycolmap or by ``poseonly colmap verify`` -> pycolmap's incremental and
+two-view verification by pycolmap or by ``poseonly colmap verify`` (with the keypoints' scales as
+noise scales, and without: ``poseonly-noscale``) -> pycolmap's incremental and
 global (GLOMAP) mappers -> camera errors against the ground truth after a similarity alignment.
 
     python benchmarks/colmap_roundtrip.py [--data /work/shared/data/strecha]
@@ -117,14 +118,14 @@ def main(argv: list[str] | None = None) -> int:
             mo = pycolmap.FeatureMatchingOptions(skip_geometric_verification=True, num_threads=a.threads)
             pycolmap.match_exhaustive(str(base), matching_options=mo, device=pycolmap.Device.cpu)
         row = {}
-        for verifier in ("pycolmap", "poseonly"):
+        for verifier in ("pycolmap", "poseonly", "poseonly-noscale"):
             db = sd / f"{verifier}.db"
             shutil.copy(base, db)
             t0 = time.perf_counter()
             if verifier == "pycolmap":
                 pycolmap.geometric_verification(str(db))
             else:
-                verify_database(db, progress=False)
+                verify_database(db, progress=False, noise_scales=verifier == "poseonly")
             tv = time.perf_counter() - t0
             row[verifier] = {"verify_time_s": tv, **verified_pairs(pycolmap, db), **run_mappers(pycolmap, db, scene.path / "images", sd / verifier, scene)}
             print(scene.name, verifier, json.dumps(row[verifier]), flush=True)

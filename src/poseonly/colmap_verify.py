@@ -96,8 +96,9 @@ class _Source:
     """Builds the batch's pairs from the database (bearings cached per image) and keeps, for each
     pair in flight, what is needed to turn its result into a row."""
 
-    def __init__(self, db: ColmapDatabase, todo: list[tuple[int, int, int]], errors: dict[int, str]) -> None:
+    def __init__(self, db: ColmapDatabase, todo: list[tuple[int, int, int]], errors: dict[int, str], noise_scales: bool = True) -> None:
         self.db, self.todo, self.errors = db, todo, errors
+        self.noise_scales = noise_scales
         self.pending: dict[int, tuple[int, int, np.ndarray]] = {}
         self.direct: list[GeometryRow] = []  # rows decided without estimating
         self._bear: dict[int, np.ndarray] = {}
@@ -132,7 +133,7 @@ class _Source:
             self.pending[pid] = (i1, i2, m)
             c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
             opts: dict[str, Any] = {"focal_px": 0.5 * (c1.focal_px + c2.focal_px)}
-            s1, s2 = self.db.keypoint_scales(i1), self.db.keypoint_scales(i2)
+            s1, s2 = (self.db.keypoint_scales(i1), self.db.keypoint_scales(i2)) if self.noise_scales else (None, None)
             if s1 is not None and s2 is not None:
                 opts["noise_scales"] = np.sqrt(s1[m[:, 0]] * s2[m[:, 1]])  # the keypoints' scales weight the ML refinement
             yield Pair(b1[m[:, 0]], b2[m[:, 1]], key=pid, options=opts)
@@ -172,11 +173,14 @@ def verify_database(
     chunk_size: int | None = None,
     write_every: int = WRITE_EVERY,
     progress: bool = True,
+    noise_scales: bool = True,
     **options: Any,
 ) -> VerifySummary:
     """Verify the matched pairs of the COLMAP database ``path`` and write their two-view geometries
     (module docstring). ``options``: those of :func:`poseonly.estimate_relative_pose`
-    (``threshold_px``, ``method``, ``seed`` ...). Returns a :class:`VerifySummary`."""
+    (``threshold_px``, ``method``, ``seed`` ...); ``noise_scales``: pass each match's
+    ``sqrt(s1 s2)`` of its keypoints' scales (when the database stores keypoint shapes). Returns a
+    :class:`VerifySummary`."""
     t0 = time.perf_counter()
     if not isinstance(write_every, int) or write_every < 1:
         raise InputError(f"write_every must be a positive int, got {write_every!r}")
@@ -196,7 +200,7 @@ def verify_database(
         else:
             todo = [p for p in pairs if not db.has_geometry(p[1], p[2])]
         summary.skipped = len(pairs) - len(todo)
-        src = _Source(db, todo, summary.errors)
+        src = _Source(db, todo, summary.errors, noise_scales)
         buf: list[GeometryRow] = []
 
         def flush() -> None:
@@ -233,6 +237,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--chunk", type=int, default=None, help="pairs per task (default 16 local, 256 on Dask)")
     p.add_argument("--write-every", type=int, default=WRITE_EVERY, help=f"pairs per database transaction (default {WRITE_EVERY})")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' scales to the estimator as noise scales")
 
 
 def run_cli(args: argparse.Namespace) -> int:
@@ -246,6 +251,7 @@ def run_cli(args: argparse.Namespace) -> int:
         chunk_size=args.chunk,
         write_every=args.write_every,
         progress=not args.no_progress,
+        noise_scales=not args.no_noise_scales,
         method=args.method,
         seed=args.seed,
         **({} if args.threshold is None else {"threshold_px": args.threshold}),
