@@ -111,3 +111,16 @@ def test_early_stop_pool():
     first = next(gen)
     gen.close()  # the pool shuts down without running the queued chunks
     assert first.error is None
+
+
+def test_pair_scores_and_noise_scales_reach_the_estimator():
+    from poseonly import estimate_relative_pose
+
+    sc = make_scene(120, "normal", "pinhole", 0.5, 0.3, 7)
+    c = np.linspace(1.0, 6.0, sc.n)
+    q = np.linspace(0.0, 1.0, sc.n)
+    [pr] = list(poseonly.estimate_relative_poses([Pair(sc.u1, sc.u2, key="p", K1=sc.K, K2=sc.K, scores=q, noise_scales=c)]))
+    ref = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=pr.seed, scores=q, noise_scales=c)
+    np.testing.assert_array_equal(pr.result.R, ref.R)
+    [bad] = list(poseonly.estimate_relative_poses([{"x1": sc.u1, "x2": sc.u2, "K1": sc.K, "noise_scales": -c}]))
+    assert bad.result is None and "noise_scales" in bad.error

@@ -43,8 +43,9 @@ _CHECK_POINTS = 100
 @dataclass
 class Pair:
     """One image pair: matched points ``x1, x2`` (``(n, 2)`` pixels with ``camera1/2`` or ``K1/K2``,
-    or ``(n, 3)`` bearings), a hashable ``key`` (default: the position in the iterable) and per-pair
-    ``options`` overriding the batch's (e.g. ``threshold_px``)."""
+    or ``(n, 3)`` bearings), a hashable ``key`` (default: the position in the iterable), the matches'
+    ``scores (n,)`` and ``noise_scales (n,)`` (see :func:`poseonly.estimate_relative_pose`; ``None``:
+    none) and per-pair ``options`` overriding the batch's (e.g. ``threshold_px``)."""
 
     x1: np.ndarray
     x2: np.ndarray
@@ -54,6 +55,8 @@ class Pair:
     K1: np.ndarray | None = None
     K2: np.ndarray | None = None
     options: dict[str, Any] = field(default_factory=dict)
+    scores: np.ndarray | None = None
+    noise_scales: np.ndarray | None = None
 
 
 @dataclass
@@ -100,6 +103,10 @@ def _run_one(index: int, pair: Pair, options: dict[str, Any]) -> PairResult:
     opts = {**options, **pair.options}
     seed = pair_seed(int(opts.pop("seed", 0)), pair.key)
     try:
+        if pair.scores is not None:
+            opts.setdefault("scores", pair.scores)
+        if pair.noise_scales is not None:
+            opts.setdefault("noise_scales", pair.noise_scales)
         r = estimate_relative_pose(pair.x1, pair.x2, pair.K1, pair.K2, camera1=pair.camera1, camera2=pair.camera2, seed=seed, **opts)
     except ValueError as exc:  # invalid input of this pair (InputError is a ValueError)
         return PairResult(index, pair.key, seed, None, str(exc))
