@@ -18,16 +18,12 @@ import numpy as np
 
 from ..geometry import InputError
 from .ligt_global import MIN_PARALLAX_DEG, LiGTResult, ligt_positions
-from .rotation_refine import refine_rotations
 from .reconstruct import MAX_ERROR_PX, Reconstruction, reconstruct_points
 from .rotation_averaging import RotationAveragingResult, average_rotations
 from .tracks import Tracks, build_tracks
 from .viewgraph import ViewGraph
 
 BearingsFn = Callable[[Tracks], np.ndarray]
-# observation pairs of the rotation refinement: those of the graph's translation-trusted edges, or
-# every pair of views that share a track
-ROTATION_REFINE_PAIRS = ("edges", "tracks")
 
 __all__ = ["BearingsFn", "GlobalOptions", "GlobalResult", "filter_observations", "run_global"]
 
@@ -45,14 +41,6 @@ class GlobalOptions:
     max_error_px: float = MAX_ERROR_PX
     filter_rounds: int = 2
     ligt_reweight: int = 0
-    rotation_refine_rounds: int = 0
-    rotation_refine_pairs: str = "edges"
-
-    def __post_init__(self) -> None:
-        if self.rotation_refine_pairs not in ROTATION_REFINE_PAIRS:
-            raise InputError(f"rotation_refine_pairs must be one of {ROTATION_REFINE_PAIRS}, got {self.rotation_refine_pairs!r}")
-        if isinstance(self.rotation_refine_rounds, bool) or not isinstance(self.rotation_refine_rounds, int) or self.rotation_refine_rounds < 0:
-            raise InputError(f"rotation_refine_rounds must be an int >= 0, got {self.rotation_refine_rounds!r}")
 
 
 @dataclass
@@ -120,21 +108,7 @@ def run_global(
         rec = reconstruct_points(ra.rotations, lg.centres, tracks, f, focal=focal, max_error_px=opt.max_error_px)
         times["reconstruction"] += time.perf_counter() - t0
         info[f"filter_round_{rnd + 1}_observations"] = tracks.num_observations
-    rotations = ra.rotations
-    if opt.rotation_refine_rounds:
-        allowed = None
-        if opt.rotation_refine_pairs == "edges":
-            inl = ra.inlier_edges
-            allowed = {(min(e.i, e.j), max(e.i, e.j)) for k, e in enumerate(graph.edges) if e.use_translation and (inl is None or inl[k])}
-        t0 = time.perf_counter()
-        for rnd in range(opt.rotation_refine_rounds):
-            rr = refine_rotations(rotations, lg.centres, tracks, f, allowed_pairs=allowed)
-            rotations = rr.rotations
-            lg = ligt_positions(rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg, reweight_iterations=opt.ligt_reweight)
-            rec = reconstruct_points(rotations, lg.centres, tracks, f, focal=focal, max_error_px=opt.max_error_px)
-            info[f"rotation_refine_{rnd + 1}"] = {"pairs": rr.num_pairs, "iterations": rr.iterations, "rms_before": rr.rms_before, "rms_after": rr.rms_after}
-        times["rotation_refine"] = time.perf_counter() - t0
-    R = rotations.copy()
+    R = ra.rotations.copy()
     R[~lg.estimated] = np.nan
     info["points_valid"] = rec.num_valid
     return GlobalResult(R, lg.centres, tracks, f, rec, ra, lg, times, info)
