@@ -129,6 +129,36 @@ def test_generic_loop_on_a_line_estimator():
     assert _core.ransac_line(pts, 0.01, 3)[0] == (a, b, c)  # seeded
 
 
+def test_challengers_rescue_a_search_stuck_on_the_first_optimised_basin():
+    """Two lines: A tight (60 points), B noisier but larger (90 points; its least-squares fit has the
+    lower MSAC cost). With one LO run (the first best's), a search whose first best lies on A ends on
+    A: B's raw two-point models score worse than A's optimised one. Challengers (the best models of
+    other basins, optimised after the loop) find B on every seed."""
+    rng = np.random.default_rng(0)
+    xa = rng.uniform(-1, 1, 60)
+    a = np.c_[xa, 0.5 + rng.normal(0, 0.0005, 60)]
+    xb = rng.uniform(-1, 1, 90)
+    b = np.c_[xb, xb + rng.normal(0, 0.006, 90)]
+    pts = np.ascontiguousarray(np.r_[a, b, rng.uniform(-1, 1, (250, 2))])
+
+    def on_b(line: tuple[float, float, float]) -> bool:
+        return abs(abs(line[0]) - 1 / np.sqrt(2)) < 0.05
+
+    kw = dict(max_iterations=1000, confidence=0.999, max_lo=1, scoring=0)
+    plain = [_core.ransac_line(pts, 0.01, s, **kw) for s in range(30)]
+    chal = [_core.ransac_line(pts, 0.01, s, challengers=4, **kw) for s in range(30)]
+    assert sum(not on_b(r[0]) for r in plain) >= 1  # the failure the challengers address
+    assert all(on_b(r[0]) for r in chal)
+    for (l0, s0), (l4, s4) in zip(plain, chal):
+        assert s4["cost"] <= s0["cost"]  # never worse under the search's own objective
+        if s4["challenger_won"]:
+            assert s4["cost"] < s0["cost"] and s4["num_challenger_lo"] >= 1
+        else:
+            assert l4 == l0
+    with pytest.raises(ValueError):
+        _core.ransac_line(pts, 0.01, 0, challengers=-1)
+
+
 def test_core_releases_the_gil_and_threads_agree():
     s = sim.make_scene(300, noise_px=1.0, outlier_fraction=0.5, seed=2)
     idx = np.stack([np.random.default_rng(i).choice(300, 30, replace=False) for i in range(40)])

@@ -86,19 +86,25 @@ nb::dict stats_dict(const RansacStats& st) {
   d["num_inliers"] = st.num_inliers;
   d["cost"] = st.cost;
   d["rival_cost"] = st.rival_cost;
+  d["num_challenger_lo"] = st.num_challenger_lo;
+  d["challenger_won"] = st.challenger_won;
   return d;
 }
 
 nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double threshold, uint64_t seed, int solver, int scoring,
                          int max_iterations, int min_iterations, double confidence, int max_lo, double lo_mu0, int lo_iterations,
                          int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order,
-                         int lo, double rival_distance, bool chiral, int min_hits) {
+                         int lo, double rival_distance, bool chiral, int min_hits, int challengers, double challenger_distance) {
   const Points P = points_of(f1, f2);
   if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
   if (min_hits < 1 || min_hits > 64) throw std::invalid_argument("min_hits must be in [1, 64]");
+  if (challengers < 0 || challengers > 64) throw std::invalid_argument("challengers must be in [0, 64]");
+  if (!(challenger_distance > 0.0)) throw std::invalid_argument("challenger_distance must be > 0");
   RansacOptions ro = ransac_options(max_iterations, min_iterations, confidence, true, max_lo);
   ro.rival_distance = rival_distance;
   ro.min_hits = min_hits;
+  ro.challengers = challengers;
+  ro.challenger_distance = challenger_distance;
   RelativePoseEstimator::Options eo;
   eo.solver = static_cast<MinimalSolver>(solver);
   eo.lo_threshold = threshold;
@@ -269,11 +275,14 @@ nb::tuple robust_rotation(const BearingsIn& f1, const BearingsIn& f2, double cho
 }
 
 nb::tuple ransac_line(const nb::ndarray<const double, nb::ndim<2>, nb::c_contig>& xy, double threshold, uint64_t seed,
-                      int max_iterations, double confidence, int max_lo, int scoring) {
+                      int max_iterations, double confidence, int max_lo, int scoring, int challengers, double challenger_distance) {
   if (xy.shape(1) != 2) throw std::invalid_argument("points must have shape (n, 2)");
   const int n = static_cast<int>(xy.shape(0));
   if (n < 2) throw std::invalid_argument("at least 2 points are needed");
-  const RansacOptions ro = ransac_options(max_iterations, 0, confidence, true, max_lo);
+  if (challengers < 0 || challengers > 64) throw std::invalid_argument("challengers must be in [0, 64]");
+  RansacOptions ro = ransac_options(max_iterations, 0, confidence, true, max_lo);
+  ro.challengers = challengers;
+  ro.challenger_distance = challenger_distance;
   Line best;
   RansacStats st;
   {
@@ -294,11 +303,14 @@ POSEONLY_BIND(robust) {
         nb::arg("scoring") = 1, nb::arg("max_iterations") = 100000, nb::arg("min_iterations") = 50, nb::arg("confidence") = 0.999,
         nb::arg("max_lo") = 8, nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1,
         nb::arg("order") = Order(), nb::arg("lo") = 0, nb::arg("rival_distance") = 0.0, nb::arg("chiral") = false, nb::arg("min_hits") = 1,
+        nb::arg("challengers") = 0, nb::arg("challenger_distance") = 1.0,
         "LO-RANSAC of minimal hypotheses (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
         "Sampson error against `threshold` (radians); scoring 0 msac, 1 multi-scale msac, 2 count; `order` "
         "(a permutation, best match first) switches to PROSAC; lo 0: LiRP GNC-IRLS, 1: Sampson LM; chiral: a match "
         "whose point is behind either camera scores as an outlier; rival_distance > 0 (degrees) also returns the best model that far "
-        "from the result (rival_R, rival_t, rival_cost in stats); min_hits: adaptive stopping waits for that many all-inlier samples at `confidence`. Returns (R, t, stats).");
+        "from the result (rival_R, rival_t, rival_cost in stats); min_hits: adaptive stopping waits for that many all-inlier samples at `confidence`; challengers > 0: the best "
+        "models of that many other basins (challenger_distance degrees apart) are locally optimised after the loop and replace the result "
+        "if they beat it (num_challenger_lo, challenger_won in stats). Returns (R, t, stats).");
   m.def("relpose_lo", &relpose_lo, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"),
         nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1, nb::arg("lo") = 0,
         "The default method's LO step at `threshold` from the pose's cheirality-consistent inliers: (R, t, ok).");
@@ -318,6 +330,6 @@ POSEONLY_BIND(robust) {
         "max_score_points matches, 0: all) and Kabsch on the inliers among all matches: "
         "(R, inlier mask (n,), hypotheses tested).");
   m.def("ransac_line", &ransac_line, nb::arg("xy"), nb::arg("threshold"), nb::arg("seed"), nb::arg("max_iterations") = 1000,
-        nb::arg("confidence") = 0.999, nb::arg("max_lo") = 8, nb::arg("scoring") = 0,
-        "The generic loop on a 2-D line estimator (tests): ((a, b, c), stats).");
+        nb::arg("confidence") = 0.999, nb::arg("max_lo") = 8, nb::arg("scoring") = 0, nb::arg("challengers") = 0,
+        nb::arg("challenger_distance") = 1.0, "The generic loop on a 2-D line estimator (tests): ((a, b, c), stats).");
 }

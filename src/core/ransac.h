@@ -17,6 +17,7 @@
 #pragma once
 
 #include <cmath>
+#include <algorithm>
 #include <limits>
 #include <type_traits>
 #include <utility>
@@ -34,7 +35,18 @@ struct RansacOptions {
   // > 0: also keep the best *rival*, the best-scoring model at least this far (estimator.distance)
   // from the returned one; its cost says whether the data single out one model (a uniqueness test)
   double rival_distance = 0.0;
+  // > 0: keep this many *challengers*, the best-scoring models of distinct basins (each at least
+  // challenger_distance from the best model and from each other, scored up to kRivalCostFactor times
+  // the best cost) that never became the best; after the loop each is locally optimised until its
+  // cost stops improving and replaces the best if it beats it. A raw minimal model of the right
+  // basin often scores worse than a locally optimised model of a wrong one, and LO runs only on new
+  // bests, so without them the search can end on the consensus it optimised first.
+  int challengers = 0;
+  double challenger_distance = 1.0;
 };
+
+// LO steps of a challenger at most (each re-selects its inliers), stopping when its cost stops improving
+constexpr int kChallengerSteps = 3;
 
 // rivals costing more than this times the best model's are not tracked (RansacOptions::rival_distance)
 constexpr double kRivalCostFactor = 1.5;
@@ -46,6 +58,8 @@ struct RansacStats {
   int num_inliers = 0;
   double cost = std::numeric_limits<double>::infinity();
   double rival_cost = std::numeric_limits<double>::infinity();  // inf: no rival tracked or found
+  int num_challenger_lo = 0;  // LO steps run on challengers
+  int challenger_won = 0;     // 1 when a challenger replaced the search's best model
 };
 
 // log P(Bin(k, p) < hits): the chance that k samples, each good with probability p, hold fewer
@@ -128,6 +142,7 @@ inline void scored_residuals(const Est& est, const typename Est::Terms& T, int i
 struct MsacScorer {
   double thr;
   bool inlier(double v) const { return v < thr; }
+  double full_cost(int n) const { return n * thr * thr; }  // every point an outlier
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
     return pass<false>(est, m, bail);
@@ -157,6 +172,7 @@ struct MsacScorer {
 struct MultiMsacScorer {
   double thr;
   bool inlier(double v) const { return v < thr; }
+  double full_cost(int n) const { return 3.0 * n; }
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
     return pass<false>(est, m, bail);
@@ -188,6 +204,7 @@ struct MultiMsacScorer {
 struct CountScorer {
   double thr;
   bool inlier(double v) const { return v < thr; }
+  double full_cost(int n) const { return n; }
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
     return pass<false>(est, m, bail);
@@ -219,6 +236,7 @@ template <class Base>
 struct ChiralScorer {
   Base base;
   bool inlier(double v) const { return base.inlier(v); }
+  double full_cost(int n) const { return base.full_cost(n); }
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
     const double c = base.template pass<false>(est, m, bail);
@@ -262,12 +280,51 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
   RansacStats st;
   const int n = est.num_data();
   const bool track = opt.rival_distance > 0.0 && rival != nullptr;
+  const int K = std::max(opt.challengers, 0);
+  const double dch = opt.challenger_distance;
   std::vector<int> sample, inl;
   std::vector<Model> models;
+  std::vector<std::pair<Model, double>> ch;  // challengers and their (plain) costs
   double needed = opt.max_iterations;
   bool have = false;
+  // support = full cost - cost; gain = the largest support ratio an LO step achieved so far. A
+  // challenger is kept only if that gain would lift its support above the best's (before any LO:
+  // never), so models that no LO seen could make the best are neither kept nor scored in full.
+  const double full = scorer.full_cost(n);
+  double gain = 1.0;
+  auto reachable = [&]() { return full - (full - st.cost) / gain; };
+  // the cost up to which a challenger's cost must be exact
+  auto challenger_bound = [&]() {
+    if (!K) return 0.0;
+    double b = std::min(kRivalCostFactor * st.cost, reachable());
+    if (static_cast<int>(ch.size()) == K) {
+      double worst = 0.0;
+      for (const auto& c : ch) worst = std::max(worst, c.second);
+      b = std::min(b, worst);
+    }
+    return b;
+  };
+  // a model that is not the best: a challenger if it is far from the best and better than the list's
+  // worst or than a member of its own basin
+  auto consider = [&](const Model& m, double c) {
+    if (!K || !have || !(c <= kRivalCostFactor * st.cost) || !(c < reachable()) || !(est.distance(*best, m) > dch)) return;
+    for (auto& e : ch)
+      if (!(est.distance(e.first, m) > dch)) {
+        if (c < e.second) e = {m, c};
+        return;
+      }
+    if (static_cast<int>(ch.size()) < K) {
+      ch.emplace_back(m, c);
+      return;
+    }
+    auto worst = std::max_element(ch.begin(), ch.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+    if (c < worst->second) *worst = {m, c};
+  };
   // a model replacing `best`: the old best becomes the rival if it is far enough from the new one
   auto promote = [&](const Model& m, double c) {
+    const Model old = *best;
+    const double oc = st.cost;
+    const bool had = have;
     if (track && have && est.distance(*best, m) > opt.rival_distance) {
       *rival = *best;
       st.rival_cost = st.cost;
@@ -277,6 +334,10 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
     *best = m;
     st.cost = c;
     have = true;
+    if (K && had) {  // the challengers of the new best's basin go; the old best may become one
+      ch.erase(std::remove_if(ch.begin(), ch.end(), [&](const auto& e) { return !(est.distance(e.first, m) > dch); }), ch.end());
+      consider(old, oc);
+    }
   };
   while (st.iterations < opt.max_iterations && (st.iterations < needed || st.iterations < opt.min_iterations)) {
     ++st.iterations;
@@ -292,16 +353,17 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       if constexpr (HasPlainCost<Scorer>::value) {
         // a scorer with a costlier exact pass (ChiralScorer): the plain cost up to the rival bound,
         // the exact one only for a candidate best
-        const double cp = scorer.plain(est, m, std::max(bound, st.cost));
+        const double cp = scorer.plain(est, m, std::max({bound, st.cost, challenger_bound()}));
         c = cp <= st.cost ? scorer.cost(est, m, st.cost) : cp;
       } else {
-        c = scorer.cost(est, m, std::max(bound, st.cost));
+        c = scorer.cost(est, m, std::max({bound, st.cost, challenger_bound()}));
       }
       if (!(c < st.cost)) {
         if (track && c <= bound && c < st.rival_cost && est.distance(*best, m) > opt.rival_distance) {
           *rival = m;
           st.rival_cost = c;
         }
+        consider(m, c);
         continue;
       }
       promote(m, c);
@@ -310,13 +372,43 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
         Model lo = *best;
         ++st.num_lo;
         if (est.refine(&lo, inl)) {
+          const double c0 = st.cost;
           const double c2 = scorer.cost(est, lo, st.cost);
-          if (c2 <= st.cost) promote(lo, c2);
+          if (c2 <= st.cost) {
+            if (full - c0 > 0.0) gain = std::max(gain, (full - c2) / (full - c0));
+            promote(lo, c2);
+          }
         }
       }
       inliers_of(est, *best, scorer, &inl);
       st.num_inliers = static_cast<int>(inl.size());
       if (opt.adaptive) needed = samples_needed(est.success_probability(static_cast<double>(inl.size()) / n), opt.confidence, opt.min_hits);
+    }
+  }
+  // the challengers, best first: each locally optimised until its exact cost stops improving or it
+  // falls into the best model's basin; one that beats the best replaces it
+  std::vector<std::pair<Model, double>> final_ch = ch;  // promote() edits ch
+  std::sort(final_ch.begin(), final_ch.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+  for (const auto& e : final_ch) {
+    if (!(est.distance(*best, e.first) > dch) || !(e.second < reachable())) continue;
+    Model m = e.first;
+    double c = scorer.cost(est, m, std::numeric_limits<double>::infinity());
+    for (int k = 0; k < kChallengerSteps; ++k) {
+      inliers_of(est, m, scorer, &inl);
+      Model lo = m;
+      ++st.num_challenger_lo;
+      if (!est.refine(&lo, inl)) break;
+      const double c2 = scorer.cost(est, lo, c);
+      if (!(c2 < c)) break;
+      m = lo;
+      c = c2;
+      if (!(est.distance(*best, m) > dch)) break;  // it fell into the best model's basin
+    }
+    if (c < st.cost) {
+      promote(m, c);
+      st.challenger_won = 1;
+      inliers_of(est, *best, scorer, &inl);
+      st.num_inliers = static_cast<int>(inl.size());
     }
   }
   if (!have) st.num_inliers = 0;

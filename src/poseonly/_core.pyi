@@ -33,6 +33,8 @@ def ransac_relpose(
     rival_distance: float = 0.0,
     chiral: bool = False,
     min_hits: int = 1,
+    challengers: int = 0,
+    challenger_distance: float = 1.0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def relpose_lo(
     R: NDArray[np.float64],
@@ -69,7 +71,15 @@ def gnc_ransac(
     gnc: dict[str, Any] = ...,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def ransac_line(
-    xy: NDArray[np.float64], threshold: float, seed: int, max_iterations: int = 1000, confidence: float = 0.999, max_lo: int = 8, scoring: int = 0
+    xy: NDArray[np.float64],
+    threshold: float,
+    seed: int,
+    max_iterations: int = 1000,
+    confidence: float = 0.999,
+    max_lo: int = 8,
+    scoring: int = 0,
+    challengers: int = 0,
+    challenger_distance: float = 1.0,
 ) -> tuple[tuple[float, float, float], dict[str, Any]]: ...
 def fivept(f1: NDArray[np.float64], f2: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
 def fivept_batch(f1: NDArray[np.float64], f2: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]: ...

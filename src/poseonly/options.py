@@ -195,6 +195,13 @@ class PoseonlyOptions(CommonOptions):
     min_hits: int = _opt(1, "int", "adaptive stopping waits for this many all-inlier samples at `confidence`", lo=1, hi=64)
     solver: str = _opt("5pt", "str", "minimal solver", choices=("5pt", "lirp"))
     max_lo: int = _opt(8, "int", lo=0)
+    challengers: int = _opt(
+        4,
+        "int",
+        "the search keeps the best models of this many other basins (1 deg apart) and locally optimises them at its end; one that beats its result replaces it",
+        lo=0,
+        hi=64,
+    )
     scoring: str = _opt("msac-multi", "str", choices=("msac", "msac-multi", "count"))
     chiral_scoring: bool = _opt(True, "bool", "the search scores a match whose point a hypothesis puts behind either camera as an outlier")
     lo_residual: str = _opt("sampson-chiral", "name", "residual")

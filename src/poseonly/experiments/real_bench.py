@@ -237,6 +237,8 @@ METHODS: dict[str, MethodFn] = {
     # the ML stage's inlier errors Gaussian (MLESAC's mixture; the default before the Student-t)
     "poseonly-gauss": ours(use_scores=True, use_scales=True, ml_tails="gauss"),
     "poseonly-gauss-noscale": ours(use_scores=True, ml_tails="gauss"),
+    # the search without its challengers (the default before the sixth session)
+    "poseonly-nochal": ours(use_scores=True, use_scales=True, challengers=0),
     # the opt-in second search at 3 sigma (docs/RESULTS.md section 2)
     "poseonly-research": ours(use_scores=True, use_scales=True, research_noise=0.5),
 }

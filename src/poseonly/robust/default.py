@@ -148,6 +148,7 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
         rival_distance=o.rival_distance,
         chiral=o.chiral_scoring,
         min_hits=o.min_hits,
+        challengers=o.challengers,
     )
 
 
@@ -203,6 +204,8 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
     r = _search(f1, f2, tau, o, scores)
     num_hyp = r.num_iterations * MAX_ROOTS_PER_SAMPLE + r.num_lo + FINAL_CANDIDATES
     diag: dict[str, Any] = {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored, "num_hypotheses": num_hyp}
+    if o.challengers:
+        diag.update(num_challenger_lo=int(r.stats["num_challenger_lo"]), challenger_won=bool(r.stats["challenger_won"]))
     if o.rival_distance > 0 and np.isfinite(float(r.stats.get("rival_cost", np.inf))):
         # the uniqueness test's rival (decided in poseonly.result.finish): the best model the search
         # scored rival_distance or more from its result, refined as the result was

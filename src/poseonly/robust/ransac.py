@@ -97,6 +97,8 @@ def ransac_relpose(
     rival_distance: float = 0.0,
     chiral: bool = False,
     min_hits: int = 1,
+    challengers: int = 0,
+    challenger_distance: float = 1.0,
 ) -> RansacResult:
     """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
@@ -110,7 +112,12 @@ def ransac_relpose(
     whose point the hypothesis puts behind either camera scores as an outlier (exact: the plain cost
     bails out first, the cheirality-aware pass runs only for models that survive it). ``min_hits``:
     adaptive stopping waits until, at ``confidence``, that many all-inlier samples of the best
-    model's consensus have been drawn (1: the classical rule; exact binomial tail).
+    model's consensus have been drawn (1: the classical rule; exact binomial tail). ``challengers``:
+    the best models of that many other basins (``challenger_distance`` degrees from the best and
+    from each other, scored up to 1.5x the best cost) are kept during the search and locally
+    optimised after it until their cost stops improving; one that beats the best replaces it
+    (``stats["challenger_won"]``): LO runs only on new bests, and a raw minimal model of the right
+    basin can score worse than a locally optimised model of a wrong one.
     """
     if lo not in _LO:
         raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(_LO)}")
@@ -139,6 +146,8 @@ def ransac_relpose(
         float(rival_distance),
         bool(chiral),
         int(min_hits),
+        int(challengers),
+        float(challenger_distance),
     )
     v = get_residual("sampson")(R, t, f1, f2)
     return RansacResult(
