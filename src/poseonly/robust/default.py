@@ -174,7 +174,9 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
     1. LO-RANSAC in the core (``poseonly.robust.ransac.ransac_relpose``): minimal hypotheses, MSAC-type
        scoring of the Sampson error at ``tau`` with an exact bail-out, at least ``min_iterations``
        samples and adaptive stopping at ``confidence``, PROSAC order when ``scores`` are given, LO of
-       every new best model;
+       every new best model, and at the end LO of the best models of up to ``challengers`` other
+       basins, one of which replaces the best if it beats it (a raw model of the right basin can
+       score worse than an optimised model of a wrong consensus, and would never be optimised);
     2. the pose-only choice among the RANSAC model (re-identified on its inliers), its homography twin
        and the LiRP candidates of its consensus set, by cheirality-consistent support
        (:func:`select_by_support`: the Sampson score cannot tell a planar scene's twin from the truth,
