@@ -155,8 +155,9 @@ def test_challengers_rescue_a_search_stuck_on_the_first_optimised_basin():
             assert s4["cost"] < s0["cost"] and s4["num_challenger_lo"] >= 1
         else:
             assert l4 == l0
-    with pytest.raises(ValueError):
-        _core.ransac_line(pts, 0.01, 0, challengers=-1)
+    for bad in (dict(challengers=-1), dict(challengers=65), dict(challengers=2, challenger_distance=-1.0), dict(challengers=2, challenger_distance=float("nan"))):
+        with pytest.raises(ValueError):
+            _core.ransac_line(pts, 0.01, 0, **bad)
 
 
 def test_core_releases_the_gil_and_threads_agree():

@@ -12,7 +12,7 @@ import pytest
 from poseonly.experiments import real_bench as rb
 from poseonly.geometry import InputError
 
-REALPAIRS = Path(os.environ.get("POSEONLY_REALPAIRS", Path(__file__).resolve().parents[3] / "shared/data/realpairs"))
+REALPAIRS = Path(os.environ.get("POSEONLY_REALPAIRS", Path(__file__).resolve().parents[2] / "shared/data/realpairs"))
 if not REALPAIRS.is_dir():
     REALPAIRS = Path("/work/shared/data/realpairs")
 TEMPLE = REALPAIRS / "middlebury_temple"

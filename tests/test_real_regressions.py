@@ -19,7 +19,7 @@ import pytest
 from poseonly import estimate_relative_pose
 from poseonly.experiments import real_bench as rb
 
-STRECHA = Path(os.environ.get("POSEONLY_STRECHA", Path(__file__).resolve().parents[3] / "shared/data/strecha"))
+STRECHA = Path(os.environ.get("POSEONLY_STRECHA", Path(__file__).resolve().parents[2] / "shared/data/strecha"))
 if not STRECHA.is_dir():
     STRECHA = Path("/work/shared/data/strecha")
 P10 = STRECHA / "entry-P10"
@@ -39,5 +39,6 @@ def test_entry_p10_4_9_search_is_not_stuck_on_a_wrong_consensus(tmp_path: Path) 
         r = estimate_relative_pose(u1, u2, pair.K1, pair.K2, **kw)
         assert _angle_deg(r.R, pair.R) < 0.5, seed
         assert r.num_inliers >= 60
+        # never a worse search under its own objective than without the challengers
         old = estimate_relative_pose(u1, u2, pair.K1, pair.K2, challengers=0, **kw)
-        assert _angle_deg(old.R, pair.R) > 1.0  # the failure the challengers fix
+        assert r.diagnostics["ransac_score"] <= old.diagnostics["ransac_score"]

@@ -69,3 +69,20 @@ def test_binomial_reference_matches_classical_rule():
         k = needed(p, 1)
         assert fewer_good(k, p, 1) <= 1 - CONF < fewer_good(k - 1, p, 1)
     assert np.isclose(fewer_good(10, 0.5, 3), sum(math.comb(10, j) for j in range(3)) / 2**10)
+
+
+def test_challengers_are_validated_and_never_worsen_the_search():
+    sc = make_scene(300, camera="pinhole", noise_px=1.0, outlier_fraction=0.5, seed=3)
+    for bad in (-1, 65, 2.5, True):
+        with pytest.raises(ValueError, match="challengers"):
+            estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, challengers=bad)
+    with pytest.raises(ValueError, match="challenger_distance"):
+        ransac_relpose(sc.f1, sc.f2, TAU, 0, challengers=2, challenger_distance=float("inf"))
+    for seed in range(6):
+        kw = dict(min_iterations=100, lo="sampson", chiral=True, rival_distance=5.0)
+        a = ransac_relpose(sc.f1, sc.f2, TAU, seed, **kw)
+        b = ransac_relpose(sc.f1, sc.f2, TAU, seed, challengers=4, **kw)
+        assert b.score <= a.score
+        if not b.stats["challenger_won"]:
+            np.testing.assert_array_equal(a.R, b.R)
+            assert a.stats["rival_cost"] == b.stats["rival_cost"] or np.isfinite(b.stats["rival_cost"])

@@ -99,7 +99,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
   if (min_hits < 1 || min_hits > 64) throw std::invalid_argument("min_hits must be in [1, 64]");
   if (challengers < 0 || challengers > 64) throw std::invalid_argument("challengers must be in [0, 64]");
-  if (!(challenger_distance > 0.0)) throw std::invalid_argument("challenger_distance must be > 0");
+  if (!(challenger_distance > 0.0 && std::isfinite(challenger_distance))) throw std::invalid_argument("challenger_distance must be finite and > 0");
   RansacOptions ro = ransac_options(max_iterations, min_iterations, confidence, true, max_lo);
   ro.rival_distance = rival_distance;
   ro.min_hits = min_hits;
@@ -280,6 +280,7 @@ nb::tuple ransac_line(const nb::ndarray<const double, nb::ndim<2>, nb::c_contig>
   const int n = static_cast<int>(xy.shape(0));
   if (n < 2) throw std::invalid_argument("at least 2 points are needed");
   if (challengers < 0 || challengers > 64) throw std::invalid_argument("challengers must be in [0, 64]");
+  if (!(challenger_distance > 0.0 && std::isfinite(challenger_distance))) throw std::invalid_argument("challenger_distance must be finite and > 0");
   RansacOptions ro = ransac_options(max_iterations, 0, confidence, true, max_lo);
   ro.challengers = challengers;
   ro.challenger_distance = challenger_distance;
@@ -308,7 +309,7 @@ POSEONLY_BIND(robust) {
         "Sampson error against `threshold` (radians); scoring 0 msac, 1 multi-scale msac, 2 count; `order` "
         "(a permutation, best match first) switches to PROSAC; lo 0: LiRP GNC-IRLS, 1: Sampson LM; chiral: a match "
         "whose point is behind either camera scores as an outlier; rival_distance > 0 (degrees) also returns the best model that far "
-        "from the result (rival_R, rival_t, rival_cost in stats); min_hits: adaptive stopping waits for that many all-inlier samples at `confidence`; challengers > 0: the best "
+        "from the result (rival_R, rival_t, rival_cost in stats); min_hits: adaptive stopping waits for that many all-inlier samples at `confidence`; challengers in [0, 64]: the best "
         "models of that many other basins (challenger_distance degrees apart) are locally optimised after the loop and replace the result "
         "if they beat it (num_challenger_lo, challenger_won in stats). Returns (R, t, stats).");
   m.def("relpose_lo", &relpose_lo, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"),

@@ -13,7 +13,8 @@
 //   double distance(const Model&, const Model&) const;            // how different two models are
 // Scorer contract: double cost(const Estimator&, const Model&, double bail) const (lower is better;
 // may stop early once the partial cost exceeds `bail`: costs are sums of non-negative terms, so the
-// bail-out is exact), and bool inlier(double v) const.
+// bail-out is exact), bool inlier(double v) const, and double full_cost(int n) const (the cost of a
+// model that explains no point: support = full_cost - cost).
 #pragma once
 
 #include <cmath>
@@ -284,7 +285,9 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
   const double dch = opt.challenger_distance;
   std::vector<int> sample, inl;
   std::vector<Model> models;
-  std::vector<std::pair<Model, double>> ch;  // challengers and their (plain) costs
+  // challengers and their costs: the plain cost, or for a model that passed the plain test the exact
+  // cheirality-aware one (a ChiralScorer's), so the ranking is approximate; the end phase rescores
+  std::vector<std::pair<Model, double>> ch;
   double needed = opt.max_iterations;
   bool have = false;
   // support = full cost - cost; gain = the largest support ratio an LO step achieved so far. A
@@ -305,14 +308,18 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
     return b;
   };
   // a model that is not the best: a challenger if it is far from the best and better than the list's
-  // worst or than a member of its own basin
+  // worst or than the members of its own basin (which it then replaces: the members stay apart)
   auto consider = [&](const Model& m, double c) {
     if (!K || !have || !(c <= kRivalCostFactor * st.cost) || !(c < reachable()) || !(est.distance(*best, m) > dch)) return;
-    for (auto& e : ch)
-      if (!(est.distance(e.first, m) > dch)) {
-        if (c < e.second) e = {m, c};
-        return;
-      }
+    bool near = false, better = true;
+    for (const auto& e : ch)
+      if (!(est.distance(e.first, m) > dch)) near = true, better = better && c < e.second;
+    if (near) {
+      if (!better) return;
+      ch.erase(std::remove_if(ch.begin(), ch.end(), [&](const auto& e) { return !(est.distance(e.first, m) > dch); }), ch.end());
+      ch.emplace_back(m, c);
+      return;
+    }
     if (static_cast<int>(ch.size()) < K) {
       ch.emplace_back(m, c);
       return;
@@ -353,8 +360,11 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       if constexpr (HasPlainCost<Scorer>::value) {
         // a scorer with a costlier exact pass (ChiralScorer): the plain cost up to the rival bound,
         // the exact one only for a candidate best
-        const double cp = scorer.plain(est, m, std::max({bound, st.cost, challenger_bound()}));
-        c = cp <= st.cost ? scorer.cost(est, m, st.cost) : cp;
+        const double cb = challenger_bound();
+        const double cp = scorer.plain(est, m, std::max({bound, st.cost, cb}));
+        // the exact pass for a candidate best, up to the challengers' bound so that a model it puts
+        // above the best gets its exact cost, not a partial sum
+        c = cp <= st.cost ? scorer.cost(est, m, std::max(st.cost, cb)) : cp;
       } else {
         c = scorer.cost(est, m, std::max({bound, st.cost, challenger_bound()}));
       }
@@ -387,10 +397,12 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
   }
   // the challengers, best first: each locally optimised until its exact cost stops improving or it
   // falls into the best model's basin; one that beats the best replaces it
+  // (the search's stopping rule was met for the best model before this phase, not for a winner)
   std::vector<std::pair<Model, double>> final_ch = ch;  // promote() edits ch
-  std::sort(final_ch.begin(), final_ch.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+  std::stable_sort(final_ch.begin(), final_ch.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
+  std::vector<std::pair<Model, double>> optimised;  // the challengers that lost, with exact costs
   for (const auto& e : final_ch) {
-    if (!(est.distance(*best, e.first) > dch) || !(e.second < reachable())) continue;
+    if (!(est.distance(*best, e.first) > dch) || !(e.second < reachable()) || !(e.second <= kRivalCostFactor * st.cost)) continue;
     Model m = e.first;
     double c = scorer.cost(est, m, std::numeric_limits<double>::infinity());
     for (int k = 0; k < kChallengerSteps; ++k) {
@@ -409,8 +421,18 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       st.challenger_won = 1;
       inliers_of(est, *best, scorer, &inl);
       st.num_inliers = static_cast<int>(inl.size());
+    } else {
+      optimised.emplace_back(m, c);
     }
   }
+  // a winner may have taken the rival's basin; no later sample can refill the rival slot, so the
+  // optimised challengers that lost are offered to it (exact costs, as the loop's rivals)
+  if (track)
+    for (const auto& e : optimised)
+      if (e.second <= kRivalCostFactor * st.cost && e.second < st.rival_cost && est.distance(*best, e.first) > opt.rival_distance) {
+        *rival = e.first;
+        st.rival_cost = e.second;
+      }
   if (!have) st.num_inliers = 0;
   return st;
 }

@@ -212,6 +212,8 @@ def _search_threads(scs: list, workers: int, repeats: int) -> list[float]:
             lo=o.lo,
             rival_distance=o.rival_distance,
             chiral=o.chiral_scoring,
+            min_hits=o.min_hits,
+            challengers=o.challengers,
         )
 
     one(scs[0])

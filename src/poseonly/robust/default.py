@@ -208,6 +208,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
     diag: dict[str, Any] = {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored, "num_hypotheses": num_hyp}
     if o.challengers:
         diag.update(num_challenger_lo=int(r.stats["num_challenger_lo"]), challenger_won=bool(r.stats["challenger_won"]))
+        diag["num_hypotheses"] += int(r.stats["num_challenger_lo"])
     if o.rival_distance > 0 and np.isfinite(float(r.stats.get("rival_cost", np.inf))):
         # the uniqueness test's rival (decided in poseonly.result.finish): the best model the search
         # scored rival_distance or more from its result, refined as the result was

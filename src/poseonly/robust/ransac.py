@@ -117,7 +117,10 @@ def ransac_relpose(
     from each other, scored up to 1.5x the best cost) are kept during the search and locally
     optimised after it until their cost stops improving; one that beats the best replaces it
     (``stats["challenger_won"]``): LO runs only on new bests, and a raw minimal model of the right
-    basin can score worse than a locally optimised model of a wrong one.
+    basin can score worse than a locally optimised model of a wrong one. A challenger is kept only
+    while the largest support gain of an LO step in this search could make it the best, so with
+    ``max_lo=0`` (or no LO that improved a model) none is kept. ``challenger_distance`` must be finite
+    and > 0 (degrees: the larger of the rotation angle and the translation directions' angle).
     """
     if lo not in _LO:
         raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(_LO)}")
