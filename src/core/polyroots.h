@@ -23,7 +23,7 @@ constexpr double kSturmDegenerateTol = 1e-8;
 constexpr int kSturmMaxDepth = 80;
 constexpr int kRootMaxIterations = 100;
 // bracket width (of the scaled variable, roots in [-2, 2]) below which refine_root turns to Newton
-constexpr double kRootBracket = 1.0 / 1024.0;
+constexpr double kRootBracket = 1.0 / 64.0;
 
 // det(x I - H) of an upper Hessenberg N x N matrix: c[0..N] (c[j] the coefficient of x^j, c[N] = 1),
 // by the recurrence over the leading principal submatrices (Hyman / La Budde), O(N^3):
