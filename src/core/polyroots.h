@@ -19,6 +19,20 @@ namespace poly {
 // A Sturm remainder whose leading coefficient is below this fraction of the dividend's largest
 // coefficient (all members are scaled to a unit leading coefficient) marks a near-multiple root.
 constexpr double kSturmDegenerateTol = 1e-8;
+// ... and the product of those ratios over the chain below this: a cluster of roots shrinks every
+// remainder a little (0.003 apart: ~1e-2 to 1e-4 a step) and its computed roots move or turn complex
+// although no single step looks degenerate
+constexpr double kSturmClusterTol = 0.0;
+// a root of the characteristic polynomial is polished by Newton on det(H - x I) (Hyman's method:
+// backward stable, unlike the coefficients); it must move by at most this fraction of the roots'
+// scale, or the coefficients were not accurate enough (clustered eigenvalues) and the caller's QR runs
+constexpr double kRootMoveTol = 1e-9;
+constexpr int kHymanSteps = 3;
+// the characteristic polynomial's error bound on [-2, 2], relative to sum |c_j| 2^j (the recurrence's
+// rounding, with a margin): the real-root count must survive a shift of p by it
+constexpr double kCountTol = 1e-12;
+// the largest |H_ij| must lie within [this, 1 / this] (the N-fold products of the recurrence stay normal)
+constexpr double kHessenbergMinScale = 1e-25;
 // bisection levels at most when isolating the roots (a cluster still unresolved after them: false)
 constexpr int kSturmMaxDepth = 80;
 constexpr int kRootMaxIterations = 100;
@@ -60,6 +74,7 @@ struct Sturm {
 
   // false: a near-multiple root (a remainder nearly vanishes) or a non-finite chain
   bool build(const double* c) {
+    double prod = 1.0;
     for (int j = 0; j <= N; ++j) s[0][j] = c[j];
     for (int j = 0; j < N; ++j) s[1][j] = (j + 1) * c[j + 1] / N;
     len = 2;
@@ -76,6 +91,8 @@ struct Sturm {
       for (int j = m; j >= 0; --j) a[j] -= u0 * b[j];
       const double lc = a[m - 1];  // the remainder a[0 .. m-1]
       if (!(std::abs(lc) > kSturmDegenerateTol * amax) || !std::isfinite(lc)) return false;
+      prod *= std::abs(lc) / amax;
+      if (!(prod > kSturmClusterTol)) return false;
       const double sc = -1.0 / std::abs(lc);
       for (int j = 0; j < m; ++j) s[k + 1][j] = a[j] * sc;
       ++len;
@@ -168,6 +185,45 @@ double refine_root(const double* p, double lo, double hi, double plo, double phi
   return x;
 }
 
+// Newton on det(H - x I) of an upper Hessenberg H by Hyman's method (the first row's residual of the
+// solution of rows 2..N with x_N = 1, and its derivative): false when a subdiagonal entry is zero or
+// the iteration breaks down. x is updated in place.
+template <int N>
+bool hyman_newton(const Eigen::Matrix<double, N, N>& H, double* x) {
+  for (int it = 0; it < kHymanSteps; ++it) {
+    double v[N], d[N];
+    v[N - 1] = 1.0;
+    d[N - 1] = 0.0;
+    for (int i = N - 1; i >= 1; --i) {
+      const double b = H(i, i - 1);
+      if (b == 0.0) return false;
+      double sv = 0.0, sd = 0.0;
+      for (int j = i; j < N; ++j) {
+        const double a = H(i, j) - (i == j ? *x : 0.0);
+        sv += a * v[j];
+        sd += a * d[j];
+      }
+      sd -= v[i];
+      v[i - 1] = -sv / b;
+      d[i - 1] = -sd / b;
+    }
+    double r = 0.0, dr = 0.0;
+    for (int j = 0; j < N; ++j) {
+      const double a = H(0, j) - (j == 0 ? *x : 0.0);
+      r += a * v[j];
+      dr += a * d[j];
+    }
+    dr -= v[0];
+    if (!(std::isfinite(r) && std::isfinite(dr))) return false;
+    if (r == 0.0) return true;
+    if (dr == 0.0) return false;
+    const double step = r / dr;
+    *x -= step;
+    if (std::abs(step) <= 4.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, std::abs(*x))) return true;
+  }
+  return true;
+}
+
 // Real eigenvalues (ascending, each distinct root once) of an upper Hessenberg N x N matrix H; false
 // when the Sturm chain shows a near-multiple root or the isolation fails (the caller falls back to an
 // eigen-solver). The variable is scaled by a power of two, x = rho y with |c_j| < rho^(N - j), so that
@@ -177,6 +233,9 @@ template <int N>
 bool hessenberg_real_eigenvalues(const Eigen::Matrix<double, N, N>& H, double* roots, int* count) {
   *count = 0;
   if (!H.allFinite()) return false;
+  // far from 1 the recurrence's products under- or overflow (the caller's QR balances its own way)
+  const double hmax = H.cwiseAbs().maxCoeff();
+  if (!(hmax > kHessenbergMinScale && hmax < 1.0 / kHessenbergMinScale)) return false;
   double c[N + 1];
   charpoly_hessenberg<N>(H, c);
   int e = -1022;
@@ -193,6 +252,23 @@ bool hessenberg_real_eigenvalues(const Eigen::Matrix<double, N, N>& H, double* r
   for (int j = 0; j <= N; ++j) cy[j] = std::ldexp(c[j], -e * (N - j));
   Sturm<N> S;
   if (!S.build(cy)) return false;
+  // the count must not depend on the coefficients' rounding: on each half [0, 2] and [-2, 0] of the
+  // roots' range, p - e and p + e, e(y) = kCountTol sum |c_j| |y|^j (a bound of p's error there),
+  // must have as many real roots as p, or a cluster of roots may have turned complex (a pair lost
+  // without a near-zero remainder) or a near-real pair real
+  for (const double side : {1.0, -1.0}) {
+    double q[N + 1];  // p(side y), y in [0, 2]
+    for (int j = 0; j <= N; ++j) q[j] = (side < 0.0 && (j & 1)) ? -cy[j] : cy[j];
+    Sturm<N> Q;
+    if (!Q.build(q)) return false;
+    const int n0 = Q.changes(0.0) - Q.changes(2.0);
+    for (const double sign : {-1.0, 1.0}) {
+      double cs[N + 1];
+      for (int j = 0; j <= N; ++j) cs[j] = q[j] + sign * kCountTol * std::abs(q[j]);
+      Sturm<N> T;
+      if (!T.build(cs) || T.changes(0.0) - T.changes(2.0) != n0) return false;
+    }
+  }
   constexpr double B = 2.0 + 1e-9;
   struct Span {
     double lo, hi;
@@ -204,12 +280,16 @@ bool hessenberg_real_eigenvalues(const Eigen::Matrix<double, N, N>& H, double* r
   while (top > 0) {
     const Span s = stack[--top];
     const int k = s.vlo - s.vhi;
-    if (k <= 0) continue;
+    if (k < 0) return false;  // counts that increase: an inconsistent chain
+    if (k == 0) continue;
     if (k == 1) {
       const double plo = Sturm<N>::horner(S.p(), N, s.lo), phi = Sturm<N>::horner(S.p(), N, s.hi);
       if (!((plo < 0.0) != (phi < 0.0)) || plo == 0.0 || phi == 0.0) return false;
       if (*count >= N) return false;
-      roots[(*count)++] = std::ldexp(refine_root<N>(S.p(), s.lo, s.hi, plo, phi), e);
+      const double x0 = std::ldexp(refine_root<N>(S.p(), s.lo, s.hi, plo, phi), e);
+      double x = x0;
+      if (!hyman_newton<N>(H, &x) || !(std::abs(x - x0) <= kRootMoveTol * std::ldexp(1.0, e))) return false;
+      roots[(*count)++] = x;
       continue;
     }
     if (s.depth >= kSturmMaxDepth || top + 2 > static_cast<int>(sizeof(stack) / sizeof(stack[0]))) return false;
