@@ -6,7 +6,6 @@
 
 #include "arrays.h"
 #include "fivept.h"
-#include "polyroots.h"
 #include "refine.h"
 #include "register.h"
 
@@ -18,25 +17,6 @@ nb::tuple poses_to_numpy(const std::vector<Pose>& poses) {
   std::vector<double> R(9 * k), t(3 * k);
   for (size_t h = 0; h < k; ++h) put_pose(poses[h], R.data() + 9 * h, t.data() + 3 * h);
   return nb::make_tuple(to_numpy(std::move(R), {k, size_t{3}, size_t{3}}), to_numpy(std::move(t), {k, size_t{3}}));
-}
-
-// poly::hessenberg_real_eigenvalues on a 10 x 10 upper Hessenberg matrix (tests): (ok, roots (k,))
-nb::tuple sturm_real_eigenvalues_py(const ArrayIn& H) {
-  if (H.ndim() != 2 || H.shape(0) != 10 || H.shape(1) != 10) throw std::invalid_argument("H must have shape (10, 10)");
-  Eigen::Matrix<double, 10, 10> M;
-  for (int r = 0; r < 10; ++r)
-    for (int c = 0; c < 10; ++c) M(r, c) = H.data()[10 * r + c];
-  for (int r = 2; r < 10; ++r)
-    for (int c = 0; c < r - 1; ++c)
-      if (M(r, c) != 0.0) throw std::invalid_argument("H must be upper Hessenberg (zero below the subdiagonal)");
-  double roots[10];
-  int k = 0;
-  bool ok;
-  {
-    nb::gil_scoped_release release;
-    ok = poly::hessenberg_real_eigenvalues<10>(M, roots, &k);
-  }
-  return nb::make_tuple(ok, to_numpy(std::vector<double>(roots, roots + (ok ? k : 0)), {static_cast<size_t>(ok ? k : 0)}));
 }
 
 nb::tuple fivept_py(const BearingsIn& f1, const BearingsIn& f2) {
@@ -224,10 +204,6 @@ nb::tuple refine_residuals_py(int kind, const ArrayIn& R, const ArrayIn& t, cons
 
 POSEONLY_BIND(solvers) {
   using namespace poseonly;
-  m.def("sturm_real_eigenvalues", &sturm_real_eigenvalues_py, nb::arg("H"),
-        "The five-point solver's fast eigenvalue path on an upper Hessenberg H (10, 10): (ok, the distinct real "
-        "eigenvalues ascending) by its characteristic polynomial's Sturm sequence; ok is False (and no roots) where "
-        "the chain shows a near-multiple root, for which the solver runs the Francis QR instead.");
   m.def("fivept", &fivept_py, nb::arg("f1"), nb::arg("f2"),
         "Stewenius five-point on unit bearings f1, f2 (5, 3): the chiral poses (R (k, 3, 3), unit t (k, 3)), "
         "k <= 10, one per real essential matrix that has a decomposition with all five points in front of both "

@@ -7,7 +7,6 @@
 #include <algorithm>
 
 #include "linalg.h"
-#include "polyroots.h"
 #include "residuals.h"
 
 namespace poseonly {
@@ -166,23 +165,6 @@ inline Mat3 cofactor(const Mat3& E) {
   return C;
 }
 
-// The real eigenvalues of the action matrix (balanced, reduced to Hessenberg form): by its
-// characteristic polynomial's Sturm sequence (poly::hessenberg_real_eigenvalues, ~3x cheaper), or,
-// where the chain shows a near-multiple root, by the Francis QR with the eigenvalues within
-// kFiveptRealTol of the real line kept (a near-double real root that rounding turned into a complex
-// pair stays, as twice its real part). False if the QR iteration did not converge.
-bool real_eigenvalues(Mat10 M, double* lam, int* count) {
-  linalg::balance<10>(&M);
-  linalg::hessenberg<10>(&M);
-  if (poly::hessenberg_real_eigenvalues<10>(M, lam, count)) return true;
-  double wr[10], wi[10];
-  if (!linalg::hessenberg_eigenvalues<10>(M, wr, wi)) return false;
-  *count = 0;
-  for (int e = 0; e < 10; ++e)
-    if (std::abs(wi[e]) <= kFiveptRealTol * (1.0 + std::sqrt(wr[e] * wr[e] + wi[e] * wi[e]))) lam[(*count)++] = wr[e];
-  return true;
-}
-
 // fivept_essentials; polish: the Gauss-Newton polish of (x, y, z) on the template (fivept_poses
 // skips it: its Newton polish of the pose on the epipolar equations reaches rounding level anyway)
 int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots) {
@@ -222,13 +204,13 @@ int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots) {
   for (int rr = 0; rr < 6; ++rr) M.row(rr) = -T.row(kActionRows[rr]).tail<10>();
   for (int rr = 0; rr < 4; ++rr) M(6 + rr, kUnitCols[rr]) = 1.0;
   if (!M.allFinite()) return 0;
-  // --- real eigenvalues (real_eigenvalues); eigenvectors by inverse iteration
-  double lam[10];
-  int nl = 0;
-  if (!real_eigenvalues(M, lam, &nl)) return 0;
+  // --- eigenvalues: balancing, Hessenberg reduction, Francis QR; eigenvectors by inverse iteration
+  double wr[10], wi[10];
+  if (!linalg::eigenvalues<10>(M, wr, wi)) return 0;
   const double mnorm = M.cwiseAbs().maxCoeff();
-  for (int e = 0; e < nl; ++e) {
-    const double lr = lam[e];
+  for (int e = 0; e < 10; ++e) {
+    const double lr = wr[e], li = wi[e];
+    if (!(std::abs(li) <= kFiveptRealTol * (1.0 + std::sqrt(lr * lr + li * li)))) continue;
     // the eigenvector v ~ b: the unit rows give v0 = lr^2 v9, v1 = lr v7, v3 = lr v8, v6 = lr v9, so
     // rows 0..5 of (M - lr I) v = 0 are a 6 x 6 homogeneous system in (v2, v4, v5, v7, v8, v9)
     Eigen::Matrix<double, 6, 6> K;

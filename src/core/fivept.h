@@ -5,17 +5,15 @@
 //      as a 10 x 20 template over the cubic monomials (order of poseonly.solvers.fivept.MONOMIALS),
 //      built by polynomial arithmetic;
 //   3. G = A1^{-1} A2 (partial-pivot LU), the 10 x 10 action matrix of multiplication by x;
-//   4. real eigenvalues: Parlett-Reinsch balancing and elimination to Hessenberg form, then the
-//      characteristic polynomial's Sturm sequence (polyroots.h: isolation by bisection, Newton to
-//      rounding level); where the chain shows a near-multiple root (~1 % of samples), the Francis
-//      double-shift QR (EISPACK hqr, as the numba kernel fivept_real_nb) with the eigenvalues within
-//      kFiveptRealTol of the real line kept. Each real eigenvalue's eigenvector by two steps of
-//      inverse iteration on the 6 x 6 system left by the four unit rows of the action matrix;
+//   4. eigenvalues by Parlett-Reinsch balancing, elimination to Hessenberg form and Francis
+//      double-shift QR (EISPACK hqr, as the numba kernel fivept_real_nb; Eigen's EigenSolver on the
+//      fixed 10 x 10 cost ~5x more); each real eigenvalue's eigenvector by two steps of inverse
+//      iteration on the 6 x 6 system left by the four unit rows of the action matrix;
 //   5. (fivept_essentials) (x, y, z) = v[6:9] / v9 polished by two Gauss-Newton steps on the ten template equations
 //      (kept only if they lower the residual); E = x X + y Y + z Z + W (v6 X + v7 Y + v8 Z + v9 W when
 //      v9 ~ 0), unit Frobenius norm, largest entry positive.
-// Only the real solutions are returned (on the QR path: |Im lambda| <= kFiveptRealTol (1 + |lambda|),
-// as numpy's is_real).
+// Only the real solutions are returned (|Im lambda| <= kFiveptRealTol (1 + |lambda|), as numpy's
+// is_real).
 #pragma once
 
 #include <vector>

@@ -284,28 +284,21 @@ bool hqr(double (*h)[N + 1], double* wr, double* wi) {
   return true;
 }
 
-// Eigenvalues wr[k] + i wi[k] (k = 0 .. N - 1) of an upper Hessenberg matrix by hqr. False if the QR
-// iteration did not converge.
-template <int N>
-bool hessenberg_eigenvalues(const Eigen::Matrix<double, N, N>& H, double* wr, double* wi) {
-  double h[N + 1][N + 1], r1[N + 1], i1[N + 1];
-  for (int r = 0; r < N; ++r)
-    for (int c = 0; c < N; ++c) h[r + 1][c + 1] = H(r, c);
-  if (!hqr<N>(h, r1, i1)) return false;
-  for (int k = 0; k < N; ++k) {
-    wr[k] = r1[k + 1];
-    wi[k] = i1[k + 1];
-  }
-  return true;
-}
-
 // Eigenvalues wr[k] + i wi[k] (k = 0 .. N - 1) of a general real matrix: balancing, Hessenberg
 // reduction, Francis double-shift QR. False if the QR iteration did not converge.
 template <int N>
 bool eigenvalues(Eigen::Matrix<double, N, N> M, double* wr, double* wi) {
   balance<N>(&M);
   hessenberg<N>(&M);
-  return hessenberg_eigenvalues<N>(M, wr, wi);
+  double h[N + 1][N + 1], r1[N + 1], i1[N + 1];
+  for (int r = 0; r < N; ++r)
+    for (int c = 0; c < N; ++c) h[r + 1][c + 1] = M(r, c);
+  if (!hqr<N>(h, r1, i1)) return false;
+  for (int k = 0; k < N; ++k) {
+    wr[k] = r1[k + 1];
+    wi[k] = i1[k + 1];
+  }
+  return true;
 }
 
 // SVD A = U diag(s) V^T of a square N x N matrix by one-sided (Hestenes) Jacobi with de Rijk's column
