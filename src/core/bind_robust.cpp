@@ -94,12 +94,14 @@ nb::dict stats_dict(const RansacStats& st) {
 nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double threshold, uint64_t seed, int solver, int scoring,
                          int max_iterations, int min_iterations, double confidence, int max_lo, double lo_mu0, int lo_iterations,
                          int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order,
-                         int lo, double rival_distance, bool chiral, int min_hits, int challengers, double challenger_distance) {
+                         int lo, double rival_distance, bool chiral, int min_hits, int challengers, double challenger_distance,
+                         int lo_max_points) {
   const Points P = points_of(f1, f2);
   if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
   if (min_hits < 1 || min_hits > 64) throw std::invalid_argument("min_hits must be in [1, 64]");
   if (challengers < 0 || challengers > 64) throw std::invalid_argument("challengers must be in [0, 64]");
   if (!(challenger_distance > 0.0 && std::isfinite(challenger_distance))) throw std::invalid_argument("challenger_distance must be finite and > 0");
+  if (lo_max_points < 0) throw std::invalid_argument("lo_max_points must be >= 0");
   RansacOptions ro = ransac_options(max_iterations, min_iterations, confidence, true, max_lo);
   ro.rival_distance = rival_distance;
   ro.min_hits = min_hits;
@@ -112,6 +114,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   eo.lo_iterations = lo_iterations;
   eo.lo_residual = static_cast<Residual>(lo_residual);
   eo.lo = static_cast<LocalOpt>(lo);
+  eo.lo_max_points = lo_max_points;
   const std::vector<int> ord = order_of(order, P.n);
   Pose best, rival;
   RansacStats st;
@@ -130,7 +133,8 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
 }
 
 nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double threshold,
-                     double lo_mu0, int lo_iterations, int lo_residual, int lo) {
+                     double lo_mu0, int lo_iterations, int lo_residual, int lo, int lo_max_points) {
+  if (lo_max_points < 0) throw std::invalid_argument("lo_max_points must be >= 0");
   const Points P = points_of(f1, f2);
   Pose p = pose_of(R, t);
   RelativePoseEstimator::Options eo;
@@ -140,6 +144,7 @@ nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, c
   eo.lo_iterations = lo_iterations;
   eo.lo_residual = static_cast<Residual>(lo_residual);
   eo.lo = static_cast<LocalOpt>(lo);
+  eo.lo_max_points = lo_max_points;
   bool ok;
   {
     nb::gil_scoped_release release;
@@ -304,16 +309,16 @@ POSEONLY_BIND(robust) {
         nb::arg("scoring") = 1, nb::arg("max_iterations") = 100000, nb::arg("min_iterations") = 50, nb::arg("confidence") = 0.999,
         nb::arg("max_lo") = 8, nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1,
         nb::arg("order") = Order(), nb::arg("lo") = 0, nb::arg("rival_distance") = 0.0, nb::arg("chiral") = false, nb::arg("min_hits") = 1,
-        nb::arg("challengers") = 0, nb::arg("challenger_distance") = 1.0,
+        nb::arg("challengers") = 0, nb::arg("challenger_distance") = 1.0, nb::arg("lo_max_points") = 0,
         "LO-RANSAC of minimal hypotheses (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
         "Sampson error against `threshold` (radians); scoring 0 msac, 1 multi-scale msac, 2 count; `order` "
         "(a permutation, best match first) switches to PROSAC; lo 0: LiRP GNC-IRLS, 1: Sampson LM; chiral: a match "
         "whose point is behind either camera scores as an outlier; rival_distance > 0 (degrees) also returns the best model that far "
         "from the result (rival_R, rival_t, rival_cost in stats); min_hits: adaptive stopping waits for that many all-inlier samples at `confidence`; challengers in [0, 64]: the best "
         "models of that many other basins (challenger_distance degrees apart) are locally optimised after the loop and replace the result "
-        "if they beat it (num_challenger_lo, challenger_won in stats). Returns (R, t, stats).");
+        "if they beat it (num_challenger_lo, challenger_won in stats); lo_max_points > 0: each LO runs on an evenly strided subset of at most that many of its window's points. Returns (R, t, stats).");
   m.def("relpose_lo", &relpose_lo, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"),
-        nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1, nb::arg("lo") = 0,
+        nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1, nb::arg("lo") = 0, nb::arg("lo_max_points") = 0,
         "The default method's LO step at `threshold` from the pose's cheirality-consistent inliers: (R, t, ok).");
   m.def("ml_refine", &ml_refine_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("range"),
         nb::arg("rounds") = 6, nb::arg("lm_iterations") = 10, nb::arg("pose_tol") = 0.0, nb::arg("student") = true,

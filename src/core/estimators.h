@@ -44,6 +44,9 @@ class RelativePoseEstimator {
     Residual lo_residual = Residual::SampsonChiral;
     LocalOpt lo = LocalOpt::LiRPGnc;
     int lm_iterations = 25;
+    // > 0: the LO runs on an evenly strided subset of at most this many of its window's points (the
+    // LO'd model is rescored on all points; its cost on a big pair is the LM's)
+    int lo_max_points = 0;
   };
   using Model = Pose;
   using Terms = PoseTerms;
@@ -96,6 +99,17 @@ class RelativePoseEstimator {
       w0_.push_back(in ? 1.0 : 0.0);
     }
     if (buf_.view().n < kLirpMinPoints) return false;
+    if (o_.lo_max_points > 0 && buf_.view().n > o_.lo_max_points) {  // an evenly strided subset
+      const int nw = buf_.view().n, stride = (nw + o_.lo_max_points - 1) / o_.lo_max_points;
+      PointBuffer sub;
+      std::vector<double> w;
+      for (int i = 0; i < nw; i += stride) {
+        sub.push(buf_.f1.data() + 3 * i, buf_.f2.data() + 3 * i);
+        w.push_back(w0_[i]);
+      }
+      buf_ = std::move(sub);
+      w0_ = std::move(w);
+    }
     if (o_.lo == LocalOpt::SampsonLM) {
       RefineOptions ro;
       ro.loss = RefineLoss::Cauchy;

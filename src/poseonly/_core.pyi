@@ -35,6 +35,7 @@ def ransac_relpose(
     min_hits: int = 1,
     challengers: int = 0,
     challenger_distance: float = 1.0,
+    lo_max_points: int = 0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def relpose_lo(
     R: NDArray[np.float64],
@@ -46,6 +47,7 @@ def relpose_lo(
     lo_iterations: int = 10,
     lo_residual: int = 1,
     lo: int = 0,
+    lo_max_points: int = 0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]: ...
 def ml_refine(
     R: NDArray[np.float64],
@@ -81,7 +83,6 @@ def ransac_line(
     challengers: int = 0,
     challenger_distance: float = 1.0,
 ) -> tuple[tuple[float, float, float], dict[str, Any]]: ...
-def sturm_real_eigenvalues(H: NDArray[np.float64]) -> tuple[bool, NDArray[np.float64]]: ...
 def fivept(f1: NDArray[np.float64], f2: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
 def fivept_batch(f1: NDArray[np.float64], f2: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]: ...
 def fivept_essentials(f1: NDArray[np.float64], f2: NDArray[np.float64]) -> NDArray[np.float64]: ...

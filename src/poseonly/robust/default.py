@@ -112,7 +112,7 @@ def local_optimization(R, t, f1, f2, thr, o: PoseonlyOptions):
     """The core's LO step at ``thr`` from the pose's cheirality-consistent inliers, on the points within
     4 thresholds: warm-started TLS IRLS on all-candidate LiRP (``lo="lirp"``) or Sampson LM with a
     Cauchy loss (``lo="sampson"``)."""
-    Rl, tl, ok = _core.relpose_lo(R, t, f1, f2, thr, float(o.lo_mu0), int(o.lo_iterations), get_residual(o.lo_residual).code, LO_CODES[o.lo])
+    Rl, tl, ok = _core.relpose_lo(R, t, f1, f2, thr, float(o.lo_mu0), int(o.lo_iterations), get_residual(o.lo_residual).code, LO_CODES[o.lo], int(o.lo_max_points))
     return (Rl, tl) if ok else (R, t)
 
 
@@ -149,6 +149,7 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
         chiral=o.chiral_scoring,
         min_hits=o.min_hits,
         challengers=o.challengers,
+        lo_max_points=o.lo_max_points,
     )
 
 

@@ -99,6 +99,7 @@ def ransac_relpose(
     min_hits: int = 1,
     challengers: int = 0,
     challenger_distance: float = 1.0,
+    lo_max_points: int = 0,
 ) -> RansacResult:
     """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
@@ -121,6 +122,8 @@ def ransac_relpose(
     while the largest support gain of an LO step in this search could make it the best, so with
     ``max_lo=0`` (or no LO that improved a model) none is kept. ``challenger_distance`` must be finite
     and > 0 (degrees: the larger of the rotation angle and the translation directions' angle).
+    ``lo_max_points > 0``: each LO step runs on an evenly strided subset of at most that many of the
+    points in its window (0: all).
     """
     if lo not in _LO:
         raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(_LO)}")
@@ -151,6 +154,7 @@ def ransac_relpose(
         int(min_hits),
         int(challengers),
         float(challenger_distance),
+        int(lo_max_points),
     )
     v = get_residual("sampson")(R, t, f1, f2)
     return RansacResult(

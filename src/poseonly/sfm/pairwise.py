@@ -34,8 +34,9 @@ MIN_PUTATIVE = 30
 # part of the two-view cache key with the package version: bump when the default estimator's results
 # change between versions (2: the core-era default at its own threshold, with match scores; 3: its
 # cheirality-aware search; 4: the Student-t ML stage; 5: the keypoints' sizes as noise scales; 6: their
-# review fixes; 7: the search's challengers; 8: their review fixes)
-TWO_VIEW_CACHE_TAG = 8
+# review fixes; 7: the search's challengers; 8: their review fixes; 9: the search's LO on at most 1000
+# points, poses moved at rounding level)
+TWO_VIEW_CACHE_TAG = 9
 
 
 @dataclass(frozen=True)
