@@ -1,4 +1,4 @@
-// Stewenius five-point solver (see fivept.h for the construction).
+// Five-point solver: Nister polynomial + Sturm, Stewenius action-matrix fallback (see fivept.h).
 #include "fivept.h"
 
 #include <Eigen/Geometry>
@@ -7,6 +7,7 @@
 #include <algorithm>
 
 #include "linalg.h"
+#include "sturm.h"
 #include "residuals.h"
 
 namespace poseonly {
@@ -165,48 +166,31 @@ inline Mat3 cofactor(const Mat3& E) {
   return C;
 }
 
-// fivept_essentials; polish: the Gauss-Newton polish of (x, y, z) on the template (fivept_poses
-// skips it: its Newton polish of the pose on the epipolar equations reaches rounding level anyway)
-int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots) {
-  E->clear();
-  if (p.n != 5) return 0;
-  // --- null space of the epipolar rows: A^T (9 x 5), column i = kron(f1_i, f2_i) (E column-major)
-  Eigen::Matrix<double, 9, 5> At;
-  for (int i = 0; i < 5; ++i) {
-    const auto a = p.a(i);
-    const auto b = p.b(i);
-    for (int c = 0; c < 3; ++c)
-      for (int r = 0; r < 3; ++r) At(3 * c + r, i) = a(c) * b(r);
-  }
-  double R5[25], tau[5];
-  linalg::householder_qr<5>(At.data(), 9, R5, tau);
-  double dmax = 0.0, dmin = kInf;
-  for (int i = 0; i < 5; ++i) {
-    dmax = std::max(dmax, std::abs(R5[6 * i]));
-    dmin = std::min(dmin, std::abs(R5[6 * i]));
-  }
-  if (!(dmin > kRankTol * dmax)) return 0;  // rank-deficient sample (coincident or NaN points)
-  Mat3 basis[4];  // columns 5..8 of Q: column-major E
-  for (int k = 0; k < 4; ++k) {
-    Vec9 q = Vec9::Zero();
-    q(5 + k) = 1.0;
-    linalg::householder_apply_q<5>(At.data(), 9, tau, q.data());
-    basis[k] = Eigen::Map<const Mat3>(q.data());
-  }
-  // --- template, elimination, action matrix
-  Eigen::Matrix<double, 10, 20> A;
-  build_template(basis, &A);
+// E at unit Frobenius norm with its largest entry positive, appended (nothing if E is 0 or not finite)
+void push_essential(Mat3 Ee, std::vector<Mat3>* E) {
+  const double ne = Ee.norm();
+  if (!(ne > 0.0 && std::isfinite(ne))) return;
+  Ee /= ne;
+  Eigen::Index ir, ic;
+  Ee.cwiseAbs().maxCoeff(&ir, &ic);
+  if (Ee(ir, ic) < 0.0) Ee = -Ee;
+  E->push_back(Ee);
+}
+
+// The real solutions from the eigenvalues of the action matrix of multiplication by x (Stewenius):
+// backward stable, used when the Sturm chain of Nister's polynomial shows a near-multiple root.
+void action_matrix_candidates(const Eigen::Matrix<double, 10, 20>& A, const Mat3 basis[4], bool polish_roots, std::vector<Mat3>* E) {
   // G = A1^-1 A2 by Gauss-Jordan elimination with partial pivoting on the row-major template (the
   // rows of [A1 | A2] are contiguous, so each update is one vectorised row operation)
   Eigen::Matrix<double, 10, 20, Eigen::RowMajor> T = A;
-  if (!linalg::gauss_jordan<10, 20>(&T)) return 0;  // singular template
+  if (!linalg::gauss_jordan<10, 20>(&T)) return;  // singular template
   Mat10 M = Mat10::Zero();
   for (int rr = 0; rr < 6; ++rr) M.row(rr) = -T.row(kActionRows[rr]).tail<10>();
   for (int rr = 0; rr < 4; ++rr) M(6 + rr, kUnitCols[rr]) = 1.0;
-  if (!M.allFinite()) return 0;
+  if (!M.allFinite()) return;
   // --- eigenvalues: balancing, Hessenberg reduction, Francis QR; eigenvectors by inverse iteration
   double wr[10], wi[10];
-  if (!linalg::eigenvalues<10>(M, wr, wi)) return 0;
+  if (!linalg::eigenvalues<10>(M, wr, wi)) return;
   const double mnorm = M.cwiseAbs().maxCoeff();
   for (int e = 0; e < 10; ++e) {
     const double lr = wr[e], li = wi[e];
@@ -253,13 +237,128 @@ int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots) {
     } else {
       Ee = v[6] * basis[0] + v[7] * basis[1] + v[8] * basis[2] + v[9] * basis[3];
     }
-    const double ne = Ee.norm();
-    if (!(ne > 0.0 && std::isfinite(ne))) continue;
-    Ee /= ne;
-    Eigen::Index ir, ic;
-    Ee.cwiseAbs().maxCoeff(&ir, &ic);
-    if (Ee(ir, ic) < 0.0) Ee = -Ee;
-    E->push_back(Ee);
+    push_essential(Ee, E);
+  }
+}
+
+// Nister's column order of the cubic monomials (indices into kCubic): the ten eliminated ones
+// x^3, y^3, x^2 y, x y^2, x^2 z, x^2, y^2 z, y^2, x y z, x y, then x z^2, x z, x, y z^2, y z, y, z^3,
+// z^2, z, 1
+constexpr int kNisterCols[20] = {0, 3, 1, 2, 4, 10, 6, 12, 5, 11, 7, 13, 16, 8, 14, 17, 9, 15, 18, 19};
+// a null vector of B(z) whose last entry is below this fraction of its norm gives no (x, y)
+constexpr double kNisterMinW = 1e-12;
+// Gauss-Jordan pivots in Nister's column order whose smallest is below this fraction of the largest:
+// the polynomial's coefficients are then unreliable (measured on noise-free samples: at a baseline of
+// 1/400 of the depth 4 % of the samples lost the true root, nearly all with a ratio below 1e-2; at
+// ordinary parallax 6 % of the samples fall below it) and the action matrix is used
+constexpr double kNisterMinPivotRatio = 1e-2;
+
+inline void polymul(const double* a, int da, const double* b, int db, double s, double* out) {
+  for (int i = 0; i <= da; ++i)
+    for (int j = 0; j <= db; ++j) out[i + j] += s * a[i] * b[j];
+}
+
+// The real solutions by Nister's construction (CVPR 2003 / PAMI 2004): Gauss-Jordan elimination of
+// the template in Nister's column order; rows (x^2 z, x^2), (y^2 z, y^2), (x y z, x y) give
+// k = e - z f, l = g - z h, m = i - z j, linear in x, y with coefficients polynomial in z (cubic,
+// cubic, quartic), i.e. B(z) (x, y, 1)^T = 0; the real roots of the degree-10 det B(z) by a Sturm
+// sequence (sturm.h); (x, y, 1) from the cross product of two rows of B(z). False when elimination
+// or the Sturm chain breaks down (a near-multiple root): the caller then takes the action matrix.
+bool nister_candidates(const Eigen::Matrix<double, 10, 20>& A, const Mat3 basis[4], bool polish_roots, std::vector<Mat3>* E) {
+  Eigen::Matrix<double, 10, 20, Eigen::RowMajor> T;
+  for (int c = 0; c < 20; ++c) T.col(c) = A.col(kNisterCols[c]);
+  double pivot_ratio = 0.0;
+  if (!linalg::gauss_jordan<10, 20>(&T, &pivot_ratio) || !(pivot_ratio >= kNisterMinPivotRatio)) return false;
+  // rows: [x-poly (deg 3), y-poly (deg 3), 1-poly (deg 4)], ascending powers of z; the right block
+  // of a row holds the coefficients of x z^2, x z, x, y z^2, y z, y, z^3, z^2, z, 1
+  double Bp[3][3][5] = {};
+  for (int r = 0; r < 3; ++r) {
+    const auto e = T.row(4 + 2 * r).tail<10>();
+    const auto f = T.row(5 + 2 * r).tail<10>();
+    for (int v = 0; v < 2; ++v) {  // x (v = 0) and y (v = 1) blocks: 3 coefficients each
+      const int o = 3 * v;
+      double* q = Bp[r][v];
+      q[0] = e(o + 2);
+      q[1] = e(o + 1) - f(o + 2);
+      q[2] = e(o + 0) - f(o + 1);
+      q[3] = -f(o + 0);
+    }
+    double* q = Bp[r][2];
+    q[0] = e(9);
+    q[1] = e(8) - f(9);
+    q[2] = e(7) - f(8);
+    q[3] = e(6) - f(7);
+    q[4] = -f(6);
+  }
+  // det B by the first row's cofactors: 2 x 2 minors of rows 1, 2 (degree 7 with the 1-column)
+  double m0[8] = {}, m1[8] = {}, m2[7] = {};
+  polymul(Bp[1][1], 3, Bp[2][2], 4, 1.0, m0);
+  polymul(Bp[1][2], 4, Bp[2][1], 3, -1.0, m0);
+  polymul(Bp[1][2], 4, Bp[2][0], 3, 1.0, m1);
+  polymul(Bp[1][0], 3, Bp[2][2], 4, -1.0, m1);
+  polymul(Bp[1][0], 3, Bp[2][1], 3, 1.0, m2);
+  polymul(Bp[1][1], 3, Bp[2][0], 3, -1.0, m2);
+  double c[11] = {};
+  polymul(Bp[0][0], 3, m0, 7, 1.0, c);
+  polymul(Bp[0][1], 3, m1, 7, 1.0, c);
+  polymul(Bp[0][2], 4, m2, 6, 1.0, c);
+  for (double v : c)
+    if (!std::isfinite(v)) return false;
+  double roots[10];
+  int nr = 0;
+  if (!sturm::real_roots<10>(c, roots, &nr)) return false;
+  for (int k = 0; k < nr; ++k) {
+    const double z = roots[k];
+    Mat3 B;
+    for (int r = 0; r < 3; ++r) {
+      B(r, 0) = sturm::horner(Bp[r][0], 3, z);
+      B(r, 1) = sturm::horner(Bp[r][1], 3, z);
+      B(r, 2) = sturm::horner(Bp[r][2], 4, z);
+    }
+    Vec3 w = B.row(0).cross(B.row(1));
+    for (const Vec3& u : {Vec3(B.row(1).cross(B.row(2))), Vec3(B.row(2).cross(B.row(0)))})
+      if (u.squaredNorm() > w.squaredNorm()) w = u;
+    if (!(std::abs(w(2)) > kNisterMinW * w.norm())) continue;
+    double xyz[3] = {w(0) / w(2), w(1) / w(2), z};
+    if (polish_roots) polish(A, xyz);
+    push_essential(xyz[0] * basis[0] + xyz[1] * basis[1] + xyz[2] * basis[2] + basis[3], E);
+  }
+  return true;
+}
+
+// fivept_essentials; polish: the Gauss-Newton polish of (x, y, z) on the template (fivept_poses
+// skips it: its Newton polish of the pose on the epipolar equations reaches rounding level anyway)
+int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots) {
+  E->clear();
+  if (p.n != 5) return 0;
+  // --- null space of the epipolar rows: A^T (9 x 5), column i = kron(f1_i, f2_i) (E column-major)
+  Eigen::Matrix<double, 9, 5> At;
+  for (int i = 0; i < 5; ++i) {
+    const auto a = p.a(i);
+    const auto b = p.b(i);
+    for (int c = 0; c < 3; ++c)
+      for (int r = 0; r < 3; ++r) At(3 * c + r, i) = a(c) * b(r);
+  }
+  double R5[25], tau[5];
+  linalg::householder_qr<5>(At.data(), 9, R5, tau);
+  double dmax = 0.0, dmin = kInf;
+  for (int i = 0; i < 5; ++i) {
+    dmax = std::max(dmax, std::abs(R5[6 * i]));
+    dmin = std::min(dmin, std::abs(R5[6 * i]));
+  }
+  if (!(dmin > kRankTol * dmax)) return 0;  // rank-deficient sample (coincident or NaN points)
+  Mat3 basis[4];  // columns 5..8 of Q: column-major E
+  for (int k = 0; k < 4; ++k) {
+    Vec9 q = Vec9::Zero();
+    q(5 + k) = 1.0;
+    linalg::householder_apply_q<5>(At.data(), 9, tau, q.data());
+    basis[k] = Eigen::Map<const Mat3>(q.data());
+  }
+  Eigen::Matrix<double, 10, 20> A;
+  build_template(basis, &A);
+  if (!nister_candidates(A, basis, polish_roots, E)) {
+    E->clear();
+    action_matrix_candidates(A, basis, polish_roots, E);
   }
   return static_cast<int>(E->size());
 }

@@ -58,10 +58,11 @@ void lu_solve(const Eigen::Matrix<double, N, N>& L, const int piv[N], double* b)
 
 // Gauss-Jordan elimination with partial pivoting of a row-major N x C matrix [A1 | A2] (C >= N):
 // on return the left N x N block is the identity and the right block A1^-1 A2. False if a pivot is
-// exactly zero or not finite (singular A1).
+// exactly zero or not finite (singular A1). pivot_ratio: the smallest pivot over the largest.
 template <int N, int C>
-bool gauss_jordan(Eigen::Matrix<double, N, C, Eigen::RowMajor>* T) {
+bool gauss_jordan(Eigen::Matrix<double, N, C, Eigen::RowMajor>* T, double* pivot_ratio = nullptr) {
   Eigen::Matrix<double, N, C, Eigen::RowMajor>& a = *T;
+  double pmin = kInf, pmax = 0.0;
   for (int k = 0; k < N; ++k) {
     int pk = k;
     double big = std::abs(a(k, k));
@@ -71,6 +72,8 @@ bool gauss_jordan(Eigen::Matrix<double, N, C, Eigen::RowMajor>* T) {
         pk = i;
       }
     if (!(big > 0.0) || !std::isfinite(big)) return false;
+    pmin = std::min(pmin, big);
+    pmax = std::max(pmax, big);
     if (pk != k) a.row(k).swap(a.row(pk));
     a.row(k) *= 1.0 / a(k, k);
     for (int i = 0; i < N; ++i) {
@@ -79,6 +82,7 @@ bool gauss_jordan(Eigen::Matrix<double, N, C, Eigen::RowMajor>* T) {
       if (f != 0.0) a.row(i) -= f * a.row(k);
     }
   }
+  if (pivot_ratio) *pivot_ratio = pmin / pmax;
   return true;
 }
 
