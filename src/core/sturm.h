@@ -20,6 +20,10 @@ namespace sturm {
 constexpr double kDegenerateTol = 1e-10;
 constexpr int kMaxDepth = 64;       // bisection levels at most while isolating (then: false)
 constexpr int kMaxIterations = 80;  // Newton / bisection steps per isolated root
+// a root is returned when the last step is below this fraction of max(1, |x|): the five-point
+// solver's callers polish every solution (Newton on the pose, Gauss-Newton on the template), so the
+// last Newton step to rounding level here (~5 % of a five-point call) buys nothing
+constexpr double kRootRelTol = 1e-11;
 
 inline double horner(const double* c, int deg, double x) {
   double v = c[deg];
@@ -84,7 +88,6 @@ double refine(const double* p, double lo, double hi, double plo) {
   for (int j = 0; j < N; ++j) dp[j] = (j + 1) * p[j + 1];
   if (plo > 0.0) std::swap(lo, hi);  // orient: p(lo) < 0 < p(hi)
   double x = 0.5 * (lo + hi), dx_old = std::abs(hi - lo), dx = dx_old;
-  constexpr double kEps = 4.0 * std::numeric_limits<double>::epsilon();
   for (int it = 0; it < kMaxIterations; ++it) {
     const double v = horner(p, N, x);
     if (v == 0.0) return x;
@@ -101,7 +104,7 @@ double refine(const double* p, double lo, double hi, double plo) {
       dx = 0.5 * (hi - lo);
       x = lo + dx;
     }
-    if (std::abs(dx) <= kEps * std::max(1.0, std::abs(x))) return x;
+    if (std::abs(dx) <= kRootRelTol * std::max(1.0, std::abs(x))) return x;
   }
   return x;
 }
