@@ -117,9 +117,10 @@ bool real_roots(const double* c, double* roots, int* count) {
   Chain<N> S;
   if (!S.build(c)) return false;
   const double* p = S.s[0];
-  double bound = 0.0;  // Cauchy's bound on the roots of the monic p
-  for (int j = 0; j < N; ++j) bound = std::max(bound, std::abs(p[j]));
-  bound = 1.0 + bound;
+  double bound = 0.0;  // Fujiwara's bound on the roots of the monic p
+  for (int j = 1; j < N; ++j) bound = std::max(bound, std::pow(std::abs(p[j]), 1.0 / (N - j)));
+  bound = std::max(bound, std::pow(0.5 * std::abs(p[0]), 1.0 / N));
+  bound = 2.0 * bound * (1.0 + 1e-12) + 1e-300;
   if (!std::isfinite(bound)) return false;
   struct Span {
     double lo, hi;
