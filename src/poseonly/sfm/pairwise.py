@@ -35,8 +35,9 @@ MIN_PUTATIVE = 30
 # change between versions (2: the core-era default at its own threshold, with match scores; 3: its
 # cheirality-aware search; 4: the Student-t ML stage; 5: the keypoints' sizes as noise scales; 6: their
 # review fixes; 7: the search's challengers; 8: their review fixes; 9: the search's LO on at most 1000
-# points, poses moved at rounding level)
-TWO_VIEW_CACHE_TAG = 9
+# points, poses moved at rounding level; 10: the Nister five-point solver, other search paths on a few
+# pairs)
+TWO_VIEW_CACHE_TAG = 10
 
 
 @dataclass(frozen=True)
