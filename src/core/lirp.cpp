@@ -63,7 +63,7 @@ void null_space(const Points& P, const double* w, Mat9* V, Vec9* s) {
   } else {
     Rf = Eigen::Map<const Mat9>(A);
   }
-  linalg::jacobi_svd<9>(Rf, V, s);  // not converged in 30 sweeps: the last iterate (never seen)
+  linalg::jacobi_svd_gram<9>(Rf, V, s);  // not converged in 30 sweeps: the last iterate (never seen)
   *s *= wmax;
 }
 
