@@ -3,6 +3,7 @@
 #include <nanobind/stl/string.h>
 
 #include "arrays.h"
+#include "conflicts.h"
 #include "estimators.h"
 #include "ml_refine.h"
 #include "ransac.h"
@@ -24,7 +25,14 @@ static_assert(HasPlainCost<ChiralScorer<MultiMsacScorer>>::value && !HasPlainCos
 
 template <class Est, class Sampler, class Model>
 RansacStats run_scored(Est& est, Scoring scoring, double thr, Sampler& sampler, const RansacOptions& ro, Model* best, Model* rival,
-                       bool chiral = false) {
+                       bool chiral = false, const KeypointConflicts* K = nullptr) {
+  if (chiral && K && !K->empty()) {
+    switch (scoring) {
+      case Scoring::Msac: return ransac(est, KeypointOnceScorer<ChiralScorer<MsacScorer>>{{{thr}}, K}, sampler, ro, best, rival);
+      case Scoring::MultiMsac: return ransac(est, KeypointOnceScorer<ChiralScorer<MultiMsacScorer>>{{{thr}}, K}, sampler, ro, best, rival);
+      case Scoring::Count: return ransac(est, KeypointOnceScorer<ChiralScorer<CountScorer>>{{{thr}}, K}, sampler, ro, best, rival);
+    }
+  }
   if (chiral) {
     switch (scoring) {
       case Scoring::Msac: return ransac(est, ChiralScorer<MsacScorer>{{thr}}, sampler, ro, best, rival);
@@ -43,13 +51,14 @@ RansacStats run_scored(Est& est, Scoring scoring, double thr, Sampler& sampler, 
 // Uniform sampling, or PROSAC when an order (best first) is given.
 template <class Est, class Model>
 RansacStats run_sampled(Est& est, Scoring scoring, double thr, const std::vector<int>& order, uint64_t seed,
-                        const RansacOptions& ro, Model* best, Model* rival = nullptr, bool chiral = false) {
+                        const RansacOptions& ro, Model* best, Model* rival = nullptr, bool chiral = false,
+                        const KeypointConflicts* K = nullptr) {
   if (order.empty()) {
     UniformSampler s(est.num_data(), est.sample_size(), seed);
-    return run_scored(est, scoring, thr, s, ro, best, rival, chiral);
+    return run_scored(est, scoring, thr, s, ro, best, rival, chiral, K);
   }
   ProsacSampler s(order, est.sample_size(), ro.max_iterations, seed);
-  return run_scored(est, scoring, thr, s, ro, best, rival, chiral);
+  return run_scored(est, scoring, thr, s, ro, best, rival, chiral, K);
 }
 
 std::vector<int> order_of(const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order, int n) {
@@ -95,7 +104,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
                          int max_iterations, int min_iterations, double confidence, int max_lo, double lo_mu0, int lo_iterations,
                          int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order,
                          int lo, double rival_distance, bool chiral, int min_hits, int challengers, double challenger_distance,
-                         int lo_max_points) {
+                         int lo_max_points, bool keypoint_once) {
   const Points P = points_of(f1, f2);
   if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
   if (min_hits < 1 || min_hits > 64) throw std::invalid_argument("min_hits must be in [1, 64]");
@@ -118,10 +127,14 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   const std::vector<int> ord = order_of(order, P.n);
   Pose best, rival;
   RansacStats st;
+  int d_groups = 0;
   {
     nb::gil_scoped_release release;
     RelativePoseEstimator est(P, eo);
-    st = run_sampled(est, static_cast<Scoring>(scoring), threshold, ord, seed, ro, &best, &rival, chiral);
+    // matches sharing a keypoint count once (conflicts.h); with the cheirality-aware scorers only
+    const KeypointConflicts K = keypoint_once && chiral ? keypoint_conflicts(P) : KeypointConflicts{};
+    st = run_sampled(est, static_cast<Scoring>(scoring), threshold, ord, seed, ro, &best, &rival, chiral, &K);
+    d_groups = K.num_groups();
   }
   std::vector<double> R(9), t(3), Rr(9), tr(3);
   put_pose(best, R.data(), t.data());
@@ -129,7 +142,23 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   nb::dict d = stats_dict(st);
   d["rival_R"] = to_numpy(std::move(Rr), {3, 3});
   d["rival_t"] = to_numpy(std::move(tr), {3});
+  d["keypoint_groups"] = d_groups;
   return nb::make_tuple(to_numpy(std::move(R), {3, 3}), to_numpy(std::move(t), {3}), d);
+}
+
+nb::tuple keypoint_groups_py(const BearingsIn& f1, const BearingsIn& f2) {
+  const Points P = points_of(f1, f2);
+  KeypointConflicts K;
+  {
+    nb::gil_scoped_release release;
+    K = keypoint_conflicts(P);
+  }
+  auto ints = [](const std::vector<int>& v) {
+    std::vector<int64_t> o(v.begin(), v.end());
+    const size_t m = o.size();
+    return to_numpy_t<int64_t>(std::move(o), {m});
+  };
+  return nb::make_tuple(ints(K.start), ints(K.members), ints(K.corr));
 }
 
 nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double threshold,
@@ -309,14 +338,19 @@ POSEONLY_BIND(robust) {
         nb::arg("scoring") = 1, nb::arg("max_iterations") = 100000, nb::arg("min_iterations") = 50, nb::arg("confidence") = 0.999,
         nb::arg("max_lo") = 8, nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1,
         nb::arg("order") = Order(), nb::arg("lo") = 0, nb::arg("rival_distance") = 0.0, nb::arg("chiral") = false, nb::arg("min_hits") = 1,
-        nb::arg("challengers") = 0, nb::arg("challenger_distance") = 1.0, nb::arg("lo_max_points") = 0,
+        nb::arg("challengers") = 0, nb::arg("challenger_distance") = 1.0, nb::arg("lo_max_points") = 0, nb::arg("keypoint_once") = false,
         "LO-RANSAC of minimal hypotheses (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
         "Sampson error against `threshold` (radians); scoring 0 msac, 1 multi-scale msac, 2 count; `order` "
         "(a permutation, best match first) switches to PROSAC; lo 0: LiRP GNC-IRLS, 1: Sampson LM; chiral: a match "
         "whose point is behind either camera scores as an outlier; rival_distance > 0 (degrees) also returns the best model that far "
         "from the result (rival_R, rival_t, rival_cost in stats); min_hits: adaptive stopping waits for that many all-inlier samples at `confidence`; challengers in [0, 64]: the best "
         "models of that many other basins (challenger_distance degrees apart) are locally optimised after the loop and replace the result "
-        "if they beat it (num_challenger_lo, challenger_won in stats); lo_max_points > 0: each LO runs on an evenly strided subset of at most that many of its window's points. Returns (R, t, stats).");
+        "if they beat it (num_challenger_lo, challenger_won in stats); lo_max_points > 0: each LO runs on an evenly strided subset of at most that many of its window's points; keypoint_once (with chiral): "
+        "of the matches that share a keypoint (identical bearings) only the best correspondence scores and is an inlier (conflicts.h; "
+        "keypoint_groups in stats). Returns (R, t, stats).");
+  m.def("keypoint_groups", &keypoint_groups_py, nb::arg("f1"), nb::arg("f2"),
+        "The groups of matches sharing a keypoint (identical bearings in one view) among two or more distinct correspondences "
+        "(conflicts.h): (start, members, corr); group g = members[start[g]:start[g + 1]], corr[i] = match i's correspondence id.");
   m.def("relpose_lo", &relpose_lo, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"),
         nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1, nb::arg("lo") = 0, nb::arg("lo_max_points") = 0,
         "The default method's LO step at `threshold` from the pose's cheirality-consistent inliers: (R, t, ok).");

@@ -144,6 +144,8 @@ struct MsacScorer {
   double thr;
   bool inlier(double v) const { return v < thr; }
   double full_cost(int n) const { return n * thr * thr; }  // every point an outlier
+  double point_cost(double v) const { return std::isfinite(v) ? std::min(v * v, thr * thr) : thr * thr; }
+  double max_point_cost() const { return thr * thr; }
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
     return pass<false>(est, m, bail);
@@ -174,6 +176,11 @@ struct MultiMsacScorer {
   double thr;
   bool inlier(double v) const { return v < thr; }
   double full_cost(int n) const { return 3.0 * n; }
+  double point_cost(double v) const {
+    const double t2 = thr * thr, v2 = std::isfinite(v) ? v * v : std::numeric_limits<double>::infinity();
+    return std::min(v2, t2) / t2 + std::min(v2, 0.25 * t2) / (0.25 * t2) + std::min(v2, 0.0625 * t2) / (0.0625 * t2);
+  }
+  double max_point_cost() const { return 3.0; }
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
     return pass<false>(est, m, bail);
@@ -206,6 +213,8 @@ struct CountScorer {
   double thr;
   bool inlier(double v) const { return v < thr; }
   double full_cost(int n) const { return n; }
+  double point_cost(double v) const { return v < thr ? 0.0 : 1.0; }
+  double max_point_cost() const { return 1.0; }
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
     return pass<false>(est, m, bail);
@@ -249,12 +258,27 @@ struct ChiralScorer {
   double plain(const Est& est, const Model& m, double bail) const {
     return base.template pass<false>(est, m, bail);
   }
+  // one match's term of the exact cost (KeypointOnceScorer)
+  double point_cost(double v) const { return base.point_cost(v); }
+  double max_point_cost() const { return base.max_point_cost(); }
+  template <class Est>
+  double point_residual(const Est& est, const typename Est::Terms& T, int i) const {
+    double v;
+    scored_residuals<true>(est, T, i, 1, &v);
+    return v;
+  }
 };
 
 template <class Scorer, class = void>
 struct HasPlainCost : std::false_type {};
 template <class Scorer>
 struct HasPlainCost<Scorer, std::void_t<decltype(&Scorer::template plain<int, int>)>> : std::true_type {};
+
+// a scorer that drops some of a model's inliers by a rule over the whole set (KeypointOnceScorer)
+template <class Scorer, class = void>
+struct HasInlierFilter : std::false_type {};
+template <class Scorer>
+struct HasInlierFilter<Scorer, std::void_t<decltype(&Scorer::template filter_inliers<int, int>)>> : std::true_type {};
 
 // The model's inliers under the scorer's residuals (cheirality-aware for a ChiralScorer, so that the
 // LO starts from and the adaptive stop counts the matches the score counts).
@@ -274,6 +298,7 @@ void inliers_of(const Est& est, const Model& m, const Scorer& sc, std::vector<in
     for (int i = 0; i < est.num_data(); ++i)
       if (sc.inlier(est.residual(T, i))) inl->push_back(i);
   }
+  if constexpr (HasInlierFilter<Scorer>::value) sc.filter_inliers(est, m, inl);
 }
 
 template <class Est, class Scorer, class Sampler, class Model>

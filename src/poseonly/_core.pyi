@@ -36,7 +36,9 @@ def ransac_relpose(
     challengers: int = 0,
     challenger_distance: float = 1.0,
     lo_max_points: int = 0,
+    keypoint_once: bool = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
+def keypoint_groups(f1: NDArray[np.float64], f2: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]: ...
 def relpose_lo(
     R: NDArray[np.float64],
     t: NDArray[np.float64],

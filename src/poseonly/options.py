@@ -203,8 +203,20 @@ class PoseonlyOptions(CommonOptions):
         lo=0,
         hi=64,
     )
-    scoring: str = _opt("msac-multi", "str", choices=("msac", "msac-multi", "count"))
+    scoring: str = _opt(
+        "msac-multi",
+        "str",
+        "the search's score: 'msac-multi' sums MSAC's truncated quadratic at tau, tau/2 and tau/4 "
+        "(a coarse marginalisation over the noise scale); 'msac' at tau alone; 'count': RANSAC's inlier count",
+        choices=("msac", "msac-multi", "count"),
+    )
     chiral_scoring: bool = _opt(True, "bool", "the search scores a match whose point a hypothesis puts behind either camera as an outlier")
+    keypoint_once: bool = _opt(
+        True,
+        "bool",
+        "with chiral_scoring: of the matches that share a keypoint (an identical point in one image), "
+        "only the correspondence that fits a hypothesis best scores and is its inlier (src/core/conflicts.h)",
+    )
     lo_residual: str = _opt("sampson-chiral", "name", "residual")
     lo_mu0: float = _opt(1e3, "real", lo=0.0, lo_open=True)
     lo_iterations: int = _opt(10, "int", lo=1)

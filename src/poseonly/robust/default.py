@@ -150,6 +150,7 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
         min_hits=o.min_hits,
         challengers=o.challengers,
         lo_max_points=o.lo_max_points,
+        keypoint_once=o.keypoint_once,
     )
 
 

@@ -84,7 +84,7 @@ def ransac_relpose(
     seed: int | np.random.Generator = 0,
     *,
     solver: str = "5pt",
-    scoring: str = "msac-multi",
+    scoring: str = "msac",
     max_iterations: int = 100000,
     min_iterations: int = 50,
     confidence: float = 0.999,
@@ -100,9 +100,12 @@ def ransac_relpose(
     challengers: int = 0,
     challenger_distance: float = 1.0,
     lo_max_points: int = 0,
+    keypoint_once: bool = False,
 ) -> RansacResult:
     """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
+    ``scoring``: ``"msac"`` (truncated quadratic at ``threshold``), ``"msac-multi"`` (its sum at
+    ``threshold``, ``/2`` and ``/4``) or ``"count"`` (inlier count).
     ``scores (n,)`` (higher is better) switch to PROSAC sampling in that order. Returns a
     :class:`RansacResult` whose inliers are the Sampson inliers of the returned model. ``lo``: the
     local optimisation, ``"lirp"`` (warm-started TLS IRLS on all-candidate LiRP with ``lo_residual``)
@@ -123,7 +126,10 @@ def ransac_relpose(
     ``max_lo=0`` (or no LO that improved a model) none is kept. ``challenger_distance`` must be finite
     and > 0 (degrees: the larger of the rotation angle and the translation directions' angle).
     ``lo_max_points > 0``: each LO step runs on an evenly strided subset of at most that many of the
-    points in its window (0: all).
+    points in its window (0: all). ``keypoint_once`` (with ``chiral``): of the matches that share a
+    keypoint (an identical bearing in one view), only those of the correspondence that fits the
+    hypothesis best keep their score and count as its inliers, the others score as outliers
+    (``stats["keypoint_groups"]``: the number of shared keypoints; ``src/core/conflicts.h``).
     """
     if lo not in _LO:
         raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(_LO)}")
@@ -155,6 +161,7 @@ def ransac_relpose(
         int(challengers),
         float(challenger_distance),
         int(lo_max_points),
+        bool(keypoint_once),
     )
     v = get_residual("sampson")(R, t, f1, f2)
     return RansacResult(

@@ -1,0 +1,115 @@
+// Matches that share a keypoint: at most one of them can be right, so a model's support counts,
+// for each keypoint, only its best match.
+//
+// Ratio-test matching without a mutual check pairs one keypoint with several (SIFT also detects a
+// corner once per dominant orientation, at the same position). On the shared Strecha and realpairs
+// sets 12-35 % of the distinct correspondences share a keypoint with another one. A model whose
+// epipole sits on a keypoint that many keypoints of the other image were matched to gives all those
+// matches a zero epipolar error (every epipolar line passes through the epipole): on Herz-Jesus-P8
+// views 0 and 6 seven matches into one point made such a model, 80 deg off, outscore the true one
+// on every seed (docs/RESULTS_real.md section 0, ninth session).
+//
+// Keypoints are identified by identical bearings (the same pixel through the same calibration).
+// Exact copies of a correspondence (the same keypoint pair, e.g. two orientations on both sides)
+// are one correspondence here: they count with it, as before. A *group* holds the matches of one
+// keypoint (in either image) that belong to two or more distinct correspondences; in a group only
+// the matches of the correspondence with the lowest cost keep their cost, every other member scores
+// as an outlier. A match in two groups is demoted at most once. numpy reference:
+// tests/reference/conflicts.py.
+#pragma once
+
+#include <algorithm>
+#include <limits>
+#include <vector>
+
+#include "common.h"
+
+namespace poseonly {
+
+struct KeypointConflicts {
+  std::vector<int> start{0};  // group g holds members[start[g] .. start[g + 1])
+  std::vector<int> members;
+  std::vector<int> corr;      // per match: the id of its distinct correspondence
+  int num_groups() const { return static_cast<int>(start.size()) - 1; }
+  bool empty() const { return num_groups() == 0; }
+};
+
+// The groups of the matches P (ids and members in increasing index order; deterministic).
+KeypointConflicts keypoint_conflicts(const Points& P);
+
+// The members of K's groups that a model with per-match costs `cost_of(i)` demotes (sorted, unique).
+template <class CostOf>
+void demoted_members(const KeypointConflicts& K, CostOf cost_of, std::vector<char>* mark, std::vector<int>* out) {
+  out->clear();
+  for (int g = 0; g < K.num_groups(); ++g) {
+    int best = -1;
+    double bc = std::numeric_limits<double>::infinity();
+    for (int k = K.start[g]; k < K.start[g + 1]; ++k) {
+      const int i = K.members[k];
+      const double c = cost_of(i);
+      if (best < 0 || c < bc) best = i, bc = c;  // ties: the lowest index (members are sorted)
+    }
+    for (int k = K.start[g]; k < K.start[g + 1]; ++k) {
+      const int i = K.members[k];
+      if (K.corr[i] != K.corr[best] && !(*mark)[i]) {
+        (*mark)[i] = 1;
+        out->push_back(i);
+      }
+    }
+  }
+  for (int i : *out) (*mark)[i] = 0;
+  std::sort(out->begin(), out->end());
+}
+
+// Base's cost (a ChiralScorer: its plain pass is the loop's lower bound, left as it is, since
+// demoting only raises a cost) with the demoted members scored as outliers. Base provides
+// point_cost(v), max_point_cost() and point_residual(est, terms, i).
+template <class Base>
+struct KeypointOnceScorer {
+  Base base;
+  const KeypointConflicts* K = nullptr;
+  mutable std::vector<char> mark;
+  mutable std::vector<int> dem;
+  mutable std::vector<double> pc;
+
+  bool inlier(double v) const { return base.inlier(v); }
+  double full_cost(int n) const { return base.full_cost(n); }
+  template <class Est, class Model>
+  double plain(const Est& est, const Model& m, double bail) const {
+    return base.plain(est, m, bail);
+  }
+  template <class Est, class Model>
+  double cost(const Est& est, const Model& m, double bail) const {
+    const double c = base.cost(est, m, bail);
+    if (c > bail || !K || K->empty()) return c;
+    return c + demote(est, m);
+  }
+  // the model's demoted members removed from its inliers (sorted)
+  template <class Est, class Model>
+  void filter_inliers(const Est& est, const Model& m, std::vector<int>* inl) const {
+    if (!K || K->empty() || inl->empty()) return;
+    demote(est, m);
+    if (dem.empty()) return;
+    std::vector<int> keep;
+    keep.reserve(inl->size());
+    std::set_difference(inl->begin(), inl->end(), dem.begin(), dem.end(), std::back_inserter(keep));
+    inl->swap(keep);
+  }
+
+ private:
+  // fills dem; returns the cost the demotions add
+  template <class Est, class Model>
+  double demote(const Est& est, const Model& m) const {
+    const int n = est.num_data();
+    if (static_cast<int>(mark.size()) != n) mark.assign(n, 0), pc.assign(n, 0.0);
+    const auto T = est.terms(m);
+    for (int i : K->members) pc[i] = base.point_cost(base.point_residual(est, T, i));
+    demoted_members(*K, [&](int i) { return pc[i]; }, &mark, &dem);
+    const double top = base.max_point_cost();
+    double add = 0.0;
+    for (int i : dem) add += top - pc[i];
+    return add;
+  }
+};
+
+}  // namespace poseonly
