@@ -19,6 +19,7 @@
 #pragma once
 
 #include <algorithm>
+#include <iterator>
 #include <limits>
 #include <vector>
 
@@ -63,7 +64,8 @@ void demoted_members(const KeypointConflicts& K, CostOf cost_of, std::vector<cha
 
 // Base's cost (a ChiralScorer: its plain pass is the loop's lower bound, left as it is, since
 // demoting only raises a cost) with the demoted members scored as outliers. Base provides
-// point_cost(v), max_point_cost() and point_residual(est, terms, i).
+// cost_terms(est, model, bail, terms) (the exact cost, each match's term written out when the cost
+// is within bail) and max_point_cost().
 template <class Base>
 struct KeypointOnceScorer {
   Base base;
@@ -80,15 +82,19 @@ struct KeypointOnceScorer {
   }
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
-    const double c = base.cost(est, m, bail);
-    if (c > bail || !K || K->empty()) return c;
-    return c + demote(est, m);
+    if (!K || K->empty()) return base.cost(est, m, bail);
+    size_to(est.num_data());
+    const double c = base.cost_terms(est, m, bail, pc.data());
+    if (c > bail) return c;
+    return c + demote();
   }
   // the model's demoted members removed from its inliers (sorted)
   template <class Est, class Model>
   void filter_inliers(const Est& est, const Model& m, std::vector<int>* inl) const {
     if (!K || K->empty() || inl->empty()) return;
-    demote(est, m);
+    size_to(est.num_data());
+    base.cost_terms(est, m, std::numeric_limits<double>::infinity(), pc.data());
+    demote();
     if (dem.empty()) return;
     std::vector<int> keep;
     keep.reserve(inl->size());
@@ -97,13 +103,11 @@ struct KeypointOnceScorer {
   }
 
  private:
-  // fills dem; returns the cost the demotions add
-  template <class Est, class Model>
-  double demote(const Est& est, const Model& m) const {
-    const int n = est.num_data();
+  void size_to(int n) const {
     if (static_cast<int>(mark.size()) != n) mark.assign(n, 0), pc.assign(n, 0.0);
-    const auto T = est.terms(m);
-    for (int i : K->members) pc[i] = base.point_cost(base.point_residual(est, T, i));
+  }
+  // from the terms in pc: fills dem, returns the cost the demotions add
+  double demote() const {
     demoted_members(*K, [&](int i) { return pc[i]; }, &mark, &dem);
     const double top = base.max_point_cost();
     double add = 0.0;

@@ -144,14 +144,13 @@ struct MsacScorer {
   double thr;
   bool inlier(double v) const { return v < thr; }
   double full_cost(int n) const { return n * thr * thr; }  // every point an outlier
-  double point_cost(double v) const { return std::isfinite(v) ? std::min(v * v, thr * thr) : thr * thr; }
   double max_point_cost() const { return thr * thr; }
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
     return pass<false>(est, m, bail);
   }
   template <bool Chiral, class Est, class Model>
-  double pass(const Est& est, const Model& m, double bail) const {
+  double pass(const Est& est, const Model& m, double bail, double* terms = nullptr) const {
     const auto T = est.terms(m);
     const double t2 = thr * thr;
     double c = 0.0;
@@ -161,6 +160,7 @@ struct MsacScorer {
       const int b = std::min(kScoreBlock, n - i0);
       scored_residuals<Chiral>(est, T, i0, b, v);
       for (int k = 0; k < b; ++k) v[k] = std::isfinite(v[k]) ? std::min(v[k] * v[k], t2) : t2;  // vectorised
+      if (terms) std::copy(v, v + b, terms + i0);
       for (int k = 0; k < b; ++k) {
         c += v[k];
         if (c > bail) return c;
@@ -176,17 +176,13 @@ struct MultiMsacScorer {
   double thr;
   bool inlier(double v) const { return v < thr; }
   double full_cost(int n) const { return 3.0 * n; }
-  double point_cost(double v) const {
-    const double t2 = thr * thr, v2 = std::isfinite(v) ? v * v : std::numeric_limits<double>::infinity();
-    return std::min(v2, t2) / t2 + std::min(v2, 0.25 * t2) / (0.25 * t2) + std::min(v2, 0.0625 * t2) / (0.0625 * t2);
-  }
   double max_point_cost() const { return 3.0; }
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
     return pass<false>(est, m, bail);
   }
   template <bool Chiral, class Est, class Model>
-  double pass(const Est& est, const Model& m, double bail) const {
+  double pass(const Est& est, const Model& m, double bail, double* terms = nullptr) const {
     const auto T = est.terms(m);
     const double t2[3] = {thr * thr, 0.25 * thr * thr, 0.0625 * thr * thr};
     double c = 0.0;
@@ -199,6 +195,7 @@ struct MultiMsacScorer {
         const double v2 = std::isfinite(v[k]) ? v[k] * v[k] : std::numeric_limits<double>::infinity();
         v[k] = std::min(v2, t2[0]) / t2[0] + std::min(v2, t2[1]) / t2[1] + std::min(v2, t2[2]) / t2[2];
       }
+      if (terms) std::copy(v, v + b, terms + i0);
       for (int k = 0; k < b; ++k) {
         c += v[k];
         if (c > bail) return c;
@@ -213,14 +210,13 @@ struct CountScorer {
   double thr;
   bool inlier(double v) const { return v < thr; }
   double full_cost(int n) const { return n; }
-  double point_cost(double v) const { return v < thr ? 0.0 : 1.0; }
   double max_point_cost() const { return 1.0; }
   template <class Est, class Model>
   double cost(const Est& est, const Model& m, double bail) const {
     return pass<false>(est, m, bail);
   }
   template <bool Chiral, class Est, class Model>
-  double pass(const Est& est, const Model& m, double bail) const {
+  double pass(const Est& est, const Model& m, double bail, double* terms = nullptr) const {
     const auto T = est.terms(m);
     double c = 0.0;
     const int n = est.num_data();
@@ -229,6 +225,7 @@ struct CountScorer {
       const int b = std::min(kScoreBlock, n - i0);
       scored_residuals<Chiral>(est, T, i0, b, v);
       for (int k = 0; k < b; ++k) v[k] = v[k] < thr ? 0.0 : 1.0;  // vectorised
+      if (terms) std::copy(v, v + b, terms + i0);
       for (int k = 0; k < b; ++k) {
         c += v[k];
         if (c > bail) return c;
@@ -258,15 +255,14 @@ struct ChiralScorer {
   double plain(const Est& est, const Model& m, double bail) const {
     return base.template pass<false>(est, m, bail);
   }
-  // one match's term of the exact cost (KeypointOnceScorer)
-  double point_cost(double v) const { return base.point_cost(v); }
-  double max_point_cost() const { return base.max_point_cost(); }
-  template <class Est>
-  double point_residual(const Est& est, const typename Est::Terms& T, int i) const {
-    double v;
-    scored_residuals<true>(est, T, i, 1, &v);
-    return v;
+  // the exact cost with each match's term written to terms[i] (all of them when the cost is <= bail)
+  template <class Est, class Model>
+  double cost_terms(const Est& est, const Model& m, double bail, double* terms) const {
+    const double c = base.template pass<false>(est, m, bail);
+    if (c > bail) return c;
+    return base.template pass<true>(est, m, bail, terms);
   }
+  double max_point_cost() const { return base.max_point_cost(); }
 };
 
 template <class Scorer, class = void>
