@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from poseonly import _core, estimate_relative_pose, sim
-from poseonly.geometry import rotation_error_deg
-from poseonly.robust.ransac import ransac_relpose
+from poseonly.geometry import as_bearings, rotation_error_deg
+from poseonly.robust.ransac import ransac_relpose, search_cost
 from reference.conflicts import demoted, keypoint_groups
+from reference.residuals import v_sampson_chiral
 
 
 def _with_shared_keypoints(seed: int, n: int = 60) -> tuple[np.ndarray, np.ndarray]:
@@ -87,3 +88,54 @@ def test_option_is_validated() -> None:
     sc = sim.make_scene(50, seed=1)
     with pytest.raises(ValueError):
         estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, keypoint_once="yes")
+
+
+def _reference_search_cost(R, t, f1, f2, thr, scoring):
+    v = v_sampson_chiral(R, t, f1, f2)
+    v2 = np.where(np.isfinite(v), v * v, np.inf)
+    if scoring == "msac":
+        terms, top = np.minimum(v2, thr * thr), thr * thr
+    else:
+        terms, top = sum(np.minimum(v2, s * s) / (s * s) for s in (thr, thr / 2, thr / 4)), 3.0
+    groups, corr = keypoint_groups(f1, f2)
+    d = demoted(groups, corr, terms)
+    terms = terms.copy()
+    terms[d] = top
+    inl = np.flatnonzero(v < thr)
+    return float(terms.sum()), np.setdiff1d(inl, d)
+
+
+@pytest.mark.parametrize("scoring", ["msac-multi", "msac"])
+@pytest.mark.parametrize("seed", range(3))
+def test_core_search_cost_matches_the_reference(scoring: str, seed: int) -> None:
+    """The core's cost and inliers with the demotions, at the true pose and at a wrong one, against numpy."""
+    sc, u1, u2 = _cluster_scene(600 + seed)
+    f1 = np.ascontiguousarray(as_bearings(u1, sc.K))
+    f2 = np.ascontiguousarray(as_bearings(u2, sc.K))
+    f1[5], f2[6] = f1[4], f2[4]  # more sharing: view 1's keypoint 4 matched twice, view 2's too
+    thr = 2.0 / 800.0
+    wrong = (sc.R @ np.array([[np.cos(0.05), -np.sin(0.05), 0.0], [np.sin(0.05), np.cos(0.05), 0.0], [0.0, 0.0, 1.0]]), sc.t)
+    # the cluster's pose: view 2's epipole next to the keypoint all cluster matches go to
+    tc = f2[-1] + np.array([1e-4, 0.0, 0.0])
+    cluster = (sc.R, tc / np.linalg.norm(tc))
+    gained = 0.0
+    for R, t in ((sc.R, sc.t), wrong, cluster):
+        c, inl = search_cost(R, t, f1, f2, thr, scoring=scoring)
+        rc, rinl = _reference_search_cost(R, t, f1, f2, thr, scoring)
+        assert c == pytest.approx(rc, rel=1e-9, abs=1e-12)
+        np.testing.assert_array_equal(inl, rinl)
+        c0, inl0 = search_cost(R, t, f1, f2, thr, scoring=scoring, keypoint_once=False)
+        assert c0 <= c and set(inl.tolist()) <= set(inl0.tolist())
+        gained = max(gained, c - c0)
+    assert gained > 0.0  # the cluster's pose loses its cluster
+
+
+def test_non_finite_bearings_join_no_group() -> None:
+    f1, f2 = _with_shared_keypoints(0)
+    f1[10] = np.nan  # one of the four extra matches of view 1's keypoint 3
+    f2[21] = np.inf
+    start, members, corr = _core.keypoint_groups(f1, f2)
+    got = [set(members[start[g] : start[g + 1]].tolist()) for g in range(len(start) - 1)]
+    assert {3, 11, 12, 13} in got and {7, 20, 22, 23, 24} in got
+    assert all(10 not in g and 21 not in g for g in got)
+    assert len(set(corr[[10, 21]].tolist()) & set(np.delete(corr, [10, 21]).tolist())) == 0

@@ -146,6 +146,37 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   return nb::make_tuple(to_numpy(std::move(R), {3, 3}), to_numpy(std::move(t), {3}), d);
 }
 
+// The default search's objective at one pose: its exact cost (cheirality-aware, the matches of a shared
+// keypoint scored once when keypoint_once) and its inliers, as the loop measures them.
+nb::tuple search_cost(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double threshold, int scoring,
+                      bool keypoint_once) {
+  const Points P = points_of(f1, f2);
+  if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
+  const Pose pose = pose_of(R, t);
+  RelativePoseEstimator::Options eo;
+  eo.lo_threshold = threshold;
+  double c = 0.0;
+  std::vector<int> inl;
+  {
+    nb::gil_scoped_release release;
+    RelativePoseEstimator est(P, eo);
+    const KeypointConflicts K = keypoint_once ? keypoint_conflicts(P) : KeypointConflicts{};
+    auto run = [&](const auto& sc) {
+      c = sc.cost(est, pose, std::numeric_limits<double>::infinity());
+      inliers_of(est, pose, sc, &inl);
+    };
+    switch (static_cast<Scoring>(scoring)) {
+      case Scoring::Msac: run(KeypointOnceScorer<ChiralScorer<MsacScorer>>{{{threshold}}, &K}); break;
+      case Scoring::MultiMsac: run(KeypointOnceScorer<ChiralScorer<MultiMsacScorer>>{{{threshold}}, &K}); break;
+      case Scoring::Count: run(KeypointOnceScorer<ChiralScorer<CountScorer>>{{{threshold}}, &K}); break;
+      default: throw std::invalid_argument("unknown scoring");
+    }
+  }
+  std::vector<int64_t> o(inl.begin(), inl.end());
+  const size_t m = o.size();
+  return nb::make_tuple(c, to_numpy_t<int64_t>(std::move(o), {m}));
+}
+
 nb::tuple keypoint_groups_py(const BearingsIn& f1, const BearingsIn& f2) {
   const Points P = points_of(f1, f2);
   KeypointConflicts K;
@@ -348,6 +379,10 @@ POSEONLY_BIND(robust) {
         "if they beat it (num_challenger_lo, challenger_won in stats); lo_max_points > 0: each LO runs on an evenly strided subset of at most that many of its window's points; keypoint_once (with chiral): "
         "of the matches that share a keypoint (identical bearings) only the best correspondence scores and is an inlier (conflicts.h; "
         "keypoint_groups in stats). Returns (R, t, stats).");
+  m.def("search_cost", &search_cost, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"), nb::arg("scoring") = 1,
+        nb::arg("keypoint_once") = true,
+        "The cheirality-aware search objective at one pose (scoring 0 msac, 1 multi-scale msac, 2 count; keypoint_once: "
+        "the matches of a shared keypoint scored once): (exact cost, inlier indices).");
   m.def("keypoint_groups", &keypoint_groups_py, nb::arg("f1"), nb::arg("f2"),
         "The groups of matches sharing a keypoint (identical bearings in one view) among two or more distinct correspondences "
         "(conflicts.h): (start, members, corr); group g = members[start[g]:start[g + 1]], corr[i] = match i's correspondence id.");

@@ -19,6 +19,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cassert>
 #include <iterator>
 #include <limits>
 #include <vector>
@@ -35,7 +36,10 @@ struct KeypointConflicts {
   bool empty() const { return num_groups() == 0; }
 };
 
-// The groups of the matches P (ids and members in increasing index order; deterministic).
+// The groups of the matches P: view 1's groups first, each view's in the lexicographic order of its
+// keypoints, members in increasing index order; correspondence ids are equal exactly for identical
+// correspondences (numbered in the order of the sorted pairs). Matches with a non-finite bearing
+// join no group. Deterministic.
 KeypointConflicts keypoint_conflicts(const Points& P);
 
 // The members of K's groups that a model with per-match costs `cost_of(i)` demotes (sorted, unique).
@@ -65,14 +69,16 @@ void demoted_members(const KeypointConflicts& K, CostOf cost_of, std::vector<cha
 // Base's cost (a ChiralScorer: its plain pass is the loop's lower bound, left as it is, since
 // demoting only raises a cost) with the demoted members scored as outliers. Base provides
 // cost_terms(est, model, bail, terms) (the exact cost, each match's term written out when the cost
-// is within bail) and max_point_cost().
+// is within bail), exact_terms(est, model, terms) and max_point_cost().
 template <class Base>
 struct KeypointOnceScorer {
   Base base;
   const KeypointConflicts* K = nullptr;
+  // scratch of one search (the scorer is never shared between threads: each search builds its own)
   mutable std::vector<char> mark;
   mutable std::vector<int> dem;
   mutable std::vector<double> pc;
+  mutable std::vector<int> keep;
 
   bool inlier(double v) const { return base.inlier(v); }
   double full_cost(int n) const { return base.full_cost(n); }
@@ -88,22 +94,23 @@ struct KeypointOnceScorer {
     if (c > bail) return c;
     return c + demote();
   }
-  // the model's demoted members removed from its inliers (sorted)
+  // the model's demoted members removed from its inliers (`inl` sorted, as inliers_of makes it)
   template <class Est, class Model>
   void filter_inliers(const Est& est, const Model& m, std::vector<int>* inl) const {
     if (!K || K->empty() || inl->empty()) return;
     size_to(est.num_data());
-    base.cost_terms(est, m, std::numeric_limits<double>::infinity(), pc.data());
+    base.exact_terms(est, m, pc.data());
     demote();
     if (dem.empty()) return;
-    std::vector<int> keep;
-    keep.reserve(inl->size());
+    keep.clear();
     std::set_difference(inl->begin(), inl->end(), dem.begin(), dem.end(), std::back_inserter(keep));
     inl->swap(keep);
   }
 
  private:
+  // K was built from the estimator's own points (keypoint_conflicts(P) of the same P)
   void size_to(int n) const {
+    assert(static_cast<int>(K->corr.size()) == n);
     if (static_cast<int>(mark.size()) != n) mark.assign(n, 0), pc.assign(n, 0.0);
   }
   // from the terms in pc: fills dem, returns the cost the demotions add

@@ -262,6 +262,11 @@ struct ChiralScorer {
     if (c > bail) return c;
     return base.template pass<true>(est, m, bail, terms);
   }
+  // every match's exact term (a full pass without bail-out)
+  template <class Est, class Model>
+  void exact_terms(const Est& est, const Model& m, double* terms) const {
+    base.template pass<true>(est, m, std::numeric_limits<double>::infinity(), terms);
+  }
   double max_point_cost() const { return base.max_point_cost(); }
 };
 

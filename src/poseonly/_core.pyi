@@ -38,6 +38,15 @@ def ransac_relpose(
     lo_max_points: int = 0,
     keypoint_once: bool = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
+def search_cost(
+    R: NDArray[np.float64],
+    t: NDArray[np.float64],
+    f1: NDArray[np.float64],
+    f2: NDArray[np.float64],
+    threshold: float,
+    scoring: int = 1,
+    keypoint_once: bool = True,
+) -> tuple[float, NDArray[np.int64]]: ...
 def keypoint_groups(f1: NDArray[np.float64], f2: NDArray[np.float64]) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]: ...
 def relpose_lo(
     R: NDArray[np.float64],

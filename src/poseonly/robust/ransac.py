@@ -25,7 +25,7 @@ from ..estimator import Estimator, lirp_estimator
 from ..residuals import Residual, get_residual
 from .gnc import GNCOptions
 
-__all__ = ["RansacResult", "ransac_relpose", "gnc_ransac", "sample_indices", "core_seed", "SCORINGS", "prosac_order"]
+__all__ = ["RansacResult", "ransac_relpose", "search_cost", "gnc_ransac", "sample_indices", "core_seed", "SCORINGS", "prosac_order"]
 
 SCORINGS = {"msac": 0, "msac-multi": 1, "count": 2}
 _MINIMAL = {"5pt": 0, "lirp": 1}
@@ -175,6 +175,19 @@ def ransac_relpose(
         num_scored=int(st["num_models"]),
         stats=dict(st),
     )
+
+
+def search_cost(
+    R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, threshold: float, *, scoring: str = "msac-multi", keypoint_once: bool = True
+) -> tuple[float, np.ndarray]:
+    """The cheirality-aware search objective of :func:`ransac_relpose` at one pose ``R (3, 3)``, ``t (3,)``
+    on bearings ``f1, f2 (n, 3)`` at ``threshold`` (radians): ``(cost, inlier indices)``, lower cost
+    better, as the loop measures them (with ``keypoint_once`` the matches of a shared keypoint
+    scored once). A diagnostic: which of two poses does the search prefer, and why."""
+    if scoring not in SCORINGS:
+        raise ValueError(f"unknown scoring {scoring!r}; choose one of {sorted(SCORINGS)}")
+    c, inl = _core.search_cost(_c(R), _c(t), _c(f1), _c(f2), float(threshold), SCORINGS[scoring], bool(keypoint_once))
+    return float(c), inl
 
 
 def gnc_ransac(
