@@ -384,13 +384,13 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       const double bound = track ? std::min(st.rival_cost, kRivalCostFactor * st.cost) : st.cost;
       double c;
       if constexpr (HasPlainCost<Scorer>::value) {
-        // a scorer with a costlier exact pass (ChiralScorer): the plain cost up to the rival bound,
-        // the exact one only for a candidate best
+        // a scorer with a costlier exact pass (ChiralScorer): the plain cost, a lower bound, first;
+        // the exact one for a candidate best, rival or challenger, up to their largest bound, so that
+        // every model the loop keeps is ranked by its exact cost, not by the plain bound or a partial sum
         const double cb = challenger_bound();
-        const double cp = scorer.plain(est, m, std::max({bound, st.cost, cb}));
-        // the exact pass for a candidate best, up to the challengers' bound so that a model it puts
-        // above the best gets its exact cost, not a partial sum
-        c = cp <= st.cost ? scorer.cost(est, m, std::max(st.cost, cb)) : cp;
+        const double exact_to = std::max({track ? bound : 0.0, st.cost, cb});
+        const double cp = scorer.plain(est, m, exact_to);
+        c = cp <= exact_to ? scorer.cost(est, m, exact_to) : cp;
       } else {
         c = scorer.cost(est, m, std::max({bound, st.cost, challenger_bound()}));
       }
