@@ -36,8 +36,9 @@ MIN_PUTATIVE = 30
 # cheirality-aware search; 4: the Student-t ML stage; 5: the keypoints' sizes as noise scales; 6: their
 # review fixes; 7: the search's challengers; 8: their review fixes; 9: the search's LO on at most 1000
 # points, poses moved at rounding level; 10: the Nister five-point solver, other search paths on a few
-# pairs; 11: matches sharing a keypoint scored once in the search)
-TWO_VIEW_CACHE_TAG = 11
+# pairs; 11: matches sharing a keypoint scored once in the search; 12: rivals and challengers ranked by
+# exact costs)
+TWO_VIEW_CACHE_TAG = 12
 
 
 @dataclass(frozen=True)
