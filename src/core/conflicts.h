@@ -94,6 +94,15 @@ struct KeypointOnceScorer {
     if (c > bail) return c;
     return c + demote();
   }
+  template <class Est, class Model>
+  double cost_after_plain(const Est& est, const Model& m, double bail, double cp) const {
+    if (!K || K->empty()) return base.cost_after_plain(est, m, bail, cp);
+    if (cp > bail) return cp;
+    size_to(est.num_data());
+    const double c = base.cost_terms_after_plain(est, m, bail, pc.data());
+    if (c > bail) return c;
+    return c + demote();
+  }
   // the model's demoted members removed from its inliers (`inl` sorted, as inliers_of makes it)
   template <class Est, class Model>
   void filter_inliers(const Est& est, const Model& m, std::vector<int>* inl) const {

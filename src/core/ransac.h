@@ -250,16 +250,27 @@ struct ChiralScorer {
     if (c > bail) return c;
     return base.template pass<true>(est, m, bail);
   }
-  // the plain cost alone: what ransac() tracks rivals with (no chiral pass for the models near the best)
+  // the plain cost alone, a lower bound of the exact one: what ransac() screens every model with
   template <class Est, class Model>
   double plain(const Est& est, const Model& m, double bail) const {
     return base.template pass<false>(est, m, bail);
+  }
+  // cost(est, m, bail) when plain(est, m, bail) = cp is already known (its pass is not run again)
+  template <class Est, class Model>
+  double cost_after_plain(const Est& est, const Model& m, double bail, double cp) const {
+    if (cp > bail) return cp;
+    return base.template pass<true>(est, m, bail);
   }
   // the exact cost with each match's term written to terms[i] (all of them when the cost is <= bail)
   template <class Est, class Model>
   double cost_terms(const Est& est, const Model& m, double bail, double* terms) const {
     const double c = base.template pass<false>(est, m, bail);
     if (c > bail) return c;
+    return base.template pass<true>(est, m, bail, terms);
+  }
+  // the exact pass of cost_terms alone (the plain pass known to be within bail)
+  template <class Est, class Model>
+  double cost_terms_after_plain(const Est& est, const Model& m, double bail, double* terms) const {
     return base.template pass<true>(est, m, bail, terms);
   }
   // every match's exact term (a full pass without bail-out)
@@ -390,7 +401,7 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
         const double cb = challenger_bound();
         const double exact_to = std::max({track ? bound : 0.0, st.cost, cb});
         const double cp = scorer.plain(est, m, exact_to);
-        c = cp <= exact_to ? scorer.cost(est, m, exact_to) : cp;
+        c = cp <= exact_to ? scorer.cost_after_plain(est, m, exact_to, cp) : cp;
       } else {
         c = scorer.cost(est, m, std::max({bound, st.cost, challenger_bound()}));
       }
