@@ -44,3 +44,22 @@ def test_non_contiguous_and_integer_input():
     np.testing.assert_allclose(_unit_rows(a, "a"), unit_rows_ref(a.astype(float)), rtol=1e-15)
     b = np.asfortranarray(np.random.default_rng(2).normal(size=(7, 3)))
     np.testing.assert_allclose(_unit_rows(b, "b"), unit_rows_ref(b), rtol=1e-15)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite_rows_are_counted_before_zero_rows(bad):
+    a = np.array([[1.0, 0.5, 0.25], [bad, 0.0, 1.0], [0.0, 0.0, 0.0], [0.0, bad, bad]])
+    with pytest.raises(InputError, match=r"f1 contains NaN or inf values \(2 rows\)"):
+        _unit_rows(a, "f1")
+
+
+def test_pixels_to_rays_match_a_dense_solve():
+    """``solve_intrinsics`` (back-substitution, no LAPACK call) against ``np.linalg.solve``."""
+    from poseonly.geometry import check_intrinsics, solve_intrinsics
+
+    rng = np.random.default_rng(4)
+    for K in ([[2759.5, 0.0, 1520.7], [0.0, 2764.2, 1006.8], [0.0, 0.0, 1.0]], [[1520.4, 0.3, 302.3], [0.0, 1525.9, 246.9], [0.0, 0.0, 2.0]]):
+        Kn = check_intrinsics(np.array(K))
+        h = np.column_stack([rng.uniform(-100, 3100, (500, 2)), np.ones(500)])
+        np.testing.assert_allclose(solve_intrinsics(Kn, h), np.linalg.solve(Kn, h.T).T, rtol=1e-14, atol=1e-17)
+        np.testing.assert_allclose(solve_intrinsics(Kn, h[None]), solve_intrinsics(Kn, h)[None], rtol=0, atol=0)

@@ -76,6 +76,47 @@ nb::dict lirp_batch(const ArrayIn& f1, const ArrayIn& f2, const std::optional<Ar
   return d;
 }
 
+// One problem for the public solver: (cand_E (18, 3, 3), cand_R (18, 3, 3), cand_t (18, 3), cand_valid
+// (18,) bool, cand_cost (18,), singular_values (9,), best, d_min, d_min_C2, rank). The float arrays are
+// views of one buffer with one owner (a call allocates once), the rank counts singular values above
+// rank_tol * max(sigma_1, 1e-300) as poseonly.solvers.lirp documents.
+nb::tuple lirp_one(const BearingsIn& f1, const BearingsIn& f2, const std::optional<VectorIn>& w, bool all_costs, double rank_tol) {
+  const Points P = points_of(f1, f2);
+  const double* wp = weights_of(w, P.n);
+  constexpr size_t K = kLirpCandidates, oE = 0, oR = 9 * K, oT = 18 * K, oC = 21 * K, oS = 22 * K, total = 22 * K + 9;
+  auto* buf = new std::vector<double>(total);
+  nb::capsule owner(buf, [](void* p) noexcept { delete static_cast<std::vector<double>*>(p); });
+  std::vector<bool> valid(K);
+  LirpResult r;
+  int rank = 0;
+  {
+    nb::gil_scoped_release release;
+    lirp(P, wp, all_costs, &r);
+    double* d = buf->data();
+    for (size_t k = 0; k < K; ++k) {
+      for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) d[oE + 9 * k + 3 * a + b] = r.cand.E[k](a, b);
+      put_pose(r.id[k].pose, d + oR + 9 * k, d + oT + 3 * k);
+      d[oC + k] = r.id[k].cost;
+      valid[k] = r.id[k].valid;
+    }
+    const Vec9& s = r.cand.singular_values;
+    const double cut = rank_tol * std::max(s(0), 1e-300);
+    for (int a = 0; a < 9; ++a) {
+      d[oS + a] = s(a);
+      rank += s(a) > cut;
+    }
+  }
+  double* d = buf->data();
+  const size_t sh_m[3] = {K, 3, 3}, sh_t[2] = {K, 3}, sh_k[1] = {K}, sh_s[1] = {9};
+  auto* vb = new std::vector<uint8_t>(K);
+  for (size_t k = 0; k < K; ++k) (*vb)[k] = valid[k];
+  nb::capsule vowner(vb, [](void* p) noexcept { delete static_cast<std::vector<uint8_t>*>(p); });
+  return nb::make_tuple(NpArray(d + oE, 3, sh_m, owner), NpArray(d + oR, 3, sh_m, owner), NpArray(d + oT, 2, sh_t, owner),
+                        NpBool(reinterpret_cast<bool*>(vb->data()), 1, sh_k, vowner), NpArray(d + oC, 1, sh_k, owner),
+                        NpArray(d + oS, 1, sh_s, owner), r.best, r.cand.d_min, r.cand.d_min_C2, rank);
+}
+
 nb::dict identify_batch(const ArrayIn& E, const BearingsIn& f1, const BearingsIn& f2, const std::optional<VectorIn>& w, bool with_cost) {
   const Points P = points_of(f1, f2);
   const double* wp = weights_of(w, P.n);
@@ -188,6 +229,10 @@ POSEONLY_BIND(lirp) {
         "LiRP (Alg. 1) on h stacked problems f1, f2 (h, n, 3), weights (h, n) or None: the 18 candidates "
         "(cand_E, cand_R, cand_t, cand_valid, cand_M1, cand_cost), the identified best (R, t, E, best), "
         "singular_values (h, 9), d_min, d_min_C2.");
+  m.def("lirp_one", &lirp_one, nb::arg("f1"), nb::arg("f2"), nb::arg("w") = nb::none(), nb::arg("all_costs") = true,
+        nb::arg("rank_tol") = 1e-9,
+        "LiRP (Alg. 1) on one problem, bearings f1, f2 (n, 3), weights (n,) or None: (cand_E, cand_R, cand_t, "
+        "cand_valid, cand_cost, singular_values, best, d_min, d_min_C2, rank).");
   m.def("identify", &identify_batch, nb::arg("E"), nb::arg("f1"), nb::arg("f2"), nb::arg("w") = nb::none(),
         nb::arg("with_cost") = true,
         "Pose-only identification of k essential matrices E (k, 3, 3) on bearings (n, 3): R, t, valid, M1, cost.");

@@ -36,22 +36,27 @@ static NpArray residual_matrix(int kind, const ArrayIn& R, const ArrayIn& t, con
 // Rows of a (n, 3) scaled to unit length (poseonly.geometry._unit_rows): when every row's largest
 // |component| m lies in (1e-150, 1e150), the plain norm sqrt(x x + y y + z z) and zero rows those of
 // norm < zero; otherwise plain rows as before and the others divided by m first (no overflow or
-// underflow), zero rows those with m < zero / sqrt(3). Returns (unit rows, number of zero rows).
+// underflow), zero rows those with m < zero / sqrt(3). Returns (unit rows, number of zero rows, number
+// of rows with a NaN or inf component; such rows count as neither zero nor plain and come out non-finite).
 static nb::tuple unit_rows(const BearingsIn& a, double zero) {
   if (a.shape(1) != 3) throw std::invalid_argument("a must have shape (n, 3)");
   const size_t n = a.shape(0);
   std::vector<double> out(3 * n);
-  int64_t zeros = 0;
+  int64_t zeros = 0, nonfinite = 0;
   {
     nb::gil_scoped_release release;
     const double* x = a.data();
     constexpr double kHuge = 1e150, kTiny = 1e-150;
     bool plain = true;
-    for (size_t i = 0; i < n && plain; ++i) {
-      const double m = std::max({std::abs(x[3 * i]), std::abs(x[3 * i + 1]), std::abs(x[3 * i + 2])});
-      plain = m < kHuge && m > kTiny;
-    }
     for (size_t i = 0; i < n; ++i) {
+      if (!(std::isfinite(x[3 * i]) && std::isfinite(x[3 * i + 1]) && std::isfinite(x[3 * i + 2]))) {
+        ++nonfinite;
+        continue;
+      }
+      const double m = std::max({std::abs(x[3 * i]), std::abs(x[3 * i + 1]), std::abs(x[3 * i + 2])});
+      plain = plain && m < kHuge && m > kTiny;
+    }
+    for (size_t i = 0; i < n && !nonfinite; ++i) {
       const double* r = x + 3 * i;
       double* o = out.data() + 3 * i;
       const double m = std::max({std::abs(r[0]), std::abs(r[1]), std::abs(r[2])});
@@ -67,7 +72,7 @@ static nb::tuple unit_rows(const BearingsIn& a, double zero) {
       }
     }
   }
-  return nb::make_tuple(to_numpy(std::move(out), {n, static_cast<size_t>(3)}), zeros);
+  return nb::make_tuple(to_numpy(std::move(out), {n, static_cast<size_t>(3)}), zeros, nonfinite);
 }
 
 }  // namespace poseonly
@@ -78,6 +83,7 @@ POSEONLY_BIND(residuals) {
         "Residuals (k, n) of k poses R (k,3,3), unit t (k,3) on bearings f1, f2 (n,3); kind: 0 sampson, "
         "1 sampson-chiral, 2 ligt, 3 coplanar, 4 ppo, 5 ba, 6 opengv, 7 opengv-symmetric (the order of RESIDUAL_KINDS).");
   m.def("unit_rows", &unit_rows, nb::arg("a"), nb::arg("zero"),
-        "Rows of a (n, 3) scaled to unit length without overflow or underflow: (unit rows (n, 3), number of rows shorter than `zero`).");
+        "Rows of a (n, 3) scaled to unit length without overflow or underflow: (unit rows (n, 3), number of rows shorter than `zero`, "
+        "number of rows with NaN or inf; when it is > 0 the rows are not computed).");
   m.attr("RESIDUAL_KINDS") = nb::make_tuple("sampson", "sampson-chiral", "ligt", "coplanar", "ppo", "ba", "opengv", "opengv-symmetric");
 }

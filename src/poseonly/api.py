@@ -327,5 +327,4 @@ def lirp(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, r
     degenerate-but-valid input returns ``status == "degenerate"``."""
     f1, f2, w = check_correspondences(f1, f2, weights)
     rank_tol = check_value("rank_tol", rank_tol, _SPEC_RANK_TOL)
-    with np.errstate(all="ignore"):
-        return lirp_checked(f1, f2, w, float(rank_tol))
+    return lirp_checked(f1, f2, w, float(rank_tol))

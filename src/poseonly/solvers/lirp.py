@@ -114,28 +114,27 @@ def lirp(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, r
 
 
 def lirp_checked(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None, rank_tol: float) -> LiRPResult:
-    """:func:`lirp` on input already validated (unit bearings ``(n, 3)``, ``n >= 6``, weights ``(n,)``
-    finite and non-negative or ``None``; ``0 < rank_tol < 1``): the public :func:`poseonly.lirp`
-    validates once and calls this."""
-    o = lirp_batch(f1[None], f2[None], None if w is None else w[None])
-    s = o["singular_values"][0]
-    rank = int(np.count_nonzero(s > float(rank_tol) * max(s[0], 1e-300)))
+    """:func:`lirp` on input already validated (unit bearings ``(n, 3)`` float64 C-contiguous, ``n >= 6``,
+    weights ``(n,)`` finite and non-negative or ``None``; ``0 < rank_tol < 1``): the public
+    :func:`poseonly.lirp` validates once and calls this. One core call (``_core.lirp_one``); ``R, t, E``
+    are views of the best candidate's rows of ``candidates_R/t/E``."""
+    cE, cR, ct, valid, cost, s, best, d_min, d_min_c2, rank = _core.lirp_one(f1, f2, w, True, rank_tol)
     status = "ok" if rank >= 6 else "degenerate"
     notes = []
     if status == "degenerate":
         notes.append(f"epipolar matrix A has rank {rank} < 6: the correspondences do not determine the pose")
     return LiRPResult(
-        R=o["R"][0],
-        t=o["t"][0],
-        E=o["E"][0],
-        candidates_E=o["cand_E"][0],
-        candidates_R=o["cand_R"][0],
-        candidates_t=o["cand_t"][0],
-        candidate_valid=o["cand_valid"][0],
-        candidate_cost=o["cand_cost"][0],
-        best=int(o["best"][0]),
-        d_min=float(o["d_min"][0]),
-        d_min_C2=float(o["d_min_C2"][0]),
+        R=cR[best],
+        t=ct[best],
+        E=cE[best],
+        candidates_E=cE,
+        candidates_R=cR,
+        candidates_t=ct,
+        candidate_valid=valid,
+        candidate_cost=cost,
+        best=best,
+        d_min=d_min,
+        d_min_C2=d_min_c2,
         singular_values=s,
         rank=rank,
         status=status,
