@@ -42,6 +42,22 @@ def test_pure_rotation_60pct_outliers_not_ok(seed):
     assert poseonly.rotation_error_deg(sc.R, r.R) < 0.5
 
 
+@pytest.mark.parametrize("camera", ["wide", "pinhole"])
+@pytest.mark.parametrize("outliers", [0.0, 0.5])
+def test_pure_rotation_leaves_no_parallax(camera, outliers):
+    """The precision test of the rotation-only model (poseonly.analysis.parallax_ratio): on a pure
+    rotation at real noise the parallax the rotation leaves is the noise's (ratio ~1), far below
+    PRECISION_RATIO, so the status stays pure_rotation."""
+    from poseonly.analysis import PRECISION_RATIO
+
+    for seed in range(3):
+        sc = make_scene(300, "rotation", camera=camera, noise_px=0.3, outlier_fraction=outliers, seed=40 + seed)
+        r = estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=seed)
+        assert r.status == "pure_rotation", r.message
+        assert r.diagnostics["parallax_ratio"] < 0.3 * PRECISION_RATIO
+        assert r.diagnostics["parallax_noise"] < 0.5
+
+
 @pytest.mark.parametrize("outliers", [0.2, 0.6])
 def test_pure_rotation_with_many_matches(outliers):
     """n = 2000 > ROTATION_SCORE_POINTS: the rotation hypotheses are scored on a 500-match subset, the

@@ -82,8 +82,10 @@ class RelativePoseResult:
     * ``"ambiguous"`` -- a second pose far from this one (``diagnostics["rival_R"]``,
       ``["rival_t"]``, at least ``rival_distance`` degrees of rotation away) explains at least as
       many matches of its own: the two views do not single out the pose;
-    * ``"pure_rotation"`` -- a rotation without translation explains the matches and the pose's
-      extra inliers are no more than chance: ``R`` is the robust rotation-only fit and reliable,
+    * ``"pure_rotation"`` -- a rotation without translation explains the matches, the pose's
+      extra inliers are no more than chance and the rotation leaves no parallax above the noise on
+      the matches both explain (``diagnostics["parallax_ratio"]``, see
+      :func:`poseonly.analysis.parallax_ratio`): ``R`` is the robust rotation-only fit and reliable,
       ``t`` (a unit vector, the epipolar fit's) is not; ``inliers`` are the rotation's;
     * ``"too_few_inliers"`` -- fewer than ``min_inliers`` inliers, or not significantly more than
       randomly re-paired matches give the same model over all hypotheses tried; ``R, t`` are the
@@ -201,7 +203,7 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     # the rotation-only alternative is fitted at the search threshold at least: at a decision threshold
     # the pose itself shrank (an ML fit to a tight subset) a rotation would miss its own noisy inliers
     tau_rot = max(tau, tau_search)
-    rot = pure_rotation_test(f1, f2, tau_rot, inl, p_pose, num_tests)
+    rot = pure_rotation_test(f1, f2, tau_rot, inl, p_pose, num_tests, v_pose=v)
     R_rot = rot.pop("R_rotation_only")
     diag.update(rot)
     R_twin = t_twin = None
