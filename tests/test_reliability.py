@@ -255,3 +255,14 @@ def test_pure_rotation_not_ok_when_the_ml_fit_shrinks_the_threshold():
     r = estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=1_000_004)
     assert r.status == "pure_rotation", r.message
     assert r.num_inliers >= 35 and poseonly.rotation_error_deg(sc.R, r.R) < 0.2
+
+
+@pytest.mark.parametrize("final", ["ml", "ligt", "cauchy"])
+def test_every_final_stage_refines_to_the_noise_level(final):
+    """The three final stages on a plain scene: ok, the rotation within a few noise-floor widths, the
+    inliers close to the true ones (``final="cauchy"``: PoseLib's last step, Cauchy-loss Sampson LM)."""
+    sc = make_scene(300, camera="pinhole", noise_px=0.5, outlier_fraction=0.3, seed=11)
+    r = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0, final=final)
+    assert r.status == "ok", r.message
+    assert poseonly.rotation_error_deg(sc.R, r.R) < 0.3
+    assert np.count_nonzero(r.inliers & sc.inliers) >= 0.9 * np.count_nonzero(sc.inliers)

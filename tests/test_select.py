@@ -28,7 +28,10 @@ def test_select_by_support_matches_the_reference(kind, camera):
         Rr, tr = select_reference(R0, t0, sc.f1, sc.f2, tau)
         assert rotation_error_deg(Rr, Rc) < 1e-6 and translation_error_deg(tr, tc) < 1e-6, seed
         switched += rotation_error_deg(R0, Rc) > 0.05
-    assert switched >= 1  # the choice does change poses (not a pass-through)
+        # a switch goes to another basin (the twin, another cheirality), never to a nearby estimate
+        assert rotation_error_deg(R0, Rc) < 1e-6 or max(rotation_error_deg(R0, Rc), translation_error_deg(t0, tc)) >= 1.0 - 1e-9, seed
+    if kind == "planar":
+        assert switched >= 1  # the choice does change poses (not a pass-through)
 
 
 def test_select_by_support_keeps_the_pose_with_few_inliers():

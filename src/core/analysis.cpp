@@ -4,6 +4,7 @@
 #include <numeric>
 #include <vector>
 
+#include "estimators.h"
 #include "lirp.h"
 #include "refine.h"
 #include "residuals.h"
@@ -160,6 +161,11 @@ constexpr int kPolishIterations = 20;
 constexpr double kPolishTol = 1e-12;
 constexpr int kLigtAngular = 2;             // refine_ligt normalization code of "angular"
 constexpr double kMaxSupportThreshold = 0.5;
+// select_by_support: a candidate this close to the search's pose (pose_distance_deg; the challengers'
+// distinct-basin distance, RansacOptions::challenger_distance) is another estimate of the same pose,
+// not an alternative: a support count cannot rank two estimates of one pose (a noisier linear solve
+// wins by one match as often as not), and the ML stage starts from what this choice returns
+constexpr double kSameBasinDeg = 1.0;
 
 bool is_rotation(const Mat3& R) {
   return R.allFinite() && (R.transpose() * R - Mat3::Identity()).cwiseAbs().maxCoeff() <= 1e-6 && R.determinant() >= 0.0;
@@ -225,6 +231,7 @@ Pose select_by_support(const Pose& pose0, const Points& P, double tau) {
   }
   int best = 0, best_sup = -1;
   for (size_t k = 0; k < cand.size(); ++k) {
+    if (k > 0 && !(pose_distance_deg(cand[k], base) >= kSameBasinDeg)) continue;
     const int s = support_count(cand[k], P, thr);
     if (s > best_sup) {
       best_sup = s;

@@ -43,8 +43,10 @@ Pose polish_candidate(const Pose& pose, const Points& P, double tau);
 
 // The default method's pose-only choice (poseonly.robust.default.select_by_support): the RANSAC pose
 // re-identified on its Sampson inliers (< tau), the 18 LiRP candidates of those inliers and, when
-// plausible, the polished homography twin; the candidate with the most cheirality-consistent support
-// at min(tau, 0.5) if it beats the re-identified pose's, else that pose. Fewer than 6 inliers: `pose`.
+// plausible, the polished homography twin; among the candidates at least 1 deg (pose_distance_deg) from
+// the re-identified pose (other basins: the twin, other cheirality), the one with the most
+// cheirality-consistent support at min(tau, 0.5) if it beats the re-identified pose's, else that pose.
+// Fewer than 6 inliers: `pose`.
 Pose select_by_support(const Pose& pose, const Points& P, double tau);
 
 }  // namespace poseonly

@@ -231,7 +231,13 @@ class PoseonlyOptions(CommonOptions):
     adaptive_threshold: bool = _opt(True, "bool")
     noise_factor: float = _opt(2.5, "real", lo=0.0, lo_open=True)
     lo: str = _opt("sampson", "str", choices=("lirp", "sampson"))
-    final: str = _opt("ml", "str", choices=("ml", "ligt"))
+    final: str = _opt(
+        "ml",
+        "str",
+        "the final stage: the ML refinement; 'ligt' LO at a noise-matched threshold + angular LiGTopt (the earlier "
+        "default); 'cauchy' PoseLib's: Sampson LM with a Cauchy loss at the threshold on the inliers (a study: worse on the real pairs)",
+        choices=("ml", "ligt", "cauchy"),
+    )
     ml_range: float = _opt(3.0, "real", lo=1.0, hi=100.0, lo_open=True)
     ml_tails: str = _opt(
         "student",

@@ -6,11 +6,13 @@ from __future__ import annotations
 import numpy as np
 
 from poseonly.analysis import plausible_twin, polish, support
-from poseonly.geometry import essential_from_pose
+from poseonly.geometry import essential_from_pose, rotation_error_deg
 from poseonly.identify import identify_poses
 from poseonly.residuals import v_sampson
 from poseonly.solvers.lirp import lirp_batch
 from poseonly.twin import homography_twin
+
+SAME_BASIN_DEG = 1.0
 
 
 def select_by_support(R, t, f1, f2, tau):
@@ -31,6 +33,11 @@ def select_by_support(R, t, f1, f2, tau):
         cR.append(Rt[None])
         ct.append(tt[None])
     cRa, cta = np.concatenate(cR), np.concatenate(ct)
+    # candidates within 1 deg of the re-identified pose (max of the rotation and translation angles)
+    # are estimates of the same pose, not alternatives
+    far = np.maximum(rotation_error_deg(R[None], cRa), np.degrees(np.arccos(np.clip(cta @ t / np.linalg.norm(cta, axis=1), -1, 1)))) >= SAME_BASIN_DEG
+    far[0] = True
+    cRa, cta = cRa[far], cta[far]
     sup = support(cRa, cta, f1, f2, tau).sum(axis=1)
     k = int(np.argmax(sup))
     return (cRa[k], cta[k]) if sup[k] > inl.sum() else (R, t)

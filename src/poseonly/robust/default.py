@@ -197,6 +197,8 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
        the degrees of freedom by the profile likelihood (0: the scales explain nothing); the inliers
        and the status analysis keep the Gaussian mixture without the scales;
        ``final="ligt"`` (the earlier default): LO at a noise-matched threshold, then angular LiGTopt;
+       ``final="cauchy"`` (PoseLib's final step, for comparisons): Sampson LM with a Cauchy loss at
+       ``tau`` on the matches within ``tau`` of the chosen pose;
     4. (``final="ml"``, opt-in: ``research_noise > 0``) when the noise scale (EM's sigma, or its
        start where EM shrank onto a few matches) exceeds ``research_noise * tau`` (the matches are
        noisier than the threshold assumes: at 1 px on 1 px noise the search scores a third of the
@@ -218,6 +220,16 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
         Rv, tv = local_optimization(np.asarray(r.stats["rival_R"]), np.asarray(r.stats["rival_t"]), f1, f2, tau, o)
         diag.update(rival_R=Rv, rival_t=tv, rival_distance=float(o.rival_distance))
     R, t = select_by_support(r.R, r.t, f1, f2, tau)
+    if o.final == "cauchy":
+        diag["tau_effective"] = tau
+        if o.refine:
+            inl = v_sampson(R, t, f1, f2) < tau
+            if np.count_nonzero(inl) >= 6:
+                c = np.ascontiguousarray
+                Rc, tc, _ = _core.refine_sampson(c(R), c(t), c(f1[inl]), c(f2[inl]), None, loss="cauchy", loss_scale=float(tau), max_iterations=100, tol=1e-12)
+                if np.all(np.isfinite(Rc)) and np.all(np.isfinite(tc)):
+                    R, t = Rc, tc
+        return R, t, None, r.num_iterations, diag
     if o.final == "ml":
         diag["tau_effective"] = tau
         iterations = r.num_iterations
