@@ -287,6 +287,9 @@ PRECISION_IRLS = 5  # Cauchy-weighted Kabsch rounds of the test's rotation refit
 # ... on at least this many matches (medians of fewer, a third of them outliers, reached 20-32 on pure
 # rotations of 60 matches at 50 % outliers)
 PRECISION_MIN_MATCHES = 50
+# a pose inlier is evidence of a translation only beyond this many noise sigmas of the rotation's
+# 2-D residual as well (far_angle: P(chi^2_2 > 5.3^2) ~ 1e-6)
+FAR_SIGMAS = 5.3
 CAUCHY_C = 2.385  # the Cauchy loss's scale in noise sigmas (95 % efficiency at the Gaussian)
 # ... and only where the noise is resolved: the pose's robust noise scale at most this fraction of the
 # threshold (at a threshold near the noise the band truncates e and inflates the ratio)
@@ -324,6 +327,23 @@ def rotation_chance_rate(R, f1, f2, tau) -> float:
     chord2 = (2.0 * np.sin(0.5 * ROTATION_THRESHOLD_FACTOR * tau)) ** 2
     hits = _core.rotation_chance_count(_c(R), _c(f1), _c(f2), perms, float(chord2))
     return float((hits + 1) / (perms.size + 2))
+
+
+def far_angle(v_pose, tau) -> float:
+    """The angle from a rotation-only model beyond which a pose inlier is evidence of a translation:
+    ``EXTRA_FACTOR`` rotation thresholds, or, where the matches are noisier than the threshold
+    assumes, :data:`FAR_SIGMAS` noise sigmas of the rotation's residual (``sqrt(2)`` times the pose's
+    robust Sampson scale on its band, ``v_pose (n,)``; the noise tail beyond that holds ~1e-6 of the
+    inliers). At 1 px noise and the 1 px default the noise tail beyond 4 tau is ~2 % of the inliers,
+    which the count test took for a translation (pure rotations of 1500 matches, 22-35 of 40 `ok`)."""
+    far = EXTRA_FACTOR * ROTATION_THRESHOLD_FACTOR * tau
+    if v_pose is None:
+        return far
+    band = v_pose < PRECISION_BAND * tau
+    if np.count_nonzero(band) < PRECISION_MIN_MATCHES:
+        return far
+    sigma = float(np.sqrt(np.median(v_pose[band] ** 2) / CHI2_1_MEDIAN))
+    return max(far, FAR_SIGMAS * np.sqrt(2.0) * sigma)
 
 
 def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float]:
@@ -389,7 +409,7 @@ def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) ->
     # the pose's extra inliers: those clearly off the rotation (beyond EXTRA_FACTOR times its
     # threshold: matches in the noise tail of the rotation are not evidence of a translation),
     # among the matches that far off (s = 0: they are in no sample)
-    far = ~_rotation_inliers(Rr[None], f1, f2, EXTRA_FACTOR * ROTATION_THRESHOLD_FACTOR * tau)[0]
+    far = ~_rotation_inliers(Rr[None], f1, f2, far_angle(v_pose, tau))[0]
     extra = int(np.count_nonzero(inl & far))
     nfa_tr = log10_nfa(extra, int(far.sum()), p_pose, num_pose_tests, 0)
     frac = float(np.count_nonzero(inl & rin) / max(int(inl.sum()), 1))
