@@ -37,8 +37,9 @@ MIN_PUTATIVE = 30
 # review fixes; 7: the search's challengers; 8: their review fixes; 9: the search's LO on at most 1000
 # points, poses moved at rounding level; 10: the Nister five-point solver, other search paths on a few
 # pairs; 11: matches sharing a keypoint scored once in the search; 12: rivals and challengers ranked by
-# exact costs)
-TWO_VIEW_CACHE_TAG = 12
+# exact costs; 13: the pose-only choice keeps the search's pose against candidates within 1 deg, the
+# pure-rotation precision test)
+TWO_VIEW_CACHE_TAG = 13
 
 
 @dataclass(frozen=True)
