@@ -56,6 +56,7 @@ def test_pure_rotation_leaves_no_parallax(camera, outliers):
         assert r.status == "pure_rotation", r.message
         assert r.diagnostics["parallax_ratio"] < 0.3 * PRECISION_RATIO
         assert r.diagnostics["parallax_noise"] < 0.5
+        assert poseonly.rotation_error_deg(sc.R, r.R) < (0.03 if camera == "wide" else 0.06)
 
 
 @pytest.mark.parametrize("camera", ["wide", "pinhole"])

