@@ -280,3 +280,31 @@ def test_every_final_stage_refines_to_the_noise_level(final):
     assert r.status == "ok", r.message
     assert poseonly.rotation_error_deg(sc.R, r.R) < 0.3
     assert np.count_nonzero(r.inliers & sc.inliers) >= 0.9 * np.count_nonzero(sc.inliers)
+
+
+@pytest.mark.parametrize("camera", ["wide", "pinhole"])
+def test_noise_free_pure_rotation_and_identical_images_stay_pure_rotations(camera):
+    """Without noise the precision test's ratio is one of two rounding errors: a parallax below
+    PRECISION_MIN_PARALLAX of the threshold counts as none (a review found noise-free pinhole
+    rotations and an image matched with itself called ok with a random t)."""
+    for seed in range(3):
+        sc = make_scene(300, "rotation", camera=camera, noise_px=0.0, seed=seed)
+        r = estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=seed)
+        assert r.status == "pure_rotation", (seed, r.message)
+    sc = make_scene(300, camera=camera, noise_px=0.3, seed=5)
+    r = estimate_relative_pose(sc.u1, sc.u1.copy(), sc.K, seed=0)
+    assert r.status == "pure_rotation", r.message
+    assert poseonly.rotation_error_deg(np.eye(3), r.R) < 1e-6
+
+
+def test_parallax_ratio_edge_cases():
+    from poseonly.analysis import PRECISION_MIN_MATCHES, parallax_ratio
+
+    sc = make_scene(200, "rotation", camera="pinhole", noise_px=0.0, seed=1)
+    ratio, noise, R = parallax_ratio(sc.R, sc.f1, sc.f2, np.zeros(200), 1e-3)
+    assert ratio == 0.0 and noise == 0.0 and R is not None
+    ratio, noise, R = parallax_ratio(sc.R, sc.f1[:10], sc.f2[:10], np.zeros(10), 1e-3)
+    assert 10 < PRECISION_MIN_MATCHES and np.isnan(ratio) and R is None
+    sc = make_scene(200, camera="pinhole", noise_px=0.0, seed=1)  # parallax, no noise
+    ratio, _, _ = parallax_ratio(sc.R, sc.f1, sc.f2, np.zeros(200), 0.5)
+    assert ratio == np.inf

@@ -27,7 +27,9 @@ __all__ = [
     "kabsch",
     "log10_nfa",
     "log_binom_sf",
+    "far_angle",
     "parallax_deg",
+    "parallax_ratio",
     "planar_twin",
     "plausible_twin",
     "polish",
@@ -287,6 +289,9 @@ PRECISION_IRLS = 5  # Cauchy-weighted Kabsch rounds of the test's rotation refit
 # ... on at least this many matches (medians of fewer, a third of them outliers, reached 20-32 on pure
 # rotations of 60 matches at 50 % outliers)
 PRECISION_MIN_MATCHES = 50
+# a median parallax below this fraction of the threshold is rounding, not geometry (noise-free data:
+# the ratio of two rounding errors means nothing)
+PRECISION_MIN_PARALLAX = 1e-4
 # a pose inlier is evidence of a translation only beyond this many noise sigmas of the rotation's
 # 2-D residual as well (far_angle: P(chi^2_2 > 5.3^2) ~ 1e-6)
 FAR_SIGMAS = 5.3
@@ -348,11 +353,12 @@ def far_angle(v_pose, tau) -> float:
 
 def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float, np.ndarray | None]:
     """Precision test of a rotation-only model against a pose with Sampson errors ``v_pose (n,)``:
-    ``(ratio, noise)``, the median parallax component over the median squared Sampson error on the
+    ``(ratio, noise, R)``, the median parallax component over the median squared Sampson error on the
     matches with ``v_pose < PRECISION_BAND * tau`` that the rotation does not put clearly off (within
     ``EXTRA_FACTOR`` rotation thresholds), the pose's robust noise scale there over ``tau`` (both NaN
-    with fewer than :data:`PRECISION_MIN_MATCHES` such matches, or where undefined: noise-free pure
-    rotations) and the refitted rotation (``None`` with too few matches).
+    with fewer than :data:`PRECISION_MIN_MATCHES` such matches; the ratio is 0 where the median
+    parallax is below :data:`PRECISION_MIN_PARALLAX` ``* tau``, i.e. rounding, and inf where there is
+    parallax but no noise) and the refitted rotation (``None`` with too few matches).
 
     A nested-model comparison with the noise scale cancelled: the rotation explains a match with the
     2-D residual ``r = R f1 - f2`` (geometric distance ``|r|^2 / 2`` with equal noise in both images),
@@ -378,10 +384,14 @@ def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float, np.ndarray
             w = 1.0 / (1.0 + 0.5 * np.sum(d * d, axis=1) / (CAUCHY_C**2 * s2))
             R = kabsch(a * w[:, None], b)
     d = a @ R.T - b
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = float(np.median(0.5 * np.sum(d * d, axis=1) - e2)) / med_e2
-        noise = float(np.sqrt(s2)) / float(tau)
-    return ratio, noise, R
+    med_par = float(np.median(0.5 * np.sum(d * d, axis=1) - e2))
+    if not med_par > (PRECISION_MIN_PARALLAX * tau) ** 2:
+        ratio = 0.0  # no parallax beyond rounding (noise-free pure rotations, identical images)
+    elif med_e2 > 0.0:
+        ratio = med_par / med_e2
+    else:
+        ratio = float("inf")  # parallax without noise (noise-free scenes with a translation)
+    return ratio, float(np.sqrt(s2)) / float(tau), R
 
 
 def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) -> dict[str, Any]:

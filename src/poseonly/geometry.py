@@ -218,7 +218,8 @@ def solve_intrinsics(K: np.ndarray, h: np.ndarray) -> np.ndarray:
     (measured: 26 % more CPU than wall time, and the threads compete with a user's own thread pool).
     """
     # the order and the reciprocals of LAPACK's (OpenBLAS's) triangular solve, so the rays are those
-    # np.linalg.solve gave before, bit for bit
+    # np.linalg.solve gave before, bit for bit where K's lower-left entries are exactly 0 (check_intrinsics
+    # admits up to 1e-9 of K's scale there, which this ignores: a relative change below 1e-9)
     r2 = h[..., 2] * (1.0 / K[2, 2])
     b1 = h[..., 1] - K[1, 2] * r2
     b0 = h[..., 0] - K[0, 2] * r2
@@ -264,7 +265,7 @@ def as_bearings(x: np.ndarray, K: np.ndarray | None = None, name: str = "x") -> 
         m = np.max(np.abs(a), axis=1) if len(a) else np.zeros(0)
         if np.all(m < 1e150):
             h = np.concatenate([a, np.ones((len(a), 1))], axis=1)
-            rays = solve_intrinsics(K, h)  # as bearings_from_pixels, bit for bit
+            rays = solve_intrinsics(K, h)  # as bearings_from_pixels
         else:
             rays = _pixels_to_rays(a, K)
         if not np.all(np.isfinite(rays)):

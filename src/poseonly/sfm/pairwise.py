@@ -38,8 +38,9 @@ MIN_PUTATIVE = 30
 # points, poses moved at rounding level; 10: the Nister five-point solver, other search paths on a few
 # pairs; 11: matches sharing a keypoint scored once in the search; 12: rivals and challengers ranked by
 # exact costs; 13: the pose-only choice keeps the search's pose against candidates within 1 deg, the
-# pure-rotation precision test; 14: a pure rotation's R refitted robustly)
-TWO_VIEW_CACHE_TAG = 14
+# pure-rotation precision test; 14: a pure rotation's R refitted robustly; 15: the precision test's
+# rounding floor on noise-free data)
+TWO_VIEW_CACHE_TAG = 15
 
 
 @dataclass(frozen=True)

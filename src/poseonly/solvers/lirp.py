@@ -117,16 +117,16 @@ def lirp_checked(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None, rank_tol:
     """:func:`lirp` on input already validated (unit bearings ``(n, 3)`` float64 C-contiguous, ``n >= 6``,
     weights ``(n,)`` finite and non-negative or ``None``; ``0 < rank_tol < 1``): the public
     :func:`poseonly.lirp` validates once and calls this. One core call (``_core.lirp_one``); ``R, t, E``
-    are views of the best candidate's rows of ``candidates_R/t/E``."""
+    are copies of the best candidate's rows of ``candidates_R/t/E``."""
     cE, cR, ct, valid, cost, s, best, d_min, d_min_c2, rank = _core.lirp_one(f1, f2, w, True, rank_tol)
     status = "ok" if rank >= 6 else "degenerate"
     notes = []
     if status == "degenerate":
         notes.append(f"epipolar matrix A has rank {rank} < 6: the correspondences do not determine the pose")
     return LiRPResult(
-        R=cR[best],
-        t=ct[best],
-        E=cE[best],
+        R=cR[best].copy(),
+        t=ct[best].copy(),
+        E=cE[best].copy(),
         candidates_E=cE,
         candidates_R=cR,
         candidates_t=ct,
