@@ -63,3 +63,13 @@ def test_pixels_to_rays_match_a_dense_solve():
         h = np.column_stack([rng.uniform(-100, 3100, (500, 2)), np.ones(500)])
         np.testing.assert_allclose(solve_intrinsics(Kn, h), np.linalg.solve(Kn, h.T).T, rtol=1e-14, atol=1e-17)
         np.testing.assert_allclose(solve_intrinsics(Kn, h[None]), solve_intrinsics(Kn, h)[None], rtol=0, atol=0)
+
+
+def test_bearings_with_nan_and_a_K_report_the_nan_first():
+    from poseonly.geometry import as_bearings
+
+    a = np.array([[0.0, 0.0, 1.0], [np.nan, 0.0, 1.0], [0.1, 0.2, 1.0]])
+    with pytest.raises(InputError, match="NaN or inf"):
+        as_bearings(a, np.eye(3), "f1")
+    with pytest.raises(InputError, match="a K was given"):
+        as_bearings(np.nan_to_num(a), np.eye(3), "f1")

@@ -272,6 +272,7 @@ def as_bearings(x: np.ndarray, K: np.ndarray | None = None, name: str = "x") -> 
             raise InputError(f"{name}: K^-1 [u, v, 1] is not finite for {int(np.count_nonzero(~np.isfinite(rays).all(1)))} rows")
         return _unit_rows(rays, name)
     if K is not None:
+        _check_finite_2d(a, name)  # the NaN error first, as for every shape
         raise InputError(f"{name} has shape (n, 3) (bearing vectors) but a K was given; pass pixels (n, 2) with K")
     return _unit_rows(a, name)
 
