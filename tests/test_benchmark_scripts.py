@@ -22,3 +22,16 @@ def test_benchmark_script_compiles_and_answers_help(script: Path, tmp_path: Path
     r = subprocess.run([sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
     assert "usage" in r.stdout.lower()
+
+
+def test_hard_cases_benchmark_runs(capsys):
+    """benchmarks/hard_cases.py end to end on one scene of one case (PoseLib is its anchor)."""
+    pytest.importorskip("poselib")
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    try:
+        import hard_cases
+    finally:
+        sys.path.pop(0)
+    assert hard_cases.main(["--seeds", "1", "--cases", "second_motion", "--option", "challengers=2"]) == 0
+    out = capsys.readouterr().out
+    assert "second_motion" in out and "PoseLib 1 px median" in out and "ratio" in out
