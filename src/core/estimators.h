@@ -61,11 +61,7 @@ class RelativePoseEstimator {
   // the same with kChiralPenalty where the point is behind either camera (sampson_chiral)
   void residual_block_chiral(const Terms& T, int i0, int m, double* out) const {
     sampson_block(T.E, soa_, i0, m, out);
-    for (int k = 0; k < m; ++k) {
-      double h, hp;
-      depth_numerators(T.R, T.t, P_.a(i0 + k), P_.b(i0 + k), &h, &hp);
-      if (!(h > 0.0 && hp > 0.0)) out[k] = kChiralPenalty;
-    }
+    chiral_block(T.R, T.t, soa_, i0, m, out);
   }
   double success_probability(double r) const { return std::pow(r, sample_size()); }
   // max(rotation angle, angle between the translation directions), degrees

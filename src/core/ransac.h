@@ -184,7 +184,9 @@ struct MultiMsacScorer {
   template <bool Chiral, class Est, class Model>
   double pass(const Est& est, const Model& m, double bail, double* terms = nullptr) const {
     const auto T = est.terms(m);
-    const double t2[3] = {thr * thr, 0.25 * thr * thr, 0.0625 * thr * thr};
+    // min(v2, t2 / s) / (t2 / s) = s min(v2, t2 / s) / t2 (s = 1, 4, 16: exact scalings): one
+    // multiplication by 1 / t2 per point instead of three divisions
+    const double t2 = thr * thr, t2b = 0.25 * t2, t2c = 0.0625 * t2, inv = 1.0 / t2;
     double c = 0.0;
     const int n = est.num_data();
     double v[kScoreBlock];
@@ -193,7 +195,7 @@ struct MultiMsacScorer {
       scored_residuals<Chiral>(est, T, i0, b, v);
       for (int k = 0; k < b; ++k) {  // vectorised: each point's three normalised truncated terms
         const double v2 = std::isfinite(v[k]) ? v[k] * v[k] : std::numeric_limits<double>::infinity();
-        v[k] = std::min(v2, t2[0]) / t2[0] + std::min(v2, t2[1]) / t2[1] + std::min(v2, t2[2]) / t2[2];
+        v[k] = (std::min(v2, t2) + 4.0 * std::min(v2, t2b) + 16.0 * std::min(v2, t2c)) * inv;
       }
       if (terms) std::copy(v, v + b, terms + i0);
       for (int k = 0; k < b; ++k) {
@@ -393,17 +395,23 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       // a rival is scored up to kRivalCostFactor times the best cost at most (a model that far behind
       // cannot rival the result; without the cap every model is scored in full until a rival exists)
       const double bound = track ? std::min(st.rival_cost, kRivalCostFactor * st.cost) : st.cost;
+      // the cost is needed exactly up to the largest bound at which the loop could keep the model: the
+      // best's cost, and for a model far enough from the best to be a rival or a challenger their
+      // bounds (a model of the best's basin can only replace the best: scored to its cost, it bails
+      // out earlier and skips the exact pass of a scorer that has one, with the same results)
+      const double dist = have && (track || K) ? est.distance(*best, m) : std::numeric_limits<double>::infinity();
+      double exact_to = st.cost;
+      if (track && dist > opt.rival_distance) exact_to = std::max(exact_to, bound);
+      if (K && dist > dch) exact_to = std::max(exact_to, challenger_bound());
       double c;
       if constexpr (HasPlainCost<Scorer>::value) {
         // a scorer with a costlier exact pass (ChiralScorer): the plain cost, a lower bound, first;
         // the exact one for a candidate best, rival or challenger, up to their largest bound, so that
         // every model the loop keeps is ranked by its exact cost, not by the plain bound or a partial sum
-        const double cb = challenger_bound();
-        const double exact_to = std::max({track ? bound : 0.0, st.cost, cb});
         const double cp = scorer.plain(est, m, exact_to);
         c = cp <= exact_to ? scorer.cost_after_plain(est, m, exact_to, cp) : cp;
       } else {
-        c = scorer.cost(est, m, std::max({bound, st.cost, challenger_bound()}));
+        c = scorer.cost(est, m, exact_to);
       }
       if (!(c < st.cost)) {
         if (track && c <= bound && c < st.rival_cost && est.distance(*best, m) > opt.rival_distance) {

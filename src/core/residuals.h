@@ -75,6 +75,10 @@ inline double chord2_terms(const Mat3& R, double x1, double y1, double z1, doubl
 
 void chord2_block(const Mat3& R, const SoaPoints& S, int i0, int m, double* out);
 
+// out[k] = kChiralPenalty for the points of [i0, i0 + m) that (R, t) puts behind either camera (the
+// signs of depth_numerators, computed with the same operations), out[k] kept otherwise
+void chiral_block(const Mat3& R, const Vec3& t, const SoaPoints& S, int i0, int m, double* out);
+
 // Pose-only depth numerators h^T t = (R f1 x f2).(f2 x t) and h'^T t = (R f1 x f2).(R f1 x t)
 // (the equation after Eq. 7): both positive iff the point is in front of both cameras.
 inline void depth_numerators(const Mat3& R, const Vec3& t, const Vec3& f1, const Vec3& f2, double* h, double* hp) {
