@@ -239,6 +239,13 @@ class PoseonlyOptions(CommonOptions):
         choices=("ml", "ligt", "cauchy"),
     )
     ml_range: float = _opt(3.0, "real", lo=1.0, hi=100.0, lo_open=True)
+    ml_start: str = _opt(
+        "search",
+        "str",
+        "where the ML stage's EM starts: the chosen pose ('search'), its least-squares refit on every match within the"
+        " mixture's range ('band'), or both, the fixed point of the larger full-range mixture likelihood kept ('both')",
+        choices=("search", "band", "both"),
+    )
     ml_tails: str = _opt(
         "student",
         "str",

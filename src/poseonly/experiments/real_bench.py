@@ -242,6 +242,9 @@ METHODS: dict[str, MethodFn] = {
     # the search scored by plain MSAC at tau instead of the multi-scale sum (tau, tau/2, tau/4)
     "poseonly-msac": ours(use_scores=True, use_scales=True, scoring="msac"),
     "poseonly-cauchy": ours(use_scores=True, use_scales=True, final="cauchy"),
+    # the ML stage's EM started from the least-squares refit of the matches within its range, or from both starts
+    "poseonly-mlband": ours(use_scores=True, use_scales=True, ml_start="band"),
+    "poseonly-mlboth": ours(use_scores=True, use_scales=True, ml_start="both"),
     # every match scored, also those sharing a keypoint with a better one (the default before the ninth session)
     "poseonly-nokp": ours(use_scores=True, use_scales=True, keypoint_once=False),
     # the opt-in second search at 3 sigma (docs/RESULTS.md section 2)

@@ -154,14 +154,70 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
     )
 
 
+FULL_RANGE = 0.1  # radians: the outlier range of the full-range likelihood that compares EM fixed points
+
+
+def full_range_log_likelihood(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, T: float, steps: int = 200) -> float:
+    """max over (sigma, g) of sum_i log(g N+(r_i; sigma) + (1 - g) / FULL_RANGE), r_i the Sampson errors
+    of every match clipped at FULL_RANGE (EM from the MAD and the share of the errors below T): one
+    likelihood for every pose, unlike the ML stage's, whose mixture lives on the errors below its range."""
+    r = np.minimum(v_sampson(R, t, f1, f2), FULL_RANGE)
+    near = r < T
+    if np.count_nonzero(near) < 6:
+        return -np.inf
+    s = max(1.4826 * float(np.median(r[near])), 1e-12)
+    g = min(max(float(np.mean(near)), 1e-9), 1 - 1e-9)
+    for _ in range(steps):
+        fin = np.sqrt(2 / np.pi) / s * np.exp(-0.5 * (r / s) ** 2)
+        p = g * fin / (g * fin + (1 - g) / FULL_RANGE)
+        sp = float(np.sum(p))
+        if not sp > 0:
+            break
+        s = max(float(np.sqrt(np.sum(p * r * r) / sp)), 1e-12)
+        g = min(max(sp / len(r), 1e-9), 1 - 1e-9)
+    fin = np.sqrt(2 / np.pi) / s * np.exp(-0.5 * (r / s) ** 2)
+    return float(np.sum(np.log(g * fin + (1 - g) / FULL_RANGE)))
+
+
+def _ml_from(R, t, f1, f2, T, student, scales, start):
+    def run(R0, t0):
+        return _core.ml_refine(R0, t0, f1, f2, T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student, scales=scales)
+
+    if start == "search":
+        return run(R, t)
+    band = v_sampson(R, t, f1, f2) < T
+    Rb, tb = R, t
+    if np.count_nonzero(band) >= 6:
+        c = np.ascontiguousarray
+        Rr, tr, _ = _core.refine_sampson(c(R), c(t), c(f1[band]), c(f2[band]), None, loss="linear", loss_scale=1.0, max_iterations=100, tol=1e-14)
+        if np.all(np.isfinite(Rr)) and np.all(np.isfinite(tr)):
+            Rb, tb = Rr, tr
+    mb = run(Rb, tb)
+    if start == "band":
+        return mb
+    ms = run(R, t)
+    ok = [m for m in (ms, mb) if m["rounds"] > 0 and np.all(np.isfinite(m["R"]))]
+    if len(ok) < 2:
+        return ms if ok == [] or ok[0] is ms else mb
+    return max(ok, key=lambda m: full_range_log_likelihood(m["R"], m["t"], f1, f2, T))
+
+
 def _ml_stage(
-    R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float, T: float, student: bool = True, scales: np.ndarray | None = None
+    R: np.ndarray,
+    t: np.ndarray,
+    f1: np.ndarray,
+    f2: np.ndarray,
+    tau: float,
+    T: float,
+    student: bool = True,
+    scales: np.ndarray | None = None,
+    start: str = "search",
 ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]] | None:
     """The ML pose from the search's ``(R, t)`` (outlier range ``T``), or None when EM did not run
     or its pose loses more than ``1 - ML_KEEP_TOLERANCE`` of the cheirality-aware MSAC score at the
     larger of ``tau`` and the mixture's decision threshold (the truncated score at a tight tau
     favours the pose fitted to that truncation)."""
-    m = _core.ml_refine(R, t, f1, f2, T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student, scales=scales)
+    m = _ml_from(R, t, f1, f2, T, student, scales, start)
     if not (m["rounds"] > 0 and m["decision_gauss"] > 0 and np.all(np.isfinite(m["R"]))):
         return None
     thr = max(tau, float(m["decision_gauss"]))
@@ -236,7 +292,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
         if o.refine:
             T = float(o.ml_range) * tau
             student = o.ml_tails == "student"
-            best = _ml_stage(R, t, f1, f2, tau, T, student, noise_scales)
+            best = _ml_stage(R, t, f1, f2, tau, T, student, noise_scales, o.ml_start)
             # noise scale: the Gaussian mixture's sigma at the ML pose, or EM's start (the MAD at the
             # search's pose) where EM shrank sigma onto the few matches a pose can fit exactly
             sig = max(best[2]["sigma_gauss"], best[2]["sigma_start"]) if best is not None else 0.0
@@ -250,7 +306,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                 diag["num_hypotheses"] += r2.num_iterations * MAX_ROOTS_PER_SAMPLE + r2.num_lo + FINAL_CANDIDATES
                 R2, t2 = select_by_support(r2.R, r2.t, f1, f2, tau2)
                 diag.update(research_threshold=tau2, tau_effective=tau2)
-                second = _ml_stage(R2, t2, f1, f2, tau2, float(o.ml_range) * tau2, student, noise_scales)
+                second = _ml_stage(R2, t2, f1, f2, tau2, float(o.ml_range) * tau2, student, noise_scales, o.ml_start)
                 R, t, best = R2, t2, second
             if best is not None:
                 R, t, m = best
