@@ -32,6 +32,10 @@ struct MlOptions {
   double pose_tol = 0.0;     // stop when a round moves R (angle) and t by at most this (0: all rounds)
   double sigma_floor = 1e-7; // radians (~1e-4 px at f = 1000)
   bool student = true;       // Student-t inliers, nu chosen by the data (inf included); false: Gaussian (MLESAC)
+  // EM starts from the least-squares Sampson refit of the matches within T of the given pose (a wide
+  // uniform kernel first, as deterministic annealing starts EM): from the search's pose, EM's fixed
+  // point keeps the outliers that pose's own fit pulled into the band (ml_refine.cpp, kBand*)
+  bool band_start = false;
 };
 
 struct MlResult {

@@ -77,6 +77,7 @@ def ml_refine(
     pose_tol: float = 0.0,
     student: bool = True,
     scales: NDArray[np.float64] | None = None,
+    band_start: bool = False,
 ) -> dict[str, Any]: ...
 def gnc_ransac(
     f1: NDArray[np.float64],
