@@ -35,3 +35,15 @@ def test_hard_cases_benchmark_runs(capsys):
     assert hard_cases.main(["--seeds", "1", "--cases", "second_motion", "--option", "challengers=2"]) == 0
     out = capsys.readouterr().out
     assert "second_motion" in out and "PoseLib 1 px median" in out and "ratio" in out
+
+
+def test_ml_collapse_survey_runs(capsys):
+    """benchmarks/ml_collapse_survey.py end to end on two scenes of one cell."""
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    try:
+        import ml_collapse_survey
+    finally:
+        sys.path.pop(0)
+    assert ml_collapse_survey.main(["--scenes", "2", "--cells", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "wide normal 80%: collapsed" in out and "of 2" in out

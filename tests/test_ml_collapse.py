@@ -31,13 +31,69 @@ def test_the_collapse_this_guards_against_exists():
     # the raw stage from the search's pose collapses on that scene (so the test above tests the guard)
     sc = make_scene(300, camera="wide", noise_px=1.0, outlier_fraction=0.8, seed=3)
     o = PoseonlyOptions()
-    tau = 1.0 / 800.0
+    tau = o.threshold_px / 800.0
+    T = o.ml_range * tau
     r = D._search(sc.f1, sc.f2, tau, o, None)
     R, t = D.select_by_support(r.R, r.t, sc.f1, sc.f2, tau)
-    m = _core.ml_refine(R, t, sc.f1, sc.f2, 3 * tau, rounds=D.ML_ROUNDS, pose_tol=D.ML_POSE_TOL, student=True)
-    assert D._collapsed(m)
-    mb = _core.ml_refine(R, t, sc.f1, sc.f2, 3 * tau, rounds=D.ML_ROUNDS, pose_tol=D.ML_POSE_TOL, student=True, band_start=True)
-    assert not D._collapsed(mb)
+    m = _core.ml_refine(R, t, sc.f1, sc.f2, T, rounds=D.ML_ROUNDS, pose_tol=D.ML_POSE_TOL, student=True)
+    assert D._collapsed(m, sc.f1, sc.f2, T)
+    mb = _core.ml_refine(R, t, sc.f1, sc.f2, T, rounds=D.ML_ROUNDS, pose_tol=D.ML_POSE_TOL, student=True, band_start=True)
+    assert not D._collapsed(mb, sc.f1, sc.f2, T)
+
+
+def test_an_exact_em_is_not_a_collapse():
+    # noise-free inliers: EM's sigma sits at its floor and the pose is exact; the pose's own errors are
+    # as small, so this is no collapse (a criterion against the chosen pose's scale would call it one)
+    sc = make_scene(300, camera="pinhole", noise_px=0.0, outlier_fraction=0.5, seed=2)
+    T = 3.0 / float(sc.K[0, 0])
+    m = _core.ml_refine(sc.R, sc.t / np.linalg.norm(sc.t), sc.f1, sc.f2, T, rounds=50, pose_tol=1e-12, student=True)
+    assert m["rounds"] > 0 and float(rotation_error_deg(sc.R, m["R"])) < 1e-6
+    assert not D._collapsed(m, sc.f1, sc.f2, T)
+
+
+def _fake(calls: list, collapse: dict[bool, bool]):
+    """A stand-in for _core.ml_refine: a run 'collapses' (sigma_gauss 0) as `collapse[band_start]` says."""
+
+    def ml_refine(R, t, f1, f2, T, rounds, pose_tol, student, scales, band_start):
+        calls.append(band_start)
+        return {
+            "R": np.eye(3),
+            "t": np.array([1.0, 0.0, 0.0]),
+            "rounds": 3,
+            "sigma_gauss": 0.0 if collapse[band_start] else 1.0,
+            "sigma_start": 1.0,
+            "band": band_start,
+        }
+
+    return ml_refine
+
+
+@pytest.mark.parametrize(
+    ("start", "collapse", "calls", "used"),
+    [
+        ("search", {False: False, True: False}, [False], False),
+        ("search", {False: True, True: False}, [False, True], True),
+        ("search", {False: True, True: True}, [False, True], None),
+        ("band", {False: False, True: False}, [True], True),
+        ("band", {False: False, True: True}, [True], None),
+        ("both", {False: True, True: False}, [False, True], True),
+        ("both", {False: False, True: True}, [False, True], False),
+    ],
+)
+def test_ml_start_control_flow(monkeypatch, start, collapse, calls, used):
+    seen: list = []
+    monkeypatch.setattr(D._core, "ml_refine", _fake(seen, collapse))
+    rng = np.random.default_rng(0)
+    f1 = rng.normal(size=(20, 3)) + [0.0, 0.0, 4.0]
+    f1 /= np.linalg.norm(f1, axis=1, keepdims=True)
+    f2 = f1 + 1e-5 * rng.normal(size=f1.shape)  # Sampson errors ~1e-5 for (I, x): all below T / 2
+    f2 /= np.linalg.norm(f2, axis=1, keepdims=True)
+    m = D._ml_from(np.eye(3), np.array([1.0, 0.0, 0.0]), f1, f2, 1e-3, True, None, start)
+    assert seen == calls
+    if used is None:
+        assert m["rounds"] == 0  # collapsed: not used
+    else:
+        assert m["rounds"] == 3 and m["band"] is used
 
 
 @pytest.mark.parametrize("camera", ["wide", "pinhole"])
@@ -56,11 +112,20 @@ def test_band_start_is_exact_without_noise(camera):
     assert float(np.degrees(np.arccos(np.clip(abs(m["t"] @ t), -1, 1)))) < 1e-5
 
 
-def test_ml_start_option_values():
+def test_ml_start_option_reaches_the_core(monkeypatch):
     sc = make_scene(300, camera="pinhole", noise_px=0.5, outlier_fraction=0.5, seed=2)
-    for start in ("search", "band", "both"):
+    real = _core.ml_refine
+    seen: list = []
+
+    def spy(*a, **k):
+        seen.append(bool(k.get("band_start", False)))
+        return real(*a, **k)
+
+    monkeypatch.setattr(D._core, "ml_refine", spy)
+    for start, want in (("search", [False]), ("band", [True]), ("both", [False, True])):
+        seen.clear()
         r = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, ml_start=start)
-        assert r.status == "ok"
-        assert float(rotation_error_deg(sc.R, r.R)) < 1.0
+        assert seen == want
+        assert r.status == "ok" and float(rotation_error_deg(sc.R, r.R)) < 1.0
     with pytest.raises(ValueError, match="ml_start"):
         estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, ml_start="truth")

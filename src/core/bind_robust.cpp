@@ -396,7 +396,7 @@ POSEONLY_BIND(robust) {
         "ML pose under a mixture of Student-t inlier (`student`: nu chosen by the data, inf included; else Gaussian) and uniform outlier Sampson errors "
         "(EM + weighted Sampson LM; outlier range `range`, radians; at most `rounds` rounds, ending early when a round moves the pose "
         "by at most `pose_tol`; `scales` (n,) > 0: relative noise scales, a match's inlier scale sigma (scale_i / median)^alpha, "
-        "alpha in {0, 1/2, 1} chosen with nu): dict R, t, sigma, nu, alpha, sigma_gauss, sigma_start, inlier_fraction, decision, decision_gauss (the Gaussian mixture's at the pose), rounds, log_likelihood, posterior (n,). band_start: EM starts from the least-squares Sampson refit of the matches within range of (R, t).");
+        "alpha in {0, 1/2, 1} chosen with nu): dict R, t, sigma, nu, alpha, sigma_gauss, sigma_start, inlier_fraction, decision, decision_gauss (the Gaussian mixture's at the pose), rounds, log_likelihood, posterior (n,). band_start: EM starts from the least-squares Sampson refit of the matches within min(range, 3 s0) of (R, t), s0 = 1.4826 median of the errors below range / 2.");
   m.def("gnc_ransac", &gnc_ransac, nb::arg("f1"), nb::arg("f2"), nb::arg("theta"), nb::arg("seed"), nb::arg("sample_size") = 30,
         nb::arg("max_iterations") = 50, nb::arg("adaptive") = false, nb::arg("confidence") = 0.99, nb::arg("gnc") = nb::dict(),
         "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats).");

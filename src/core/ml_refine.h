@@ -32,9 +32,9 @@ struct MlOptions {
   double pose_tol = 0.0;     // stop when a round moves R (angle) and t by at most this (0: all rounds)
   double sigma_floor = 1e-7; // radians (~1e-4 px at f = 1000)
   bool student = true;       // Student-t inliers, nu chosen by the data (inf included); false: Gaussian (MLESAC)
-  // EM starts from the least-squares Sampson refit of the matches within T of the given pose (a wide
-  // uniform kernel first, as deterministic annealing starts EM): from the search's pose, EM's fixed
-  // point keeps the outliers that pose's own fit pulled into the band (ml_refine.cpp, kBand*)
+  // EM starts from the least-squares Sampson refit of the matches within min(T, 3 s0) of the given
+  // pose, s0 = 1.4826 median of its errors below T / 2 (a wide uniform kernel first, as deterministic
+  // annealing starts EM; ml_refine.cpp, kBand*); unchanged start with fewer than 6 such matches
   bool band_start = false;
 };
 

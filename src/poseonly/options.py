@@ -242,8 +242,9 @@ class PoseonlyOptions(CommonOptions):
     ml_start: str = _opt(
         "search",
         "str",
-        "where the ML stage's EM starts: the chosen pose ('search'), its least-squares refit on every match within the"
-        " mixture's range ('band'), or both, the fixed point of the larger full-range mixture likelihood kept ('both')",
+        "where the ML stage's EM starts: the chosen pose ('search'; a collapsed EM restarts as 'band'), its least-squares"
+        " refit on the matches within 3 robust noise scales of it, at most the mixture's range ('band'), or both, the"
+        " fixed point of the larger full-range mixture likelihood kept ('both'); the last two are studies (docs/RESULTS_real.md)",
         choices=("search", "band", "both"),
     )
     ml_tails: str = _opt(

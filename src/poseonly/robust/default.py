@@ -34,11 +34,15 @@ ML_KEEP_TOLERANCE = 0.98
 # pose error) that ends them: 7-8 rounds on real pairs
 ML_ROUNDS = 50
 ML_POSE_TOL = 1e-6
-# EM has collapsed when the Gaussian mixture's sigma at its pose is below this fraction of its start
-# (the MAD of the errors below T / 2 at the chosen pose): the posteriors concentrated on a few matches
-# that the pose's five degrees of freedom fit almost exactly (an unbounded maximum of the mixture
-# likelihood, not the ML pose); seen on 3-5 % of synthetic pairs at 80 % outliers, sigma at 2-17 % of its start
+# EM has collapsed when the Gaussian mixture's sigma at its pose is below this fraction of the robust
+# scale of that pose's errors (1.4826 median of those below T / 2, as EM's start): the posteriors
+# concentrated on a few matches that the pose's five degrees of freedom fit almost exactly (an
+# unbounded maximum of the mixture likelihood, not the ML pose), while the pose's other inliers keep
+# their errors. Measured on the synthetic scenes at 80 % outliers (60 per cell, 1 px noise): 2-4 per
+# cell at 0.03-0.17 of that scale, the others at 0.24-1.65 (median ~1); the pair that showed it, at
+# 1e-4 (sigma at its floor on 9 matches, `tests/test_ml_collapse.py`)
 ML_COLLAPSE = 0.2
+ML_MIN_NEAR = 6  # the core's kMinInliers
 # the repeated search scores at this many noise scales (MSAC's truncation near 3 sigma keeps ~99 % of
 # Gaussian inliers; the first search's tau is the user's, meant for real matches' ~0.3 px noise)
 RESEARCH_SIGMAS = 3.0
@@ -170,7 +174,7 @@ def full_range_log_likelihood(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: 
     near = r < T
     if np.count_nonzero(near) < 6:
         return -np.inf
-    s = max(1.4826 * float(np.median(r[near])), 1e-12)
+    s = max(MAD_TO_SIGMA * float(np.median(r[near])), 1e-12)
     g = min(max(float(np.mean(near)), 1e-9), 1 - 1e-9)
     for _ in range(steps):
         fin = np.sqrt(2 / np.pi) / s * np.exp(-0.5 * (r / s) ** 2)
@@ -184,9 +188,18 @@ def full_range_log_likelihood(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: 
     return float(np.sum(np.log(g * fin + (1 - g) / FULL_RANGE)))
 
 
-def _collapsed(m: dict[str, Any]) -> bool:
-    """EM ran and its Gaussian sigma fell below ``ML_COLLAPSE`` times its start (see there)."""
-    return m["rounds"] > 0 and not m["sigma_gauss"] >= ML_COLLAPSE * m["sigma_start"]
+def _collapsed(m: dict[str, Any], f1: np.ndarray, f2: np.ndarray, T: float) -> bool:
+    """EM ran and its Gaussian sigma is below ``ML_COLLAPSE`` times the robust scale of its pose's
+    errors (see there; fewer than 6 errors below T / 2 count as a collapse)."""
+    if not m["rounds"] > 0:
+        return False
+    if not np.all(np.isfinite(m["R"])) or not np.all(np.isfinite(m["t"])):
+        return True
+    r = v_sampson(m["R"], m["t"], f1, f2)
+    near = r[r < 0.5 * T]
+    if near.size < ML_MIN_NEAR:
+        return True
+    return not m["sigma_gauss"] >= ML_COLLAPSE * MAD_TO_SIGMA * float(np.median(near))
 
 
 def _ml_from(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, T: float, student: bool, scales: np.ndarray | None, start: str) -> dict[str, Any]:
@@ -200,8 +213,8 @@ def _ml_from(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, T: fl
         return _core.ml_refine(R, t, f1, f2, T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student, scales=scales, band_start=band)
 
     ms = run(False) if start != "band" else None
-    mb = run(True) if ms is None or start == "both" or _collapsed(ms) else None
-    ok = [m for m in (ms, mb) if m is not None and m["rounds"] > 0 and not _collapsed(m) and np.all(np.isfinite(m["R"]))]
+    mb = run(True) if ms is None or start == "both" or _collapsed(ms, f1, f2, T) else None
+    ok = [m for m in (ms, mb) if m is not None and m["rounds"] > 0 and not _collapsed(m, f1, f2, T)]
     if not ok:
         m = ms if ms is not None else mb
         assert m is not None
@@ -222,12 +235,16 @@ def _ml_stage(
     student: bool = True,
     scales: np.ndarray | None = None,
     start: str = "search",
+    info: dict[str, Any] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]] | None:
     """The ML pose from the search's ``(R, t)`` (outlier range ``T``), or None when EM did not run
+    (``info["sigma_start"]``, if given, gets EM's start scale either way)
     or its pose loses more than ``1 - ML_KEEP_TOLERANCE`` of the cheirality-aware MSAC score at the
     larger of ``tau`` and the mixture's decision threshold (the truncated score at a tight tau
     favours the pose fitted to that truncation)."""
     m = _ml_from(R, t, f1, f2, T, student, scales, start)
+    if info is not None:
+        info["sigma_start"] = float(m["sigma_start"])
     if not (m["rounds"] > 0 and m["decision_gauss"] > 0 and np.all(np.isfinite(m["R"]))):
         return None
     thr = max(tau, float(m["decision_gauss"]))
@@ -302,11 +319,13 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
         if o.refine:
             T = float(o.ml_range) * tau
             student = o.ml_tails == "student"
-            best = _ml_stage(R, t, f1, f2, tau, T, student, noise_scales, o.ml_start)
+            ml_info: dict[str, Any] = {}
+            best = _ml_stage(R, t, f1, f2, tau, T, student, noise_scales, o.ml_start, ml_info)
             # noise scale: the Gaussian mixture's sigma at the ML pose, or EM's start (the MAD at the
-            # search's pose) where EM shrank sigma onto the few matches a pose can fit exactly
-            sig = max(best[2]["sigma_gauss"], best[2]["sigma_start"]) if best is not None else 0.0
-            if best is not None and o.research_noise > 0 and sig > o.research_noise * tau:
+            # chosen pose) where EM shrank sigma onto the few matches a pose can fit exactly (or
+            # collapsed and was not used)
+            sig = max(best[2]["sigma_gauss"], best[2]["sigma_start"]) if best is not None else ml_info.get("sigma_start", 0.0)
+            if o.research_noise > 0 and sig > o.research_noise * tau:
                 # the matches are noisier than the threshold assumes: the search scored a part of the
                 # inliers and its pose sits in that part's basin. Search again at 3 sigma (at most the
                 # mixture's range, so outliers cannot widen it further), as if the user had set it.
