@@ -213,8 +213,10 @@ def _ml_from(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, T: fl
         return _core.ml_refine(R, t, f1, f2, T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student, scales=scales, band_start=band)
 
     ms = run(False) if start != "band" else None
-    mb = run(True) if ms is None or start == "both" or _collapsed(ms, f1, f2, T) else None
-    ok = [m for m in (ms, mb) if m is not None and m["rounds"] > 0 and not _collapsed(m, f1, f2, T)]
+    cs = ms is not None and _collapsed(ms, f1, f2, T)
+    mb = run(True) if ms is None or start == "both" or cs else None
+    cb = mb is not None and _collapsed(mb, f1, f2, T)
+    ok = [m for m, c in ((ms, cs), (mb, cb)) if m is not None and m["rounds"] > 0 and not c]
     if not ok:
         m = ms if ms is not None else mb
         assert m is not None
