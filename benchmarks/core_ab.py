@@ -1,0 +1,75 @@
+"""In-process A/B timing of two builds of the compiled core on the default's search.
+
+Loads both extension modules under different names in one interpreter and alternates them on the
+same synthetic pairs (``poseonly.robust.default._search``, n = 300, 0.5 px noise), so that the
+machine's speed drift between runs (up to 30 % within minutes on a shared VM) cancels out of the
+ratio. Build the two cores with plain CMake into separate folders, e.g.
+
+    cmake -S . -B /tmp/build_new -G Ninja -DPython_EXECUTABLE=$(which python) -DCMAKE_BUILD_TYPE=Release
+    ninja -C /tmp/build_new
+    python benchmarks/core_ab.py /tmp/build_base/_core*.so /tmp/build_new/_core*.so --camera pinhole --outliers 0
+
+Prints the median time per pair of each and the median of the per-round ratios B / A with its
+interquartile range.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import time
+from types import ModuleType
+
+import numpy as np
+
+
+def _load(path: str, tag: str) -> ModuleType:
+    spec = importlib.util.spec_from_file_location(f"{tag}._core", path)
+    if spec is None or spec.loader is None:
+        raise SystemExit(f"cannot load {path}")
+    m = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(m)
+    return m
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("core_a", help="path of build A's _core extension module")
+    ap.add_argument("core_b", help="path of build B's _core extension module")
+    ap.add_argument("--camera", default="pinhole", choices=("pinhole", "wide"))
+    ap.add_argument("--outliers", type=float, default=0.0)
+    ap.add_argument("--scenes", type=int, default=5)
+    ap.add_argument("--rounds", type=int, default=20)
+    a = ap.parse_args(argv)
+    A, B = _load(a.core_a, "a"), _load(a.core_b, "b")
+    import poseonly.robust.ransac as RR
+    from poseonly.options import PoseonlyOptions
+    from poseonly.robust import default as D
+    from poseonly.sim import make_scene
+
+    scenes = [make_scene(300, camera=a.camera, noise_px=0.5, outlier_fraction=a.outliers, seed=100 + s) for s in range(a.scenes)]
+    o = PoseonlyOptions()
+
+    def run(m: ModuleType) -> float:
+        RR._core = m  # the search's core calls go through this module attribute
+        t0 = time.perf_counter()
+        for sc in scenes:
+            D._search(sc.f1, sc.f2, o.threshold_px / 800.0, o, None)
+        return (time.perf_counter() - t0) / len(scenes)
+
+    run(A), run(B)  # warm-up
+    ta, tb = [], []
+    for _ in range(a.rounds):
+        ta.append(run(A))
+        tb.append(run(B))
+    ra, rb = np.array(ta), np.array(tb)
+    q = rb / ra
+    print(
+        f"{a.camera} {a.outliers:.0%}: A {np.median(ra) * 1e3:.3f} ms, B {np.median(rb) * 1e3:.3f} ms per pair; "
+        f"B / A median {np.median(q):.3f} (IQR {np.percentile(q, 25):.3f}-{np.percentile(q, 75):.3f})"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
