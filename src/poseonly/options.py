@@ -253,6 +253,15 @@ class PoseonlyOptions(CommonOptions):
         "the ML stage's inlier errors: Student-t with its degrees of freedom estimated (heavy-tailed real matches), or 'gauss' (MLESAC)",
         choices=("student", "gauss"),
     )
+    ml_folds: int = _opt(
+        5,
+        "int",
+        "the ML stage's inliers cross-fitted: each match is an inlier when the ML pose of the other folds (i % ml_folds) puts it"
+        " within the mixture's decision threshold, and the final pose is EM on those (0 or 1: the ML pose decides its own inliers;"
+        " docs/RESULTS_real.md section 0, twelfth session)",
+        lo=0,
+        hi=16,
+    )
     research_noise: float = _opt(
         0.0,
         "real",

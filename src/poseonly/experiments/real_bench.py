@@ -247,6 +247,11 @@ METHODS: dict[str, MethodFn] = {
     "poseonly-mlboth": ours(use_scores=True, use_scales=True, ml_start="both"),
     # every match scored, also those sharing a keypoint with a better one (the default before the ninth session)
     "poseonly-nokp": ours(use_scores=True, use_scales=True, keypoint_once=False),
+    # the ML stage deciding its own inliers (the default before the twelfth session), and other fold counts
+    "poseonly-nofold": ours(use_scores=True, use_scales=True, ml_folds=0),
+    "poseonly-folds2": ours(use_scores=True, use_scales=True, ml_folds=2),
+    "poseonly-folds3": ours(use_scores=True, use_scales=True, ml_folds=3),
+    "poseonly-folds10": ours(use_scores=True, use_scales=True, ml_folds=10),
     # the opt-in second search at 3 sigma (docs/RESULTS.md section 2)
     "poseonly-research": ours(use_scores=True, use_scales=True, research_noise=0.5),
 }

@@ -40,7 +40,7 @@ MIN_PUTATIVE = 30
 # exact costs; 13: the pose-only choice keeps the search's pose against candidates within 1 deg, the
 # pure-rotation precision test; 14: a pure rotation's R refitted robustly; 15: the precision test's
 # rounding floor on noise-free data)
-TWO_VIEW_CACHE_TAG = 17
+TWO_VIEW_CACHE_TAG = 18
 
 
 @dataclass(frozen=True)
