@@ -187,7 +187,7 @@ class PoseonlyOptions(CommonOptions):
     pairs (docs/RESULTS_real.md): a 1 px threshold, at least 500 samples at confidence 0.9999 (a
     search that does not stop on the first plausible consensus), Sampson-LM local optimisation, four
     challengers (the best models of other basins optimised at the end of the search), the ML final
-    refinement."""
+    refinement on inliers cross-fitted over five folds."""
 
     threshold_px: float = _opt(1.0, "real", "inlier threshold in pixels", lo=0.0, lo_open=True)
     max_iterations: int = _opt(100000, "int", lo=1)

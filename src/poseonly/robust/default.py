@@ -325,6 +325,9 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
        ``sigma c_i^alpha`` (``c_i`` its scale over the median), ``alpha`` in {0, 1/2, 1} chosen with
        the degrees of freedom by the profile likelihood (0: the scales explain nothing); the inliers
        and the status analysis keep the Gaussian mixture without the scales;
+       then (``ml_folds > 1``) the inliers cross-fitted: each match classified by the ML pose of the
+       other folds, and EM on that set (:func:`_cross_fit`; the ML pose deciding its own inliers picks
+       up outliers near its epipolar lines where the pose is weakly constrained);
        ``final="ligt"`` (the earlier default): LO at a noise-matched threshold, then angular LiGTopt;
        ``final="cauchy"`` (PoseLib's final step, for comparisons): Sampson LM with a Cauchy loss at
        ``tau`` on the matches within ``tau`` of the chosen pose;
