@@ -57,7 +57,7 @@ def main(argv: list[str] | None = None) -> int:
 
     stages = {
         API: ["run_poseonly", "finish", "as_bearings", "_epipolar_rank", "check_intrinsics", "parse_options"],
-        D: ["_search", "local_optimization", "select_by_support", "_ml_stage"],
+        D: ["_search", "local_optimization", "select_by_support", "_ml_stage", "_cross_fit"],
         RS: ["chance_rate", "pure_rotation_test", "parallax_deg", "planar_twin", "rival_test", "valid_pose", "log10_nfa"],
         A: ["robust_rotation", "rotation_chance_rate", "homography_twin", "polish", "support"],
     }

@@ -123,3 +123,33 @@ def test_option_switches_the_tails():
     assert np.isfinite(a.diagnostics["ml_nu"]) and np.isinf(b.diagnostics["ml_nu"])
     with pytest.raises(ValueError, match="ml_tails"):
         estimate_relative_pose(u1, u2, sc.K, ml_tails="laplace")
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_given_tails_are_used_and_the_chosen_ones_reproduce_the_fixed_point(seed):
+    """``nu`` / ``alpha`` given (the cross-fit's folds): no choice is made, and given the tails the
+    stage chose, EM reaches the same fixed point (the EM restarts differ, the fixed point does not)."""
+    sc, u1, u2 = _heavy_scene(seed)
+    f1, f2 = _bearings(u1, sc.K), _bearings(u2, sc.K)
+    focal = sc.K[0, 0]
+    free = _ml(sc.R, sc.t, f1, f2, focal, True)
+    given = _core.ml_refine(sc.R, sc.t, f1, f2, T_PX / focal, rounds=50, pose_tol=1e-10, student=True, nu=free["nu"], alpha=free["alpha"])
+    assert given["nu"] == free["nu"]
+    assert rotation_error_deg(given["R"], free["R"]) < 1e-6
+    assert given["sigma"] == pytest.approx(free["sigma"], rel=1e-4)  # EM stops at 1e-6 relative steps
+    forced = _core.ml_refine(sc.R, sc.t, f1, f2, T_PX / focal, rounds=50, pose_tol=1e-10, student=True, nu=30.0, alpha=0.0)
+    assert forced["nu"] == 30.0 and forced["alpha"] == 0.0
+
+
+def test_given_tails_are_checked():
+    sc = make_scene(60, "normal", "pinhole", 0.5, 0.0, 0)
+    args = (sc.R, sc.t, sc.f1, sc.f2, T_PX / sc.K[0, 0])
+    with pytest.raises(ValueError, match="together"):
+        _core.ml_refine(*args, nu=3.0)
+    with pytest.raises(ValueError, match="nu must be"):
+        _core.ml_refine(*args, nu=0.5, alpha=0.0)
+    with pytest.raises(ValueError, match="alpha must be"):
+        _core.ml_refine(*args, nu=3.0, alpha=0.3)
+    with pytest.raises(ValueError, match="student"):
+        _core.ml_refine(*args, nu=3.0, alpha=0.0, student=False)
+    assert np.isinf(_core.ml_refine(*args, nu=np.inf, alpha=0.0, student=False)["nu"])

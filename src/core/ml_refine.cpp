@@ -266,9 +266,13 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
   double sigma = sigma0, g = g0, nu = INFINITY, alpha = 0.0;
   std::vector<double> q;  // inverse noise scales c_i^-alpha (empty: all 1)
   const std::vector<double>* qp = nullptr;
+  if (opt.fixed_tails) {
+    nu = opt.nu, alpha = c.empty() ? 0.0 : opt.alpha;
+    if (alpha != 0.0) inverse_scales(c, alpha, &q), qp = &q;
+  }
   std::vector<double> v;  // the pose step's weights
   for (int k = 0; k < opt.rounds; ++k) {
-    if ((opt.student || !c.empty()) && k < kNuRounds) {
+    if (!opt.fixed_tails && (opt.student || !c.empty()) && k < kNuRounds) {
       const double alpha_before = alpha;
       select_tails(r, c, opt.student, Tr, opt.sigma_floor, sigma0, g0, &nu, &alpha);
       // the EM restarts from its start after a choice (as the t always did); the Gaussian without

@@ -36,6 +36,13 @@ struct MlOptions {
   // pose, s0 = 1.4826 median of its errors below T / 2 (a wide uniform kernel first, as deterministic
   // annealing starts EM; ml_refine.cpp, kBand*); unchanged start with fewer than 6 such matches
   bool band_start = false;
+  // the inlier model given instead of chosen (no profile-likelihood search): nu (inf: Gaussian) and
+  // alpha (0 without scales), e.g. those the stage chose on all matches, for EM on a subset of them
+  // (the cross-fit's folds: the tails are the pair's noise, not a fold's; and the search is most of
+  // the stage's cost)
+  bool fixed_tails = false;
+  double nu = INFINITY;
+  double alpha = 0.0;
 };
 
 struct MlResult {

@@ -78,6 +78,8 @@ def ml_refine(
     student: bool = True,
     scales: NDArray[np.float64] | None = None,
     band_start: bool = False,
+    nu: float | None = None,
+    alpha: float | None = None,
 ) -> dict[str, Any]: ...
 def gnc_ransac(
     f1: NDArray[np.float64],

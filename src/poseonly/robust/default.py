@@ -49,6 +49,13 @@ RESEARCH_SIGMAS = 3.0
 # the cross-fitted inlier set: each match is classified by the ML pose of the other folds
 # (matches i with i % ML_FOLDS == j form fold j; see _cross_fit)
 CROSS_FIT_MIN = 15
+# the folds' EMs: the ML stage's inlier model (nu, alpha) instead of their own choice, and stopping
+# when a round moves the pose by at most 1e-5 rad (0.01 px at f = 1000, far below the noise the held-out
+# decision resolves) with 4 LM evaluations per M-step (a generalised EM: each round raises the
+# likelihood, the fixed point is the same); measured on fountain-P11: the same classification as full
+# EMs, 11.4 -> ~4.5 ms per pair
+CF_POSE_TOL = 1e-5
+CF_LM_ITERATIONS = 4
 
 
 def make_rng(seed: int | np.random.Generator) -> np.random.Generator:
@@ -259,7 +266,16 @@ def _ml_stage(
 
 
 def _cross_fit(
-    R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, T: float, decision: float, student: bool, scales: np.ndarray | None, folds: int
+    R: np.ndarray,
+    t: np.ndarray,
+    f1: np.ndarray,
+    f2: np.ndarray,
+    T: float,
+    decision: float,
+    student: bool,
+    scales: np.ndarray | None,
+    folds: int,
+    tails: tuple[float, float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """The ML pose on a cross-fitted inlier set, from the ML pose ``(R, t)``, or None.
 
@@ -280,20 +296,23 @@ def _cross_fit(
     matches per fold on small pairs (temple's median 0.30 -> 0.36 deg)."""
     n = len(f1)
     c = np.ascontiguousarray
+    nu, alpha = tails if tails is not None else (None, None)
     fold = np.arange(n) % folds
     keep = np.zeros(n, dtype=bool)
     for j in range(folds):
         test = fold == j
         train = ~test
         sc = None if scales is None else c(scales[train])
-        m = _core.ml_refine(R, t, c(f1[train]), c(f2[train]), T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student, scales=sc)
+        m = _core.ml_refine(
+            R, t, c(f1[train]), c(f2[train]), T, rounds=ML_ROUNDS, pose_tol=CF_POSE_TOL, lm_iterations=CF_LM_ITERATIONS, student=student, scales=sc, nu=nu, alpha=alpha
+        )
         if not (m["rounds"] > 0 and np.all(np.isfinite(m["R"])) and np.all(np.isfinite(m["t"]))):
             return None
         keep[test] = v_sampson(m["R"], m["t"], f1[test], f2[test]) < decision
     if np.count_nonzero(keep) < CROSS_FIT_MIN:
         return None
     sc = None if scales is None else c(scales[keep])
-    m = _core.ml_refine(R, t, c(f1[keep]), c(f2[keep]), T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student, scales=sc)
+    m = _core.ml_refine(R, t, c(f1[keep]), c(f2[keep]), T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student, scales=sc, nu=nu, alpha=alpha)
     if not (m["rounds"] > 0 and np.all(np.isfinite(m["R"])) and np.all(np.isfinite(m["t"]))):
         return None
     return m["R"], m["t"]
@@ -392,7 +411,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                 R0, t0 = R, t
                 R, t, m = best
                 if o.ml_folds > 1:
-                    cf = _cross_fit(R, t, f1, f2, T_used, float(m["decision_gauss"]), student, noise_scales, int(o.ml_folds))
+                    cf = _cross_fit(R, t, f1, f2, T_used, float(m["decision_gauss"]), student, noise_scales, int(o.ml_folds), (float(m["nu"]), float(m["alpha"])))
                     thr = max(tau_used, float(m["decision_gauss"]))
                     diag["cross_fit"] = cf is not None and msac_chiral(cf[0], cf[1], f1, f2, thr) >= ML_KEEP_TOLERANCE * msac_chiral(R0, t0, f1, f2, thr)
                     if diag["cross_fit"]:
