@@ -43,3 +43,47 @@ def test_bad_fold_count_is_an_error(bad):
     c = sim_hard.low_parallax(parallax_deg=0.75, seed=0)
     with pytest.raises(InputError):
         estimate_relative_pose(c.u1, c.u2, c.K, c.K, ml_folds=bad)
+
+
+def _ml_pose(seed: int):
+    """A low-parallax hard case's bearings, the search's pose and its ML stage (pose and mixture)."""
+    from poseonly.geometry import bearings_from_pixels
+    from poseonly.options import PoseonlyOptions
+    from poseonly.robust import default
+
+    c = sim_hard.low_parallax(parallax_deg=0.75, seed=seed)
+    f1, f2 = bearings_from_pixels(c.u1, c.K), bearings_from_pixels(c.u2, c.K)
+    r = estimate_relative_pose(c.u1, c.u2, c.K, c.K, seed=seed, ml_folds=0)
+    tau = float(r.diagnostics["tau_effective"])
+    T = float(PoseonlyOptions().ml_range) * tau
+    best = default._ml_stage(r.R, r.t, f1, f2, tau, T)
+    assert best is not None
+    return f1, f2, T, best
+
+
+def test_the_veto_removes_only_the_ml_poses_own_inliers():
+    from poseonly.robust import default
+
+    f1, f2, T, (R, t, m) = _ml_pose(3)
+    tails = (float(m["nu"]), float(m["alpha"]))
+    # a decision no error reaches: every held-out pose keeps every match, nothing is vetoed and the
+    # ML pose comes back untouched (no EM on a set that did not change)
+    out = default._cross_fit(R, t, f1, f2, T, 1e3 * float(m["decision_gauss"]), True, None, 5, tails)
+    assert out is not None
+    np.testing.assert_array_equal(out[0], R)
+    np.testing.assert_array_equal(out[1], t)
+    assert out[2] == 0
+    # the mixture's own decision: this seeded scene is one where the ML pose holds outliers the
+    # held-out poses reject; they are removed, at most all of the ML pose's inliers, and the pose moves
+    out = default._cross_fit(R, t, f1, f2, T, float(m["decision_gauss"]), True, None, 5, tails)
+    assert out is not None
+    own = int(np.count_nonzero(default.v_sampson(R, t, f1, f2) < float(m["decision_gauss"])))
+    assert 1 <= out[2] < own
+    assert rotation_error_deg(R, out[0]) > 1e-6
+
+
+def test_the_vetoed_count_is_reported():
+    c = sim_hard.low_parallax(parallax_deg=0.75, seed=3)
+    d = estimate_relative_pose(c.u1, c.u2, c.K, c.K, seed=3).diagnostics
+    assert d["cross_fit"] is True
+    assert isinstance(d["cross_fit_vetoed"], int) and d["cross_fit_vetoed"] >= 1

@@ -21,6 +21,9 @@ from poseonly.sim_hard import HardCase, low_parallax, repetitive_texture, second
 STRUCTURED = 1
 
 REP_SEEDS = (0, 1, 2, 3)
+# the accuracy comparison's scenes: on 4 the median swings by 1.4x between variants of the default
+# that are equal over 24 (measured: seed 0 alone is 0.25 deg against PoseLib's 0.03)
+REP_ACCURACY_SEEDS = tuple(range(16))
 MOTION_SEEDS = (0, 1, 2, 3)
 CLEAN_SEEDS = tuple(range(6))
 LOWP_SCENE_SEED = 2  # a scene where the default's rotation depends on its seed (measured)
@@ -138,8 +141,8 @@ def test_low_parallax_is_not_a_pure_rotation(scene):
 
 
 def test_repetitive_texture_accuracy_matches_poselib():
-    ours = [_rerr(_rep(s), _ours("rep", s)[0]) for s in REP_SEEDS]
-    ref = [_rerr(_rep(s), _poselib("rep", s)[0]) for s in REP_SEEDS]
+    ours = [_rerr(_rep(s), _ours("rep", s)[0]) for s in REP_ACCURACY_SEEDS]
+    ref = [_rerr(_rep(s), _poselib("rep", s)[0]) for s in REP_ACCURACY_SEEDS]
     assert np.median(ours) <= 1.1 * np.median(ref)
 
 

@@ -256,9 +256,9 @@ class PoseonlyOptions(CommonOptions):
     ml_folds: int = _opt(
         5,
         "int",
-        "the ML stage's inliers cross-fitted: each match is an inlier when the ML pose of the other folds (i % ml_folds) puts it"
-        " within the mixture's decision threshold, and the final pose is EM on those (0 or 1: the ML pose decides its own inliers;"
-        " docs/RESULTS_real.md section 0, twelfth session)",
+        "the ML stage's inliers cross-fitted: a match the ML pose calls an inlier is removed when the ML pose of the other folds"
+        " (i % ml_folds) puts it beyond the mixture's decision threshold, and the final pose is EM on every other match (0 or 1: the"
+        " ML pose decides its own inliers; docs/RESULTS_real.md section 0, twelfth and thirteenth sessions)",
         lo=0,
         hi=16,
     )

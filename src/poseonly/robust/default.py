@@ -46,8 +46,8 @@ ML_MIN_NEAR = 6  # the core's kMinInliers
 # the repeated search scores at this many noise scales (MSAC's truncation near 3 sigma keeps ~99 % of
 # Gaussian inliers; the first search's tau is the user's, meant for real matches' ~0.3 px noise)
 RESEARCH_SIGMAS = 3.0
-# the cross-fitted inlier set: each match is classified by the ML pose of the other folds
-# (matches i with i % ML_FOLDS == j form fold j; see _cross_fit)
+# the cross-fit (see _cross_fit; matches i with i % ml_folds == j form fold j) is used when at least
+# this many of the ML pose's inliers are also inliers of the pose of the other folds
 CROSS_FIT_MIN = 15
 # the folds' EMs: the ML stage's inlier model (nu, alpha) instead of their own choice, and stopping
 # when a round moves the pose by at most 1e-5 rad (0.01 px at f = 1000, far below the noise the held-out
@@ -55,6 +55,9 @@ CROSS_FIT_MIN = 15
 # likelihood, the fixed point is the same); measured on fountain-P11: the same classification as full
 # EMs, 11.4 -> ~4.5 ms per pair
 CF_POSE_TOL = 1e-5
+# ... and run to the ML stage's limit of rounds: capping them at 3-10 rounds changed the vetoed set on
+# 4-34 of 153 entry-P10 / temple pairs (one pose by 1.5 deg), for 10-25 % of the cross-fit's time
+CF_ROUNDS = ML_ROUNDS
 CF_LM_ITERATIONS = 4
 
 
@@ -276,8 +279,11 @@ def _cross_fit(
     scales: np.ndarray | None,
     folds: int,
     tails: tuple[float, float] | None = None,
-) -> tuple[np.ndarray, np.ndarray] | None:
-    """The ML pose on a cross-fitted inlier set, from the ML pose ``(R, t)``, or None.
+) -> tuple[np.ndarray, np.ndarray, int] | None:
+    """The ML pose without the inliers the cross-fit vetoes, from the ML pose ``(R, t)``; or None.
+
+    Returns ``(R, t, vetoed)``: the pose and the number of the ML pose's inliers the cross-fit removed
+    (``(R, t, 0)`` unchanged when it removes none).
 
     The ML pose decides its own inliers: a pose free to move along a weakly constrained direction (low
     parallax, a narrow field of points) can pick up a few outliers that happen to lie near its epipolar
@@ -286,36 +292,46 @@ def _cross_fit(
     own influence: the matches are split into ``folds`` interleaved folds (``i % folds``); EM on all the
     other folds (from ``(R, t)``) gives the pose that classifies fold j, a match being an inlier when its
     Sampson error there is below ``decision`` (the Gaussian mixture's p = 1/2 point at the ML pose); an
-    outlier joins only by chance, at the rate of a pose that was not fitted to it. The returned pose is
-    EM on that set from ``(R, t)``. Measured on the synthetic hard cases (0.3 px noise, 40 scenes each,
-    ``benchmarks/hard_cases.py``): the ML pose's inliers held 2.7 / 2.3 / 1.7 / 5.4 outliers (low
-    parallax 0.75 / 1.5 deg, repetitive texture, second motion) against PoseLib's 1.1 / 1.0 / 1.2 / 5.2,
-    and least squares on the true inliers from the ML pose reaches the noise floor (the objective, not
-    the optimiser, chose the wrong pose). Five folds (the default) were decided on the real pairs and
-    the seeded low-parallax test (docs/RESULTS_real.md section 0, twelfth session); two leave too few
-    matches per fold on small pairs (temple's median 0.30 -> 0.36 deg)."""
+    outlier joins only by chance, at the rate of a pose that was not fitted to it. The cross-fit is a
+    veto: a match is removed when the ML pose calls it an inlier and the held-out pose does not, and the
+    returned pose is EM from ``(R, t)`` on every other match. The mixture keeps modelling the outliers
+    and the inliers' tail (EM on the cross-fitted inliers alone fits the mixture to truncated errors:
+    at 0 % outliers 1.065 / 1.053x the synthetic floor against 1.032 / 1.018x with the veto, wide /
+    pinhole; docs/RESULTS_real.md section 0, thirteenth session). Measured on the synthetic hard cases
+    (0.3 px noise, 40 scenes each, ``benchmarks/hard_cases.py``): the ML pose's inliers held 2.7 / 2.3 /
+    1.7 / 5.4 outliers (low parallax 0.75 / 1.5 deg, repetitive texture, second motion) against PoseLib's
+    1.1 / 1.0 / 1.2 / 5.2, and least squares on the true inliers from the ML pose reaches the noise floor
+    (the objective, not the optimiser, chose the wrong pose). Five folds (the default) were decided on
+    the real pairs and the seeded low-parallax test (docs/RESULTS_real.md section 0, twelfth session);
+    two leave too few matches per fold on small pairs."""
     n = len(f1)
     c = np.ascontiguousarray
     nu, alpha = tails if tails is not None else (None, None)
     fold = np.arange(n) % folds
-    keep = np.zeros(n, dtype=bool)
+    held_out = np.zeros(n, dtype=bool)
     for j in range(folds):
         test = fold == j
         train = ~test
         sc = None if scales is None else c(scales[train])
         m = _core.ml_refine(
-            R, t, c(f1[train]), c(f2[train]), T, rounds=ML_ROUNDS, pose_tol=CF_POSE_TOL, lm_iterations=CF_LM_ITERATIONS, student=student, scales=sc, nu=nu, alpha=alpha
+            R, t, c(f1[train]), c(f2[train]), T, rounds=CF_ROUNDS, pose_tol=CF_POSE_TOL, lm_iterations=CF_LM_ITERATIONS, student=student, scales=sc, nu=nu, alpha=alpha
         )
         if not (m["rounds"] > 0 and np.all(np.isfinite(m["R"])) and np.all(np.isfinite(m["t"]))):
             return None
-        keep[test] = v_sampson(m["R"], m["t"], f1[test], f2[test]) < decision
-    if np.count_nonzero(keep) < CROSS_FIT_MIN:
+        held_out[test] = v_sampson(m["R"], m["t"], f1[test], f2[test]) < decision
+    own = v_sampson(R, t, f1, f2) < decision
+    vetoed = own & ~held_out
+    n_vetoed = int(np.count_nonzero(vetoed))
+    if n_vetoed == 0:
+        return R, t, 0
+    if np.count_nonzero(own & held_out) < CROSS_FIT_MIN:
         return None
+    keep = ~vetoed
     sc = None if scales is None else c(scales[keep])
     m = _core.ml_refine(R, t, c(f1[keep]), c(f2[keep]), T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student, scales=sc, nu=nu, alpha=alpha)
     if not (m["rounds"] > 0 and np.all(np.isfinite(m["R"])) and np.all(np.isfinite(m["t"]))):
         return None
-    return m["R"], m["t"]
+    return m["R"], m["t"], n_vetoed
 
 
 def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float, scores: np.ndarray | None = None, noise_scales: np.ndarray | None = None):
@@ -416,7 +432,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                     diag["cross_fit"] = cf is not None and msac_chiral(cf[0], cf[1], f1, f2, thr) >= ML_KEEP_TOLERANCE * msac_chiral(R0, t0, f1, f2, thr)
                     if diag["cross_fit"]:
                         assert cf is not None
-                        R, t = cf
+                        R, t, diag["cross_fit_vetoed"] = cf
                 # the inliers: more likely inliers than not under the Gaussian mixture at the ML pose
                 # (the t's heavy tail puts its own p = 1/2 point far out)
                 diag.update(
