@@ -44,7 +44,17 @@ struct RansacOptions {
   // bests, so without them the search can end on the consensus it optimised first.
   int challengers = 0;
   double challenger_distance = 1.0;
+  // with a progressive (PROSAC) sampler: also stop by PROSAC's rule (progressive_needed)
+  bool progressive_stop = false;
 };
+
+// PROSAC's stopping rule (Chum and Matas, CVPR 2005, Sec. 2.2), with OpenCV USAC's constants: a
+// top-n set qualifies when its inlier count I_n is non-random (an incorrect model is supported by a
+// random point with probability beta = 0.05; P(Bin(n - m, beta) >= I_n - m) < psi = 0.05, bounded by
+// Chernoff's exp(-(n - m) KL), which can only over-state it) and n >= min(N / 2, 100)
+constexpr double kProsacBeta = 0.05;
+constexpr double kProsacPsi = 0.05;
+constexpr int kProsacMinLength = 100;
 
 // LO steps of a challenger at most (each re-selects its inliers), stopping when its cost stops improving
 constexpr int kChallengerSteps = 3;
@@ -315,6 +325,44 @@ void inliers_of(const Est& est, const Model& m, const Scorer& sc, std::vector<in
   if constexpr (HasInlierFilter<Scorer>::value) sc.filter_inliers(est, m, inl);
 }
 
+template <class Sampler, class = void>
+struct HasProgressiveOrder : std::false_type {};
+template <class Sampler>
+struct HasProgressiveOrder<Sampler, std::void_t<decltype(std::declval<const Sampler&>().draws_within(0, 0.0))>> : std::true_type {};
+
+// the non-randomness test of PROSAC's rule: i of n points support a model fitted to m of them
+inline bool non_random(int i, int n, int m) {
+  const double k = i - m, d = n - m;
+  if (!(d > 0.0) || !(k > kProsacBeta * d)) return false;
+  const double q = k / d;
+  const double kl = q * std::log(q / kProsacBeta) + (q < 1.0 ? (1.0 - q) * std::log((1.0 - q) / (1.0 - kProsacBeta)) : 0.0);
+  return -d * kl < std::log(kProsacPsi);
+}
+
+// The draws after which PROSAC's rule stops for a best model with inliers `inl` (infinite when no top-n
+// set qualifies): the least k_n = samples_needed(success(I_n / n)) over the non-random top-n sets for
+// which k_n draws all within the top n happen (the sampler's pool passes n only after grown_at(n + 1);
+// the draws are the ones the loop makes anyway, so the rule only ends it earlier: the probability that
+// a model with more inliers among the top n exists and none of its samples was drawn is below
+// 1 - confidence). The standard rule is its n = N case.
+template <class Est, class Sampler>
+double progressive_needed(const Est& est, const Sampler& sampler, const std::vector<int>& inl, const RansacOptions& opt) {
+  const std::vector<int>& order = sampler.order();
+  const int N = static_cast<int>(order.size()), m = est.sample_size();
+  std::vector<char> in(N, 0);  // by point
+  for (int i : inl) in[i] = 1;
+  const int first = std::max(m + 1, std::min(N / 2, kProsacMinLength));
+  double best = std::numeric_limits<double>::infinity();
+  int I = 0;
+  for (int n = 1; n <= N; ++n) {
+    I += in[order[n - 1]];
+    if (n < first || !non_random(I, n, m)) continue;
+    const double k = samples_needed(est.success_probability(static_cast<double>(I) / n), opt.confidence, opt.min_hits);
+    if (k < best && sampler.draws_within(n, k) >= k) best = k;
+  }
+  return best;
+}
+
 template <class Est, class Scorer, class Sampler, class Model>
 RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const RansacOptions& opt, Model* best, Model* rival = nullptr) {
   RansacStats st;
@@ -438,6 +486,9 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       inliers_of(est, *best, scorer, &inl);
       st.num_inliers = static_cast<int>(inl.size());
       if (opt.adaptive) needed = samples_needed(est.success_probability(static_cast<double>(inl.size()) / n), opt.confidence, opt.min_hits);
+      if constexpr (HasProgressiveOrder<Sampler>::value) {
+        if (opt.adaptive && opt.progressive_stop) needed = std::min(needed, progressive_needed(est, sampler, inl, opt));
+      }
     }
   }
   // the challengers, best first: each locally optimised until its exact cost stops improving or it

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -61,7 +62,24 @@ class ProsacSampler {
     T_n_ = static_cast<double>(max_trials);
     for (int i = 0; i < m_; ++i) T_n_ *= static_cast<double>(n_ - i) / static_cast<double>(N_ - i);
     T_n_p_ = 1.0;
+    // the growth schedule, replayed without the generator: grown_at_[k] is the draw at which the
+    // pool first holds k points (the draws before it all lie in the top k - 1)
+    grown_at_.assign(N_ + 2, std::numeric_limits<double>::infinity());
+    double Tn = T_n_, Tp = 1.0, t = 0.0;
+    int n = n_;
+    grown_at_[n] = 0.0;
+    while (n < N_) {
+      t = std::max(t + 1.0, std::ceil(Tp));
+      const double T1 = Tn * (n + 1.0) / (n + 1.0 - m_);
+      Tp += std::ceil(T1 - Tn);
+      Tn = T1;
+      grown_at_[++n] = t;
+    }
   }
+  // the points, best first
+  const std::vector<int>& order() const { return order_; }
+  // the number of draws, among the first `draws`, whose points all lie in the top n (n <= N)
+  double draws_within(int n, double draws) const { return n >= N_ ? draws : std::min(draws, grown_at_[n + 1] - 1.0); }
   void sample(std::vector<int>* s) {
     s->resize(m_);
     if (m_ >= N_) {
@@ -93,6 +111,7 @@ class ProsacSampler {
   Rng rng_;
   int n_ = 0;
   double t_ = 0.0, T_n_ = 0.0, T_n_p_ = 1.0;
+  std::vector<double> grown_at_;
 };
 
 }  // namespace poseonly

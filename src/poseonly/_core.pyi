@@ -43,6 +43,7 @@ def ransac_relpose(
     challenger_distance: float = 1.0,
     lo_max_points: int = 0,
     keypoint_once: bool = False,
+    progressive_stop: bool = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def search_cost(
     R: NDArray[np.float64],

@@ -173,6 +173,7 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
         challengers=o.challengers,
         lo_max_points=o.lo_max_points,
         keypoint_once=o.keypoint_once,
+        progressive_stop=o.progressive_stop,
     )
 
 

@@ -101,6 +101,7 @@ def ransac_relpose(
     challenger_distance: float = 1.0,
     lo_max_points: int = 0,
     keypoint_once: bool = False,
+    progressive_stop: bool = False,
 ) -> RansacResult:
     """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
@@ -130,6 +131,10 @@ def ransac_relpose(
     keypoint (an identical bearing in one view), only those of the correspondence that fits the
     hypothesis best keep their score and count as its inliers, the others score as outliers
     (``stats["keypoint_groups"]``: the number of shared keypoints; ``src/core/conflicts.h``).
+    ``progressive_stop`` (with ``scores``): the search also ends by PROSAC's stopping rule (Chum and
+    Matas 2005): when, for some top-n set of the score order (n >= min(N / 2, 100)) whose inlier count
+    is non-random, the draws made within it reach the classical count at its inlier ratio; the draws are
+    the ones the search makes anyway, so it only ends earlier (``src/core/ransac.h`` ``progressive_needed``).
     """
     if lo not in _LO:
         raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(_LO)}")
@@ -162,6 +167,7 @@ def ransac_relpose(
         float(challenger_distance),
         int(lo_max_points),
         bool(keypoint_once),
+        bool(progressive_stop),
     )
     v = get_residual("sampson")(R, t, f1, f2)
     return RansacResult(
