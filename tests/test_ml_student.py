@@ -153,3 +153,26 @@ def test_given_tails_are_checked():
     with pytest.raises(ValueError, match="student"):
         _core.ml_refine(*args, nu=3.0, alpha=0.0, student=False)
     assert np.isinf(_core.ml_refine(*args, nu=np.inf, alpha=0.0, student=False)["nu"])
+
+
+@pytest.mark.parametrize("seed", range(3))
+@pytest.mark.parametrize("nu", [1.0, 3.0, 10.0])
+def test_the_reported_scale_and_share_are_a_fixed_point_of_em(seed, nu):
+    # the E-step (ml_refine.cpp's fit_scale) ends at EM's fixed point for the returned pose: one more EM
+    # step (numpy, from the mixture's equations) moves s and g by no more than its tolerance
+    from math import lgamma, pi
+
+    sc = make_scene(300, camera="wide", noise_px=1.0, outlier_fraction=0.5, seed=seed)
+    T = 8.0 / 800.0
+    m = _core.ml_refine(sc.R, sc.t, sc.f1, sc.f2, T, rounds=50, pose_tol=1e-6, student=True, nu=nu, alpha=0.0)
+    s, g = float(m["sigma"]), float(m["inlier_fraction"])
+    r = v_sampson(m["R"], m["t"], sc.f1, sc.f2)
+    r = r[r < T]
+    norm = 2.0 * np.exp(lgamma(0.5 * (nu + 1.0)) - lgamma(0.5 * nu)) / np.sqrt(nu * pi) / s
+    z2 = (r / s) ** 2
+    lin = g * norm * (1.0 + z2 / nu) ** (-0.5 * (nu + 1.0))
+    p = lin / (lin + (1.0 - g) / T)
+    s1 = np.sqrt(np.sum(p * (nu + 1.0) / (nu + z2) * r**2) / np.sum(p))
+    g1 = np.sum(p) / len(r)
+    assert abs(s1 - s) <= 1e-5 * s
+    assert abs(g1 - g) <= 1e-5
