@@ -340,11 +340,13 @@ inline bool non_random(int i, int n, int m) {
 }
 
 // The draws after which PROSAC's rule stops for a best model with inliers `inl` (infinite when no top-n
-// set qualifies): the least k_n = samples_needed(success(I_n / n)) over the non-random top-n sets for
+// set qualifies): the least k_n = samples_needed(success(r_n)) over the non-random top-n sets for
 // which k_n draws all within the top n happen (the sampler's pool passes n only after grown_at(n + 1);
 // the draws are the ones the loop makes anyway, so the rule only ends it earlier: the probability that
 // a model with more inliers among the top n exists and none of its samples was drawn is below
-// 1 - confidence). The standard rule is its n = N case.
+// 1 - confidence). r_n = (I_n - m + 1) / (n - m + 1): a sample of m distinct points of the top n is all
+// inliers with probability prod_j (I_n - j) / (n - j) (the paper's k_n), which r_n^m bounds from below,
+// so the count is conservative for every estimator's success(r). The standard rule is the n = N case.
 template <class Est, class Sampler>
 double progressive_needed(const Est& est, const Sampler& sampler, const std::vector<int>& inl, const RansacOptions& opt) {
   const std::vector<int>& order = sampler.order();
@@ -357,7 +359,7 @@ double progressive_needed(const Est& est, const Sampler& sampler, const std::vec
   for (int n = 1; n <= N; ++n) {
     I += in[order[n - 1]];
     if (n < first || !non_random(I, n, m)) continue;
-    const double k = samples_needed(est.success_probability(static_cast<double>(I) / n), opt.confidence, opt.min_hits);
+    const double k = samples_needed(est.success_probability(static_cast<double>(I - m + 1) / (n - m + 1)), opt.confidence, opt.min_hits);
     if (k < best && sampler.draws_within(n, k) >= k) best = k;
   }
   return best;

@@ -67,7 +67,7 @@ class ProsacSampler {
     grown_at_.assign(N_ + 2, std::numeric_limits<double>::infinity());
     double Tn = T_n_, Tp = 1.0, t = 0.0;
     int n = n_;
-    grown_at_[n] = 0.0;
+    for (int k = 0; k <= n; ++k) grown_at_[k] = 0.0;
     while (n < N_) {
       t = std::max(t + 1.0, std::ceil(Tp));
       const double T1 = Tn * (n + 1.0) / (n + 1.0 - m_);
@@ -79,7 +79,7 @@ class ProsacSampler {
   // the points, best first
   const std::vector<int>& order() const { return order_; }
   // the number of draws, among the first `draws`, whose points all lie in the top n (n <= N)
-  double draws_within(int n, double draws) const { return n >= N_ ? draws : std::min(draws, grown_at_[n + 1] - 1.0); }
+  double draws_within(int n, double draws) const { return n >= N_ ? draws : std::max(0.0, std::min(draws, grown_at_[n + 1] - 1.0)); }
   void sample(std::vector<int>* s) {
     s->resize(m_);
     if (m_ >= N_) {

@@ -254,8 +254,10 @@ METHODS: dict[str, MethodFn] = {
     "poseonly-folds10": ours(use_scores=True, use_scales=True, ml_folds=10),
     # the opt-in second search at 3 sigma (docs/RESULTS.md section 2)
     "poseonly-research": ours(use_scores=True, use_scales=True, research_noise=0.5),
-    # the search also ended by PROSAC's stopping rule (progressive_stop)
+    # the search also ended by PROSAC's stopping rule (progressive_stop, the default since the thirteenth
+    # session), and without it (the classical rule alone)
     "poseonly-prosacstop": ours(use_scores=True, use_scales=True, progressive_stop=True),
+    "poseonly-noprosacstop": ours(use_scores=True, use_scales=True, progressive_stop=False),
 }
 DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")
 # the library each method needs (a missing one skips the method with a note)

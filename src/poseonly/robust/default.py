@@ -321,12 +321,12 @@ def _cross_fit(
             return None
         held_out[test] = v_sampson(m["R"], m["t"], f1[test], f2[test]) < decision
     own = v_sampson(R, t, f1, f2) < decision
+    if np.count_nonzero(own & held_out) < CROSS_FIT_MIN:
+        return None
     vetoed = own & ~held_out
     n_vetoed = int(np.count_nonzero(vetoed))
     if n_vetoed == 0:
         return R, t, 0
-    if np.count_nonzero(own & held_out) < CROSS_FIT_MIN:
-        return None
     keep = ~vetoed
     sc = None if scales is None else c(scales[keep])
     m = _core.ml_refine(R, t, c(f1[keep]), c(f2[keep]), T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student, scales=sc, nu=nu, alpha=alpha)

@@ -133,8 +133,9 @@ def ransac_relpose(
     (``stats["keypoint_groups"]``: the number of shared keypoints; ``src/core/conflicts.h``).
     ``progressive_stop`` (with ``scores``): the search also ends by PROSAC's stopping rule (Chum and
     Matas 2005): when, for some top-n set of the score order (n >= min(N / 2, 100)) whose inlier count
-    is non-random, the draws made within it reach the classical count at its inlier ratio; the draws are
-    the ones the search makes anyway, so it only ends earlier (``src/core/ransac.h`` ``progressive_needed``).
+    is non-random, the draws made within it reach the count at its inlier ratio (bounded for sampling
+    without replacement); the draws are the ones the search makes anyway, so it only ends earlier
+    (``src/core/ransac.h`` ``progressive_needed``).
     """
     if lo not in _LO:
         raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(_LO)}")
