@@ -24,6 +24,7 @@ Convention: ``X2 = R X1 + t``, ``E = [t]x R``, ``f2^T E f1 = 0``. The numpy refe
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,6 +47,14 @@ __all__ = [
 ]
 
 
+def _one_pose(R: object, t: object, f1: object, f2: object) -> bool:
+    """``R (3, 3)``, ``t (3,)``, ``f1, f2 (n, 3)``, all float64 ndarrays in C order."""
+    for a, nd in ((R, 2), (t, 1), (f1, 2), (f2, 2)):
+        if type(a) is not np.ndarray or a.ndim != nd or a.dtype != np.float64 or not a.flags.c_contiguous:
+            return False
+    return R.shape == (3, 3) and t.shape == (3,) and f1.shape[1] == 3 and f2.shape == f1.shape  # type: ignore[attr-defined]
+
+
 @dataclass(frozen=True)
 class Residual:
     """One residual of the core's table: its ``name`` and the core's ``code`` (its index in
@@ -55,6 +64,12 @@ class Residual:
     code: int
 
     def __call__(self, R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+        if _one_pose(R, t, f1, f2):
+            # one pose on one point set, already float64 and C-contiguous (the library's own calls):
+            # the same core call with t normalised as :func:`normalize` does it, without its broadcasting
+            tn = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
+            tk = t / tn if tn > 0 else t
+            return _core.residual_matrix(self.code, R.reshape(1, 3, 3), tk.reshape(1, 3), f1, f2)[0]
         R = np.asarray(R, dtype=float)
         t = normalize(np.asarray(t, dtype=float))
         f1 = np.asarray(f1, dtype=float)
