@@ -66,6 +66,17 @@ class RelativePoseEstimator {
   double success_probability(double r) const { return std::pow(r, sample_size()); }
   // max(rotation angle, angle between the translation directions), degrees
   double distance(const Model& a, const Model& b) const { return pose_distance_deg(a, b); }
+  // the cosine of the model's parallax: the middle element (index size / 2) of cos angle(R f1_i, f2_i)
+  // over the inliers, i.e. the cosine of their median angle between the two rays once the rotation is
+  // removed (1 without inliers); RansacOptions::floor_parallax compares it
+  double parallax_cos(const Model& m, const std::vector<int>& inliers) const {
+    if (inliers.empty()) return 1.0;
+    par_.clear();
+    for (int i : inliers) par_.push_back((m.R * P_.a(i)).dot(P_.b(i)));
+    auto mid = par_.begin() + static_cast<std::ptrdiff_t>(par_.size() / 2);
+    std::nth_element(par_.begin(), mid, par_.end());
+    return *mid;
+  }
 
   void generate(const std::vector<int>& s, std::vector<Model>* models) {
     buf_.clear();
@@ -137,6 +148,7 @@ class RelativePoseEstimator {
   SoaPoints soa_;
   PointBuffer buf_;
   std::vector<double> w0_;
+  mutable std::vector<double> par_;
   LirpResult lr_;
 };
 

@@ -46,6 +46,13 @@ struct RansacOptions {
   double challenger_distance = 1.0;
   // with a progressive (PROSAC) sampler: also stop by PROSAC's rule (progressive_needed)
   bool progressive_stop = false;
+  // > 0 (radians), with an estimator that measures parallax (parallax_cos): while the best model's
+  // inliers have a median parallax of at least this, the floor is min(min_iterations,
+  // min_iterations_parallax) instead of min_iterations. A weakly constrained pose (small parallax, a
+  // flat objective) gains from the longer search; a well-constrained one ends where the stopping rule
+  // says (docs/RESULTS_real.md section 0, fourteenth session)
+  double floor_parallax = 0.0;
+  int min_iterations_parallax = 0;
 };
 
 // PROSAC's stopping rule (Chum and Matas, CVPR 2005, Sec. 2.2), with OpenCV USAC's constants: a
@@ -325,6 +332,12 @@ void inliers_of(const Est& est, const Model& m, const Scorer& sc, std::vector<in
   if constexpr (HasInlierFilter<Scorer>::value) sc.filter_inliers(est, m, inl);
 }
 
+template <class Est, class = void>
+struct HasParallax : std::false_type {};
+template <class Est>
+struct HasParallax<Est, std::void_t<decltype(std::declval<const Est&>().parallax_cos(std::declval<const typename Est::Model&>(),
+                                                                                   std::declval<const std::vector<int>&>()))>> : std::true_type {};
+
 template <class Sampler, class = void>
 struct HasProgressiveOrder : std::false_type {};
 template <class Sampler>
@@ -435,7 +448,10 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       consider(old, oc);
     }
   };
-  while (st.iterations < opt.max_iterations && (st.iterations < needed || st.iterations < opt.min_iterations)) {
+  // the sample floor (RansacOptions::floor_parallax): min_iterations until a best model with enough parallax
+  int floor = opt.min_iterations;
+  const double floor_cos = std::cos(opt.floor_parallax);
+  while (st.iterations < opt.max_iterations && (st.iterations < needed || st.iterations < floor)) {
     ++st.iterations;
     sampler.sample(&sample);
     models.clear();
@@ -490,6 +506,10 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       if (opt.adaptive) needed = samples_needed(est.success_probability(static_cast<double>(inl.size()) / n), opt.confidence, opt.min_hits);
       if constexpr (HasProgressiveOrder<Sampler>::value) {
         if (opt.adaptive && opt.progressive_stop) needed = std::min(needed, progressive_needed(est, sampler, inl, opt));
+      }
+      if constexpr (HasParallax<Est>::value) {
+        if (opt.floor_parallax > 0.0)
+          floor = est.parallax_cos(*best, inl) <= floor_cos ? std::min(opt.min_iterations, opt.min_iterations_parallax) : opt.min_iterations;
       }
     }
   }

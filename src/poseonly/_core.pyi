@@ -44,6 +44,8 @@ def ransac_relpose(
     lo_max_points: int = 0,
     keypoint_once: bool = False,
     progressive_stop: bool = False,
+    floor_parallax: float = 0.0,
+    min_iterations_parallax: int = 0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def search_cost(
     R: NDArray[np.float64],

@@ -184,14 +184,25 @@ class CommonOptions:
 @dataclass(frozen=True)
 class PoseonlyOptions(CommonOptions):
     """The default method's options (:mod:`poseonly.robust.default`). Defaults decided on real image
-    pairs (docs/RESULTS_real.md): a 1 px threshold, at least 500 samples at confidence 0.9999 (a
-    search that does not stop on the first plausible consensus), Sampson-LM local optimisation, four
+    pairs (docs/RESULTS_real.md): a 1 px threshold, at least 500 samples at confidence 0.9999 where the
+    best model has little parallax (a search that does not stop on the first plausible consensus of a
+    weakly constrained pose) and 100 where it has 3 degrees or more, Sampson-LM local optimisation, four
     challengers (the best models of other basins optimised at the end of the search), the ML final
     refinement on inliers cross-fitted over five folds."""
 
     threshold_px: float = _opt(1.0, "real", "inlier threshold in pixels", lo=0.0, lo_open=True)
     max_iterations: int = _opt(100000, "int", lo=1)
-    min_iterations: int = _opt(500, "int", lo=0)
+    min_iterations: int = _opt(500, "int", "the sample floor while the best model's inliers have little parallax (see floor_parallax_deg)", lo=0)
+    floor_parallax_deg: float = _opt(
+        3.0,
+        "real",
+        "a best model whose inliers' median parallax (angle between R f1 and f2) is at least this many degrees lowers the sample floor"
+        " to min(min_iterations, min_iterations_parallax): the longer search pays only for weakly constrained poses (measured:"
+        " docs/RESULTS_real.md section 0, fourteenth session); 0: the floor is always min_iterations",
+        lo=0.0,
+        hi=180.0,
+    )
+    min_iterations_parallax: int = _opt(100, "int", "the sample floor for a best model with parallax (see floor_parallax_deg)", lo=0)
     confidence: float = _opt(0.9999, "real", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
     min_hits: int = _opt(1, "int", "adaptive stopping waits for this many all-inlier samples at `confidence`", lo=1, hi=64)
     progressive_stop: bool = _opt(

@@ -257,6 +257,13 @@ METHODS: dict[str, MethodFn] = {
     # the search also ended by PROSAC's stopping rule (progressive_stop, the default since the thirteenth
     # session), and without it (the classical rule alone)
     "poseonly-prosacstop": ours(use_scores=True, use_scales=True, progressive_stop=True),
+    # the sample floor of 500 whatever the parallax (the default before the fourteenth session)
+    "poseonly-floor500": ours(use_scores=True, use_scales=True, floor_parallax_deg=0.0),
+    # the sample floor of the current default (min_iterations 500) measured again (fourteenth session)
+    "poseonly-min200": ours(use_scores=True, use_scales=True, min_iterations=200),
+    "poseonly-min100": ours(use_scores=True, use_scales=True, min_iterations=100),
+    "poseonly-min50": ours(use_scores=True, use_scales=True, min_iterations=50),
+    "poseonly-min0-scales": ours(use_scores=True, use_scales=True, min_iterations=0),
     "poseonly-noprosacstop": ours(use_scores=True, use_scales=True, progressive_stop=False),
 }
 DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")

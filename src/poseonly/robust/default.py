@@ -174,6 +174,8 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
         lo_max_points=o.lo_max_points,
         keypoint_once=o.keypoint_once,
         progressive_stop=o.progressive_stop,
+        floor_parallax_deg=o.floor_parallax_deg,
+        min_iterations_parallax=o.min_iterations_parallax,
     )
 
 

@@ -102,6 +102,8 @@ def ransac_relpose(
     lo_max_points: int = 0,
     keypoint_once: bool = False,
     progressive_stop: bool = False,
+    floor_parallax_deg: float = 0.0,
+    min_iterations_parallax: int = 0,
 ) -> RansacResult:
     """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
@@ -135,7 +137,9 @@ def ransac_relpose(
     Matas 2005): when, for some top-n set of the score order (n >= min(N / 2, 100)) whose inlier count
     is non-random, the draws made within it reach the count at its inlier ratio (bounded for sampling
     without replacement); the draws are the ones the search makes anyway, so it only ends earlier
-    (``src/core/ransac.h`` ``progressive_needed``).
+    (``src/core/ransac.h`` ``progressive_needed``). ``floor_parallax_deg > 0``: while the best model's
+    inliers have a median parallax (angle between ``R f1`` and ``f2``) of at least that, the sample
+    floor is ``min(min_iterations, min_iterations_parallax)`` instead of ``min_iterations``.
     """
     if lo not in _LO:
         raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(_LO)}")
@@ -169,6 +173,8 @@ def ransac_relpose(
         int(lo_max_points),
         bool(keypoint_once),
         bool(progressive_stop),
+        float(np.radians(floor_parallax_deg)),
+        int(min_iterations_parallax),
     )
     v = get_residual("sampson")(R, t, f1, f2)
     return RansacResult(
