@@ -176,3 +176,36 @@ def test_the_reported_scale_and_share_are_a_fixed_point_of_em(seed, nu):
     g1 = np.sum(p) / len(r)
     assert abs(s1 - s) <= 1e-5 * s
     assert abs(g1 - g) <= 1e-5
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_pose_only_and_a_warm_start_reach_the_same_pose(seed):
+    """The cross-fit's folds: ``pose_only`` computes the same pose (bit for bit), and EM started from
+    the fit on all matches (``sigma_init``, ``g_init``) reaches the fixed point of EM started from its
+    own robust start (the folds' stopping tolerance, 1e-5 rad a round, bounds the difference)."""
+    sc, u1, u2 = _heavy_scene(seed)
+    f1, f2 = _bearings(u1, sc.K), _bearings(u2, sc.K)
+    T = T_PX / sc.K[0, 0]
+    full = _core.ml_refine(sc.R, sc.t, f1, f2, T, rounds=50, pose_tol=1e-10, student=True)
+    train = np.arange(len(f1)) % 5 != 0
+    a1, a2 = np.ascontiguousarray(f1[train]), np.ascontiguousarray(f2[train])
+    kw = dict(rounds=50, pose_tol=1e-10, student=True, nu=full["nu"], alpha=full["alpha"])
+    cold = _core.ml_refine(full["R"], full["t"], a1, a2, T, **kw)
+    lean = _core.ml_refine(full["R"], full["t"], a1, a2, T, **kw, pose_only=True)
+    assert np.array_equal(lean["R"], cold["R"]) and np.array_equal(lean["t"], cold["t"]) and lean["rounds"] == cold["rounds"]
+    assert lean["posterior"].shape == (len(a1),)
+    warm = _core.ml_refine(full["R"], full["t"], a1, a2, T, **kw, sigma_init=full["sigma"], g_init=full["inlier_fraction"])
+    assert rotation_error_deg(warm["R"], cold["R"]) < 1e-6
+    assert np.linalg.norm(warm["t"] - cold["t"]) < 1e-7
+    assert warm["sigma"] == pytest.approx(cold["sigma"], rel=1e-4)
+
+
+def test_warm_start_is_checked():
+    sc = make_scene(60, "normal", "pinhole", 0.5, 0.0, 0)
+    args = (sc.R, sc.t, sc.f1, sc.f2, T_PX / sc.K[0, 0])
+    with pytest.raises(ValueError, match="together"):
+        _core.ml_refine(*args, sigma_init=1e-3)
+    with pytest.raises(ValueError, match="sigma_init"):
+        _core.ml_refine(*args, sigma_init=-1.0, g_init=0.5)
+    with pytest.raises(ValueError, match="g_init"):
+        _core.ml_refine(*args, sigma_init=1e-3, g_init=1.0)

@@ -228,7 +228,8 @@ nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, c
 
 nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double range, int rounds,
                       int lm_iterations, double pose_tol, bool student, const std::optional<VectorIn>& scales, bool band_start,
-                      std::optional<double> nu, std::optional<double> alpha) {
+                      std::optional<double> nu, std::optional<double> alpha, bool pose_only,
+                      std::optional<double> sigma_init, std::optional<double> g_init) {
   const Points P = points_of(f1, f2);
   if (!(range > 0.0 && std::isfinite(range))) throw std::invalid_argument("range must be finite and > 0");
   const double* sc = weights_of(scales, P.n);
@@ -242,6 +243,13 @@ nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, 
   mo.pose_tol = pose_tol;
   mo.student = student;
   mo.band_start = band_start;
+  mo.pose_only = pose_only;
+  if (sigma_init.has_value() != g_init.has_value()) throw std::invalid_argument("sigma_init and g_init are given together or not at all");
+  if (sigma_init) {
+    if (!(*sigma_init > 0.0 && std::isfinite(*sigma_init))) throw std::invalid_argument("sigma_init must be finite and > 0");
+    if (!(*g_init > 0.0 && *g_init < 1.0)) throw std::invalid_argument("g_init must be in (0, 1)");
+    mo.sigma_init = *sigma_init, mo.g_init = *g_init;
+  }
   if (nu.has_value() != alpha.has_value()) throw std::invalid_argument("nu and alpha are given together or not at all");
   if (nu) {
     if (!(*nu >= 1.0)) throw std::invalid_argument("nu must be >= 1 (inf: Gaussian)");
@@ -409,10 +417,11 @@ POSEONLY_BIND(robust) {
   m.def("ml_refine", &ml_refine_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("range"),
         nb::arg("rounds") = 6, nb::arg("lm_iterations") = 10, nb::arg("pose_tol") = 0.0, nb::arg("student") = true,
         nb::arg("scales") = nb::none(), nb::arg("band_start") = false, nb::arg("nu") = nb::none(), nb::arg("alpha") = nb::none(),
+        nb::arg("pose_only") = false, nb::arg("sigma_init") = nb::none(), nb::arg("g_init") = nb::none(),
         "ML pose under a mixture of Student-t inlier (`student`: nu chosen by the data, inf included; else Gaussian) and uniform outlier Sampson errors "
         "(EM + weighted Sampson LM; outlier range `range`, radians; at most `rounds` rounds, ending early when a round moves the pose "
         "by at most `pose_tol`; `scales` (n,) > 0: relative noise scales, a match's inlier scale sigma (scale_i / median)^alpha, "
-        "alpha in {0, 1/2, 1} chosen with nu; `nu`, `alpha` given together: that inlier model, not chosen): dict R, t, sigma, nu, alpha, sigma_gauss, sigma_start, inlier_fraction, decision, decision_gauss (the Gaussian mixture's at the pose), rounds, log_likelihood, posterior (n,). band_start: EM starts from the least-squares Sampson refit of the matches within min(range, 3 s0) of (R, t), s0 = 1.4826 median of the errors below range / 2.");
+        "alpha in {0, 1/2, 1} chosen with nu; `nu`, `alpha` given together: that inlier model, not chosen): dict R, t, sigma, nu, alpha, sigma_gauss, sigma_start, inlier_fraction, decision, decision_gauss (the Gaussian mixture's at the pose), rounds, log_likelihood, posterior (n,). band_start: EM starts from the least-squares Sampson refit of the matches within min(range, 3 s0) of (R, t), s0 = 1.4826 median of the errors below range / 2. pose_only: R, t and rounds only are computed (the other entries: the last E-step's, before the last pose step), the pose the same. sigma_init, g_init (together): EM's first E-step starts from this scale and inlier share instead of the start's.");
   m.def("gnc_ransac", &gnc_ransac, nb::arg("f1"), nb::arg("f2"), nb::arg("theta"), nb::arg("seed"), nb::arg("sample_size") = 30,
         nb::arg("max_iterations") = 50, nb::arg("adaptive") = false, nb::arg("confidence") = 0.99, nb::arg("gnc") = nb::dict(),
         "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats).");

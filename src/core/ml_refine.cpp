@@ -263,7 +263,8 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
   const double sigma0 = std::max(1.4826 * in[in.size() / 2], opt.sigma_floor);
   const double g0 = std::min(static_cast<double>(in.size()) / P.n, 0.99);
   out->sigma_start = sigma0;
-  double sigma = sigma0, g = g0, nu = INFINITY, alpha = 0.0;
+  const bool warm = opt.sigma_init > 0.0 && opt.g_init > 0.0 && opt.g_init < 1.0;
+  double sigma = warm ? std::max(opt.sigma_init, opt.sigma_floor) : sigma0, g = warm ? opt.g_init : g0, nu = INFINITY, alpha = 0.0;
   std::vector<double> q;  // inverse noise scales c_i^-alpha (empty: all 1)
   const std::vector<double>* qp = nullptr;
   if (opt.fixed_tails) {
@@ -317,6 +318,11 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
     // a fixed point of the EM: the next round would repeat this one (its nu choice included: the
     // errors did not move)
     if (moved <= opt.pose_tol) break;
+  }
+  if (opt.pose_only) {
+    out->sigma = sigma, out->nu = nu, out->alpha = alpha, out->inlier_fraction = g;
+    out->posterior = p;
+    return;
   }
   // the t's parameters at the returned pose (warm-started; the Gaussian stage reports those of its
   // last E-step, as before)

@@ -43,6 +43,15 @@ struct MlOptions {
   bool fixed_tails = false;
   double nu = INFINITY;
   double alpha = 0.0;
+  // only the pose (and rounds) are wanted: the statistics at the returned pose (the final E-step,
+  // log-likelihood, decision residuals, the Gaussian refit, posteriors) are not computed and the
+  // result's other fields are those of the last E-step (the cross-fit's folds); the pose is the same
+  bool pose_only = false;
+  // EM's first E-step starts from this scale and inlier share (both > 0; else from the MAD start
+  // below): the fixed point is the same, reached in fewer steps from a nearby start (the cross-fit's
+  // folds start from the ML stage's fit on all matches)
+  double sigma_init = 0.0;
+  double g_init = 0.0;
 };
 
 struct MlResult {

@@ -83,6 +83,9 @@ def ml_refine(
     band_start: bool = False,
     nu: float | None = None,
     alpha: float | None = None,
+    pose_only: bool = False,
+    sigma_init: float | None = None,
+    g_init: float | None = None,
 ) -> dict[str, Any]: ...
 def gnc_ransac(
     f1: NDArray[np.float64],
