@@ -47,3 +47,27 @@ def test_ml_collapse_survey_runs(capsys):
     assert ml_collapse_survey.main(["--scenes", "2", "--cells", "1"]) == 0
     out = capsys.readouterr().out
     assert "wide normal 80%: collapsed" in out and "of 2" in out
+
+
+def test_compare_runs_counts_changes_and_flips(tmp_path: Path, capsys):
+    """benchmarks/compare_runs.py on two hand-made runs: one pair unchanged, one moved with a status flip,
+    one only in the new run (not compared)."""
+    import json
+
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    try:
+        import compare_runs
+    finally:
+        sys.path.pop(0)
+
+    def run(path: Path, rows: list[tuple[str, float, str]]) -> str:
+        pairs = [{"dataset": "d", "id": pid, "methods": {"poseonly": [{"R_err": e, "status": s}]}} for pid, e, s in rows]
+        path.write_text(json.dumps({"pairs": pairs}))
+        return str(path)
+
+    new = run(tmp_path / "new.json", [("a", 0.5, "ok"), ("b", 7.0, "ambiguous"), ("c", 1.0, "ok")])
+    old = run(tmp_path / "old.json", [("a", 0.5, "ok"), ("b", 0.25, "ok")])
+    assert compare_runs.main([new, old]) == 0
+    out = capsys.readouterr().out
+    assert "2 pair-seeds compared: 1 the same" in out and "1 changed, largest change 6.75 deg" in out
+    assert "status flips: 1" in out and "d b seed 0: ok (0.250 deg) -> ambiguous (7.000 deg)" in out
