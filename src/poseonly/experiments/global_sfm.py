@@ -17,7 +17,9 @@ centre from their mean), the AUC of max(dR, dt) over all pairs at 0.5 / 1 / 5 / 
 benchmark), the mean error of the input two-view rotations, and the runtime of every stage.
 When pycolmap is installed, its rotation averaging and global positioning on the same relative poses
 and tracks, and its own global (GLOMAP) and incremental mappers (bundle adjustment included) on the
-same images, keypoints and putative matches, are reported beside ours (:mod:`poseonly.sfm.colmap_anchor`). With
+same images, keypoints and putative matches, are reported beside ours (:mod:`poseonly.sfm.colmap_anchor`);
+when pyTheia is installed, its robust rotation averaging + LiGT on the same relative poses and tracks,
+and its LiGT on our rotations (:mod:`poseonly.sfm.theia_anchor`). With
 ``--ba`` our result after an optional pycolmap bundle adjustment (:mod:`poseonly.sfm.colmap_ba`) is
 reported as a separate row; it is not part of the pipeline's figures.
 """
@@ -53,7 +55,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
     p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
     p.add_argument("--reweight", type=int, default=0, help="LiGT reweighting iterations (default 0 = openMVG's LiGT)")
-    p.add_argument("--no-anchor", action="store_true", help="skip pycolmap's rotation averaging / global positioning")
+    p.add_argument("--no-anchor", action="store_true", help="skip the anchors (pycolmap's and pyTheia's global stages, pycolmap's mappers)")
     p.add_argument("--ba", action="store_true", help="also report our result after an optional pycolmap bundle adjustment")
 
 
@@ -141,7 +143,24 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
                     out["pycolmap"]["error"] = f"{type(exc).__name__}: {exc}"
                     continue
                 out["pycolmap"].update({k: _scores(v["rotations"], v["centres"], R_gt, C_gt) | {"time_s": v["time_s"]} for k, v in a.items()})
+        out["pytheia"] = _theia_anchor(ig, res, R_gt, C_gt)
     return out
+
+
+def _theia_anchor(ig, res, R_gt: np.ndarray, C_gt: np.ndarray) -> dict[str, Any]:
+    """pyTheia's robust rotation averaging + LiGT, and its LiGT on our rotations, scored; an
+    ``error`` entry where pyTheia is missing or fails (an anchor failure must not lose our numbers)."""
+    try:
+        import pytheia  # noqa: F401
+
+        from ..sfm import theia_anchor
+    except ImportError as exc:  # pragma: no cover - pytheia missing
+        return {"error": f"pytheia not installed ({exc})"}
+    try:
+        a = theia_anchor.run(ig.graph, res.tracks, ig.bearings(res.tracks), res.rotations)
+    except Exception as exc:  # noqa: BLE001
+        return {"error": f"{type(exc).__name__}: {exc}"}
+    return {k: _scores(v["rotations"], v["centres"], R_gt, C_gt) | {"time_s": v["time_s"]} for k, v in a.items()}
 
 
 def _table(results: list[dict[str, Any]]) -> str:
@@ -197,14 +216,14 @@ def _table(results: list[dict[str, Any]]) -> str:
                     t + b["time_s"],
                 ]
             )
-        for k, a in (r.get("pycolmap") or {}).items():
+        for lib, k, a in [(lib, k, a) for lib in ("pycolmap", "pytheia") for k, a in (r.get(lib) or {}).items()]:
             if k == "error":
-                rows.append([r["scene"], f"pycolmap: {a}", "", "", "", "", "", "", "", "", "", ""])
+                rows.append([r["scene"], f"{lib}: {a}", "", "", "", "", "", "", "", "", "", ""])
                 continue
             rows.append(
                 [
                     r["scene"],
-                    f"pycolmap {k}",
+                    f"{lib} {k}",
                     f"{a['num_estimated']}/{r['views']}",
                     a["rot_mean_deg"],
                     a["rot_median_deg"],
