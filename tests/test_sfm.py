@@ -317,3 +317,34 @@ def test_rotation_averaging_large_ring_with_outliers_no_flipped_block():
     removed = {(i, j) for i, j, _ in ra.outlier_edges}
     assert removed == {tuple(p) for p in s.pairs[s.outlier].tolist()}
     assert _aligned_rot_err(ra.rotations, s.rotations).max() < 1.0
+
+
+def test_theia_anchor_noise_free_exact():
+    """pyTheia's robust rotation averaging + LiGT (the anchor of ``experiment global``), and its LiGT on
+    the true rotations, recover a noise-free synthetic graph exactly: the conventions (angle-axis
+    world -> camera orientations, camera j's centre direction in camera i's frame, normalized
+    observations) are right."""
+    pytest.importorskip("pytheia")
+    from poseonly.sfm import theia_anchor
+
+    s = make_scene(12, 800, seed=3)
+    tr = s.tracks
+    g = ViewGraph(12)
+    per_pair: dict[tuple[int, int], list] = {}
+    for t in range(len(tr)):
+        v, k = tr.track(t)
+        for a in range(len(v)):
+            for b in range(a + 1, len(v)):
+                per_pair.setdefault((int(v[a]), int(v[b])), []).append((k[a], k[b]))
+    lookup = {tuple(p): k for k, p in enumerate(s.pairs.tolist())}
+    for (i, j), m in sorted(per_pair.items()):
+        k = lookup[(i, j)]
+        g.add_edge(Edge(i, j, s.R_rel[k], s.t_rel[k], np.array(m, dtype=np.int64), "ok", float(len(m))))
+    out = theia_anchor.run(g, tr, s.bearings[tr.keypoints], s.rotations)
+    assert set(out) == {"robust rotation averaging + LiGT", "LiGT on our rotations"}
+    for name, a in out.items():
+        ev = evaluate_poses(a["rotations"], a["centres"], s.rotations, s.centres)
+        assert ev["num_estimated"] == 12, name
+        assert np.radians(ev["rot_max_deg"]) < EXACT, name
+        assert ev["pos_max"] / ev["extent"] < EXACT, name
+        assert a["time_s"] >= 0.0

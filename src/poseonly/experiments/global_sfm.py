@@ -35,8 +35,8 @@ import numpy as np
 
 from ..io.strecha import find_scenes, load_scene
 from ..sfm.align import evaluate_poses, pose_auc, relative_pose_errors
-from ..sfm.pairwise import PairwiseOptions, image_view_graph, parse_estimator_options
-from ..sfm.pipeline import GlobalOptions, run_global
+from ..sfm.pairwise import ImageGraph, PairwiseOptions, image_view_graph, parse_estimator_options
+from ..sfm.pipeline import GlobalOptions, GlobalResult, run_global
 from ..sfm.so3 import angle_deg
 from ._common import code_version, machine, markdown_table, progress, write_outputs
 
@@ -147,7 +147,7 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
-def _theia_anchor(ig, res, R_gt: np.ndarray, C_gt: np.ndarray) -> dict[str, Any]:
+def _theia_anchor(ig: ImageGraph, res: GlobalResult, R_gt: np.ndarray, C_gt: np.ndarray) -> dict[str, Any]:
     """pyTheia's robust rotation averaging + LiGT, and its LiGT on our rotations, scored; an
     ``error`` entry where pyTheia is missing or fails (an anchor failure must not lose our numbers)."""
     try:
@@ -216,7 +216,7 @@ def _table(results: list[dict[str, Any]]) -> str:
                     t + b["time_s"],
                 ]
             )
-        for lib, k, a in [(lib, k, a) for lib in ("pycolmap", "pytheia") for k, a in (r.get(lib) or {}).items()]:
+        for lib, k, a in [(name, k, a) for name in ("pycolmap", "pytheia") for k, a in (r.get(name) or {}).items()]:
             if k == "error":
                 rows.append([r["scene"], f"{lib}: {a}", "", "", "", "", "", "", "", "", "", ""])
                 continue

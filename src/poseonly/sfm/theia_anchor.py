@@ -78,7 +78,7 @@ def _view_pairs(g: ViewGraph, views: np.ndarray) -> dict[tuple[int, int], Any]:
     for e in g.edges:
         if not (keep[e.i] and keep[e.j]):
             continue
-        info = pt.sfm.TwoViewInfo()
+        info: Any = pt.sfm.TwoViewInfo()  # pyTheia's stubs type its fields wrongly
         info.rotation_2 = _rotvec(e.R)
         c = -e.R.T @ e.t  # camera j's centre in camera i's frame (X_j = R X_i + t)
         info.position_2 = c / np.linalg.norm(c)
