@@ -41,9 +41,10 @@ MIN_BEARING_Z = 1e-6
 
 @contextlib.contextmanager
 def _quiet_stdout() -> Iterator[None]:
-    """Theia's LiGT prints its triplet count to the C-level stdout: keep it off ours."""
+    """Theia's LiGT prints its triplet count to the C-level stdout (file descriptor 1, whatever
+    ``sys.stdout`` is): keep it off ours."""
     sys.stdout.flush()
-    fd = sys.stdout.fileno()
+    fd = 1
     saved = os.dup(fd)
     try:
         with open(os.devnull, "w") as null:
