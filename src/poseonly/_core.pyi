@@ -46,6 +46,7 @@ def ransac_relpose(
     progressive_stop: bool = False,
     floor_parallax: float = 0.0,
     min_iterations_parallax: int = 0,
+    progressive_expected: bool = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def search_cost(
     R: NDArray[np.float64],

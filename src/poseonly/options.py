@@ -213,6 +213,14 @@ class PoseonlyOptions(CommonOptions):
         " the inlier ratio of all matches: 0.7-0.94x the time on real pairs, the same accuracy (docs/RESULTS_real.md section 0,"
         " thirteenth session); False: the classical rule alone",
     )
+    progressive_rule: str = _opt(
+        "prosac",
+        "str",
+        "with `scores` and progressive_stop: 'prosac' (Chum and Matas' rule over the top-n sets) or 'expected' (stop where the"
+        " expected number of all-inlier draws of the best model's inliers, summed over the sampler's actual schedule, reaches"
+        " the classical rule's -ln(1 - confidence); src/core/ransac.h expected_needed)",
+        choices=("prosac", "expected"),
+    )
     solver: str = _opt("5pt", "str", "minimal solver", choices=("5pt", "lirp"))
     max_lo: int = _opt(8, "int", lo=0)
     challengers: int = _opt(

@@ -265,6 +265,9 @@ METHODS: dict[str, MethodFn] = {
     "poseonly-min50": ours(use_scores=True, use_scales=True, min_iterations=50),
     "poseonly-min0-scales": ours(use_scores=True, use_scales=True, min_iterations=0),
     "poseonly-noprosacstop": ours(use_scores=True, use_scales=True, progressive_stop=False),
+    # the search ended where the expected all-inlier draws of the sampler's schedule reach the confidence
+    # (progressive_rule="expected", fifteenth session) instead of by PROSAC's per-top-n rule
+    "poseonly-expectedstop": ours(use_scores=True, use_scales=True, progressive_rule="expected"),
 }
 DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")
 # the library each method needs (a missing one skips the method with a note)

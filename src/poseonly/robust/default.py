@@ -176,6 +176,7 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
         progressive_stop=o.progressive_stop,
         floor_parallax_deg=o.floor_parallax_deg,
         min_iterations_parallax=o.min_iterations_parallax,
+        progressive_rule=o.progressive_rule,
     )
 
 

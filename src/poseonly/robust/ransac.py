@@ -30,6 +30,9 @@ __all__ = ["RansacResult", "ransac_relpose", "search_cost", "gnc_ransac", "sampl
 SCORINGS = {"msac": 0, "msac-multi": 1, "count": 2}
 _MINIMAL = {"5pt": 0, "lirp": 1}
 _LO = {"lirp": 0, "sampson": 1}
+# the progressive sampler's stopping rules (src/core/ransac.h): PROSAC's per-top-n rule, or the expected
+# all-inlier draws of the sampler's schedule
+PROGRESSIVE_RULES = ("prosac", "expected")
 _SEED_MASK = (1 << 64) - 1
 
 
@@ -104,6 +107,7 @@ def ransac_relpose(
     progressive_stop: bool = False,
     floor_parallax_deg: float = 0.0,
     min_iterations_parallax: int = 0,
+    progressive_rule: str = "prosac",
 ) -> RansacResult:
     """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
@@ -137,7 +141,10 @@ def ransac_relpose(
     Matas 2005): when, for some top-n set of the score order (n >= min(N / 2, 100)) whose inlier count
     is non-random, the draws made within it reach the count at its inlier ratio (bounded for sampling
     without replacement); the draws are the ones the search makes anyway, so it only ends earlier
-    (``src/core/ransac.h`` ``progressive_needed``). ``floor_parallax_deg > 0``: while the best model's
+    (``src/core/ransac.h`` ``progressive_needed``); with ``progressive_rule="expected"`` instead when the
+    expected number of all-inlier draws of the best model's inliers, summed over the sampler's actual
+    schedule, reaches the classical rule's ``-ln(1 - confidence)`` (``expected_needed``: the classical
+    criterion for the draws PROSAC makes). ``floor_parallax_deg > 0``: while the best model's
     inliers have a median parallax (angle between ``R f1`` and ``f2``) of at least that, the sample
     floor is ``min(min_iterations, min_iterations_parallax)`` instead of ``min_iterations``.
     """
@@ -147,6 +154,8 @@ def ransac_relpose(
         raise ValueError(f"unknown minimal solver {solver!r}; choose one of {sorted(_MINIMAL)}")
     if scoring not in SCORINGS:
         raise ValueError(f"unknown scoring {scoring!r}; choose one of {sorted(SCORINGS)}")
+    if progressive_rule not in PROGRESSIVE_RULES:
+        raise ValueError(f"unknown progressive_rule {progressive_rule!r}; choose one of {list(PROGRESSIVE_RULES)}")
     f1, f2 = _c(f1), _c(f2)
     order = None if scores is None else prosac_order(scores)
     R, t, st = _core.ransac_relpose(
@@ -175,6 +184,7 @@ def ransac_relpose(
         bool(progressive_stop),
         float(np.radians(floor_parallax_deg)),
         int(min_iterations_parallax),
+        progressive_rule == "expected",
     )
     v = get_residual("sampson")(R, t, f1, f2)
     return RansacResult(
