@@ -16,7 +16,7 @@ growth (larger ``T_N``) concentrates the draws on the top-ranked matches.
 from __future__ import annotations
 
 import argparse
-from math import comb, log
+from math import ceil, comb, log
 from pathlib import Path
 
 SAMPLE = 5
@@ -24,43 +24,63 @@ GT_PX = 1.0
 
 
 def growth(N: int, m: int, TN: float) -> list[float]:
-    """``grown[n]``: the draw at which the pool first holds ``n`` points (``src/core/sampling.h``)."""
+    """``grown[n]`` (``n <= N + 1``): the draw at which the pool first holds ``n`` points, infinite past
+    ``N`` (``ProsacSampler::grown_at_`` in ``src/core/sampling.h``)."""
     Tn = TN
     for i in range(m):
         Tn *= (m - i) / (N - i)
-    grown = [0.0] * (N + 1)
+    grown = [0.0] * (m + 1) + [float("inf")] * (N + 1 - m)
     n, Tp, t = m, 1.0, 0.0
     while n < N:
-        t = max(t + 1.0, float(-(-Tp // 1)))
+        t = max(t + 1.0, float(ceil(Tp)))
         T1 = Tn * (n + 1.0) / (n + 1.0 - m)
-        Tp += float(-(-(T1 - Tn) // 1))
+        Tp += float(ceil(T1 - Tn))
         Tn = T1
         n += 1
         grown[n] = t
     return grown
 
 
-def expected_hits(inlier_in_order: list[bool], TN: float, draws: float, need: float, m: int = SAMPLE) -> tuple[float, float]:
-    """Expected all-inlier samples among the first ``draws`` PROSAC draws (a draw with pool n holds point
-    n and m - 1 of the top n - 1), and the draw at which that expectation first reaches ``need`` (inf
-    when it does not within ``draws``)."""
+def all_inlier(good: int, n: int, k: int) -> float:
+    """P(k points drawn without replacement from n, `good` of them inliers, are all inliers)."""
+    return comb(good, k) / comb(n, k) if good >= k and n >= k else 0.0
+
+
+def schedule_expectation(inlier_in_order: list[bool], TN: float, need: float, draws: float, m: int = SAMPLE) -> tuple[float, float]:
+    """The expected number of all-inlier samples of the given inliers (in the sampler's order) among the
+    first ``draws`` PROSAC draws, and the draw at which that expectation reaches ``need`` (inf if never):
+    the sum of ``expected_needed`` in ``src/core/ransac.h``, segment by segment (a draw while the pool
+    holds the top n < N is point n with m - 1 of the top n - 1; from the pool N on, m of all N)."""
     N = len(inlier_in_order)
-    cum = [0]
-    for x in inlier_in_order:
-        cum.append(cum[-1] + int(x))
+    inf = float("inf")
+    if N <= m:
+        return 0.0, inf
     grown = growth(N, m, TN)
-    acc, cross = 0.0, float("inf")
-    for n in range(m, N + 1):
-        start, end = grown[n], min(grown[n + 1] if n < N else draws, draws)
-        if end <= start:
-            continue
-        p = comb(cum[m], m) if n == m else int(inlier_in_order[n - 1]) * comb(cum[n - 1], m - 1) / comb(n - 1, m - 1)
-        if acc < need <= acc + (end - start) * p:
-            cross = start + (need - acc) / p
-        acc += (end - start) * p
-        if end >= draws:
+
+    def within(n: int) -> float:  # ProsacSampler::draws_within(n, inf)
+        return inf if n >= N else max(0.0, grown[n + 1] - 1.0)
+
+    segments = []  # (start, end, p)
+    good = sum(int(x) for x in inlier_in_order[:m])
+    start, end, p = 0.0, within(m), 1.0 if good == m else 0.0
+    for n in range(m + 1, N + 1):
+        segments.append((start, end, p))
+        start = end
+        if n > N - 1:
             break
-    return acc, cross
+        p = all_inlier(good, n - 1, m - 1) if inlier_in_order[n - 1] else 0.0
+        good += int(inlier_in_order[n - 1])
+        end = within(n)
+    good += int(inlier_in_order[N - 1])
+    segments.append((start, inf, all_inlier(good, N, m)))
+    acc, cross, at_draws = 0.0, inf, None
+    for a, b, q in segments:
+        if at_draws is None and draws <= b:
+            at_draws = acc + max(0.0, draws - a) * q
+        if cross == inf and q > 0.0 and acc + (b - a) * q >= need:
+            cross = a + (need - acc) / q
+        acc += (b - a) * q if b < inf else 0.0
+    return (at_draws if at_draws is not None else acc), cross
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -95,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
             order = gt[np.argsort(ratio, kind="stable")].tolist()
             cells = []
             for t in a.tn:
-                hits, cross = expected_hits(order, t, a.draws, need)
+                hits, cross = schedule_expectation(order, t, need, a.draws)
                 cells.append(f"{hits:.1f} at {cross:.0f}" if cross < float("inf") else f"{hits:.1f}, never")
             uni = need / w**SAMPLE if w > 0 else float("inf")
             print(f"| {ds} {p.pid} | {len(u1)} | {w:.3f} | {a.draws * w**SAMPLE:.1f} at {min(uni, float('inf')):.0f} | " + " | ".join(cells) + " |")

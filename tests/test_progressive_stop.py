@@ -70,3 +70,68 @@ def test_the_option_reaches_the_search_and_is_checked():
     assert b.status == "ok" and rotation_error_deg(sc.R, b.R) < 0.5
     with pytest.raises(InputError):
         estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, progressive_stop="yes")
+
+
+# --- the expected-draws rule (progressive_rule="expected"; src/core/ransac.h expected_needed) --------------
+
+
+def _schedule_expectation():
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    try:
+        from prosac_stop_bound import schedule_expectation
+    finally:
+        sys.path.pop(0)
+    return schedule_expectation
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_expected_rule_stops_where_the_schedule_sum_reaches_the_confidence(seed):
+    # the core's stop against the Python sum over the sampler's schedule (benchmarks/prosac_stop_bound.py) for
+    # the returned model's inliers: no challengers and no cheirality, so the loop's last best is the result
+    from poseonly.robust.ransac import prosac_order
+
+    sc = _scene(0.7, seed)
+    s = _informative_scores(sc, seed)
+    r = ransac_relpose(sc.f1, sc.f2, TAU, 7, scores=s, confidence=0.9999, min_iterations=0, progressive_stop=True, progressive_rule="expected", max_iterations=100000)
+    order = prosac_order(s)
+    _, cross = _schedule_expectation()(r.inliers[order].tolist(), 100000.0, -np.log(1e-4), 100000.0)
+    k = r.inliers.sum()
+    classical = np.log(1e-4) / np.log1p(-((k / len(s)) ** 5))
+    assert cross < classical  # informative scores: the schedule sum needs fewer draws than the classical rule
+    assert abs(r.num_iterations - np.ceil(cross)) <= 1
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_expected_rule_ends_a_hard_search_earlier_on_the_same_model(seed):
+    sc = _scene(0.8, seed)
+    s = _informative_scores(sc, seed)
+    prosac, expected = _search(sc, s, True), _search(sc, s, True, progressive_rule="expected")
+    assert expected.num_iterations < prosac.num_iterations
+    assert rotation_error_deg(sc.R, expected.R) < 1.0
+    assert np.count_nonzero(expected.inliers & sc.inliers) >= 0.9 * np.count_nonzero(prosac.inliers & sc.inliers)
+
+
+def test_expected_rule_with_uninformative_scores_is_the_classical_count():
+    # random scores: the inliers are spread evenly over the order, the schedule sum is the uniform one
+    for seed in range(3):
+        sc = _scene(0.6, seed)
+        s = np.random.default_rng(seed).random(len(sc.f1))
+        classical, expected = _search(sc, s, False), _search(sc, s, True, progressive_rule="expected")
+        assert 0.3 * classical.num_iterations <= expected.num_iterations <= classical.num_iterations
+
+
+def test_expected_rule_option_reaches_the_search_and_is_checked():
+    sc = _scene(0.8, 1)
+    s = _informative_scores(sc, 1)
+    # no sample floor, so that the stopping rules decide
+    a = estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, scores=s, seed=0, min_iterations=0, min_iterations_parallax=0)
+    b = estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, scores=s, seed=0, min_iterations=0, min_iterations_parallax=0, progressive_rule="expected")
+    assert b.num_iterations < a.num_iterations
+    assert b.status == "ok" and rotation_error_deg(sc.R, b.R) < 0.5
+    with pytest.raises(InputError):
+        estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, progressive_rule="uniform")
+    with pytest.raises(ValueError):
+        ransac_relpose(sc.f1, sc.f2, TAU, 0, scores=s, progressive_rule="uniform")

@@ -421,6 +421,8 @@ inline double poisson_hits_needed(double confidence, int hits) {
 // which the growth schedule keeps small: on entry-P10's pairs with 16-18 % inliers it cannot fire
 // before the classical count, while this sum reaches the need after 2-43k draws
 // (benchmarks/prosac_stop_bound.py). For estimators whose success is an all-inlier minimal sample.
+// Opt-in (progressive_expected): the shorter searches see fewer rival models, and on the real pairs the
+// uniqueness test then let two wrong poses through (docs/RESULTS_real.md section 0, fifteenth session).
 template <class Est, class Sampler>
 double expected_needed(const Est& est, const Sampler& sampler, const std::vector<int>& inl, const RansacOptions& opt) {
   const std::vector<int>& order = sampler.order();

@@ -218,7 +218,9 @@ class PoseonlyOptions(CommonOptions):
         "str",
         "with `scores` and progressive_stop: 'prosac' (Chum and Matas' rule over the top-n sets) or 'expected' (stop where the"
         " expected number of all-inlier draws of the best model's inliers, summed over the sampler's actual schedule, reaches"
-        " the classical rule's -ln(1 - confidence); src/core/ransac.h expected_needed)",
+        " the classical rule's -ln(1 - confidence); src/core/ransac.h expected_needed). 'expected' ends hard searches much earlier but"
+        " sees fewer rival models: on the real pairs it let two confident wrong poses through (docs/RESULTS_real.md section 0,"
+        " fifteenth session), so the default stays 'prosac'",
         choices=("prosac", "expected"),
     )
     solver: str = _opt("5pt", "str", "minimal solver", choices=("5pt", "lirp"))
