@@ -272,10 +272,11 @@ def test_synthetic_generator_deterministic_and_consistent():
     assert angle_deg(np.einsum("eji,ejk->eik", Rij, a.R_rel[good])).max() < 1e-9
 
 
-def test_run_global_on_synthetic_view_graph_exact():
-    s = make_scene(15, 1200, seed=12)
+def _graph_of_scene(s) -> ViewGraph:
+    """The view graph of a synthetic scene: one edge per co-visible pair, its relative pose and the
+    tracks' keypoint pairs as matches, weighted by their number."""
     tr = s.tracks
-    g = ViewGraph(15)
+    g = ViewGraph(len(s.rotations))
     per_pair: dict[tuple[int, int], list] = {}
     for t in range(len(tr)):
         v, k = tr.track(t)
@@ -286,6 +287,12 @@ def test_run_global_on_synthetic_view_graph_exact():
     for (i, j), m in sorted(per_pair.items()):
         k = lookup[(i, j)]
         g.add_edge(Edge(i, j, s.R_rel[k], s.t_rel[k], np.array(m, dtype=np.int64), "ok", float(len(m))))
+    return g
+
+
+def test_run_global_on_synthetic_view_graph_exact():
+    s = make_scene(15, 1200, seed=12)
+    g = _graph_of_scene(s)
     res = run_global(g, lambda tracks: s.bearings[tracks.keypoints], s.focal, GlobalOptions())
     ev = evaluate_poses(res.rotations, res.centres, s.rotations, s.centres)
     assert np.radians(ev["rot_max_deg"]) < EXACT
@@ -328,19 +335,7 @@ def test_theia_anchor_noise_free_exact():
     from poseonly.sfm import theia_anchor
 
     s = make_scene(12, 800, seed=3)
-    tr = s.tracks
-    g = ViewGraph(12)
-    per_pair: dict[tuple[int, int], list] = {}
-    for t in range(len(tr)):
-        v, k = tr.track(t)
-        for a in range(len(v)):
-            for b in range(a + 1, len(v)):
-                per_pair.setdefault((int(v[a]), int(v[b])), []).append((k[a], k[b]))
-    lookup = {tuple(p): k for k, p in enumerate(s.pairs.tolist())}
-    for (i, j), m in sorted(per_pair.items()):
-        k = lookup[(i, j)]
-        g.add_edge(Edge(i, j, s.R_rel[k], s.t_rel[k], np.array(m, dtype=np.int64), "ok", float(len(m))))
-    out = theia_anchor.run(g, tr, s.bearings[tr.keypoints], s.rotations)
+    out = theia_anchor.run(_graph_of_scene(s), s.tracks, s.bearings[s.tracks.keypoints], s.rotations)
     assert set(out) == {"robust rotation averaging + LiGT", "LiGT on our rotations"}
     for name, a in out.items():
         ev = evaluate_poses(a["rotations"], a["centres"], s.rotations, s.centres)
