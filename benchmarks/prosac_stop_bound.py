@@ -16,16 +16,17 @@ growth (larger ``T_N``) concentrates the draws on the top-ranked matches.
 from __future__ import annotations
 
 import argparse
-from math import ceil, comb, log
+from math import ceil, comb, log, log1p
 from pathlib import Path
 
 SAMPLE = 5
 GT_PX = 1.0
 
 
-def growth(N: int, m: int, TN: float) -> list[float]:
+def growth(N: int, m: int, TN: float) -> tuple[list[float], float]:
     """``grown[n]`` (``n <= N + 1``): the draw at which the pool first holds ``n`` points, infinite past
-    ``N`` (``ProsacSampler::grown_at_`` in ``src/core/sampling.h``)."""
+    ``N`` (``ProsacSampler::grown_at_`` in ``src/core/sampling.h``), and the last draw that still holds
+    the N-th point (``last_with_newest``)."""
     Tn = TN
     for i in range(m):
         Tn *= (m - i) / (N - i)
@@ -38,7 +39,7 @@ def growth(N: int, m: int, TN: float) -> list[float]:
         Tn = T1
         n += 1
         grown[n] = t
-    return grown
+    return grown, Tp
 
 
 def all_inlier(good: int, n: int, k: int) -> float:
@@ -50,12 +51,12 @@ def schedule_expectation(inlier_in_order: list[bool], TN: float, need: float, dr
     """The expected number of all-inlier samples of the given inliers (in the sampler's order) among the
     first ``draws`` PROSAC draws, and the draw at which that expectation reaches ``need`` (inf if never):
     the sum of ``expected_needed`` in ``src/core/ransac.h``, segment by segment (a draw while the pool
-    holds the top n < N is point n with m - 1 of the top n - 1; from the pool N on, m of all N)."""
+    holds the top n is point n with m - 1 of the top n - 1; after the last growth step, m of all N)."""
     N = len(inlier_in_order)
     inf = float("inf")
     if N <= m:
         return 0.0, inf
-    grown = growth(N, m, TN)
+    grown, last_newest = growth(N, m, TN)
 
     def within(n: int) -> float:  # ProsacSampler::draws_within(n, inf)
         return inf if n >= N else max(0.0, grown[n + 1] - 1.0)
@@ -71,8 +72,11 @@ def schedule_expectation(inlier_in_order: list[bool], TN: float, need: float, dr
         p = all_inlier(good, n - 1, m - 1) if inlier_in_order[n - 1] else 0.0
         good += int(inlier_in_order[n - 1])
         end = within(n)
+    # pool N: the N-th point with m - 1 of the top N - 1 until the last growth step is used up, then m of all N
+    end = max(start, last_newest)
+    segments.append((start, end, all_inlier(good, N - 1, m - 1) if inlier_in_order[N - 1] else 0.0))
     good += int(inlier_in_order[N - 1])
-    segments.append((start, inf, all_inlier(good, N, m)))
+    segments.append((end, inf, all_inlier(good, N, m)))
     acc, cross, at_draws = 0.0, inf, None
     for a, b, q in segments:
         if at_draws is None and draws <= b:
@@ -81,6 +85,34 @@ def schedule_expectation(inlier_in_order: list[bool], TN: float, need: float, dr
             cross = a + (need - acc) / q
         acc += (b - a) * q if b < inf else 0.0
     return (at_draws if at_draws is not None else acc), cross
+
+
+PROSAC_BETA, PROSAC_PSI, PROSAC_MIN_LENGTH = 0.05, 0.05, 100  # src/core/ransac.h kProsac*
+
+
+def prosac_rule(inlier_in_order: list[bool], TN: float, confidence: float, m: int = SAMPLE) -> float:
+    """The draws after which PROSAC's own rule (``progressive_needed`` in ``src/core/ransac.h``) may stop
+    for these inliers: the least k_n over the non-random top-n sets whose draws within the top n reach it
+    (inf if none)."""
+    N = len(inlier_in_order)
+    grown, _ = growth(N, m, TN)
+    first = max(m + 1, min(N // 2, PROSAC_MIN_LENGTH))
+    best, good = float("inf"), 0
+    for n in range(1, N + 1):
+        good += int(inlier_in_order[n - 1])
+        k, d = good - m, n - m
+        if n < first or not (d > 0 and k > PROSAC_BETA * d):
+            continue
+        q = k / d
+        kl = q * log(q / PROSAC_BETA) + ((1 - q) * log((1 - q) / (1 - PROSAC_BETA)) if q < 1 else 0.0)
+        if not -d * kl < log(PROSAC_PSI):
+            continue
+        r = (good - m + 1) / (n - m + 1)
+        need = log(1 - confidence) / log1p(-(r**m)) if r < 1 else float(m)
+        within = need if n >= N else max(0.0, min(need, grown[n + 1] - 1.0))
+        if need < best and within >= need:
+            best = need
+    return best
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -100,9 +132,10 @@ def main(argv: list[str] | None = None) -> int:
 
     need = -log(1.0 - a.confidence)
     print(f"expected all-inlier samples in the first {a.draws:g} draws (a stopping rule at confidence {a.confidence} needs {need:.2f})")
-    print("(each cell: the expectation at the cap, and the draw at which it reaches the rule's need)")
-    print("| pair | matches | inlier ratio | uniform | " + " | ".join(f"PROSAC T_N = {t:g}" for t in a.tn) + " |")
-    print("|---|---|---|---|" + "---|" * len(a.tn))
+    print("(each cell: the expectation at the cap, and the draw at which it reaches the rule's need; last column: the draw")
+    print(" from which PROSAC's own per-top-n rule would stop, inf: not before the cap / the classical count)")
+    print("| pair | matches | inlier ratio | uniform | " + " | ".join(f"PROSAC T_N = {t:g}" for t in a.tn) + " | PROSAC's own rule, T_N = " + f"{a.tn[0]:g} |")
+    print("|---|---|---|---|" + "---|" * len(a.tn) + "---|")
     for ds, pairs in rb.load_datasets([a.folder]).items():
         for p in pairs:
             u1, u2, ratio, _ = rb.pair_match_data(p, Path(a.cache))
@@ -118,7 +151,8 @@ def main(argv: list[str] | None = None) -> int:
                 hits, cross = schedule_expectation(order, t, need, a.draws)
                 cells.append(f"{hits:.1f} at {cross:.0f}" if cross < float("inf") else f"{hits:.1f}, never")
             uni = need / w**SAMPLE if w > 0 else float("inf")
-            print(f"| {ds} {p.pid} | {len(u1)} | {w:.3f} | {a.draws * w**SAMPLE:.1f} at {min(uni, float('inf')):.0f} | " + " | ".join(cells) + " |")
+            own = prosac_rule(order, a.tn[0], a.confidence)
+            print(f"| {ds} {p.pid} | {len(u1)} | {w:.3f} | {a.draws * w**SAMPLE:.1f} at {min(uni, float('inf')):.0f} | " + " | ".join(cells) + f" | {own:.0f} |")
     return 0
 
 

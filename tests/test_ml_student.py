@@ -194,6 +194,8 @@ def test_pose_only_and_a_warm_start_reach_the_same_pose(seed):
     lean = _core.ml_refine(full["R"], full["t"], a1, a2, T, **kw, pose_only=True)
     assert np.array_equal(lean["R"], cold["R"]) and np.array_equal(lean["t"], cold["t"]) and lean["rounds"] == cold["rounds"]
     assert lean["posterior"].shape == (len(a1),)
+    for key in ("decision", "decision_gauss", "sigma_gauss", "log_likelihood"):  # not computed: NaN, never a number
+        assert np.isnan(lean[key]), key
     warm = _core.ml_refine(full["R"], full["t"], a1, a2, T, **kw, sigma_init=full["sigma"], g_init=full["inlier_fraction"])
     assert rotation_error_deg(warm["R"], cold["R"]) < 1e-6
     assert np.linalg.norm(warm["t"] - cold["t"]) < 1e-7

@@ -320,7 +320,9 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
     if (moved <= opt.pose_tol) break;
   }
   if (opt.pose_only) {
+    // the last E-step's parameters; the statistics at the returned pose were not computed
     out->sigma = sigma, out->nu = nu, out->alpha = alpha, out->inlier_fraction = g;
+    out->sigma_gauss = out->decision = out->decision_gauss = out->log_likelihood = NAN;
     out->posterior = p;
     return;
   }

@@ -44,12 +44,14 @@ struct MlOptions {
   double nu = INFINITY;
   double alpha = 0.0;
   // only the pose (and rounds) are wanted: the statistics at the returned pose (the final E-step,
-  // log-likelihood, decision residuals, the Gaussian refit, posteriors) are not computed and the
-  // result's other fields are those of the last E-step (the cross-fit's folds); the pose is the same
+  // log-likelihood, decision residuals, the Gaussian refit) are not computed (NaN in the result);
+  // sigma, nu, alpha, inlier_fraction and the posteriors are the last E-step's (the cross-fit's
+  // folds); the pose is the same
   bool pose_only = false;
-  // EM's first E-step starts from this scale and inlier share (both > 0; else from the MAD start
-  // below): the fixed point is the same, reached in fewer steps from a nearby start (the cross-fit's
-  // folds start from the ML stage's fit on all matches)
+  // EM's first E-step starts from this scale and inlier share (both > 0, g_init < 1; else from the
+  // MAD start below): on the tested scenes the same fixed point to ~1e-8, reached in fewer steps from
+  // a nearby start (the cross-fit's folds start from the ML stage's fit on all matches). Used with
+  // fixed_tails: a tails choice (student or scales without fixed tails) restarts EM from the MAD start
   double sigma_init = 0.0;
   double g_init = 0.0;
 };

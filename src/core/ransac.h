@@ -411,16 +411,15 @@ inline double poisson_hits_needed(double confidence, int hits) {
 // the progressive sampler actually makes: the classical rule asks for confidence that an all-inlier
 // sample of a model as good as the best was drawn, assuming that model's inliers are spread like the
 // best's; under uniform sampling that is k = ln(1 - c) / ln(1 - r^m). PROSAC's draws are not uniform: a
-// draw while the pool holds the top n (n < N) is the n-th point with m - 1 of the top n - 1, all-inlier
-// with probability [point n inlier] * P(m - 1 of the top n - 1 are inliers); once the pool holds all N,
-// m of all N. The expected number of all-inlier draws is summed over the sampler's schedule
+// draw while the pool holds the top n is the n-th point with m - 1 of the top n - 1, all-inlier with
+// probability [point n inlier] * P(m - 1 of the top n - 1 are inliers); after the last growth step is
+// used up (last_with_newest), m of all N. The expected number of all-inlier draws is summed over the sampler's schedule
 // (draws_within) and the loop may stop where it reaches poisson_hits_needed(confidence, min_hits): the
 // same criterion as the classical rule, for the draws made (with a uniform order it is the classical
 // count; where the best model's inliers come first in the score order, far fewer draws). PROSAC's own
-// rule (progressive_needed) bounds the same sum from below by the draws that fall within one top-n set,
-// which the growth schedule keeps small: on entry-P10's pairs with 16-18 % inliers it cannot fire
-// before the classical count, while this sum reaches the need after 2-43k draws
-// (benchmarks/prosac_stop_bound.py). For estimators whose success is an all-inlier minimal sample.
+// rule (progressive_needed) counts only the draws that fall within one top-n set, which the growth
+// schedule keeps few: on entry-P10's pairs with 16.5-18 % inliers it may stop after 23-68k draws
+// (classical 48-75k), this sum after 1.8-43k (benchmarks/prosac_stop_bound.py). For estimators whose success is an all-inlier minimal sample.
 // Opt-in (progressive_expected): the shorter searches see fewer rival models, and on the real pairs the
 // uniqueness test then let two wrong poses through (docs/RESULTS_real.md section 0, fifteenth session).
 template <class Est, class Sampler>
@@ -448,7 +447,13 @@ double expected_needed(const Est& est, const Sampler& sampler, const std::vector
     I += in[order[n - 1]];
     end = sampler.draws_within(n, inf);
   }
-  // pool N (I counts all N now, after the last point): m of all N
+  // pool N: until the sampler's last growth step is used up, the N-th point with m - 1 of the top N - 1
+  end = std::max(start, sampler.last_with_newest());
+  p = in[order[N - 1]] ? all_inlier_probability(I, N - 1, m - 1) : 0.0;
+  if (p > 0.0 && acc + (end - start) * p >= need) return start + (need - acc) / p;
+  acc += (end - start) * p;
+  start = end;
+  // then m of all N
   I += in[order[N - 1]];
   p = all_inlier_probability(I, N, m);
   return p > 0.0 ? start + (need - acc) / p : inf;

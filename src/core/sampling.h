@@ -75,11 +75,15 @@ class ProsacSampler {
       Tn = T1;
       grown_at_[++n] = t;
     }
+    last_full_ = Tp;
   }
   // the points, best first
   const std::vector<int>& order() const { return order_; }
   // the number of draws, among the first `draws`, whose points all lie in the top n (n <= N)
   double draws_within(int n, double draws) const { return n >= N_ ? draws : std::max(0.0, std::min(draws, grown_at_[n + 1] - 1.0)); }
+  // the last draw that still holds the N-th point (with m - 1 of the top N - 1); later draws are m of
+  // all N (uniform sampling)
+  double last_with_newest() const { return last_full_; }
   void sample(std::vector<int>* s) {
     s->resize(m_);
     if (m_ >= N_) {
@@ -112,6 +116,7 @@ class ProsacSampler {
   int n_ = 0;
   double t_ = 0.0, T_n_ = 0.0, T_n_p_ = 1.0;
   std::vector<double> grown_at_;
+  double last_full_ = 0.0;
 };
 
 }  // namespace poseonly

@@ -316,7 +316,7 @@ def _cross_fit(
     n = len(f1)
     c = np.ascontiguousarray
     nu, alpha = tails if tails is not None else (None, None)
-    s0, g0 = start if start is not None and start[0] > 0.0 and 0.0 < start[1] < 1.0 else (None, None)
+    s0, g0 = start if start is not None and np.isfinite(start[0]) and start[0] > 0.0 and 0.0 < start[1] < 1.0 else (None, None)
     fold = np.arange(n) % folds
     held_out = np.zeros(n, dtype=bool)
     for j in range(folds):

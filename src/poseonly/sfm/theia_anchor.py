@@ -70,14 +70,16 @@ def _matrices(rotvecs: dict[int, np.ndarray], n: int) -> np.ndarray:
     return R
 
 
-def _view_pairs(g: ViewGraph, views: np.ndarray) -> dict[tuple[int, int], Any]:
+def _view_pairs(g: ViewGraph, views: np.ndarray, translation_only: bool = False) -> dict[tuple[int, int], Any]:
+    """Theia's view pairs of the edges between ``views``; ``translation_only``: only the edges whose
+    translation is trusted (LiGT's sign vote uses their directions)."""
     import pytheia as pt
 
     keep = np.zeros(g.num_views, dtype=bool)
     keep[views] = True
     out = {}
     for e in g.edges:
-        if not (keep[e.i] and keep[e.j]):
+        if not (keep[e.i] and keep[e.j]) or (translation_only and not e.use_translation):
             continue
         info: Any = pt.sfm.TwoViewInfo()  # pyTheia's stubs type its fields wrongly
         info.rotation_2 = _rotvec(e.R)
@@ -105,14 +107,19 @@ def _theia_ligt(tracks: Tracks, b: np.ndarray, R: np.ndarray, pairs: dict[tuple[
         cam.SetPrincipalPoint(0.0, 0.0)
         vid[int(k)] = v
     obs_view = tracks.views
+    n_triplet_tracks = 0
     for t in range(len(tracks)):
         lo, hi = int(tracks.ptr[t]), int(tracks.ptr[t + 1])
         rows = [o for o in range(lo, hi) if posed[obs_view[o]] and b[o, 2] > MIN_BEARING_Z]
         if len(rows) < 2:
             continue
+        n_triplet_tracks += len({int(obs_view[o]) for o in rows}) >= 3
         tid = rec.AddTrack()
         for o in rows:
             rec.AddObservation(vid[int(obs_view[o])], tid, pt.sfm.Feature(b[o, :2] / b[o, 2]))
+    if len(vid) < 3 or n_triplet_tracks < 1:
+        # Theia's LiGT needs a track seen by three posed views (it does not check; it would abort)
+        raise ValueError(f"Theia's LiGT needs three posed views sharing a track ({len(vid)} posed views, {n_triplet_tracks} such tracks)")
     orient = {vid[k]: _rotvec(R[k]) for k in vid}
     vp = {(vid[i], vid[j]): info for (i, j), info in pairs.items() if i in vid and j in vid}
     est = pt.sfm.LiGTPositionEstimator(pt.sfm.LiGTPositionEstimatorOptions(), rec)
@@ -136,6 +143,7 @@ def run(g: ViewGraph, tracks: Tracks, bearings: np.ndarray, rotations: np.ndarra
     pairs = g.pairs()
     views = np.flatnonzero(largest_component(view_components(n, pairs)))
     vp = _view_pairs(g, views)
+    vp_t = _view_pairs(g, views, translation_only=True)
     # our spanning-tree start on the same component (the root: the view of largest weighted degree)
     remap = np.full(n, -1, dtype=np.int64)
     remap[views] = np.arange(len(views))
@@ -149,10 +157,10 @@ def run(g: ViewGraph, tracks: Tracks, bearings: np.ndarray, rotations: np.ndarra
     t_ra = clock() - t0
     R_theia = _matrices(rv, n)
     t0 = clock()
-    C_theia = _theia_ligt(tracks, bearings, R_theia, vp)
+    C_theia = _theia_ligt(tracks, bearings, R_theia, vp_t)
     t_ligt = clock() - t0
     t0 = clock()
-    C_ours = _theia_ligt(tracks, bearings, np.asarray(rotations, dtype=float), vp)
+    C_ours = _theia_ligt(tracks, bearings, np.asarray(rotations, dtype=float), vp_t)
     t_ligt_ours = clock() - t0
     return {
         "robust rotation averaging + LiGT": {"rotations": R_theia, "centres": C_theia, "time_s": t_ra + t_ligt},
