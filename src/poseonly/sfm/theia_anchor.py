@@ -51,8 +51,19 @@ def _quiet_stdout() -> Iterator[None]:
             os.dup2(null.fileno(), fd)
             yield
     finally:
+        _flush_c_stdio()  # what the C/C++ side buffered goes to /dev/null, not to the restored stdout
         os.dup2(saved, fd)
         os.close(saved)
+
+
+def _flush_c_stdio() -> None:
+    """``fflush(NULL)`` of the C library (std::cout is synchronised with C stdio by default)."""
+    import ctypes
+
+    try:
+        ctypes.CDLL(None).fflush(None)
+    except (OSError, AttributeError):  # pragma: no cover - no C library handle on this platform
+        pass
 
 
 def _rotvec(R: np.ndarray) -> np.ndarray:
