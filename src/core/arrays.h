@@ -62,12 +62,4 @@ inline void put_pose(const Pose& p, double* R, double* t) {
   for (int i = 0; i < 3; ++i) t[i] = p.t(i);
 }
 
-// stacked poses as (R (k, 3, 3), t (k, 3))
-inline nb::tuple poses_to_numpy(const std::vector<Pose>& poses) {
-  const size_t k = poses.size();
-  std::vector<double> R(9 * k), t(3 * k);
-  for (size_t h = 0; h < k; ++h) put_pose(poses[h], R.data() + 9 * h, t.data() + 3 * h);
-  return nb::make_tuple(to_numpy(std::move(R), {k, size_t{3}, size_t{3}}), to_numpy(std::move(t), {k, size_t{3}}));
-}
-
 }  // namespace poseonly

@@ -282,33 +282,6 @@ nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, 
   return d;
 }
 
-nb::tuple ml_fold_poses_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, const VectorIn& posterior,
-                           double sigma, double nu, double alpha, const std::optional<VectorIn>& scales, int folds, int steps) {
-  const Points P = points_of(f1, f2);
-  if (static_cast<int>(posterior.shape(0)) != P.n) throw std::invalid_argument("posterior must have shape (n,)");
-  if (!(sigma > 0.0 && std::isfinite(sigma))) throw std::invalid_argument("sigma must be finite and > 0");
-  if (!(nu >= 1.0)) throw std::invalid_argument("nu must be >= 1 (inf: Gaussian)");
-  if (!(alpha == 0.0 || alpha == 0.5 || alpha == 1.0)) throw std::invalid_argument("alpha must be 0, 0.5 or 1");
-  if (folds < 2 || folds > P.n) throw std::invalid_argument("folds must be in [2, n]");
-  if (steps < 1) throw std::invalid_argument("steps must be >= 1");
-  const double* sc = weights_of(scales, P.n);
-  if (sc)
-    for (int i = 0; i < P.n; ++i)
-      if (!(std::isfinite(sc[i]) && sc[i] > 0.0)) throw std::invalid_argument("scales must be finite and > 0");
-  MlResult fit;
-  fit.pose = pose_of(R, t);
-  fit.sigma = sigma, fit.nu = nu, fit.alpha = alpha;
-  fit.posterior.assign(posterior.data(), posterior.data() + P.n);
-  for (double x : fit.posterior)
-    if (!(x >= 0.0 && x <= 1.0)) throw std::invalid_argument("posterior entries must be in [0, 1]");
-  std::vector<Pose> out;
-  {
-    nb::gil_scoped_release release;
-    ml_fold_poses(P, fit, sc, folds, steps, &out);
-  }
-  return poses_to_numpy(out);
-}
-
 nb::tuple gnc_ransac(const BearingsIn& f1, const BearingsIn& f2, double theta, uint64_t seed, int sample_size,
                      int max_iterations, bool adaptive, double confidence, const nb::dict& gnc) {
   const Points P = points_of(f1, f2);
@@ -452,12 +425,6 @@ POSEONLY_BIND(robust) {
         "(EM + weighted Sampson LM; outlier range `range`, radians; at most `rounds` rounds, ending early when a round moves the pose "
         "by at most `pose_tol`; `scales` (n,) > 0: relative noise scales, a match's inlier scale sigma (scale_i / median)^alpha, "
         "alpha in {0, 1/2, 1} chosen with nu; `nu`, `alpha` given together: that inlier model, not chosen): dict R, t, sigma, nu, alpha, sigma_gauss, sigma_start, inlier_fraction, decision, decision_gauss (the Gaussian mixture's at the pose), rounds, log_likelihood, posterior (n,). band_start: EM starts from the least-squares Sampson refit of the matches within min(range, 3 s0) of (R, t), s0 = 1.4826 median of the errors below range / 2. pose_only: R, t and rounds only are computed, the pose the same (sigma, nu, alpha, inlier_fraction, posterior: the last E-step's, before the last pose step; sigma_gauss, decision, decision_gauss, log_likelihood: NaN). sigma_init, g_init (together): EM's first E-step starts from this scale and inlier share instead of the start's (with fixed tails; a tails choice restarts EM from the start's).");
-  m.def("ml_fold_poses", &ml_fold_poses_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("posterior"),
-        nb::arg("sigma"), nb::arg("nu"), nb::arg("alpha"), nb::arg("scales") = nb::none(), nb::arg("folds") = 5, nb::arg("steps") = 1,
-        "The cross-fit's leave-fold-out poses of an ML fit (R, t, posterior (n,), sigma, nu, alpha as ml_refine returns "
-        "them on f1, f2 (n, 3) with the same scales): fold j = {i : i % folds == j}; `steps` Gauss-Newton steps of the "
-        "last M-step's weighted Sampson objective on the other folds, its weights fixed at the fit. Returns "
-        "(R (folds, 3, 3), t (folds, 3)); a fold whose normal matrix is not positive definite gets NaN.");
   m.def("gnc_ransac", &gnc_ransac, nb::arg("f1"), nb::arg("f2"), nb::arg("theta"), nb::arg("seed"), nb::arg("sample_size") = 30,
         nb::arg("max_iterations") = 50, nb::arg("adaptive") = false, nb::arg("confidence") = 0.99, nb::arg("gnc") = nb::dict(),
         "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats).");

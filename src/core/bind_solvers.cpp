@@ -12,6 +12,13 @@
 namespace poseonly {
 namespace {
 
+nb::tuple poses_to_numpy(const std::vector<Pose>& poses) {
+  const size_t k = poses.size();
+  std::vector<double> R(9 * k), t(3 * k);
+  for (size_t h = 0; h < k; ++h) put_pose(poses[h], R.data() + 9 * h, t.data() + 3 * h);
+  return nb::make_tuple(to_numpy(std::move(R), {k, size_t{3}, size_t{3}}), to_numpy(std::move(t), {k, size_t{3}}));
+}
+
 nb::tuple fivept_py(const BearingsIn& f1, const BearingsIn& f2) {
   const Points P = points_of(f1, f2);
   if (P.n != 5) throw std::invalid_argument("fivept needs exactly 5 bearings per view, shape (5, 3)");

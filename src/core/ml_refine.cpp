@@ -143,23 +143,6 @@ void inverse_scales(const std::vector<double>& c, double alpha, std::vector<doub
   for (size_t i = 0; i < c.size(); ++i) (*q)[i] = alpha == 0.0 ? 1.0 : alpha == 1.0 ? 1.0 / c[i] : 1.0 / std::sqrt(c[i]);
 }
 
-// the relative noise scales c_i = scale_i / median, clamped (empty without scales)
-void relative_scales(const double* scales, int n, std::vector<double>* out) {
-  std::vector<double>& c = *out;
-  c.clear();
-  if (!scales) return;
-  c.assign(scales, scales + n);
-  std::vector<double> tmp;
-  for (double x : c)
-    if (std::isfinite(x) && x > 0.0) tmp.push_back(x);
-  if (tmp.empty()) tmp.push_back(1.0);
-  const size_t h = tmp.size() / 2;
-  std::nth_element(tmp.begin(), tmp.begin() + h, tmp.end());
-  double med = tmp[h];
-  if (tmp.size() % 2 == 0) med = 0.5 * (med + *std::max_element(tmp.begin(), tmp.begin() + h));  // numpy's median
-  for (double& x : c) x = (std::isfinite(x) && x > 0.0 && med > 0.0) ? std::clamp(x / med, 1.0 / kMaxScaleRatio, kMaxScaleRatio) : 1.0;
-}
-
 // (nu, alpha) maximising the profile likelihood max_{s, g} L(s, g, nu, alpha) over kNuGrid (only
 // inf when !student) x kAlphaGrid (only 0 without scales c) on an even subsample of the errors below
 // T (per alpha, the first grid point's EM starts from the given s, g, each next one from the previous
@@ -262,8 +245,20 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
     out->posterior.assign(P.n, 0.0);
     return;
   }
+  // the relative noise scales c_i = scale_i / median (empty without scales)
   std::vector<double> c;
-  relative_scales(scales, P.n, &c);
+  if (scales) {
+    c.assign(scales, scales + P.n);
+    std::vector<double> tmp;
+    for (double x : c)
+      if (std::isfinite(x) && x > 0.0) tmp.push_back(x);
+    if (tmp.empty()) tmp.push_back(1.0);
+    const size_t h = tmp.size() / 2;
+    std::nth_element(tmp.begin(), tmp.begin() + h, tmp.end());
+    double med = tmp[h];
+    if (tmp.size() % 2 == 0) med = 0.5 * (med + *std::max_element(tmp.begin(), tmp.begin() + h));  // numpy's median
+    for (double& x : c) x = (std::isfinite(x) && x > 0.0 && med > 0.0) ? std::clamp(x / med, 1.0 / kMaxScaleRatio, kMaxScaleRatio) : 1.0;
+  }
   std::nth_element(in.begin(), in.begin() + in.size() / 2, in.end());
   const double sigma0 = std::max(1.4826 * in[in.size() / 2], opt.sigma_floor);
   const double g0 = std::min(static_cast<double>(in.size()) / P.n, 0.99);
@@ -361,23 +356,6 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
     out->sigma_gauss = sigma;
   }
   out->posterior = p;
-}
-
-void ml_fold_poses(const Points& P, const MlResult& fit, const double* scales, int folds, int steps, std::vector<Pose>* out) {
-  std::vector<double> c, q, r, w(P.n);
-  relative_scales(scales, P.n, &c);
-  if (!c.empty() && fit.alpha != 0.0) inverse_scales(c, fit.alpha, &q);
-  sampson_all(P, fit.pose, &r);
-  const bool t = std::isfinite(fit.nu);
-  const double nu_s2 = t ? fit.nu * fit.sigma * fit.sigma : 0.0;
-  for (int i = 0; i < P.n; ++i) {
-    const double q2 = q.empty() ? 1.0 : q[i] * q[i];
-    // the M-step's IRLS weight at the fit: p_i q_i^2 (Gaussian), times the t's precision
-    // 1 / (1 + q_i^2 r_i^2 / (nu s^2)) (the Cauchy loss of scale sqrt(nu) s)
-    w[i] = fit.posterior[i] * q2;
-    if (t) w[i] /= 1.0 + q2 * r[i] * r[i] / nu_s2;
-  }
-  fold_poses(P, w.data(), fit.pose, folds, steps, out);
 }
 
 }  // namespace poseonly

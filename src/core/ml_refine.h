@@ -79,13 +79,4 @@ struct MlResult {
 // inlier scale is a sizeable part of T.
 void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResult* out, const double* scales = nullptr);
 
-// The cross-fit's leave-fold-out poses of an ML fit (`fit`: pose, posterior, sigma, nu, alpha as
-// ml_refine returns them on P with `scales`): fold j = {i : i % folds == j}; `steps` Gauss-Newton
-// steps of the last M-step's objective on the other folds, its weights (posteriors, noise scales and
-// the t's precisions at the fit) held fixed (refine.h fold_poses). One pass over the matches instead
-// of an EM per fold: the fit's stationarity makes the first step the influence of fold j's matches
-// removed (the infinitesimal jackknife), and a fold's EM from the fit moves its posteriors only to
-// second order.
-void ml_fold_poses(const Points& P, const MlResult& fit, const double* scales, int folds, int steps, std::vector<Pose>* out);
-
 }  // namespace poseonly

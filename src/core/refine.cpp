@@ -454,69 +454,6 @@ RefineStats refine_ligt(const Points& p, const double* w, const RefineOptions& o
   return refine(p, w, opt, 1 + normalization, pose);
 }
 
-namespace {
-// sum_i w_i J_i^T J_i and sum_i w_i J_i^T r_i of the Sampson residuals at chart point x, over the
-// points with w_i > 0 (all, or those outside fold `skip` of `folds`; skip < 0: all), per fold into
-// H[i % folds], g[i % folds] when `per_fold`
-void sampson_normal(const Points& p, const double* w, const Chart& chart, const double x[5], int folds, int skip, bool per_fold,
-                    Mat5* H, Vec5* g) {
-  Frame F;
-  chart.eval(x, true, &F.R, &F.t, &F.Jl, &F.Jt);
-  double r[1], J[1][5];
-  for (int i = 0; i < p.n; ++i) {
-    const int f = i % folds;
-    if (!(w[i] > 0.0) || f == skip) continue;
-    sampson_point(F, p.a(i), p.b(i), true, r, J);
-    const int k = per_fold ? f : 0;
-    for (int a = 0; a < 5; ++a) {
-      g[k](a) += w[i] * J[0][a] * r[0];
-      for (int b = a; b < 5; ++b) H[k](a, b) += w[i] * J[0][a] * J[0][b];
-    }
-  }
-  for (int k = 0; k < (per_fold ? folds : 1); ++k) H[k].triangularView<Eigen::StrictlyLower>() = H[k].transpose().triangularView<Eigen::StrictlyLower>();
-}
-}  // namespace
-
-void fold_poses(const Points& p, const double* w, const Pose& pose, int folds, int steps, std::vector<Pose>* out) {
-  Pose unit = pose;
-  unit.t.normalize();
-  const Chart chart(unit);
-  std::vector<Mat5> Hf(folds, Mat5::Zero());
-  std::vector<Vec5> gf(folds, Vec5::Zero());
-  const double x0[5] = {0, 0, 0, 0, 0};
-  sampson_normal(p, w, chart, x0, folds, -1, true, Hf.data(), gf.data());
-  Mat5 H = Mat5::Zero();
-  Vec5 g = Vec5::Zero();
-  for (int j = 0; j < folds; ++j) H += Hf[j], g += gf[j];
-  out->assign(folds, unit);
-  for (int j = 0; j < folds; ++j) {
-    Mat5 A = H - Hf[j];
-    Vec5 b = g - gf[j];
-    Vec5 x = Vec5::Zero();
-    bool ok = true;
-    for (int s = 0; s < steps; ++s) {
-      if (s > 0) {
-        A.setZero(), b.setZero();
-        sampson_normal(p, w, chart, x.data(), folds, j, false, &A, &b);
-      }
-      const Eigen::LLT<Mat5> llt(A);
-      if (llt.info() != Eigen::Success) {
-        ok = false;
-        break;
-      }
-      x -= llt.solve(b);
-    }
-    Pose& o = (*out)[j];
-    if (!ok || !x.allFinite()) {
-      o.R.setConstant(NAN), o.t.setConstant(NAN);
-      continue;
-    }
-    Mat3 Jl;
-    Mat32 Jt;
-    chart.eval(x.data(), false, &o.R, &o.t, &Jl, &Jt);
-  }
-}
-
 void refine_residuals(const Points& p, const double* w, const Pose& start, const double x[5], int kind,
                       std::vector<double>* r, std::vector<double>* J) {
   const Chart chart(start);

@@ -59,14 +59,6 @@ RefineStats refine_sampson(const Points& p, const double* w, const RefineOptions
 // 1 "theta2" (N = theta_i^2, floored at 1e-30), 2 "angular" (N = theta_i^2 |z_i R f1_i + t|).
 RefineStats refine_ligt(const Points& p, const double* w, const RefineOptions& opt, int normalization, Pose* pose);
 
-// Leave-fold-out poses of a weighted Sampson least-squares fit, the infinitesimal jackknife of a
-// cross-fit: fold j = {i : i % folds == j}. From `pose` (the fit on all points, a stationary point of
-// sum_i w_i r_i^2 with the weights w (n,) >= 0 fixed), `steps` Gauss-Newton steps of
-// sum_{i not in j} w_i r_i^2 on the chart of `pose`; the first step's normal equations are those of
-// all points with fold j's terms subtracted (one pass over the points for every fold). out: `folds`
-// poses (unit t); a fold whose normal matrix is not positive definite gets a NaN pose.
-void fold_poses(const Points& p, const double* w, const Pose& pose, int folds, int steps, std::vector<Pose>* out);
-
 // Residual (1 for Sampson, 3 for LiGT) and its Jacobian w.r.t. the chart at x, exposed for tests:
 // r (n * dim), J (n * dim * 5, row-major per residual component). kind 0 Sampson, 1 + norm LiGT.
 void refine_residuals(const Points& p, const double* w, const Pose& start, const double x[5], int kind,

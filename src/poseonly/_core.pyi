@@ -88,19 +88,6 @@ def ml_refine(
     sigma_init: float | None = None,
     g_init: float | None = None,
 ) -> dict[str, Any]: ...
-def ml_fold_poses(
-    R: NDArray[np.float64],
-    t: NDArray[np.float64],
-    f1: NDArray[np.float64],
-    f2: NDArray[np.float64],
-    posterior: NDArray[np.float64],
-    sigma: float,
-    nu: float,
-    alpha: float,
-    scales: NDArray[np.float64] | None = None,
-    folds: int = 5,
-    steps: int = 1,
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
 def gnc_ransac(
     f1: NDArray[np.float64],
     f2: NDArray[np.float64],

@@ -291,13 +291,6 @@ class PoseonlyOptions(CommonOptions):
         lo=0,
         hi=16,
     )
-    ml_fold_fit: str = _opt(
-        "em",
-        "str",
-        "how the cross-fit fits the other folds: EM from the ML fit ('em'), or Gauss-Newton steps of the ML stage's last M-step"
-        " with its weights fixed ('newton': the influence of the fold's matches removed, one pass over the matches)",
-        choices=("em", "newton"),
-    )
     research_noise: float = _opt(
         0.0,
         "real",

@@ -268,9 +268,6 @@ METHODS: dict[str, MethodFn] = {
     # the search ended where the expected all-inlier draws of the sampler's schedule reach the confidence
     # (progressive_rule="expected", fifteenth session) instead of by PROSAC's per-top-n rule
     "poseonly-expectedstop": ours(use_scores=True, use_scales=True, progressive_rule="expected"),
-    # the cross-fit's folds by Gauss-Newton from the ML fit instead of an EM each (sixteenth session)
-    "poseonly-cfem": ours(use_scores=True, use_scales=True, ml_fold_fit="em"),
-    "poseonly-cfnewton": ours(use_scores=True, use_scales=True, ml_fold_fit="newton"),
 }
 DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")
 # the library each method needs (a missing one skips the method with a note)

@@ -59,8 +59,6 @@ CF_POSE_TOL = 1e-5
 # 4-34 of 153 entry-P10 / temple pairs (one pose by 1.5 deg), for 10-25 % of the cross-fit's time
 CF_ROUNDS = ML_ROUNDS
 CF_LM_ITERATIONS = 4
-# ml_fold_fit="newton": Gauss-Newton steps per fold
-CF_NEWTON_STEPS = 2
 
 
 def make_rng(seed: int | np.random.Generator) -> np.random.Generator:
@@ -286,7 +284,6 @@ def _cross_fit(
     folds: int,
     tails: tuple[float, float] | None = None,
     start: tuple[float, float] | None = None,
-    fit: dict[str, Any] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int] | None:
     """The ML pose without the inliers the cross-fit vetoes, from the ML pose ``(R, t)``; or None.
 
@@ -315,26 +312,14 @@ def _cross_fit(
 
     ``start = (sigma, g)``: the ML stage's noise scale and inlier share on all matches, where each
     fold's EM starts (the same fixed point as from its own robust start, to ~1e-8 in the pose, in a
-    third fewer E-steps); only the folds' poses are computed (``pose_only``).
-
-    ``fit``: the ML stage's result at ``(R, t)`` (``_core.ml_refine``'s dict); given, the folds' poses are
-    not EMs but ``CF_NEWTON_STEPS`` Gauss-Newton steps of its last M-step with its weights fixed
-    (``_core.ml_fold_poses``: the fold's influence removed, one pass over the matches)."""
+    third fewer E-steps); only the folds' poses are computed (``pose_only``)."""
     n = len(f1)
     c = np.ascontiguousarray
     nu, alpha = tails if tails is not None else (None, None)
     s0, g0 = start if start is not None and np.isfinite(start[0]) and start[0] > 0.0 and 0.0 < start[1] < 1.0 else (None, None)
     fold = np.arange(n) % folds
     held_out = np.zeros(n, dtype=bool)
-    if fit is not None:
-        sc = None if scales is None else c(scales, dtype=float)
-        Rf, tf = _core.ml_fold_poses(R, t, f1, f2, c(fit["posterior"], dtype=float), float(fit["sigma"]), float(fit["nu"]), float(fit["alpha"]), sc, folds, CF_NEWTON_STEPS)
-        if not (np.all(np.isfinite(Rf)) and np.all(np.isfinite(tf))):
-            return None
-        for j in range(folds):
-            test = fold == j
-            held_out[test] = v_sampson(Rf[j], tf[j], f1[test], f2[test]) < decision
-    for j in range(folds if fit is None else 0):
+    for j in range(folds):
         test = fold == j
         train = ~test
         sc = None if scales is None else c(scales[train])
@@ -469,9 +454,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                 R, t, m = best
                 if o.ml_folds > 1:
                     tails, start = (float(m["nu"]), float(m["alpha"])), (float(m["sigma"]), float(m["inlier_fraction"]))
-                    cf = _cross_fit(
-                        R, t, f1, f2, T_used, float(m["decision_gauss"]), student, noise_scales, int(o.ml_folds), tails, start, m if o.ml_fold_fit == "newton" else None
-                    )
+                    cf = _cross_fit(R, t, f1, f2, T_used, float(m["decision_gauss"]), student, noise_scales, int(o.ml_folds), tails, start)
                     thr = max(tau_used, float(m["decision_gauss"]))
                     diag["cross_fit"] = cf is not None and msac_chiral(cf[0], cf[1], f1, f2, thr) >= ML_KEEP_TOLERANCE * msac_chiral(R0, t0, f1, f2, thr)
                     if diag["cross_fit"]:
