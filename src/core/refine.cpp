@@ -3,10 +3,97 @@
 
 #include <Eigen/LU>
 
+#include "residuals.h"
+
 #include <algorithm>
+#include <optional>
 #include <vector>
 
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define POSEONLY_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define POSEONLY_SIMD_CLONES
+#endif
+
 namespace poseonly {
+
+// Signed Sampson residuals (and, with J, their chart Jacobians J[k * kSampsonBlock + i]) of the
+// points [i0, i0 + m) at the pose R, t with the chart's Jl, Jt: sampson_point's operations in the
+// same order per point (bit-identical), branch-free so that the loop runs on SIMD lanes (an AVX2 clone chosen at load
+// time; no FMA, so every clone rounds as the scalar code).
+constexpr int kSampsonBlock = 32;
+
+POSEONLY_SIMD_CLONES
+void sampson_jac_block(const double* Rm, const double* tv, const double* Jlm, const double* Jtm, const SoaPoints& S, int i0, int m,
+                       double* r, double* J) {
+  double R[9], t[3], L[9], T[6];  // local copies (no aliasing with r, J): row-major R and Jl, t, Jt (3 x 2, row-major)
+  for (int k = 0; k < 9; ++k) R[k] = Rm[k], L[k] = Jlm[k];
+  for (int k = 0; k < 3; ++k) t[k] = tv[k];
+  for (int k = 0; k < 6; ++k) T[k] = Jtm[k];
+  const double *x1 = S.x1.data() + i0, *y1 = S.y1.data() + i0, *z1 = S.z1.data() + i0;
+  const double *x2 = S.x2.data() + i0, *y2 = S.y2.data() + i0, *z2 = S.z2.data() + i0;
+  // pass 1: a = R f1, s = f2 x t, u = t x a and the residual, per point of the block
+  double a0[kSampsonBlock], a1[kSampsonBlock], a2[kSampsonBlock], s0[kSampsonBlock], s1[kSampsonBlock], s2[kSampsonBlock];
+  double u0[kSampsonBlock], u1[kSampsonBlock], u2[kSampsonBlock], num[kSampsonBlock], q[kSampsonBlock], live[kSampsonBlock];
+  for (int i = 0; i < m; ++i) {
+    a0[i] = R[0] * x1[i] + R[1] * y1[i] + R[2] * z1[i];
+    a1[i] = R[3] * x1[i] + R[4] * y1[i] + R[5] * z1[i];
+    a2[i] = R[6] * x1[i] + (R[7] * y1[i] + R[8] * z1[i]);  // Eigen's 3x3 product: rows 0-1 as a packet, row 2 scalar (x0 + (x1 + x2))
+    s0[i] = y2[i] * t[2] - z2[i] * t[1], s1[i] = z2[i] * t[0] - x2[i] * t[2], s2[i] = x2[i] * t[1] - y2[i] * t[0];
+    u0[i] = t[1] * a2[i] - t[2] * a1[i], u1[i] = t[2] * a0[i] - t[0] * a2[i], u2[i] = t[0] * a1[i] - t[1] * a0[i];
+    num[i] = a0[i] * s0[i] + a1[i] * s1[i] + a2[i] * s2[i];
+    const double den_raw = (u0[i] * u0[i] + u1[i] * u1[i] + u2[i] * u2[i]) + (s0[i] * s0[i] + s1[i] * s1[i] + s2[i] * s2[i]) - 2.0 * num[i] * num[i];
+    const double den = den_raw < kTiny ? kTiny : den_raw;  // std::max(den_raw, kTiny)
+    q[i] = 1.0 / std::sqrt(den);
+    r[i] = num[i] * q[i];
+    live[i] = den_raw > kTiny ? 1.0 : 0.0;  // else no epipolar geometry for this point: flat
+  }
+  if (!J) return;
+  // pass 2: the five chart derivatives, one loop each
+  for (int k = 0; k < 3; ++k) {
+    const double c0 = L[k], c1 = L[3 + k], c2 = L[6 + k];  // Jl.col(k)
+    double* Jk = J + k * kSampsonBlock;
+    for (int i = 0; i < m; ++i) {
+      const double d0 = c1 * a2[i] - c2 * a1[i], d1 = c2 * a0[i] - c0 * a2[i], d2 = c0 * a1[i] - c1 * a0[i];
+      const double dnum = d0 * s0[i] + d1 * s1[i] + d2 * s2[i];
+      const double e0 = t[1] * d2 - t[2] * d1, e1 = t[2] * d0 - t[0] * d2, e2 = t[0] * d1 - t[1] * d0;
+      const double dden = 2.0 * (u0[i] * e0 + u1[i] * e1 + u2[i] * e2) - 4.0 * num[i] * dnum;
+      const double q3 = q[i] * q[i] * q[i];
+      Jk[i] = live[i] != 0.0 ? q[i] * dnum - 0.5 * num[i] * q3 * dden : 0.0;
+    }
+  }
+  for (int k = 0; k < 2; ++k) {
+    const double c0 = T[k], c1 = T[2 + k], c2 = T[4 + k];  // Jt.col(k)
+    double* Jk = J + (3 + k) * kSampsonBlock;
+    for (int i = 0; i < m; ++i) {
+      const double d0 = y2[i] * c2 - z2[i] * c1, d1 = z2[i] * c0 - x2[i] * c2, d2 = x2[i] * c1 - y2[i] * c0;  // f2 x dt
+      const double dnum = a0[i] * d0 + a1[i] * d1 + a2[i] * d2;
+      const double e0 = c1 * a2[i] - c2 * a1[i], e1 = c2 * a0[i] - c0 * a2[i], e2 = c0 * a1[i] - c1 * a0[i];  // dt x a
+      const double dden = 2.0 * (u0[i] * e0 + u1[i] * e1 + u2[i] * e2) + 2.0 * (s0[i] * d0 + s1[i] * d1 + s2[i] * d2) - 4.0 * num[i] * dnum;
+      const double q3 = q[i] * q[i] * q[i];
+      Jk[i] = live[i] != 0.0 ? q[i] * dnum - 0.5 * num[i] * q3 * dden : 0.0;
+    }
+  }
+}
+
+// The per-point terms of the IRLS normal equations of a block (Problem::eval's sums, the same
+// operations per point): with J scaled by the point's residual weight sw, row a of T holds
+// drho (0 + J_a r) (the gradient, a < 5), then drho (0 + J_a J_b) for a <= b (15 rows).
+constexpr int kNormalTerms = 20;
+
+POSEONLY_SIMD_CLONES
+void sampson_normal_terms(const double* J, const double* sw, const double* rs, const double* dr, int m, double* T) {
+  double Js[5][kSampsonBlock];
+  for (int a = 0; a < 5; ++a)
+    for (int i = 0; i < m; ++i) Js[a][i] = J[a * kSampsonBlock + i] * sw[i];
+  for (int a = 0; a < 5; ++a)
+    for (int i = 0; i < m; ++i) T[a * kSampsonBlock + i] = dr[i] * (0.0 + Js[a][i] * rs[i]);
+  int row = 5;
+  for (int a = 0; a < 5; ++a)
+    for (int b = a; b < 5; ++b, ++row)
+      for (int i = 0; i < m; ++i) T[row * kSampsonBlock + i] = dr[i] * (0.0 + Js[a][i] * Js[b][i]);
+}
+
 namespace {
 
 using Mat32 = Eigen::Matrix<double, 3, 2>;
@@ -234,6 +321,7 @@ struct Problem {
   const Chart& chart;
   bool outer = false;  // w_i multiplies rho instead of scaling r (RefineOptions::weights_outside)
   const double* v = nullptr;  // with outer: residual weights scaling r (RefineOptions::residual_weights)
+  const SoaPoints* soa = nullptr;  // Sampson: the points as coordinate arrays (the block path of eval)
   // sqrt of the weight that scales point i's residual
   double inner(int i) const { return outer ? (v ? std::sqrt(v[i]) : 1.0) : (w ? std::sqrt(w[i]) : 1.0); }
   int dim() const { return kind == 0 ? 1 : 3; }
@@ -243,10 +331,63 @@ struct Problem {
     else ligt_point(F, p.a(i), p.b(i), kind - 1, want, r, J);
   }
 
+  // Sampson with the points as coordinate arrays: residuals, Jacobians and the normal equations'
+  // terms per block of points (sampson_jac_block, sampson_normal_terms: the values of point() and of
+  // eval's loop), summed in point order (bit-identical to the loop)
+  double eval_blocks(const Frame& F, bool want, Mat5* H, Vec5* g) const {
+    const double s2 = scale * scale;
+    double Rm[9], Lm[9], Tm[6];
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) Rm[3 * a + b] = F.R(a, b), Lm[3 * a + b] = want ? F.Jl(a, b) : 0.0;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 2; ++b) Tm[2 * a + b] = want ? F.Jt(a, b) : 0.0;
+    double rb[kSampsonBlock], Jb[5 * kSampsonBlock], swb[kSampsonBlock], rsb[kSampsonBlock], drb[kSampsonBlock];
+    double Tb[kNormalTerms * kSampsonBlock];
+    bool use[kSampsonBlock];
+    double acc[kNormalTerms] = {};
+    double cost = 0.0;
+    for (int i0 = 0; i0 < p.n; i0 += kSampsonBlock) {
+      const int m = std::min(kSampsonBlock, p.n - i0);
+      sampson_jac_block(Rm, F.t.data(), Lm, Tm, *soa, i0, m, rb, want ? Jb : nullptr);
+      for (int k = 0; k < m; ++k) {
+        const int i = i0 + k;
+        use[k] = !(outer && w && w[i] == 0.0);
+        swb[k] = rsb[k] = drb[k] = 0.0;
+        if (!use[k]) continue;
+        const double sw = inner(i);
+        const double r0 = rb[k] * sw;
+        double sq = 0.0;
+        sq += r0 * r0;
+        double rho, drho;
+        rho_of(loss, sq / s2, &rho, &drho);
+        if (outer && w) {
+          rho *= w[i];
+          drho *= w[i];
+        }
+        cost += s2 * rho;
+        swb[k] = sw, rsb[k] = r0, drb[k] = drho;
+      }
+      if (!want) continue;
+      sampson_normal_terms(Jb, swb, rsb, drb, m, Tb);
+      for (int k = 0; k < m; ++k) {
+        if (!use[k]) continue;
+        for (int j = 0; j < kNormalTerms; ++j) acc[j] += Tb[j * kSampsonBlock + k];
+      }
+    }
+    if (want) {
+      for (int a = 0; a < 5; ++a) (*g)(a) = acc[a];
+      int row = 5;
+      for (int a = 0; a < 5; ++a)
+        for (int b = a; b < 5; ++b, ++row) (*H)(a, b) = (*H)(b, a) = acc[row];
+    }
+    return cost;
+  }
+
   // cost s^2 sum rho(|r_i|^2 / s^2); with want also H and g
   double eval(const double* x, bool want, Mat5* H, Vec5* g) const {
     Frame F;
     chart.eval(x, want, &F.R, &F.t, &F.Jl, &F.Jt);
+    if (kind == 0 && soa) return eval_blocks(F, want, H, g);
     const int m = dim();
     const double s2 = scale * scale;
     double Hs[5][5] = {}, gs[5] = {};
@@ -326,11 +467,13 @@ double default_scale(const Points& p, const double* w, int kind, const Chart& ch
 }
 
 // the LM loop of poseonly.refine.ligt._lm
-void levenberg_marquardt(const Problem& pr, int max_iter, double tol, double x[5], RefineStats* st) {
-  Mat5 H, Hn;
-  Vec5 g, gn;
+// From x = 0 with its cost F0, normal matrix H and gradient g (one evaluation, counted); returns the
+// cost at the returned x (the last accepted evaluation's)
+double levenberg_marquardt(const Problem& pr, int max_iter, double tol, double F0, Mat5 H, Vec5 g, double x[5], RefineStats* st) {
+  Mat5 Hn;
+  Vec5 gn;
   Vec5 xv = Vec5::Zero();
-  double F = pr.eval(xv.data(), true, &H, &g);
+  double F = F0;
   int nfev = 1, njev = 1;
   Vec5 d = H.diagonal().cwiseMax(kDiagFloor);
   double lam = kLambda0;
@@ -384,6 +527,7 @@ void levenberg_marquardt(const Problem& pr, int max_iter, double tol, double x[5
   st->iterations = njev;
   st->evaluations = nfev;
   st->status = status;
+  return F;
 }
 
 // flip t so that the weighted majority of h_i^T t is positive; the weighted positive fraction after
@@ -415,22 +559,28 @@ RefineStats refine(const Points& p, const double* w, const RefineOptions& opt, i
   double scale = 1.0;
   if (opt.loss != RefineLoss::Linear) scale = opt.loss_scale > 0.0 ? opt.loss_scale : default_scale(p, w, kind, chart, opt.weights_outside, opt.residual_weights);
   st.loss_scale = scale;
-  const Problem pr{p, w, kind, opt.loss, scale, chart, opt.weights_outside, opt.weights_outside ? opt.residual_weights : nullptr};
+  std::optional<SoaPoints> soa;
+  if (kind == 0) soa.emplace(p);
+  const Problem pr{p, w, kind, opt.loss, scale, chart, opt.weights_outside, opt.weights_outside ? opt.residual_weights : nullptr, soa ? &*soa : nullptr};
   const double x0[5] = {0, 0, 0, 0, 0};
-  const double cost0 = pr.eval(x0, false, nullptr, nullptr);
+  // the start's cost with its normal equations, LM's first evaluation; the cost at the returned x
+  // is LM's last accepted one (the same computation: no evaluation repeated)
+  Mat5 H0;
+  Vec5 g0;
+  const double cost0 = pr.eval(x0, true, &H0, &g0);
   st.initial_cost = cost0;
   const double tol = std::max(opt.tol, kRefineMinTol);
   double x[5] = {0, 0, 0, 0, 0};
+  double cost1 = cost0;
   if (cost0 == 0.0) {
     st.iterations = 0;
     st.evaluations = 1;
     st.status = 1;
   } else {
-    levenberg_marquardt(pr, std::max(opt.max_iterations, 1), tol, x, &st);
+    cost1 = levenberg_marquardt(pr, std::max(opt.max_iterations, 1), tol, cost0, H0, g0, x, &st);
   }
   Frame F;
   chart.eval(x, false, &F.R, &F.t, &F.Jl, &F.Jt);
-  double cost1 = pr.eval(x, false, nullptr, nullptr);
   Pose out{F.R, F.t};
   if (!(cost1 <= cost0)) {  // never return a worse pose (guard; LM only accepts decreasing steps)
     out = start;
