@@ -7,6 +7,12 @@
 #include "refine.h"
 #include "residuals.h"
 
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define POSEONLY_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define POSEONLY_SIMD_CLONES
+#endif
+
 namespace poseonly {
 namespace {
 
@@ -89,22 +95,76 @@ struct InlierModel {
 // most `steps` steps, until s moves by at most tol relative and g by tol): false when fewer than
 // kMinInliers expected inliers remain. `p` (optional) gets the posteriors at the result.
 // q (optional, as r): per-match inverse noise scales, the inlier density of r_i being q_i f(q_i r_i).
+// The E-step's per-match terms on a block [i0, i0 + m) of the errors: the posterior
+// pi = g q f(q r) / (g q f(q r) + (1 - g) / T) and pi w(q r) (q r)^2 with w the t's latent precision
+// (1: Gaussian), f and w those of M; the same operations per match as M.density and M.precision
+// (bit-identical), in loops over the block's matches so that they run on SIMD lanes (an AVX2 clone
+// chosen at load time; no FMA). Matches at or beyond T get unused values (the caller skips them).
+constexpr int kEmBlock = 64;
+
+POSEONLY_SIMD_CLONES
+void em_terms_block(const InlierModel& M, double g, double out_density, double Tr, const double* r, const double* q, int m, double* pi, double* term) {
+  const double s = M.s, nu = M.nu, norm = M.norm;
+  double z[kEmBlock], z2[kEmBlock], dens[kEmBlock];
+  for (int i = 0; i < m; ++i) {
+    const double qi = q ? q[i] : 1.0;
+    z[i] = qi * r[i];
+    z2[i] = (z[i] / s) * (z[i] / s);
+  }
+  if (M.student()) {
+    // norm * quarter_pow(1 / (1 + z2 / nu), (nu + 1) / 2), its exponent the same for every match
+    const double e = 0.5 * (nu + 1.0);
+    double x[kEmBlock];
+    for (int i = 0; i < m; ++i) x[i] = 1.0 / (1.0 + z2[i] / nu);
+    const double qe = 4.0 * e;
+    if (!(qe == std::floor(qe) && qe >= 0.0 && qe < 256.0)) {
+      for (int i = 0; i < m; ++i) dens[i] = norm * std::pow(x[i], e);
+    } else {
+      const int f = static_cast<int>(qe) & 3;
+      double y[kEmBlock], b[kEmBlock];
+      for (int i = 0; i < m; ++i) y[i] = 1.0, b[i] = x[i];
+      for (int k = static_cast<int>(qe) >> 2; k; k >>= 1) {
+        if (k & 1)
+          for (int i = 0; i < m; ++i) y[i] *= b[i];
+        for (int i = 0; i < m; ++i) b[i] *= b[i];
+      }
+      if (f)
+        for (int i = 0; i < m; ++i) {
+          const double h = std::sqrt(x[i]), hh = std::sqrt(h);
+          y[i] *= f == 1 ? hh : f == 2 ? h : h * hh;
+        }
+      for (int i = 0; i < m; ++i) dens[i] = norm * y[i];
+    }
+  } else {
+    for (int i = 0; i < m; ++i) dens[i] = r[i] < Tr ? norm * std::exp(-0.5 * z2[i]) : 0.0;  // exp is scalar: only where used
+  }
+  for (int i = 0; i < m; ++i) {
+    const double qi = q ? q[i] : 1.0;
+    const double lin = g * qi * dens[i];
+    pi[i] = lin / (lin + out_density);
+    const double prec = M.student() ? (nu + 1.0) / (nu + z2[i]) : 1.0;
+    term[i] = pi[i] * prec * z[i] * z[i];
+  }
+}
+
 bool fit_scale(const std::vector<double>& r, const std::vector<double>* q, double Tr, double nu, double floor, int steps, double tol,
                double* s, double* g, std::vector<double>* p) {
+  const int n = static_cast<int>(r.size());
+  int nT = 0;  // the matches below T (fixed errors)
+  for (int i = 0; i < n; ++i) nT += r[i] < Tr;
+  double pib[kEmBlock], tb[kEmBlock];
   for (int e = 0; e < steps; ++e) {
     const InlierModel M(*s, nu);
     const double out_density = (1.0 - *g) / Tr;
-    int nT = 0;
     double sp = 0.0, spur2 = 0.0;
-    for (size_t i = 0; i < r.size(); ++i) {
-      const double x = r[i];
-      if (!(x < Tr)) continue;
-      ++nT;
-      const double qi = q ? (*q)[i] : 1.0, z = qi * x;
-      const double lin = *g * qi * M.density(z);
-      const double pi = lin / (lin + out_density);
-      sp += pi;
-      spur2 += pi * M.precision(z) * z * z;
+    for (int i0 = 0; i0 < n; i0 += kEmBlock) {
+      const int m = std::min(kEmBlock, n - i0);
+      em_terms_block(M, *g, out_density, Tr, r.data() + i0, q ? q->data() + i0 : nullptr, m, pib, tb);
+      for (int k = 0; k < m; ++k) {
+        if (!(r[i0 + k] < Tr)) continue;
+        sp += pib[k];
+        spur2 += tb[k];
+      }
     }
     if (sp < kMinInliers) return false;
     const double s0 = *s, g0 = *g;
@@ -116,10 +176,10 @@ bool fit_scale(const std::vector<double>& r, const std::vector<double>* q, doubl
     const InlierModel M(*s, nu);
     const double out_density = (1.0 - *g) / Tr;
     p->resize(r.size());
-    for (size_t i = 0; i < r.size(); ++i) {
-      const double qi = q ? (*q)[i] : 1.0;
-      const double lin = r[i] < Tr ? *g * qi * M.density(qi * r[i]) : 0.0;
-      (*p)[i] = r[i] < Tr ? lin / (lin + out_density) : 0.0;
+    for (int i0 = 0; i0 < n; i0 += kEmBlock) {
+      const int m = std::min(kEmBlock, n - i0);
+      em_terms_block(M, *g, out_density, Tr, r.data() + i0, q ? q->data() + i0 : nullptr, m, pib, tb);
+      for (int k = 0; k < m; ++k) (*p)[i0 + k] = r[i0 + k] < Tr ? pib[k] : 0.0;
     }
   }
   return true;
