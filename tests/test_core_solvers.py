@@ -231,6 +231,36 @@ def test_sampson_residual_and_jacobian_vs_finite_differences():
         np.testing.assert_allclose(J, Jfd, rtol=1e-7, atol=1e-9 * np.abs(J).max())
 
 
+@pytest.mark.parametrize("n", [1, 31, 32, 33, 100])
+def test_sampson_normal_equations_blocks_bit_identical(n):
+    # the LM's SIMD blocks over coordinate arrays give the per-point path's cost, H and g exactly,
+    # and both are the point-order sums of the residuals and Jacobians of _refine_residuals
+    sc = make_scene(max(n, 6), "normal", "wide", noise_px=1.0, outlier_fraction=0.3, seed=n)
+    f1, f2 = np.ascontiguousarray(sc.f1[:n]), np.ascontiguousarray(sc.f2[:n])
+    rng = np.random.default_rng(n)
+    R0, t0 = _perturbed_start(sc, rng, 2.0, 0.05)
+    w = rng.random(n)
+    for x in (np.zeros(5), 0.02 * rng.standard_normal(5)):
+        cb, Hb, gb = core._refine_normal_equations(R0, t0, f1, f2, x, w, True)
+        cp, Hp, gp = core._refine_normal_equations(R0, t0, f1, f2, x, w, False)
+        assert cb == cp
+        np.testing.assert_array_equal(Hb, Hp)
+        np.testing.assert_array_equal(gb, gp)
+        r, J = core._refine_residuals(0, R0, t0, f1, f2, x, w)
+        cost, H, g = 0.0, np.zeros((5, 5)), np.zeros(5)
+        for i in range(n):  # Python floats: the same roundings as the core's sequential sums
+            ri, Ji = float(r[i]), [float(v) for v in J[i]]
+            cost += ri * ri
+            for a in range(5):
+                g[a] += Ji[a] * ri
+                for b in range(a, 5):
+                    H[a, b] += Ji[a] * Ji[b]
+        H = np.triu(H) + np.triu(H, 1).T
+        assert cb == cost
+        np.testing.assert_array_equal(Hb, H)
+        np.testing.assert_array_equal(gb, g)
+
+
 # ------------------------------------------------------------------------------------------------
 # refinements: exactness, agreement with the numpy LM, weights
 

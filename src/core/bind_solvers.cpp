@@ -199,6 +199,21 @@ nb::tuple refine_residuals_py(int kind, const ArrayIn& R, const ArrayIn& t, cons
   return nb::make_tuple(to_numpy(std::move(r), {m}), to_numpy(std::move(J), {m, size_t{5}}));
 }
 
+nb::tuple refine_normal_equations_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, const VectorIn& x,
+                                     const std::optional<VectorIn>& w, bool blocks) {
+  const Points P = points_of(f1, f2);
+  const double* wp = checked_weights(w, P.n);
+  const Pose pose = checked_pose(R, t);
+  if (x.shape(0) != 5) throw std::invalid_argument("x must have shape (5,)");
+  std::vector<double> H(25), g(5);
+  double cost;
+  {
+    nb::gil_scoped_release release;
+    cost = refine_normal_equations(P, wp, pose, x.data(), blocks, H.data(), g.data());
+  }
+  return nb::make_tuple(cost, to_numpy(std::move(H), {size_t{5}, size_t{5}}), to_numpy(std::move(g), {size_t{5}}));
+}
+
 }  // namespace
 }  // namespace poseonly
 
@@ -227,6 +242,10 @@ POSEONLY_BIND(solvers) {
         "LiGTopt (poseonly.refine.ligt.ligt_refine(..., solver='lm')): LM on IRLS normal equations of "
         "sum_i s^2 rho(|sqrt(w_i) L~_i t|^2 / s^2) with normalization none | theta2 | angular; other arguments as "
         "refine_sampson. Returns (R, unit t, stats dict).");
+  m.def("_refine_normal_equations", &refine_normal_equations_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
+        nb::arg("x"), nb::arg("w") = nb::none(), nb::arg("blocks") = true,
+        "Test helper: the Sampson LM's cost, H (5, 5) and g (5,) at chart point x around (R, t) (linear loss, residuals "
+        "scaled by sqrt(w)), through the SIMD blocks (blocks=True, the LM's path) or point by point.");
   m.def("_refine_residuals", &refine_residuals_py, nb::arg("kind"), nb::arg("R"), nb::arg("t"), nb::arg("f1"),
         nb::arg("f2"), nb::arg("x"), nb::arg("w") = nb::none(),
         "Test helper: stacked residuals r (m,) and their Jacobian (m, 5) w.r.t. the refinement chart x = (w, v) "

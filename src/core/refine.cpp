@@ -604,6 +604,23 @@ RefineStats refine_ligt(const Points& p, const double* w, const RefineOptions& o
   return refine(p, w, opt, 1 + normalization, pose);
 }
 
+double refine_normal_equations(const Points& p, const double* w, const Pose& start, const double x[5], bool blocks, double* H, double* g) {
+  Pose unit = start;
+  unit.t.normalize();
+  const Chart chart(unit);
+  std::optional<SoaPoints> soa;
+  if (blocks) soa.emplace(p);
+  const Problem pr{p, w, 0, RefineLoss::Linear, 1.0, chart, false, nullptr, soa ? &*soa : nullptr};
+  Mat5 Hm;
+  Vec5 gv;
+  const double cost = pr.eval(x, true, &Hm, &gv);
+  for (int a = 0; a < 5; ++a) {
+    g[a] = gv(a);
+    for (int b = 0; b < 5; ++b) H[5 * a + b] = Hm(a, b);
+  }
+  return cost;
+}
+
 void refine_residuals(const Points& p, const double* w, const Pose& start, const double x[5], int kind,
                       std::vector<double>* r, std::vector<double>* J) {
   const Chart chart(start);

@@ -139,6 +139,15 @@ def refine_ligt(
 def _refine_residuals(
     kind: int, R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], x: NDArray[np.float64], w: NDArray[np.float64] | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+def _refine_normal_equations(
+    R: NDArray[np.float64],
+    t: NDArray[np.float64],
+    f1: NDArray[np.float64],
+    f2: NDArray[np.float64],
+    x: NDArray[np.float64],
+    w: NDArray[np.float64] | None = None,
+    blocks: bool = True,
+) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]: ...
 def robust_rotation(
     f1: NDArray[np.float64], f2: NDArray[np.float64], chord: float, seed: int, max_iterations: int = 10000, confidence: float = 0.999, max_score_points: int = 0
 ) -> tuple[NDArray[np.float64], NDArray[np.uint8], int]: ...
