@@ -15,6 +15,14 @@
 #include <limits>
 #include <vector>
 
+// Hot point loops (blocks over coordinate arrays) get an AVX2 clone chosen at load time where GCC
+// on x86-64 Linux builds them (no FMA: every clone rounds as the scalar code).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define POSEONLY_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define POSEONLY_SIMD_CLONES
+#endif
+
 namespace poseonly {
 
 using Vec3 = Eigen::Vector3d;

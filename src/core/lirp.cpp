@@ -280,12 +280,6 @@ inline double sgn(double x) { return static_cast<double>((x > 0.0) - (x < 0.0));
 
 namespace {
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define POSEONLY_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define POSEONLY_SIMD_CLONES
-#endif
-
 // The points as coordinate arrays (built once per LiRP call, read by the 18 identifications) and
 // the effective weights (w_i where w_i > 0, else 0: such points add nothing).
 struct IdPoints {

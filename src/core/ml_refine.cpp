@@ -7,12 +7,6 @@
 #include "refine.h"
 #include "residuals.h"
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define POSEONLY_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define POSEONLY_SIMD_CLONES
-#endif
-
 namespace poseonly {
 namespace {
 

@@ -9,12 +9,6 @@
 #include <optional>
 #include <vector>
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define POSEONLY_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define POSEONLY_SIMD_CLONES
-#endif
-
 namespace poseonly {
 
 // Signed Sampson residuals (and, with J, their chart Jacobians J[k * kSampsonBlock + i]) of the

@@ -2,12 +2,6 @@
 
 namespace poseonly {
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define POSEONLY_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define POSEONLY_SIMD_CLONES
-#endif
-
 POSEONLY_SIMD_CLONES
 void sampson_block(const Mat3& E, const SoaPoints& S, int i0, int m, double* out) {
   const double *x1 = S.x1.data() + i0, *y1 = S.y1.data() + i0, *z1 = S.z1.data() + i0;
