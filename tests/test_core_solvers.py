@@ -261,6 +261,34 @@ def test_sampson_normal_equations_blocks_bit_identical(n):
         np.testing.assert_array_equal(gb, g)
 
 
+@pytest.mark.parametrize("loss", ["linear", "cauchy", "huber", "soft_l1", "arctan"])
+@pytest.mark.parametrize("outside", [False, True])
+def test_sampson_normal_equations_blocks_every_branch(loss, outside):
+    # robust losses, weights outside the loss with zero weights and residual weights inside it, a
+    # point with no epipolar geometry (f2 along t: the flat Jacobian) and a NaN point: the block path
+    # and the per-point path agree bit for bit (NaN where both are NaN)
+    n = 70
+    sc = make_scene(n, "normal", "wide", noise_px=1.0, outlier_fraction=0.3, seed=11)
+    f1, f2 = sc.f1.copy(), sc.f2.copy()
+    rng = np.random.default_rng(11)
+    R0, t0 = _perturbed_start(sc, rng, 2.0, 0.05)
+    f2[5] = t0 / np.linalg.norm(t0)
+    w = rng.random(n)
+    w[::7] = 0.0
+    v = 0.5 + rng.random(n)
+    for nan in (False, True):
+        if nan:
+            f1[40] = np.nan
+        for x in (np.zeros(5), 0.02 * rng.standard_normal(5)):
+            kw = dict(loss=loss, loss_scale=1e-3, weights_outside=outside, residual_weights=v if outside else None)
+            cb, Hb, gb = core._refine_normal_equations(R0, t0, f1, f2, x, w, True, **kw)
+            cp, Hp, gp = core._refine_normal_equations(R0, t0, f1, f2, x, w, False, **kw)
+            np.testing.assert_array_equal(np.array([cb]), np.array([cp]))
+            np.testing.assert_array_equal(Hb, Hp)
+            np.testing.assert_array_equal(gb, gp)
+            assert np.isnan(cb) == (nan and not (outside and w[40] == 0.0))
+
+
 # ------------------------------------------------------------------------------------------------
 # refinements: exactness, agreement with the numpy LM, weights
 

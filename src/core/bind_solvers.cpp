@@ -200,16 +200,20 @@ nb::tuple refine_residuals_py(int kind, const ArrayIn& R, const ArrayIn& t, cons
 }
 
 nb::tuple refine_normal_equations_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, const VectorIn& x,
-                                     const std::optional<VectorIn>& w, bool blocks) {
+                                     const std::optional<VectorIn>& w, bool blocks, const std::string& loss, double loss_scale,
+                                     bool weights_outside, const std::optional<VectorIn>& residual_weights) {
   const Points P = points_of(f1, f2);
   const double* wp = checked_weights(w, P.n);
+  const double* vp = checked_weights(residual_weights, P.n);
   const Pose pose = checked_pose(R, t);
   if (x.shape(0) != 5) throw std::invalid_argument("x must have shape (5,)");
+  if (!(loss_scale > 0.0 && std::isfinite(loss_scale))) throw std::invalid_argument("loss_scale must be finite and > 0");
+  const RefineLoss L = loss_of(loss);
   std::vector<double> H(25), g(5);
   double cost;
   {
     nb::gil_scoped_release release;
-    cost = refine_normal_equations(P, wp, pose, x.data(), blocks, H.data(), g.data());
+    cost = refine_normal_equations(P, wp, pose, x.data(), blocks, H.data(), g.data(), L, loss_scale, weights_outside, vp);
   }
   return nb::make_tuple(cost, to_numpy(std::move(H), {size_t{5}, size_t{5}}), to_numpy(std::move(g), {size_t{5}}));
 }
@@ -243,9 +247,11 @@ POSEONLY_BIND(solvers) {
         "sum_i s^2 rho(|sqrt(w_i) L~_i t|^2 / s^2) with normalization none | theta2 | angular; other arguments as "
         "refine_sampson. Returns (R, unit t, stats dict).");
   m.def("_refine_normal_equations", &refine_normal_equations_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
-        nb::arg("x"), nb::arg("w") = nb::none(), nb::arg("blocks") = true,
-        "Test helper: the Sampson LM's cost, H (5, 5) and g (5,) at chart point x around (R, t) (linear loss, residuals "
-        "scaled by sqrt(w)), through the SIMD blocks (blocks=True, the LM's path) or point by point.");
+        nb::arg("x"), nb::arg("w") = nb::none(), nb::arg("blocks") = true, nb::arg("loss") = "linear", nb::arg("loss_scale") = 1.0,
+        nb::arg("weights_outside") = false, nb::arg("residual_weights") = nb::none(),
+        "Test helper: the Sampson LM's cost, H (5, 5) and g (5,) at chart point x around (R, t) (the loss of scale loss_scale; "
+        "the residuals scaled by sqrt(w), or with weights_outside w multiplying the loss and the residual weights inside it), "
+        "through the SIMD blocks (blocks=True, the LM's path) or point by point.");
   m.def("_refine_residuals", &refine_residuals_py, nb::arg("kind"), nb::arg("R"), nb::arg("t"), nb::arg("f1"),
         nb::arg("f2"), nb::arg("x"), nb::arg("w") = nb::none(),
         "Test helper: stacked residuals r (m,) and their Jacobian (m, 5) w.r.t. the refinement chart x = (w, v) "

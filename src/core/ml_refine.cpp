@@ -85,15 +85,12 @@ struct InlierModel {
   }
 };
 
-// The mixture's scale s and inlier share g at fixed nu on fixed errors r (EM from the given s, g, at
-// most `steps` steps, until s moves by at most tol relative and g by tol): false when fewer than
-// kMinInliers expected inliers remain. `p` (optional) gets the posteriors at the result.
-// q (optional, as r): per-match inverse noise scales, the inlier density of r_i being q_i f(q_i r_i).
 // The E-step's per-match terms on a block [i0, i0 + m) of the errors: the posterior
 // pi = g q f(q r) / (g q f(q r) + (1 - g) / T) and pi w(q r) (q r)^2 with w the t's latent precision
 // (1: Gaussian), f and w those of M; the same operations per match as M.density and M.precision
 // (bit-identical), in loops over the block's matches so that they run on SIMD lanes (an AVX2 clone
-// chosen at load time; no FMA). Matches at or beyond T get unused values (the caller skips them).
+// chosen at load time; no FMA). Matches at or beyond T get unused values (the caller skips them); the
+// t's density is computed for them too (vectorised), the Gaussian's scalar exp only below T.
 constexpr int kEmBlock = 64;
 
 POSEONLY_SIMD_CLONES
@@ -141,6 +138,10 @@ void em_terms_block(const InlierModel& M, double g, double out_density, double T
   }
 }
 
+// The mixture's scale s and inlier share g at fixed nu on fixed errors r (EM from the given s, g, at
+// most `steps` steps, until s moves by at most tol relative and g by tol): false when fewer than
+// kMinInliers expected inliers remain. `p` (optional) gets the posteriors at the result.
+// q (optional, as r): per-match inverse noise scales, the inlier density of r_i being q_i f(q_i r_i).
 bool fit_scale(const std::vector<double>& r, const std::vector<double>* q, double Tr, double nu, double floor, int steps, double tol,
                double* s, double* g, std::vector<double>* p) {
   const int n = static_cast<int>(r.size());

@@ -10,6 +10,7 @@
 #include <vector>
 
 namespace poseonly {
+namespace {
 
 // Signed Sampson residuals (and, with J, their chart Jacobians J[k * kSampsonBlock + i]) of the
 // points [i0, i0 + m) at the pose R, t with the chart's Jl, Jt: sampson_point's operations in the
@@ -87,8 +88,6 @@ void sampson_normal_terms(const double* J, const double* sw, const double* rs, c
     for (int b = a; b < 5; ++b, ++row)
       for (int i = 0; i < m; ++i) T[row * kSampsonBlock + i] = dr[i] * (0.0 + Js[a][i] * Js[b][i]);
 }
-
-namespace {
 
 using Mat32 = Eigen::Matrix<double, 3, 2>;
 using Mat5 = Eigen::Matrix<double, 5, 5>;
@@ -566,7 +565,7 @@ RefineStats refine(const Points& p, const double* w, const RefineOptions& opt, i
   const double tol = std::max(opt.tol, kRefineMinTol);
   double x[5] = {0, 0, 0, 0, 0};
   double cost1 = cost0;
-  if (cost0 == 0.0) {
+  if (cost0 == 0.0) {  // an exact start (its normal equations were computed for nothing: rare)
     st.iterations = 0;
     st.evaluations = 1;
     st.status = 1;
@@ -598,13 +597,14 @@ RefineStats refine_ligt(const Points& p, const double* w, const RefineOptions& o
   return refine(p, w, opt, 1 + normalization, pose);
 }
 
-double refine_normal_equations(const Points& p, const double* w, const Pose& start, const double x[5], bool blocks, double* H, double* g) {
+double refine_normal_equations(const Points& p, const double* w, const Pose& start, const double x[5], bool blocks, double* H, double* g,
+                               RefineLoss loss, double loss_scale, bool weights_outside, const double* residual_weights) {
   Pose unit = start;
   unit.t.normalize();
   const Chart chart(unit);
   std::optional<SoaPoints> soa;
   if (blocks) soa.emplace(p);
-  const Problem pr{p, w, 0, RefineLoss::Linear, 1.0, chart, false, nullptr, soa ? &*soa : nullptr};
+  const Problem pr{p, w, 0, loss, loss_scale, chart, weights_outside, weights_outside ? residual_weights : nullptr, soa ? &*soa : nullptr};
   Mat5 Hm;
   Vec5 gv;
   const double cost = pr.eval(x, true, &Hm, &gv);

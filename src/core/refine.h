@@ -59,11 +59,14 @@ RefineStats refine_sampson(const Points& p, const double* w, const RefineOptions
 // 1 "theta2" (N = theta_i^2, floored at 1e-30), 2 "angular" (N = theta_i^2 |z_i R f1_i + t|).
 RefineStats refine_ligt(const Points& p, const double* w, const RefineOptions& opt, int normalization, Pose* pose);
 
-// The Sampson LM's cost and normal equations at chart point x around `start` (linear loss, residuals
-// scaled by sqrt(w_i)): H (25, row-major) = sum_i J_i^T J_i, g (5) = sum_i J_i^T r_i, in point order;
-// `blocks` through the SIMD blocks over coordinate arrays (the LM's path) or point by point. Exposed
-// for tests (the two paths are bit-identical).
-double refine_normal_equations(const Points& p, const double* w, const Pose& start, const double x[5], bool blocks, double* H, double* g);
+// The Sampson LM's cost s^2 sum rho and IRLS normal equations at chart point x around `start` (the
+// loss of scale s, the weights as RefineOptions: scaling the residuals by sqrt(w_i), or outside the
+// loss with the residual weights inside): H (25, row-major), g (5), in point order; `blocks` through
+// the SIMD blocks over coordinate arrays (the LM's path) or point by point. Exposed for tests (the two
+// paths are bit-identical).
+double refine_normal_equations(const Points& p, const double* w, const Pose& start, const double x[5], bool blocks, double* H, double* g,
+                               RefineLoss loss = RefineLoss::Linear, double loss_scale = 1.0, bool weights_outside = false,
+                               const double* residual_weights = nullptr);
 
 // Residual (1 for Sampson, 3 for LiGT) and its Jacobian w.r.t. the chart at x, exposed for tests:
 // r (n * dim), J (n * dim * 5, row-major per residual component). kind 0 Sampson, 1 + norm LiGT.

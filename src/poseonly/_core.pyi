@@ -147,6 +147,10 @@ def _refine_normal_equations(
     x: NDArray[np.float64],
     w: NDArray[np.float64] | None = None,
     blocks: bool = True,
+    loss: str = "linear",
+    loss_scale: float = 1.0,
+    weights_outside: bool = False,
+    residual_weights: NDArray[np.float64] | None = None,
 ) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]: ...
 def robust_rotation(
     f1: NDArray[np.float64], f2: NDArray[np.float64], chord: float, seed: int, max_iterations: int = 10000, confidence: float = 0.999, max_score_points: int = 0
