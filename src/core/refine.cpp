@@ -14,8 +14,8 @@ namespace {
 
 // Signed Sampson residuals (and, with J, their chart Jacobians J[k * kSampsonBlock + i]) of the
 // points [i0, i0 + m) at the pose R, t with the chart's Jl, Jt: sampson_point's operations in the
-// same order per point (bit-identical), branch-free so that the loop runs on SIMD lanes (an AVX2 clone chosen at load
-// time; no FMA, so every clone rounds as the scalar code).
+// same order per point (bit-identical), in simple loops over the block that run on SIMD lanes (an
+// AVX2 clone chosen at load time; no FMA, so every clone rounds as the scalar code).
 constexpr int kSampsonBlock = 32;
 
 POSEONLY_SIMD_CLONES
