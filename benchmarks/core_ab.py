@@ -5,8 +5,10 @@ same synthetic pairs (n = ``--points``, 0.5 px noise), so that the machine's spe
 (up to 30 % within minutes on a shared VM) cancels out of the ratio. ``--stage``: ``search`` (the
 default's search, ``poseonly.robust.default._search``), ``refine`` (``refine_sampson``, 5 LM
 evaluations, from the true pose), ``ml`` (``ml_refine`` as the default's ML stage calls it, Student-t
-tails, from the true pose; ``--scales`` adds random noise scales) or ``pair`` (``estimate_relative_pose``
-with every module's core swapped). Build the two cores with plain CMake into separate folders, e.g.
+tails, from the true pose; ``--scales`` adds random noise scales) ``pair`` (``estimate_relative_pose``
+with every module's core swapped), ``lirp`` (``lirp_one``, Algorithm 1 on all the scene's points: use
+``--points 30``) or ``gnc-ransac`` (``estimate_relative_pose(method="gnc-ransac", refine=False)``, every
+module's core swapped). Build the two cores with plain CMake into separate folders, e.g.
 
     cmake -S . -B /tmp/build_new -G Ninja -DPython_EXECUTABLE=$(which python) -DCMAKE_BUILD_TYPE=Release
     ninja -C /tmp/build_new
@@ -24,6 +26,8 @@ import time
 from types import ModuleType
 
 import numpy as np
+
+LIRP_REPEATS = 200  # lirp stage: calls per scene and round (one call is ~20 us)
 
 
 def _load(path: str, tag: str) -> ModuleType:
@@ -44,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scenes", type=int, default=5)
     ap.add_argument("--rounds", type=int, default=20)
     ap.add_argument("--points", type=int, default=300)
-    ap.add_argument("--stage", default="search", choices=("search", "refine", "ml", "pair"))
+    ap.add_argument("--stage", default="search", choices=("search", "refine", "ml", "pair", "lirp", "gnc-ransac"))
     ap.add_argument("--scales", action="store_true", help="ml / pair: per-match noise scales (uniform 1-8)")
     a = ap.parse_args(argv)
     A, B = _load(a.core_a, "a"), _load(a.core_b, "b")
@@ -70,18 +74,23 @@ def main(argv: list[str] | None = None) -> int:
             m.refine_sampson(sc.R, sc.t, sc.f1, sc.f2, None, loss="cauchy", loss_scale=1e-3, max_iterations=5, tol=0.0)
         elif a.stage == "ml":
             m.ml_refine(sc.R, sc.t, sc.f1, sc.f2, T, rounds=D.ML_ROUNDS, pose_tol=D.ML_POSE_TOL, student=True, scales=scales[k])
+        elif a.stage == "lirp":
+            for _ in range(LIRP_REPEATS):
+                m.lirp_one(sc.f1, sc.f2, None, False, 1e-9)
+        elif a.stage == "gnc-ransac":
+            estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, method="gnc-ransac", refine=False)
         else:
             estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, noise_scales=scales[k])
 
     def run(m: ModuleType) -> float:
         RR._core = m  # the search's core calls go through this module attribute
-        if a.stage == "pair":
+        if a.stage in ("pair", "gnc-ransac"):
             for mod in users:  # every module's core calls
                 mod._core = m  # type: ignore[attr-defined]
         t0 = time.perf_counter()
         for k in range(len(scenes)):
             one(m, k)
-        return (time.perf_counter() - t0) / len(scenes)
+        return (time.perf_counter() - t0) / len(scenes) / (LIRP_REPEATS if a.stage == "lirp" else 1)
 
     run(A), run(B)  # warm-up
     ta, tb = [], []
@@ -91,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
     ra, rb = np.array(ta), np.array(tb)
     q = rb / ra
     print(
-        f"{a.stage}, {a.camera} {a.outliers:.0%}, n = {a.points}: A {np.median(ra) * 1e3:.3f} ms, B {np.median(rb) * 1e3:.3f} ms per pair; "
+        f"{a.stage}, {a.camera} {a.outliers:.0%}, n = {a.points}: A {np.median(ra) * 1e3:.3f} ms, B {np.median(rb) * 1e3:.3f} ms per pair (lirp: per call); "
         f"B / A median {np.median(q):.3f} (IQR {np.percentile(q, 25):.3f}-{np.percentile(q, 75):.3f})"
     )
     return 0

@@ -375,17 +375,146 @@ bool jacobi_svd(const Eigen::Matrix<double, N, N>& A, Eigen::Matrix<double, N, N
   return jacobi_svd_from<N>(A, V, s);
 }
 
+// Eigen-decomposition of a symmetric N x N matrix (only its lower triangle is read): Householder
+// tridiagonalisation with the transformations accumulated, then the implicit QL iteration with
+// Wilkinson's shift (EISPACK tred2 / tql2, the algorithm of Eigen's SelfAdjointEigenSolver and
+// LAPACK dsteqr), fixed-size loops on a row-major array. z's columns are the eigenvectors of the
+// eigenvalues d (unsorted). False if an eigenvalue took more than kQlMaxIterations iterations.
+constexpr int kQlMaxIterations = 30;
+
+template <int N>
+bool symmetric_eigen(const Eigen::Matrix<double, N, N>& A, double (*z)[N], double* d) {
+  double e[N];
+  for (int i = 0; i < N; ++i)
+    for (int j = 0; j <= i; ++j) z[i][j] = A(i, j);
+  // tred2: rows N-1 .. 1 reduced by Householder reflections; z holds the reflectors, then Q
+  for (int i = N - 1; i > 0; --i) {
+    const int l = i - 1;
+    double h = 0.0;
+    if (l > 0) {
+      double scale = 0.0;
+      for (int k = 0; k <= l; ++k) scale += std::abs(z[i][k]);
+      if (scale == 0.0) {
+        e[i] = z[i][l];
+      } else {
+        for (int k = 0; k <= l; ++k) {
+          z[i][k] /= scale;
+          h += z[i][k] * z[i][k];
+        }
+        double f = z[i][l];
+        double g = f >= 0.0 ? -std::sqrt(h) : std::sqrt(h);
+        e[i] = scale * g;
+        h -= f * g;
+        z[i][l] = f - g;
+        f = 0.0;
+        for (int j = 0; j <= l; ++j) {
+          z[j][i] = z[i][j] / h;
+          g = 0.0;
+          for (int k = 0; k <= j; ++k) g += z[j][k] * z[i][k];
+          for (int k = j + 1; k <= l; ++k) g += z[k][j] * z[i][k];
+          e[j] = g / h;
+          f += e[j] * z[i][j];
+        }
+        const double hh = f / (h + h);
+        for (int j = 0; j <= l; ++j) {
+          f = z[i][j];
+          e[j] = g = e[j] - hh * f;
+          for (int k = 0; k <= j; ++k) z[j][k] -= f * e[k] + g * z[i][k];
+        }
+      }
+    } else {
+      e[i] = z[i][l];
+    }
+    d[i] = h;
+  }
+  d[0] = 0.0;
+  e[0] = 0.0;
+  for (int i = 0; i < N; ++i) {  // accumulate Q
+    const int l = i - 1;
+    if (d[i] != 0.0) {
+      for (int j = 0; j <= l; ++j) {
+        double g = 0.0;
+        for (int k = 0; k <= l; ++k) g += z[i][k] * z[k][j];
+        for (int k = 0; k <= l; ++k) z[k][j] -= g * z[k][i];
+      }
+    }
+    d[i] = z[i][i];
+    z[i][i] = 1.0;
+    for (int j = 0; j <= l; ++j) z[j][i] = z[i][j] = 0.0;
+  }
+  // tql2 on the tridiagonal (d, e): e shifted so that e[i] couples d[i] and d[i + 1]
+  for (int i = 1; i < N; ++i) e[i - 1] = e[i];
+  e[N - 1] = 0.0;
+  constexpr double eps = std::numeric_limits<double>::epsilon();
+  auto pythag = [](double a, double b) {
+    const double aa = std::abs(a), ab = std::abs(b);
+    if (aa > 1e150 || ab > 1e150) return std::hypot(a, b);
+    return std::sqrt(a * a + b * b);
+  };
+  for (int l = 0; l < N; ++l) {
+    int iter = 0, m;
+    do {
+      for (m = l; m < N - 1; ++m) {
+        const double dd = std::abs(d[m]) + std::abs(d[m + 1]);
+        if (std::abs(e[m]) <= eps * dd) break;
+      }
+      if (m != l) {
+        if (iter++ == kQlMaxIterations) return false;
+        double g = (d[l + 1] - d[l]) / (2.0 * e[l]);
+        double r = pythag(g, 1.0);
+        g = d[m] - d[l] + e[l] / (g + (g >= 0.0 ? std::abs(r) : -std::abs(r)));
+        double s = 1.0, c = 1.0, p = 0.0;
+        int i;
+        for (i = m - 1; i >= l; --i) {
+          double f = s * e[i];
+          const double b = c * e[i];
+          e[i + 1] = (r = pythag(f, g));
+          if (r == 0.0) {  // underflow: deflate
+            d[i + 1] -= p;
+            e[m] = 0.0;
+            break;
+          }
+          s = f / r;
+          c = g / r;
+          g = d[i + 1] - p;
+          r = (d[i] - g) * s + 2.0 * c * b;
+          d[i + 1] = g + (p = s * r);
+          g = c * r - b;
+          for (int k = 0; k < N; ++k) {
+            f = z[k][i + 1];
+            z[k][i + 1] = s * z[k][i] + c * f;
+            z[k][i] = c * z[k][i] - s * f;
+          }
+        }
+        if (r == 0.0 && i >= l) continue;
+        d[l] -= p;
+        e[l] = g;
+        e[m] = 0.0;
+      }
+    } while (m != l);
+  }
+  return true;
+}
+
 // The same SVD, with the Jacobi sweeps started from the eigenvectors V0 of the Gram matrix A^T A
-// (Eigen's tridiagonal QL): the columns of A V0 are orthogonal to ~eps |A|^2 / (s_i s_j), so the
+// (symmetric_eigen): the columns of A V0 are orthogonal to ~eps |A|^2 / (s_i s_j), so the
 // sweeps (same rotations, same stopping rule, V accumulated from V0) only repair the small singular
 // values' directions, which the squared condition number blurred: 1-3 sweeps instead of ~6, and
 // the same accuracy as from V = I (the stopping test is on the columns of A V, not on A^T A).
+// V0's own accuracy therefore only sets the number of sweeps.
 template <int N>
 bool jacobi_svd_gram(const Eigen::Matrix<double, N, N>& A, Eigen::Matrix<double, N, N>* V, Eigen::Matrix<double, N, 1>* s) {
-  const Eigen::Matrix<double, N, N> G = A.transpose() * A;
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> es(G);
-  if (es.info() != Eigen::Success || !es.eigenvectors().allFinite()) return jacobi_svd<N>(A, V, s);
-  *V = es.eigenvectors().rowwise().reverse();  // descending eigenvalues first
+  Eigen::Matrix<double, N, N> G;
+  for (int i = 0; i < N; ++i)  // lower triangle of A^T A, column dot products
+    for (int j = 0; j <= i; ++j) G(i, j) = A.col(i).dot(A.col(j));
+  double z[N][N], d[N];
+  if (!symmetric_eigen<N>(G, z, d)) return jacobi_svd<N>(A, V, s);
+  int order[N];
+  for (int k = 0; k < N; ++k) order[k] = k;
+  std::sort(order, order + N, [&d](int a, int b) { return d[a] > d[b]; });  // descending eigenvalues first
+  for (int c = 0; c < N; ++c)
+    for (int r = 0; r < N; ++r) (*V)(r, c) = z[r][order[c]];
+  if (!V->allFinite()) return jacobi_svd<N>(A, V, s);
   return jacobi_svd_from<N>(A * *V, V, s);
 }
 

@@ -252,11 +252,58 @@ struct Frames {
   Mat3 F, G;  // G = [u3]x F: e = f2^T [t]x R f1 = +- f2^T G f1
 };
 
+// The eigenvector of the smallest eigenvalue of a symmetric positive semi-definite 3 x 3 matrix G:
+// the eigenvalue by Newton's method on det(G - x I) from x = 0 (left of every root, where the
+// characteristic cubic is convex and decreasing, so the iterates rise monotonically to the smallest
+// root), the vector as the largest cross product of two rows of G - x I (as Eigen's computeDirect,
+// without its trigonometric eigenvalue formula). An essential matrix's Gram has eigenvalues
+// (s^2, s^2, ~0): one or two Newton steps.
+constexpr int kCubicNewtonMax = 100;
+
+Vec3 smallest_eigenvector(const Mat3& G) {
+  const double scale = G.cwiseAbs().maxCoeff();
+  if (!(scale > 0.0) || !std::isfinite(scale)) return Vec3::UnitZ();
+  const Mat3 A = G / scale;
+  // det(A - x I) = -x^3 + c2 x^2 - c1 x + c0
+  const double c2 = A.trace();
+  const double c1 = A(0, 0) * A(1, 1) - A(0, 1) * A(1, 0) + A(0, 0) * A(2, 2) - A(0, 2) * A(2, 0) + A(1, 1) * A(2, 2) - A(1, 2) * A(2, 1);
+  const double c0 = A.determinant();
+  double x = 0.0;
+  for (int it = 0; it < kCubicNewtonMax; ++it) {
+    const double p = ((-x + c2) * x - c1) * x + c0;
+    const double dp = (-3.0 * x + 2.0 * c2) * x - c1;
+    if (!(dp < 0.0) || !(p > 0.0)) break;  // at (or, by rounding, past) the root
+    const double xn = x - p / dp;
+    if (!(xn > x)) break;
+    x = xn;
+  }
+  Mat3 M = A;
+  M.diagonal().array() -= x;
+  const Vec3 r0 = M.row(0), r1 = M.row(1), r2 = M.row(2);
+  Vec3 best = r0.cross(r1);
+  double bn = best.squaredNorm();
+  for (const Vec3& c : {Vec3(r0.cross(r2)), Vec3(r1.cross(r2))}) {
+    const double cn = c.squaredNorm();
+    if (cn > bn) {
+      bn = cn;
+      best = c;
+    }
+  }
+  if (!(bn > 0.0)) {  // M of rank <= 1: any unit vector orthogonal to its largest row
+    Eigen::Index k;
+    M.rowwise().squaredNorm().maxCoeff(&k);
+    const Vec3 r = M.row(k);
+    if (!(r.squaredNorm() > 0.0)) return Vec3::UnitZ();
+    Eigen::Index j;
+    r.cwiseAbs().minCoeff(&j);
+    return r.cross(Vec3::Unit(j)).normalized();
+  }
+  return best / std::sqrt(bn);
+}
+
 Frames essential_frames(const Mat3& E) {
   Frames fr;
-  Eigen::SelfAdjointEigenSolver<Mat3> es;
-  es.computeDirect(E.transpose() * E);
-  fr.v3 = es.eigenvectors().col(0);
+  fr.v3 = smallest_eigenvector(E.transpose() * E);
   Mat3 cof;
   cof.col(0) = E.col(1).cross(E.col(2));
   cof.col(1) = E.col(2).cross(E.col(0));
@@ -284,14 +331,19 @@ namespace {
 // the effective weights (w_i where w_i > 0, else 0: such points add nothing).
 struct IdPoints {
   int n = 0;
-  std::vector<double> x1, y1, z1, x2, y2, z2, w;
-  IdPoints(const Points& P, const double* wts) : n(P.n), x1(n), y1(n), z1(n), x2(n), y2(n), z2(n), w(n) {
+  std::vector<double> buf;  // one allocation for the seven arrays
+  double *x1, *y1, *z1, *x2, *y2, *z2, *w;
+  IdPoints(const Points& P, const double* wts) : n(P.n), buf(7 * static_cast<size_t>(P.n)) {
+    double* b = buf.data();
+    x1 = b, y1 = b + n, z1 = b + 2 * n, x2 = b + 3 * n, y2 = b + 4 * n, z2 = b + 5 * n, w = b + 6 * n;
     for (int i = 0; i < n; ++i) {
       x1[i] = P.f1[3 * i], y1[i] = P.f1[3 * i + 1], z1[i] = P.f1[3 * i + 2];
       x2[i] = P.f2[3 * i], y2[i] = P.f2[3 * i + 1], z2[i] = P.f2[3 * i + 2];
       w[i] = wts ? (wts[i] > 0.0 ? wts[i] : 0.0) : 1.0;
     }
   }
+  IdPoints(const IdPoints&) = delete;  // the pointers point into buf
+  IdPoints& operator=(const IdPoints&) = delete;
 };
 
 // Loop 1 of identify, per point of [i0, i0 + m): w sgn(h h'), w h h', w sgn(h) for both rotations
@@ -305,8 +357,8 @@ void sign_terms(const Frames& fr, const IdPoints& S, int i0, int m, double* out)
   const double v0 = fr.v3(0), v1 = fr.v3(1), v2 = fr.v3(2), u0 = fr.u3(0), u1 = fr.u3(1), u2 = fr.u3(2);
   const double F00 = fr.F(0, 0), F01 = fr.F(0, 1), F02 = fr.F(0, 2), F10 = fr.F(1, 0), F11 = fr.F(1, 1), F12 = fr.F(1, 2),
                F20 = fr.F(2, 0), F21 = fr.F(2, 1), F22 = fr.F(2, 2);
-  const double *X1 = S.x1.data() + i0, *Y1 = S.y1.data() + i0, *Z1 = S.z1.data() + i0;
-  const double *X2 = S.x2.data() + i0, *Y2 = S.y2.data() + i0, *Z2 = S.z2.data() + i0, *W = S.w.data() + i0;
+  const double *X1 = S.x1 + i0, *Y1 = S.y1 + i0, *Z1 = S.z1 + i0;
+  const double *X2 = S.x2 + i0, *Y2 = S.y2 + i0, *Z2 = S.z2 + i0, *W = S.w + i0;
   double *m1a = out, *rwa = out + kIdBlock, *m2a = out + 2 * kIdBlock;
   double *m1b = out + 3 * kIdBlock, *rwb = out + 4 * kIdBlock, *m2b = out + 5 * kIdBlock;
   for (int k = 0; k < m; ++k) {
