@@ -71,3 +71,18 @@ def test_compare_runs_counts_changes_and_flips(tmp_path: Path, capsys):
     out = capsys.readouterr().out
     assert "2 pair-seeds compared: 1 the same" in out and "1 changed, largest change 6.75 deg" in out
     assert "status flips: 1" in out and "d b seed 0: ok (0.250 deg) -> ambiguous (7.000 deg)" in out
+
+
+def test_oracle_mle_runs(capsys):
+    """benchmarks/oracle_mle.py end to end on one scene of one cell: the oracle mixture's MLE from the
+    true pose stays near the floor on a scene without outliers."""
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    try:
+        import oracle_mle
+    finally:
+        sys.path.pop(0)
+    assert oracle_mle.main(["--trials", "1", "--outliers", "0.0", "--cameras", "wide", "--kinds", "normal"]) == 0
+    row = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| wide normal 0 %")]
+    assert len(row) == 1
+    cells = [c.strip() for c in row[0].strip("|").split("|")]
+    assert 0.5 < float(cells[3]) < 2.0  # oracle MLE from the truth over the floor
