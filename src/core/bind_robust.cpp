@@ -227,16 +227,10 @@ nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, c
   return nb::make_tuple(to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}), ok);
 }
 
-nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double range, int rounds,
-                      int lm_iterations, double pose_tol, bool student, const std::optional<VectorIn>& scales, bool band_start,
-                      std::optional<double> nu, std::optional<double> alpha, bool pose_only,
-                      std::optional<double> sigma_init, std::optional<double> g_init) {
-  const Points P = points_of(f1, f2);
+// The ML stage's options from the binding's arguments, checked (ml_refine and ml_cross_fit).
+MlOptions ml_options(double range, int rounds, int lm_iterations, double pose_tol, bool student, bool band_start, std::optional<double> nu,
+                     std::optional<double> alpha, bool pose_only, std::optional<double> sigma_init, std::optional<double> g_init) {
   if (!(range > 0.0 && std::isfinite(range))) throw std::invalid_argument("range must be finite and > 0");
-  const double* sc = weights_of(scales, P.n);
-  if (sc)
-    for (int i = 0; i < P.n; ++i)
-      if (!(std::isfinite(sc[i]) && sc[i] > 0.0)) throw std::invalid_argument("scales must be finite and > 0");
   MlOptions mo;
   mo.range = range;
   mo.rounds = rounds;
@@ -258,6 +252,25 @@ nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, 
     if (std::isfinite(*nu) && !student) throw std::invalid_argument("a finite nu needs student=True");
     mo.fixed_tails = true, mo.nu = *nu, mo.alpha = *alpha;
   }
+  return mo;
+}
+
+const double* ml_scales(const std::optional<VectorIn>& scales, int n) {
+  const double* sc = weights_of(scales, n);
+  if (sc)
+    for (int i = 0; i < n; ++i)
+      if (!(std::isfinite(sc[i]) && sc[i] > 0.0)) throw std::invalid_argument("scales must be finite and > 0");
+  return sc;
+}
+
+nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double range, int rounds,
+                      int lm_iterations, double pose_tol, bool student, const std::optional<VectorIn>& scales, bool band_start,
+                      std::optional<double> nu, std::optional<double> alpha, bool pose_only,
+                      std::optional<double> sigma_init, std::optional<double> g_init) {
+  const Points P = points_of(f1, f2);
+  if (!(range > 0.0 && std::isfinite(range))) throw std::invalid_argument("range must be finite and > 0");
+  const double* sc = ml_scales(scales, P.n);
+  const MlOptions mo = ml_options(range, rounds, lm_iterations, pose_tol, student, band_start, nu, alpha, pose_only, sigma_init, g_init);
   MlResult r;
   {
     nb::gil_scoped_release release;
@@ -280,6 +293,33 @@ nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, 
   d["log_likelihood"] = r.log_likelihood;
   d["posterior"] = to_numpy(std::move(r.posterior), {static_cast<size_t>(P.n)});
   return d;
+}
+
+// (R, t, vetoed, ok): the cross-fit (ml_refine.h ml_cross_fit); R, t are the input pose when nothing is vetoed
+nb::tuple ml_cross_fit_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double range, double decision,
+                          int folds, int min_agree, bool student, const std::optional<VectorIn>& scales, std::optional<double> nu,
+                          std::optional<double> alpha, std::optional<double> sigma_init, std::optional<double> g_init, int fold_rounds,
+                          int fold_lm_iterations, double fold_pose_tol, int final_rounds, int final_lm_iterations, double final_pose_tol) {
+  const Points P = points_of(f1, f2);
+  if (folds < 2) throw std::invalid_argument("folds must be >= 2");
+  if (!(decision >= 0.0)) throw std::invalid_argument("decision must be >= 0");
+  const double* sc = ml_scales(scales, P.n);
+  CrossFitOptions co;
+  co.folds = folds;
+  co.decision = decision;
+  co.min_agree = min_agree;
+  co.fold = ml_options(range, fold_rounds, fold_lm_iterations, fold_pose_tol, student, false, nu, alpha, true, sigma_init, g_init);
+  co.final = ml_options(range, final_rounds, final_lm_iterations, final_pose_tol, student, false, nu, alpha, true, sigma_init, g_init);
+  Pose out;
+  int vetoed = 0;
+  bool ok;
+  {
+    nb::gil_scoped_release release;
+    ok = ml_cross_fit(P, pose_of(R, t), co, sc, &out, &vetoed);
+  }
+  std::vector<double> Ro(9), to(3);
+  put_pose(out, Ro.data(), to.data());
+  return nb::make_tuple(to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}), vetoed, ok);
 }
 
 nb::tuple gnc_ransac(const BearingsIn& f1, const BearingsIn& f2, double theta, uint64_t seed, int sample_size,
@@ -425,6 +465,14 @@ POSEONLY_BIND(robust) {
         "(EM + weighted Sampson LM; outlier range `range`, radians; at most `rounds` rounds, ending early when a round moves the pose "
         "by at most `pose_tol`; `scales` (n,) > 0: relative noise scales, a match's inlier scale sigma (scale_i / median)^alpha, "
         "alpha in {0, 1/2, 1} chosen with nu; `nu`, `alpha` given together: that inlier model, not chosen): dict R, t, sigma, nu, alpha, sigma_gauss, sigma_start, inlier_fraction, decision, decision_gauss (the Gaussian mixture's at the pose), rounds, log_likelihood, posterior (n,). band_start: EM starts from the least-squares Sampson refit of the matches within min(range, 3 s0) of (R, t), s0 = 1.4826 median of the errors below range / 2. pose_only: R, t and rounds only are computed, the pose the same (sigma, nu, alpha, inlier_fraction, posterior: the last E-step's, before the last pose step; sigma_gauss, decision, decision_gauss, log_likelihood: NaN). sigma_init, g_init (together): EM's first E-step starts from this scale and inlier share instead of the start's (with fixed tails; a tails choice restarts EM from the start's).");
+  m.def("ml_cross_fit", &ml_cross_fit_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("range"), nb::arg("decision"),
+        nb::arg("folds") = 5, nb::arg("min_agree") = 15, nb::arg("student") = true, nb::arg("scales") = nb::none(), nb::arg("nu") = nb::none(),
+        nb::arg("alpha") = nb::none(), nb::arg("sigma_init") = nb::none(), nb::arg("g_init") = nb::none(), nb::arg("fold_rounds"),
+        nb::arg("fold_lm_iterations"), nb::arg("fold_pose_tol"), nb::arg("final_rounds"), nb::arg("final_lm_iterations"), nb::arg("final_pose_tol"),
+        "The default's cross-fitted inliers: match i in fold i % folds is classified by the ML pose (ml_refine, pose_only, EM from (R, t)) of "
+        "the other folds (an inlier where its Sampson error is below `decision`); the pose's own inliers the other folds reject are vetoed "
+        "and EM from (R, t) runs on every other match. (R, t, vetoed, ok): ok False when a fold's EM failed or fewer than min_agree matches are "
+        "inliers of both; with no veto the input pose.");
   m.def("gnc_ransac", &gnc_ransac, nb::arg("f1"), nb::arg("f2"), nb::arg("theta"), nb::arg("seed"), nb::arg("sample_size") = 30,
         nb::arg("max_iterations") = 50, nb::arg("adaptive") = false, nb::arg("confidence") = 0.99, nb::arg("gnc") = nb::dict(),
         "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats).");

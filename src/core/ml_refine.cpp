@@ -413,4 +413,71 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
   out->posterior = p;
 }
 
+namespace {
+
+// A pose's Sampson inliers below `decision` as poseonly.residuals.v_sampson computes the errors: t divided
+// by its norm sqrt(t0 t0 + t1 t1 + t2 t2) first (the Python call's normalisation, in the same order).
+PoseTerms unit_terms(const Pose& p) {
+  Pose q = p;
+  const double tn = std::sqrt(p.t(0) * p.t(0) + p.t(1) * p.t(1) + p.t(2) * p.t(2));
+  if (tn > 0.0) q.t = p.t / tn;
+  return PoseTerms(q);
+}
+
+bool ml_ok(const MlResult& m) { return m.rounds > 0 && m.pose.R.allFinite() && m.pose.t.allFinite(); }
+
+}  // namespace
+
+bool ml_cross_fit(const Points& P, const Pose& pose, const CrossFitOptions& opt, const double* scales, Pose* out, int* vetoed) {
+  const int n = P.n, folds = opt.folds;
+  *vetoed = 0;
+  if (folds < 2 || n < folds) return false;
+  std::vector<char> held(n, 0);
+  PointBuffer sub;
+  std::vector<double> sc;
+  for (int j = 0; j < folds; ++j) {
+    sub.clear();
+    sc.clear();
+    for (int i = 0; i < n; ++i) {
+      if (i % folds == j) continue;
+      sub.push(P.f1 + 3 * i, P.f2 + 3 * i);
+      if (scales) sc.push_back(scales[i]);
+    }
+    MlResult m;
+    ml_refine(sub.view(), pose, opt.fold, &m, scales ? sc.data() : nullptr);
+    if (!ml_ok(m)) return false;
+    const PoseTerms T = unit_terms(m.pose);
+    for (int i = j; i < n; i += folds) held[i] = residual(Residual::Sampson, T, P.a(i), P.b(i)) < opt.decision;
+  }
+  const PoseTerms T0 = unit_terms(pose);
+  std::vector<char> veto(n, 0);
+  int agree = 0;
+  for (int i = 0; i < n; ++i) {
+    const bool own = residual(Residual::Sampson, T0, P.a(i), P.b(i)) < opt.decision;
+    agree += own && held[i];
+    veto[i] = own && !held[i];
+    *vetoed += veto[i];
+  }
+  if (agree < opt.min_agree) {
+    *vetoed = 0;
+    return false;
+  }
+  if (*vetoed == 0) {
+    *out = pose;
+    return true;
+  }
+  sub.clear();
+  sc.clear();
+  for (int i = 0; i < n; ++i) {
+    if (veto[i]) continue;
+    sub.push(P.f1 + 3 * i, P.f2 + 3 * i);
+    if (scales) sc.push_back(scales[i]);
+  }
+  MlResult m;
+  ml_refine(sub.view(), pose, opt.final, &m, scales ? sc.data() : nullptr);
+  if (!ml_ok(m)) return false;
+  *out = m.pose;
+  return true;
+}
+
 }  // namespace poseonly

@@ -79,4 +79,20 @@ struct MlResult {
 // inlier scale is a sizeable part of T.
 void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResult* out, const double* scales = nullptr);
 
+// The default's cross-fitted inliers (poseonly.robust.default._cross_fit; the numpy-era reference is
+// tests/reference/cross_fit.py). Match i belongs to fold i % folds. Each fold's matches are classified
+// by the ML pose of the other folds (`fold` options, EM from `pose`): an inlier where its Sampson error
+// is below `decision`; the pose's own inliers the other folds reject are vetoed, and the result is EM
+// from `pose` on every other match (`final` options). False (no result) when a fold's EM fails or fewer
+// than `min_agree` matches are inliers of both; no veto: *out = pose, *vetoed = 0.
+struct CrossFitOptions {
+  int folds = 5;
+  double decision = 0.0;  // radians
+  int min_agree = 15;
+  MlOptions fold;
+  MlOptions final;
+};
+
+bool ml_cross_fit(const Points& P, const Pose& pose, const CrossFitOptions& opt, const double* scales, Pose* out, int* vetoed);
+
 }  // namespace poseonly

@@ -16,6 +16,7 @@ import numpy as np
 
 from . import _core
 from .geometry import rotation_error_deg
+from .median import median
 from .residuals import v_sampson, v_sampson_chiral
 from .twin import homography_twin
 
@@ -105,7 +106,7 @@ def parallax_deg(R, f1, f2, inl) -> float:
         return float("nan")
     Rf1 = f1[inl] @ R.T
     c = np.clip(np.sum(Rf1 * f2[inl], axis=1), -1.0, 1.0)
-    return float(np.degrees(np.median(np.arccos(c))))
+    return float(np.degrees(median(np.arccos(c))))
 
 
 def kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -347,7 +348,7 @@ def far_angle(v_pose, tau) -> float:
     band = v_pose < PRECISION_BAND * tau
     if np.count_nonzero(band) < PRECISION_MIN_MATCHES:
         return far
-    sigma = float(np.sqrt(np.median(v_pose[band] ** 2) / CHI2_1_MEDIAN))
+    sigma = float(np.sqrt(median(v_pose[band] ** 2) / CHI2_1_MEDIAN))
     return max(far, FAR_SIGMAS * np.sqrt(2.0) * sigma)
 
 
@@ -375,7 +376,7 @@ def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float, np.ndarray
         return float("nan"), float("nan"), None
     a, b = f1[sel], f2[sel]
     e2 = v_pose[sel] ** 2
-    med_e2 = float(np.median(e2))
+    med_e2 = median(e2)
     s2 = med_e2 / CHI2_1_MEDIAN
     R = np.asarray(R_rot, dtype=float)
     if s2 > 0.0:
@@ -384,7 +385,7 @@ def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float, np.ndarray
             w = 1.0 / (1.0 + 0.5 * np.sum(d * d, axis=1) / (CAUCHY_C**2 * s2))
             R = kabsch(a * w[:, None], b)
     d = a @ R.T - b
-    med_par = float(np.median(0.5 * np.sum(d * d, axis=1) - e2))
+    med_par = median(0.5 * np.sum(d * d, axis=1) - e2)
     if not med_par > (PRECISION_MIN_PARALLAX * tau) ** 2:
         ratio = 0.0  # no parallax beyond rounding (noise-free pure rotations, identical images)
     elif med_e2 > 0.0:

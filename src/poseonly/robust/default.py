@@ -14,6 +14,7 @@ import numpy as np
 
 from .. import _core
 from ..analysis import REFINE_SOLVER, support
+from ..median import median
 from ..options import PoseonlyOptions
 from ..residuals import get_residual, v_sampson, v_sampson_chiral
 from .ransac import RansacResult, core_seed, ransac_relpose
@@ -34,6 +35,7 @@ ML_KEEP_TOLERANCE = 0.98
 # pose error) that ends them: 7-8 rounds on real pairs
 ML_ROUNDS = 50
 ML_POSE_TOL = 1e-6
+ML_LM_ITERATIONS = 10  # LM cost evaluations per M-step (the core's default, MlOptions::lm_iterations)
 # EM has collapsed when the Gaussian mixture's sigma at its pose is below this fraction of the robust
 # scale of that pose's errors (1.4826 median of those below T / 2, as EM's start): the posteriors
 # concentrated on a few matches that the pose's five degrees of freedom fit almost exactly (an
@@ -123,7 +125,7 @@ def noise_threshold(R, t, f1, f2, tau, o: PoseonlyOptions) -> float:
         v = v_all[v_all < thr]
         if len(v) < 15:
             return tau
-        thr = float(np.clip(o.noise_factor * MAD_TO_SIGMA * float(np.median(v)), lo * tau, hi * tau))
+        thr = float(np.clip(o.noise_factor * MAD_TO_SIGMA * median(v), lo * tau, hi * tau))
     return thr
 
 
@@ -191,7 +193,7 @@ def full_range_log_likelihood(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: 
     near = r < T
     if np.count_nonzero(near) < 6:
         return -np.inf
-    s = max(MAD_TO_SIGMA * float(np.median(r[near])), 1e-12)
+    s = max(MAD_TO_SIGMA * median(r[near]), 1e-12)
     g = min(max(float(np.mean(near)), 1e-9), 1 - 1e-9)
     for _ in range(steps):
         fin = np.sqrt(2 / np.pi) / s * np.exp(-0.5 * (r / s) ** 2)
@@ -216,7 +218,7 @@ def _collapsed(m: dict[str, Any], f1: np.ndarray, f2: np.ndarray, T: float) -> b
     near = r[r < 0.5 * T]
     if near.size < ML_MIN_NEAR:
         return True
-    return not m["sigma_gauss"] >= ML_COLLAPSE * MAD_TO_SIGMA * float(np.median(near))
+    return not m["sigma_gauss"] >= ML_COLLAPSE * MAD_TO_SIGMA * median(near)
 
 
 def _ml_from(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, T: float, student: bool, scales: np.ndarray | None, start: str) -> dict[str, Any]:
@@ -312,52 +314,39 @@ def _cross_fit(
 
     ``start = (sigma, g)``: the ML stage's noise scale and inlier share on all matches, where each
     fold's EM starts (the same fixed point as from its own robust start, to ~1e-8 in the pose, in a
-    third fewer E-steps); only the folds' poses are computed (``pose_only``)."""
-    n = len(f1)
-    c = np.ascontiguousarray
+    third fewer E-steps); only the folds' poses are computed (``pose_only``). One core call
+    (``_core.ml_cross_fit``, GIL released; the Python version it replaced is tests/reference/cross_fit.py,
+    the same pose bit for bit)."""
     nu, alpha = tails if tails is not None else (None, None)
     s0, g0 = start if start is not None and np.isfinite(start[0]) and start[0] > 0.0 and 0.0 < start[1] < 1.0 else (None, None)
-    fold = np.arange(n) % folds
-    held_out = np.zeros(n, dtype=bool)
-    for j in range(folds):
-        test = fold == j
-        train = ~test
-        sc = None if scales is None else c(scales[train])
-        m = _core.ml_refine(
-            R,
-            t,
-            c(f1[train]),
-            c(f2[train]),
-            T,
-            rounds=CF_ROUNDS,
-            pose_tol=CF_POSE_TOL,
-            lm_iterations=CF_LM_ITERATIONS,
-            student=student,
-            scales=sc,
-            nu=nu,
-            alpha=alpha,
-            pose_only=True,
-            sigma_init=s0,
-            g_init=g0,
-        )
-        if not (m["rounds"] > 0 and np.all(np.isfinite(m["R"])) and np.all(np.isfinite(m["t"]))):
-            return None
-        held_out[test] = v_sampson(m["R"], m["t"], f1[test], f2[test]) < decision
-    own = v_sampson(R, t, f1, f2) < decision
-    if np.count_nonzero(own & held_out) < CROSS_FIT_MIN:
-        return None
-    vetoed = own & ~held_out
-    n_vetoed = int(np.count_nonzero(vetoed))
-    if n_vetoed == 0:
-        return R, t, 0
-    keep = ~vetoed
-    sc = None if scales is None else c(scales[keep])
-    m = _core.ml_refine(
-        R, t, c(f1[keep]), c(f2[keep]), T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student, scales=sc, nu=nu, alpha=alpha, pose_only=True, sigma_init=s0, g_init=g0
+    c = np.ascontiguousarray
+    Rc, tc, vetoed, ok = _core.ml_cross_fit(
+        c(R),
+        c(t),
+        c(f1),
+        c(f2),
+        T,
+        decision,
+        folds=folds,
+        min_agree=CROSS_FIT_MIN,
+        student=student,
+        scales=None if scales is None else c(scales),
+        nu=nu,
+        alpha=alpha,
+        sigma_init=s0,
+        g_init=g0,
+        fold_rounds=CF_ROUNDS,
+        fold_lm_iterations=CF_LM_ITERATIONS,
+        fold_pose_tol=CF_POSE_TOL,
+        final_rounds=ML_ROUNDS,
+        final_lm_iterations=ML_LM_ITERATIONS,
+        final_pose_tol=ML_POSE_TOL,
     )
-    if not (m["rounds"] > 0 and np.all(np.isfinite(m["R"])) and np.all(np.isfinite(m["t"]))):
+    if not ok:
         return None
-    return m["R"], m["t"], n_vetoed
+    if vetoed == 0:
+        return R, t, 0
+    return Rc, tc, int(vetoed)
 
 
 def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float, scores: np.ndarray | None = None, noise_scales: np.ndarray | None = None):
