@@ -190,8 +190,8 @@ def estimate_relative_pose(
             raise InputError("camera2 given without camera1" if camera1 is None else "give K1/K2 or camera1/camera2, not both")
         f1, f2, cam_focal = lift_pair(x1, x2, camera1, camera2)
     else:
-        f1 = as_bearings(x1, K1, "x1")
-        f2 = as_bearings(x2, K2, "x2")
+        f1 = as_bearings(x1, K1, "x1", K_checked=True)  # K1, K2 checked above
+        f2 = as_bearings(x2, K2, "x2", K_checked=True)
     if f1.shape != f2.shape:
         raise InputError(f"x1 and x2 differ in length: {len(f1)} vs {len(f2)}")
     n = len(f1)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _core
+from .median import median
 
 __all__ = [
     "InputError",
@@ -243,25 +244,27 @@ def _pixels_to_rays(a: np.ndarray, K: np.ndarray) -> np.ndarray:
 PIXEL_LIKE_NORMALIZED = 10.0
 
 
-def as_bearings(x: np.ndarray, K: np.ndarray | None = None, name: str = "x") -> np.ndarray:
+def as_bearings(x: np.ndarray, K: np.ndarray | None = None, name: str = "x", *, K_checked: bool = False) -> np.ndarray:
     """Accept pixels ``(n, 2)`` (with ``K``), normalized coordinates ``(n, 2)`` or bearings ``(n, 3)``.
 
     Returns unit bearing vectors ``(n, 3)``; raises :class:`InputError` for bad shapes, complex or
     non-numeric input, NaN/inf, zero vectors and rays that are not finite. Norms are scaled, so
-    components of any finite magnitude keep their direction.
+    components of any finite magnitude keep their direction. ``K_checked``: ``K`` is already the
+    output of :func:`check_intrinsics` (which it would return unchanged), so it is not checked again.
     """
     a = _check_shape_2d(x, name)
     if a.shape[1] == 2:
         a = _check_finite_2d(a, name)
         if K is None:
-            med = float(np.median(np.abs(a))) if len(a) else 0.0
+            med = median(np.abs(a)) if len(a) else 0.0
             if med > PIXEL_LIKE_NORMALIZED:
                 raise InputError(
                     f"{name}: (n, 2) coordinates without K have median |x| = {med:.4g}, which is pixel-sized, not a "
                     f"normalized image coordinate (tan of the angle off the axis); pass K (or a camera) with pixels"
                 )
             return _unit_rows(np.concatenate([a, np.ones((len(a), 1))], axis=1), name)
-        K = check_intrinsics(K, "K")
+        if not K_checked:
+            K = check_intrinsics(K, "K")
         m = np.max(np.abs(a), axis=1) if len(a) else np.zeros(0)
         if np.all(m < 1e150):
             h = np.concatenate([a, np.ones((len(a), 1))], axis=1)
