@@ -129,6 +129,46 @@ def test_generic_loop_on_a_line_estimator():
     assert _core.ransac_line(pts, 0.01, 3)[0] == (a, b, c)  # seeded
 
 
+def test_min_inlier_ratio_stops_a_decision_search_early():
+    """``min_inlier_ratio``: the stopping rule assumes at least this inlier ratio. Where the line's ratio
+    (0.3) is below it (0.5) the loop stops after the samples a 0.5 ratio needs (log(1e-3) / log(0.75),
+    25) instead of the 0.3 ratio's 73; where the ratio is above it, the same line is found."""
+    rng = np.random.default_rng(11)
+    x = rng.uniform(-1, 1, 120)
+    pts = np.ascontiguousarray(np.r_[np.c_[x, 0.3 * x + 0.1 + rng.normal(0, 0.002, 120)], rng.uniform(-1, 1, (280, 2))])
+    need = int(np.ceil(np.log(1e-3) / np.log(1.0 - 0.5**2)))
+    for seed in range(5):
+        _, plain = _core.ransac_line(pts, 0.01, seed)
+        _, fast = _core.ransac_line(pts, 0.01, seed, min_inlier_ratio=0.5)
+        assert fast["iterations"] <= need < plain["iterations"]
+        line, st = _core.ransac_line(pts, 0.01, seed, min_inlier_ratio=0.2)
+        assert st["num_inliers"] >= 0.95 * 120
+        assert abs(abs(line[0]) - 0.3 / np.hypot(0.3, 1.0)) < 5e-3
+    for bad in (-0.1, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="min_inlier_ratio"):
+            _core.ransac_line(pts, 0.01, 0, min_inlier_ratio=bad)
+
+
+def test_rotation_search_with_a_support_floor():
+    """The pure-rotation test's search (min_inlier_ratio = half the pose's inlier share): on a pure
+    rotation at 50 % outliers the rotation is still found; with a translation it stops after ~150
+    hypotheses instead of running to the cap."""
+    from poseonly.analysis import ROTATION_MAX_ITERATIONS, robust_rotation
+
+    s = sim.make_scene(400, kind="rotation", noise_px=0.5, outlier_fraction=0.5, seed=3)
+    tau = 2.0 / 800.0  # 2 px at the scenes' focal 800
+    R0, m0, k0 = robust_rotation(s.f1, s.f2, tau)
+    R1, m1, k1 = robust_rotation(s.f1, s.f2, tau, 0.25)
+    assert rotation_error_deg(R1, s.R) < 0.05 and m1.sum() >= 0.95 * m0.sum()
+    assert k1 <= k0
+    t = sim.make_scene(400, noise_px=0.5, outlier_fraction=0.5, seed=3)
+    _, _, k_full = robust_rotation(t.f1, t.f2, tau)
+    _, _, k_floor = robust_rotation(t.f1, t.f2, tau, 0.25)
+    assert k_full >= ROTATION_MAX_ITERATIONS and k_floor < 200  # (+ the Kabsch refits)
+    with pytest.raises(ValueError, match="min_inlier_ratio"):
+        _core.robust_rotation(t.f1, t.f2, 0.01, 0, min_inlier_ratio=2.0)
+
+
 def test_challengers_rescue_a_search_stuck_on_the_first_optimised_basin():
     """Two lines: A tight (60 points), B noisier but larger (90 points; its least-squares fit has the
     lower MSAC cost). With one LO run (the first best's), a search whose first best lies on A ends on

@@ -87,6 +87,12 @@ RansacOptions ransac_options(int max_iterations, int min_iterations, double conf
   return ro;
 }
 
+// RansacOptions::min_inlier_ratio, checked
+double checked_min_inlier_ratio(double r) {
+  if (!(r >= 0.0 && r <= 1.0)) throw std::invalid_argument("min_inlier_ratio must be in [0, 1]");
+  return r;
+}
+
 nb::dict stats_dict(const RansacStats& st) {
   nb::dict d;
   d["iterations"] = st.iterations;
@@ -351,12 +357,13 @@ nb::tuple gnc_ransac(const BearingsIn& f1, const BearingsIn& f2, double theta, u
 }
 
 nb::tuple robust_rotation(const BearingsIn& f1, const BearingsIn& f2, double chord, uint64_t seed, int max_iterations, double confidence,
-                          int max_score_points) {
+                          int max_score_points, double min_inlier_ratio) {
   const Points P = points_of(f1, f2);
   if (!(chord > 0.0 && std::isfinite(chord))) throw std::invalid_argument("chord threshold must be finite and > 0");
   if (P.n < 2) throw std::invalid_argument("at least 2 points are needed");
   if (max_score_points < 0) throw std::invalid_argument("max_score_points must be >= 0 (0: all)");
-  const RansacOptions ro = ransac_options(max_iterations, 0, confidence, true, 1);
+  RansacOptions ro = ransac_options(max_iterations, 0, confidence, true, 1);
+  ro.min_inlier_ratio = checked_min_inlier_ratio(min_inlier_ratio);
   Mat3 best = Mat3::Identity();
   RansacStats st;
   std::vector<uint8_t> mask(P.n, 0);
@@ -404,7 +411,8 @@ nb::tuple robust_rotation(const BearingsIn& f1, const BearingsIn& f2, double cho
 }
 
 nb::tuple ransac_line(const nb::ndarray<const double, nb::ndim<2>, nb::c_contig>& xy, double threshold, uint64_t seed,
-                      int max_iterations, double confidence, int max_lo, int scoring, int challengers, double challenger_distance) {
+                      int max_iterations, double confidence, int max_lo, int scoring, int challengers, double challenger_distance,
+                      double min_inlier_ratio) {
   if (xy.shape(1) != 2) throw std::invalid_argument("points must have shape (n, 2)");
   const int n = static_cast<int>(xy.shape(0));
   if (n < 2) throw std::invalid_argument("at least 2 points are needed");
@@ -413,6 +421,7 @@ nb::tuple ransac_line(const nb::ndarray<const double, nb::ndim<2>, nb::c_contig>
   RansacOptions ro = ransac_options(max_iterations, 0, confidence, true, max_lo);
   ro.challengers = challengers;
   ro.challenger_distance = challenger_distance;
+  ro.min_inlier_ratio = checked_min_inlier_ratio(min_inlier_ratio);
   Line best;
   RansacStats st;
   {
@@ -478,10 +487,12 @@ POSEONLY_BIND(robust) {
         "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats).");
   m.def("robust_rotation", &robust_rotation, nb::arg("f1"), nb::arg("f2"), nb::arg("chord"), nb::arg("seed"),
         nb::arg("max_iterations") = 10000, nb::arg("confidence") = 0.999, nb::arg("max_score_points") = 0,
+        nb::arg("min_inlier_ratio") = 0.0,
         "Rotation-only model by 2-point RANSAC (inliers |R f1 - f2| < chord; hypotheses scored on a seeded subset of "
-        "max_score_points matches, 0: all) and Kabsch on the inliers among all matches: "
-        "(R, inlier mask (n,), hypotheses tested).");
+        "max_score_points matches, 0: all; the stopping rule assumes an inlier ratio of at least min_inlier_ratio) "
+        "and Kabsch on the inliers among all matches: (R, inlier mask (n,), hypotheses tested).");
   m.def("ransac_line", &ransac_line, nb::arg("xy"), nb::arg("threshold"), nb::arg("seed"), nb::arg("max_iterations") = 1000,
         nb::arg("confidence") = 0.999, nb::arg("max_lo") = 8, nb::arg("scoring") = 0, nb::arg("challengers") = 0,
-        nb::arg("challenger_distance") = 1.0, "The generic loop on a 2-D line estimator (tests): ((a, b, c), stats).");
+        nb::arg("challenger_distance") = 1.0, nb::arg("min_inlier_ratio") = 0.0,
+        "The generic loop on a 2-D line estimator (tests): ((a, b, c), stats).");
 }

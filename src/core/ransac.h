@@ -55,6 +55,10 @@ struct RansacOptions {
   // says (docs/RESULTS_real.md section 0, fourteenth session)
   double floor_parallax = 0.0;
   int min_iterations_parallax = 0;
+  // > 0: adaptive stopping assumes an inlier ratio of at least this. For a caller that only needs to
+  // know whether a model with this much support exists (a decision, not the best estimate), the search
+  // ends once such a model would have been drawn with `confidence`, however little the best has
+  double min_inlier_ratio = 0.0;
 };
 
 // PROSAC's stopping rule (Chum and Matas, CVPR 2005, Sec. 2.2), with OpenCV USAC's constants: a
@@ -472,6 +476,8 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
   // cheirality-aware one (a ChiralScorer's), so the ranking is approximate; the end phase rescores
   std::vector<std::pair<Model, double>> ch;
   double needed = opt.max_iterations;
+  if (opt.adaptive && opt.min_inlier_ratio > 0.0)
+    needed = std::min(needed, samples_needed(est.success_probability(std::min(opt.min_inlier_ratio, 1.0)), opt.confidence, opt.min_hits));
   bool have = false;
   // support = full cost - cost; gain = the largest support ratio an LO step achieved so far. A
   // challenger is kept only if that gain would lift its support above the best's (before any LO:
@@ -584,7 +590,8 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       }
       inliers_of(est, *best, scorer, &inl);
       st.num_inliers = static_cast<int>(inl.size());
-      if (opt.adaptive) needed = samples_needed(est.success_probability(static_cast<double>(inl.size()) / n), opt.confidence, opt.min_hits);
+      if (opt.adaptive)
+        needed = samples_needed(est.success_probability(std::max(static_cast<double>(inl.size()) / n, opt.min_inlier_ratio)), opt.confidence, opt.min_hits);
       if constexpr (HasProgressiveOrder<Sampler>::value) {
         if (opt.adaptive && opt.progressive_stop)
           needed = std::min(needed, opt.progressive_expected ? expected_needed(est, sampler, inl, opt) : progressive_needed(est, sampler, inl, opt));

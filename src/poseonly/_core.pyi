@@ -132,6 +132,7 @@ def ransac_line(
     scoring: int = 0,
     challengers: int = 0,
     challenger_distance: float = 1.0,
+    min_inlier_ratio: float = 0.0,
 ) -> tuple[tuple[float, float, float], dict[str, Any]]: ...
 def fivept(f1: NDArray[np.float64], f2: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
 def fivept_batch(f1: NDArray[np.float64], f2: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]: ...
@@ -176,7 +177,14 @@ def _refine_normal_equations(
     residual_weights: NDArray[np.float64] | None = None,
 ) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]: ...
 def robust_rotation(
-    f1: NDArray[np.float64], f2: NDArray[np.float64], chord: float, seed: int, max_iterations: int = 10000, confidence: float = 0.999, max_score_points: int = 0
+    f1: NDArray[np.float64],
+    f2: NDArray[np.float64],
+    chord: float,
+    seed: int,
+    max_iterations: int = 10000,
+    confidence: float = 0.999,
+    max_score_points: int = 0,
+    min_inlier_ratio: float = 0.0,
 ) -> tuple[NDArray[np.float64], NDArray[np.uint8], int]: ...
 def chance_count(R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], perm: NDArray[np.int64], tau: float) -> int: ...
 def rotation_chance_count(R: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], perm: NDArray[np.int64], chord2: float) -> int: ...

@@ -271,6 +271,14 @@ ROTATION_SEED = 20240612
 # depend on the inlier ratio only; the Kabsch refinement and the significance test use every match):
 # the test's cost stops growing with n (26 ms -> ~3 ms on a 4266-match Strecha pair)
 ROTATION_SCORE_POINTS = 500
+# the test needs to know whether a rotation explains most of the pose's inliers, not the best rotation:
+# its RANSAC stops once a rotation supported by this share of the pose's inliers would have been drawn
+# with ROTATION_CONFIDENCE (2-point samples: 32 where every match is a pose inlier, 143 where half are) instead of running to
+# ROTATION_MAX_ITERATIONS wherever no rotation fits (every pair with a translation). The decision
+# cannot change for the worse: under a pure rotation the rotation explains ~all the pose's inliers (a
+# far larger share, drawn earlier with the same confidence), and a rotation with less support only
+# adds translation support; the diagnostics of a pair with a translation describe the rotation found
+ROTATION_MIN_SHARE = 0.5
 # a match fits a rotation when angle(R f1, f2) < ROTATION_THRESHOLD_FACTOR * tau (the full angular
 # error of a match is larger than its Sampson error, which only measures one direction)
 ROTATION_THRESHOLD_FACTOR = 2.0
@@ -309,10 +317,13 @@ def _rotation_inliers(Rs, f1, f2, thr) -> np.ndarray:
     return np.einsum("hni,hni->hn", d, d) < (2.0 * np.sin(0.5 * thr)) ** 2
 
 
-def robust_rotation(f1, f2, tau) -> tuple[np.ndarray, np.ndarray, int]:
+def robust_rotation(f1, f2, tau, min_inlier_ratio: float = 0.0) -> tuple[np.ndarray, np.ndarray, int]:
     """Best rotation-only model ``X2 ~ R X1`` over all matches ``f1, f2 (n, 3)``: 2-point RANSAC with
     adaptive stopping in the core (the generic loop with its rotation estimator; hypotheses scored on
-    at most :data:`ROTATION_SCORE_POINTS` matches), then Kabsch on the inliers among all matches (twice, each kept if the inliers do not drop). Returns ``(R (3, 3), inliers (n,),
+    at most :data:`ROTATION_SCORE_POINTS` matches), then Kabsch on the inliers among all matches
+    (twice, each kept if the inliers do not drop). ``min_inlier_ratio`` > 0: the stopping rule assumes
+    at least this inlier ratio (a decision: is there a rotation with this support?), so the model is the
+    best found, not necessarily the best, where no rotation has it. Returns ``(R (3, 3), inliers (n,),
     hypotheses tested)``."""
     chord = 2.0 * np.sin(0.5 * ROTATION_THRESHOLD_FACTOR * tau)
     R, mask, tests = _core.robust_rotation(
@@ -323,6 +334,7 @@ def robust_rotation(f1, f2, tau) -> tuple[np.ndarray, np.ndarray, int]:
         ROTATION_MAX_ITERATIONS,
         ROTATION_CONFIDENCE,
         ROTATION_SCORE_POINTS,
+        float(min_inlier_ratio),
     )
     return R, mask.astype(bool), int(tests)
 
@@ -406,7 +418,9 @@ def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) ->
     rotation leaves a parallax far above the noise on the matches both explain (:func:`parallax_ratio`
     above :data:`PRECISION_RATIO` where the noise is resolved, :data:`PRECISION_NOISE`: a small
     baseline whose parallax stays within the rotation's threshold). ``pure_rotation`` = significant
-    rotation and unsupported translation. Returns a dict with ``R_rotation_only`` (the robust fit,
+    rotation and unsupported translation. The rotation search stops once a rotation explaining
+    :data:`ROTATION_MIN_SHARE` of the pose's inliers would have been found. Returns a dict with
+    ``R_rotation_only`` (the robust fit,
     refitted by :func:`parallax_ratio`'s Cauchy-weighted Kabsch where it ran),
     ``rotation_inliers``, ``rotation_only_fraction`` (of the pose's inliers), ``translation_support``
     (pose inliers more than ``EXTRA_FACTOR`` rotation thresholds off the rotation),
@@ -414,7 +428,7 @@ def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) ->
     ``pure_rotation`` (bool).
     """
     n = len(f1)
-    Rr, rin, tests = robust_rotation(f1, f2, tau)
+    Rr, rin, tests = robust_rotation(f1, f2, tau, min(1.0, ROTATION_MIN_SHARE * int(np.count_nonzero(inl)) / n))
     k_rot = int(rin.sum())
     p_rot = rotation_chance_rate(Rr, f1, f2, tau)
     nfa_rot = log10_nfa(k_rot, n, p_rot, tests, ROTATION_SAMPLE)
