@@ -1,6 +1,8 @@
 #include "analysis.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <numeric>
 #include <vector>
 
@@ -239,6 +241,63 @@ Pose select_by_support(const Pose& pose0, const Points& P, double tau) {
     }
   }
   return best_sup > inl ? cand[best] : base;
+}
+
+double median_of(std::vector<double>* x) {
+  std::vector<double>& a = *x;
+  const size_t n = a.size();
+  if (n == 0) return std::numeric_limits<double>::quiet_NaN();
+  for (double v : a)
+    if (std::isnan(v)) return std::numeric_limits<double>::quiet_NaN();
+  const size_t k = n / 2;
+  std::nth_element(a.begin(), a.begin() + k, a.end());
+  const double hi = a[k];
+  if (n % 2) return hi;
+  return (*std::max_element(a.begin(), a.begin() + k) + hi) / 2.0;
+}
+
+ParallaxResult parallax_ratio(const Mat3& R0, const Points& P, const double* v, double tau, const ParallaxOptions& o) {
+  ParallaxResult out;
+  out.R = R0;
+  std::vector<int> sel;
+  sel.reserve(P.n);
+  for (int i = 0; i < P.n; ++i)
+    if (v[i] < o.band * tau && (R0 * P.a(i) - P.b(i)).squaredNorm() < o.sel_chord2) sel.push_back(i);
+  if (static_cast<int>(sel.size()) < o.min_matches) {
+    out.ratio = out.noise = std::numeric_limits<double>::quiet_NaN();
+    return out;
+  }
+  const size_t m = sel.size();
+  std::vector<double> e2(m), tmp(m);
+  for (size_t j = 0; j < m; ++j) e2[j] = v[sel[j]] * v[sel[j]];
+  tmp = e2;
+  const double med_e2 = median_of(&tmp);
+  const double s2 = med_e2 / o.chi2_median;
+  Mat3 R = R0;
+  if (s2 > 0.0) {
+    const double k = 1.0 / (o.cauchy_c * o.cauchy_c * s2);
+    for (int r = 0; r < o.irls_rounds; ++r) {
+      Mat3 C = Mat3::Zero();
+      for (int i : sel) {
+        const double w = 1.0 / (1.0 + 0.5 * (R * P.a(i) - P.b(i)).squaredNorm() * k);
+        C += P.b(i) * (w * P.a(i)).transpose();
+      }
+      R = project_to_so3(C);
+    }
+  }
+  for (size_t j = 0; j < m; ++j) tmp[j] = 0.5 * (R * P.a(sel[j]) - P.b(sel[j])).squaredNorm() - e2[j];
+  const double med_par = median_of(&tmp);
+  const double floor = o.min_parallax * tau;
+  if (!(med_par > floor * floor))
+    out.ratio = 0.0;  // no parallax beyond rounding (noise-free pure rotations, identical images)
+  else if (med_e2 > 0.0)
+    out.ratio = med_par / med_e2;
+  else
+    out.ratio = std::numeric_limits<double>::infinity();  // parallax without noise
+  out.noise = std::sqrt(s2) / tau;
+  out.R = R;
+  out.refit = true;
+  return out;
 }
 
 }  // namespace poseonly

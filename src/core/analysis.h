@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <vector>
 
 #include "common.h"
 
@@ -48,5 +49,33 @@ Pose polish_candidate(const Pose& pose, const Points& P, double tau);
 // cheirality-consistent support at min(tau, 0.5) if it beats the re-identified pose's, else that pose.
 // Fewer than 6 inliers: `pose`.
 Pose select_by_support(const Pose& pose, const Points& P, double tau);
+
+// numpy's median of the values of *x (reordered): NaN when one is NaN or x is empty; the mean
+// (a + b) / 2 of the two middle values for an even count (the same float as numpy.median)
+double median_of(std::vector<double>* x);
+
+// The pure-rotation test's precision check (poseonly.analysis.parallax_ratio, which documents the
+// method; numpy reference tests/reference/parallax.py). On the matches with v[i] < band * tau and
+// |R a_i - b_i|^2 < sel_chord2: e2 = v^2, s2 = median(e2) / chi2_median; when s2 > 0, irls_rounds
+// Cauchy-weighted Kabsch refits of R (weights 1 / (1 + |R a - b|^2 / 2 / (cauchy_c^2 s2))); then
+// ratio = median(|R a - b|^2 / 2 - e2) / median(e2) (0 where that median parallax is at most
+// (min_parallax tau)^2, inf where median(e2) = 0), noise = sqrt(s2) / tau. Fewer than min_matches
+// such matches: ratio = noise = NaN and refit = false.
+struct ParallaxOptions {
+  double band = 3.0;
+  double sel_chord2 = 0.0;
+  int min_matches = 50;
+  int irls_rounds = 5;
+  double cauchy_c = 2.385;
+  double chi2_median = 0.45493642311957283;
+  double min_parallax = 1e-4;
+};
+struct ParallaxResult {
+  double ratio = 0.0;
+  double noise = 0.0;
+  Mat3 R = Mat3::Identity();
+  bool refit = false;
+};
+ParallaxResult parallax_ratio(const Mat3& R, const Points& P, const double* v, double tau, const ParallaxOptions& o);
 
 }  // namespace poseonly

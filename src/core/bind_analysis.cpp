@@ -84,6 +84,37 @@ static nb::tuple select_by_support_py(const ArrayIn& R, const ArrayIn& t, const 
   return nb::make_tuple(to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}));
 }
 
+static nb::tuple parallax_ratio_py(const ArrayIn& R, const BearingsIn& f1, const BearingsIn& f2, const ArrayIn& v, double tau,
+                                   double band, double sel_chord2, int min_matches, int irls_rounds, double cauchy_c,
+                                   double chi2_median, double min_parallax) {
+  const Points P = points_of(f1, f2);
+  if (R.size() != 9) throw std::invalid_argument("R must be (3, 3)");
+  if (v.ndim() != 1 || static_cast<int>(v.shape(0)) != P.n) throw std::invalid_argument("v_pose must have shape (n,)");
+  if (!(tau > 0.0 && std::isfinite(tau))) throw std::invalid_argument("tau must be finite and > 0");
+  if (min_matches < 1 || irls_rounds < 0) throw std::invalid_argument("min_matches must be >= 1 and irls_rounds >= 0");
+  Mat3 M;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) M(i, j) = R.data()[3 * i + j];
+  ParallaxOptions o;
+  o.band = band;
+  o.sel_chord2 = sel_chord2;
+  o.min_matches = min_matches;
+  o.irls_rounds = irls_rounds;
+  o.cauchy_c = cauchy_c;
+  o.chi2_median = chi2_median;
+  o.min_parallax = min_parallax;
+  ParallaxResult r;
+  {
+    nb::gil_scoped_release release;
+    r = parallax_ratio(M, P, v.data(), tau, o);
+  }
+  if (!r.refit) return nb::make_tuple(r.ratio, r.noise, nb::none());
+  std::vector<double> Ro(9);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) Ro[3 * i + j] = r.R(i, j);
+  return nb::make_tuple(r.ratio, r.noise, to_numpy(std::move(Ro), {3, 3}));
+}
+
 }  // namespace poseonly
 
 POSEONLY_BIND(analysis) {
@@ -96,6 +127,10 @@ POSEONLY_BIND(analysis) {
         "The homography twin of (R, t) on its inliers f1, f2 (n, 3): (R_twin (3, 3), unit t_twin (3,), planarity) or None.");
   m.def("select_by_support", &select_by_support_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("tau"),
         "The default method's pose-only choice (poseonly.robust.default.select_by_support): (R, t).");
+  m.def("parallax_ratio", &parallax_ratio_py, nb::arg("R"), nb::arg("f1"), nb::arg("f2"), nb::arg("v_pose"), nb::arg("tau"),
+        nb::arg("band"), nb::arg("sel_chord2"), nb::arg("min_matches"), nb::arg("irls_rounds"), nb::arg("cauchy_c"),
+        nb::arg("chi2_median"), nb::arg("min_parallax"),
+        "The pure-rotation test's precision check (poseonly.analysis.parallax_ratio): (ratio, noise, R (3, 3) or None).");
   m.def("decompose_homography", &decompose_homography_py, nb::arg("H"),
         "The four (R (4, 3, 3), t/d (4, 3), n (4, 3)) of a calibrated homography, or None when H is not finite or singular.");
 }

@@ -191,6 +191,20 @@ def rotation_chance_count(R: NDArray[np.float64], f1: NDArray[np.float64], f2: N
 def homography_twin(
     R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float] | None: ...
+def parallax_ratio(
+    R: NDArray[np.float64],
+    f1: NDArray[np.float64],
+    f2: NDArray[np.float64],
+    v_pose: NDArray[np.float64],
+    tau: float,
+    band: float,
+    sel_chord2: float,
+    min_matches: int,
+    irls_rounds: int,
+    cauchy_c: float,
+    chi2_median: float,
+    min_parallax: float,
+) -> tuple[float, float, NDArray[np.float64] | None]: ...
 def decompose_homography(H: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None: ...
 def select_by_support(
     R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], tau: float

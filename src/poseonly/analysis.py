@@ -382,29 +382,24 @@ def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float, np.ndarray
     outliers inside it bias it by about a pixel (measured: ratio 15 on a pure rotation, 6.6 at most
     after the refit)."""
     # the band, without the matches the rotation puts clearly off (beyond EXTRA_FACTOR rotation
-    # thresholds: the count test's evidence; here they would be outliers that the pose's band admits)
-    sel = (v_pose < PRECISION_BAND * tau) & _rotation_inliers(np.asarray(R_rot, dtype=float)[None], f1, f2, EXTRA_FACTOR * ROTATION_THRESHOLD_FACTOR * tau)[0]
-    if np.count_nonzero(sel) < PRECISION_MIN_MATCHES:
-        return float("nan"), float("nan"), None
-    a, b = f1[sel], f2[sel]
-    e2 = v_pose[sel] ** 2
-    med_e2 = median(e2)
-    s2 = med_e2 / CHI2_1_MEDIAN
-    R = np.asarray(R_rot, dtype=float)
-    if s2 > 0.0:
-        for _ in range(PRECISION_IRLS):
-            d = a @ R.T - b
-            w = 1.0 / (1.0 + 0.5 * np.sum(d * d, axis=1) / (CAUCHY_C**2 * s2))
-            R = kabsch(a * w[:, None], b)
-    d = a @ R.T - b
-    med_par = median(0.5 * np.sum(d * d, axis=1) - e2)
-    if not med_par > (PRECISION_MIN_PARALLAX * tau) ** 2:
-        ratio = 0.0  # no parallax beyond rounding (noise-free pure rotations, identical images)
-    elif med_e2 > 0.0:
-        ratio = med_par / med_e2
-    else:
-        ratio = float("inf")  # parallax without noise (noise-free scenes with a translation)
-    return ratio, float(np.sqrt(s2)) / float(tau), R
+    # thresholds: the count test's evidence; here they would be outliers that the pose's band admits);
+    # computed by the core (numpy reference: tests/reference/parallax.py)
+    chord = 2.0 * np.sin(0.5 * EXTRA_FACTOR * ROTATION_THRESHOLD_FACTOR * tau)
+    ratio, noise, R = _core.parallax_ratio(
+        np.ascontiguousarray(R_rot, dtype=float),
+        np.ascontiguousarray(f1, dtype=float),
+        np.ascontiguousarray(f2, dtype=float),
+        np.ascontiguousarray(v_pose, dtype=float),
+        float(tau),
+        PRECISION_BAND,
+        float(chord**2),
+        PRECISION_MIN_MATCHES,
+        PRECISION_IRLS,
+        CAUCHY_C,
+        CHI2_1_MEDIAN,
+        PRECISION_MIN_PARALLAX,
+    )
+    return float(ratio), float(noise), R
 
 
 def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) -> dict[str, Any]:
@@ -422,7 +417,8 @@ def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) ->
     :data:`ROTATION_MIN_SHARE` of the pose's inliers would have been found. Returns a dict with
     ``R_rotation_only`` (the robust fit,
     refitted by :func:`parallax_ratio`'s Cauchy-weighted Kabsch where it ran),
-    ``rotation_inliers``, ``rotation_only_fraction`` (of the pose's inliers), ``translation_support``
+    ``rotation_inliers``, ``rotation_tests`` (the rotation hypotheses tested), ``rotation_only_fraction``
+    (of the pose's inliers), ``translation_support``
     (pose inliers more than ``EXTRA_FACTOR`` rotation thresholds off the rotation),
     ``log10_nfa_rotation``, ``log10_nfa_translation``, ``parallax_ratio``, ``parallax_noise`` and
     ``pure_rotation`` (bool).
@@ -445,6 +441,7 @@ def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) ->
         # the robust refit where there is one (5-25 % closer on synthetic pure rotations, 0-80 % outliers)
         "R_rotation_only": Rr if R_fit is None else R_fit,
         "rotation_inliers": k_rot,
+        "rotation_tests": tests,
         "rotation_only_fraction": frac,
         "translation_support": extra,
         "log10_nfa_rotation": nfa_rot,
