@@ -11,6 +11,10 @@ scales out).
     python benchmarks/stage_times.py --outliers 0.5 --camera pinhole
     python benchmarks/stage_times.py --real /work/shared/data/realpairs/kitti_seq1 --pairs 20 --ml-tails gauss
     python benchmarks/stage_times.py --real /work/shared/data/realpairs/kitti_seq1 --pairs 20 --no-scales
+
+``--core-share`` also times every call into the compiled core (each module's ``_core`` attribute
+replaced by a timing proxy) and prints the time of a pair spent outside it: the Python that holds the
+GIL and so caps what threads can gain (Amdahl: two threads at most ``2 / (1 + share)``).
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cache", default="/tmp/realbench_cache", help="the real benchmark's match cache")
     ap.add_argument("--ml-tails", default="student", choices=("student", "gauss"))
     ap.add_argument("--no-scales", action="store_true", help="real pairs: no noise scales")
+    ap.add_argument("--core-share", action="store_true", help="also time the calls into the compiled core")
     a = ap.parse_args(argv)
     import poseonly.analysis as A
     import poseonly.api as API
@@ -65,6 +70,35 @@ def main(argv: list[str] | None = None) -> int:
         for n in names:
             if hasattr(mod, n):
                 wrap(mod, n)
+    if a.core_share:
+        import sys
+        from types import ModuleType
+
+        class TimedCore:
+            """The core module with every function call timed into ``acc["(core calls)"]``."""
+
+            def __init__(self, m: ModuleType) -> None:
+                self._m = m
+
+            def __getattr__(self, name: str) -> Any:
+                f = getattr(self._m, name)
+                if not callable(f) or isinstance(f, type):
+                    return f
+
+                def g(*args: Any, **kw: Any) -> Any:
+                    t0 = time.perf_counter()
+                    try:
+                        return f(*args, **kw)
+                    finally:
+                        acc["(core calls)"] += time.perf_counter() - t0
+
+                setattr(self, name, g)
+                return g
+
+        for name, mod in list(sys.modules.items()):
+            core = getattr(mod, "_core", None)
+            if name.startswith("poseonly") and isinstance(core, ModuleType):
+                mod._core = TimedCore(core)  # type: ignore[attr-defined]
     calls: list[tuple[tuple[Any, ...], dict[str, Any]]] = []
     if a.real is None:
         for s in range(a.pairs):
@@ -92,7 +126,11 @@ def main(argv: list[str] | None = None) -> int:
         for args, kw in calls:
             estimate_relative_pose(*args, **kw)
     n = a.repeats * len(calls)
-    print(f"{what}: {1e3 * (time.perf_counter() - t0) / n:.2f} ms per pair")
+    total = time.perf_counter() - t0
+    print(f"{what}: {1e3 * total / n:.2f} ms per pair")
+    if a.core_share:
+        out = total - acc["(core calls)"]
+        print(f"  outside the core: {1e3 * out / n:.3f} ms per pair ({100 * out / total:.1f} %; two threads at most {2 / (1 + out / total):.2f}x)")
     for k, v in sorted(acc.items(), key=lambda kv: -kv[1]):
         print(f"  {k:32s} {1e3 * v / n:7.3f} ms")
     return 0
