@@ -15,6 +15,9 @@ scales out).
 ``--core-share`` also times every call into the compiled core (each module's ``_core`` attribute
 replaced by a timing proxy) and prints the time of a pair spent outside it: the Python that holds the
 GIL and so caps what threads can gain (Amdahl: two threads at most ``2 / (1 + share)``).
+``--reference-pure-rotation`` runs the pure-rotation test as it was before the nineteenth session (its
+rotation search without a support floor, ``ROTATION_MIN_SHARE = 0``, and the numpy precision check of
+tests/reference/parallax.py), for before / after figures from one build.
 """
 
 from __future__ import annotations
@@ -38,12 +41,23 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--ml-tails", default="student", choices=("student", "gauss"))
     ap.add_argument("--no-scales", action="store_true", help="real pairs: no noise scales")
     ap.add_argument("--core-share", action="store_true", help="also time the calls into the compiled core")
+    ap.add_argument("--reference-pure-rotation", action="store_true", help="the pure-rotation test as before the nineteenth session")
     a = ap.parse_args(argv)
     import poseonly.analysis as A
     import poseonly.api as API
     import poseonly.result as RS
     import poseonly.robust.default as D
     from poseonly import estimate_relative_pose, sim
+
+    if a.reference_pure_rotation:
+        import sys
+        from pathlib import Path
+
+        sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+        from reference.parallax import parallax_ratio
+
+        A.parallax_ratio = parallax_ratio
+        A.ROTATION_MIN_SHARE = 0.0
 
     acc: dict[str, float] = collections.defaultdict(float)
 
