@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <numeric>
 #include <vector>
 
@@ -241,6 +242,26 @@ Pose select_by_support(const Pose& pose0, const Points& P, double tau) {
     }
   }
   return best_sup > inl ? cand[best] : base;
+}
+
+double log_binom_sf(int64_t k, int64_t n, double p) {
+  if (k <= 0) return 0.0;
+  if (k > n || p <= 0.0) return -std::numeric_limits<double>::infinity();
+  if (p >= 1.0) return 0.0;
+  static std::mutex mu;
+  static std::vector<double> lf{0.0};  // lf[j] = log j!
+  std::lock_guard<std::mutex> lock(mu);
+  if (static_cast<int64_t>(lf.size()) <= n) {
+    const int64_t m = std::max<int64_t>(n + 1, 2 * static_cast<int64_t>(lf.size()));
+    lf.reserve(static_cast<size_t>(m));
+    for (int64_t i = static_cast<int64_t>(lf.size()); i < m; ++i) lf.push_back(lf.back() + std::log(static_cast<double>(i)));
+  }
+  const double lp = std::log(p), lq = std::log1p(-p);
+  double mx = -std::numeric_limits<double>::infinity();
+  for (int64_t j = k; j <= n; ++j) mx = std::max(mx, lf[n] - lf[j] - lf[n - j] + j * lp + (n - j) * lq);
+  double sum = 0.0;
+  for (int64_t j = k; j <= n; ++j) sum += std::exp(lf[n] - lf[j] - lf[n - j] + j * lp + (n - j) * lq - mx);
+  return mx + std::log(sum);
 }
 
 double median_of(std::vector<double>* x) {

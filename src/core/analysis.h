@@ -50,6 +50,12 @@ Pose polish_candidate(const Pose& pose, const Points& P, double tau);
 // Fewer than 6 inliers: `pose`.
 Pose select_by_support(const Pose& pose, const Points& P, double tau);
 
+// log P(Bin(n, p) >= k): log-sum-exp of the terms log C(n, j) + j log p + (n - j) log(1 - p), j = k..n,
+// with log j! from one growing table of sequential sums of log i (mutex-guarded; the values do not
+// depend on the table's length). 0 for k <= 0 or p >= 1, -inf for k > n or p <= 0. numpy reference:
+// tests/reference/nfa.py (poseonly.analysis.log_binom_sf documents the use)
+double log_binom_sf(int64_t k, int64_t n, double p);
+
 // numpy's median of the values of *x (reordered): NaN when one is NaN or x is empty; the mean
 // (a + b) / 2 of the two middle values for an even count (the same float as numpy.median)
 double median_of(std::vector<double>* x);

@@ -127,6 +127,14 @@ POSEONLY_BIND(analysis) {
         "The homography twin of (R, t) on its inliers f1, f2 (n, 3): (R_twin (3, 3), unit t_twin (3,), planarity) or None.");
   m.def("select_by_support", &select_by_support_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("tau"),
         "The default method's pose-only choice (poseonly.robust.default.select_by_support): (R, t).");
+  m.def(
+      "log_binom_sf",
+      [](int64_t k, int64_t n, double p) {
+        if (std::isnan(p)) return std::numeric_limits<double>::quiet_NaN();
+        nb::gil_scoped_release release;
+        return log_binom_sf(k, n, p);
+      },
+      nb::arg("k"), nb::arg("n"), nb::arg("p"), "log P(Bin(n, p) >= k) (log-sum-exp of the terms; no underflow; NaN for a NaN p).");
   m.def("parallax_ratio", &parallax_ratio_py, nb::arg("R"), nb::arg("f1"), nb::arg("f2"), nb::arg("v_pose"), nb::arg("tau"),
         nb::arg("band"), nb::arg("sel_chord2"), nb::arg("min_matches"), nb::arg("irls_rounds"), nb::arg("cauchy_c"),
         nb::arg("chi2_median"), nb::arg("min_parallax"),

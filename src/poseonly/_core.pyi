@@ -191,6 +191,7 @@ def rotation_chance_count(R: NDArray[np.float64], f1: NDArray[np.float64], f2: N
 def homography_twin(
     R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float] | None: ...
+def log_binom_sf(k: int, n: int, p: float) -> float: ...
 def parallax_ratio(
     R: NDArray[np.float64],
     f1: NDArray[np.float64],

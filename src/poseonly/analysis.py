@@ -218,37 +218,12 @@ def chance_inliers(R, t, f1, f2, tau) -> float:
     return len(f1) * chance_rate(R, t, f1, f2, tau)
 
 
-_LOG_FACTORIALS = np.zeros(1)
-
-
-def _log_factorials(n: int) -> np.ndarray:
-    """``log j!`` for ``j = 0..n`` (a prefix of one growing table: the running sum is sequential, so
-    the values do not depend on the table's length; read-only)."""
-    global _LOG_FACTORIALS
-    if len(_LOG_FACTORIALS) <= n:
-        m = max(n + 1, 2 * len(_LOG_FACTORIALS))
-        t = np.concatenate([[0.0], np.cumsum(np.log(np.arange(1, m, dtype=float)))])
-        t.setflags(write=False)
-        _LOG_FACTORIALS = t
-    return _LOG_FACTORIALS[: n + 1]
-
-
 def log_binom_sf(k: int, n: int, p: float) -> float:
-    """``log P(Bin(n, p) >= k)`` in numpy only (log-sum-exp of the terms; exact to rounding, no
-    underflow; scipy.stats is not imported because its import costs seconds)."""
-    if k <= 0:
-        return 0.0
-    if k > n:
-        return -np.inf
-    if p <= 0.0:
-        return -np.inf
-    if p >= 1.0:
-        return 0.0
-    lf = _log_factorials(n)  # log j!, j = 0..n
-    j = np.arange(k, n + 1)
-    terms = lf[n] - lf[j] - lf[n - j] + j * np.log(p) + (n - j) * np.log1p(-p)
-    m = float(terms.max())
-    return m + float(np.log(np.sum(np.exp(terms - m))))
+    """``log P(Bin(n, p) >= k)`` by the core (log-sum-exp of the terms over a table of ``log j!``;
+    exact to rounding, no underflow; scipy.stats is not imported because its import costs seconds;
+    numpy reference: tests/reference/nfa.py). 0 for ``k <= 0`` or ``p >= 1``, ``-inf`` for ``k > n`` or
+    ``p <= 0``."""
+    return float(_core.log_binom_sf(int(k), int(n), float(p)))
 
 
 def log10_nfa(k: int, n: int, p: float, num_tests: float, sample_size: int) -> float:
