@@ -43,7 +43,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ._fileutil import new_results_dir
-from .experiments._common import atomic_write_text, machine, markdown_table, single_thread
+from .experiments._common import atomic_write_text, code_version, machine, markdown_table, single_thread
 
 THRESHOLD_PX = 1.0  # the anchors' default; the default method gets its own default (noise-matched)
 NOISE_PX = 0.5
@@ -235,7 +235,7 @@ def _ms(s: float) -> str:
 
 def write_report(data: dict, out: Path) -> None:
     atomic_write_text(out / "speed.json", json.dumps(data, indent=1, default=float))
-    lines = ["# Speed (`poseonly bench speed`)", "", f"Machine: {data['machine']}. Command: `{data['command']}`.", ""]
+    lines = ["# Speed (`poseonly bench speed`)", "", f"Machine: {data['machine']}. Command: `{data['command']}`. Code: `{data.get('code_version')}`.", ""]
     fp = data.get("fresh_process")
     if fp:
         lines += [
@@ -307,7 +307,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(a.out) if a.out else new_results_dir("speed")
     out.mkdir(parents=True, exist_ok=True)
     single_thread()
-    data: dict[str, Any] = {"machine": machine(), "command": "poseonly bench speed " + " ".join(argv or sys.argv[1:])}
+    data: dict[str, Any] = {"machine": machine(), "code_version": code_version(), "command": "poseonly bench speed " + " ".join(argv or sys.argv[1:])}
     if not a.no_fresh:
         data["fresh_process"] = fresh_process(2 if a.quick else FRESH_RUNS)
     data["lirp"] = lirp_rows(scenes, repeats)
