@@ -18,7 +18,7 @@ from poseonly.sfm import (
     ligt_positions,
     reconstruct_points,
 )
-from poseonly.sfm.pipeline import GlobalOptions, run_global
+from poseonly.sfm.pipeline import STAGES, GlobalOptions, num_stages, run_global
 from poseonly.sfm.so3 import angle_deg, exp_so3
 from poseonly.sfm.synthetic import make_scene
 from poseonly.sfm.tracks import tracks_from_arrays
@@ -293,11 +293,30 @@ def _graph_of_scene(s) -> ViewGraph:
 def test_run_global_on_synthetic_view_graph_exact():
     s = make_scene(15, 1200, seed=12)
     g = _graph_of_scene(s)
-    res = run_global(g, lambda tracks: s.bearings[tracks.keypoints], s.focal, GlobalOptions())
+    stages: list[str] = []
+    res = run_global(g, lambda tracks: s.bearings[tracks.keypoints], s.focal, GlobalOptions(), on_stage=stages.append)
     ev = evaluate_poses(res.rotations, res.centres, s.rotations, s.centres)
     assert np.radians(ev["rot_max_deg"]) < EXACT
     assert ev["pos_max"] / ev["extent"] < EXACT
     assert res.reconstruction.num_valid == len(res.tracks)
+    # the stage callback (the CLI's progress bar): the four stages in order, no filter round on exact data
+    assert stages == list(STAGES[:4]) and len(stages) <= num_stages(GlobalOptions())
+
+
+def test_run_global_reports_filter_rounds_as_stages():
+    """With wrong observations the filter rounds run: each reports filter, LiGT, points, within num_stages."""
+    s = make_scene(12, 800, seed=21, noise_px=0.5)
+    g = _graph_of_scene(s)
+    f = s.bearings.copy()
+    rng = np.random.default_rng(0)
+    bad = rng.choice(len(f), len(f) // 50, replace=False)
+    f[bad] = rng.normal(size=(len(bad), 3))
+    f[bad] /= np.linalg.norm(f[bad], axis=1, keepdims=True)
+    stages: list[str] = []
+    opt = GlobalOptions(filter_rounds=2)
+    run_global(g, lambda tracks: f[tracks.keypoints], s.focal, opt, on_stage=stages.append)
+    assert stages[:4] == list(STAGES[:4]) and stages[4:7] == ["filter", "LiGT", "points"]
+    assert len(stages) <= num_stages(opt) and (len(stages) - 4) % 3 == 0
 
 
 def test_pose_auc_and_relative_errors():

@@ -35,6 +35,33 @@ def _progress(it, **kw):
     return tqdm(it, leave=False, dynamic_ncols=True, **kw)
 
 
+class _StageBar:
+    """A progress bar over the global stages (tqdm; ``stage(name)`` names the stage that starts and
+    counts the one before it as done)."""
+
+    def __init__(self, bar: Any) -> None:
+        self.bar, self.started = bar, False
+
+    def stage(self, name: str) -> None:
+        if self.started:
+            self.bar.update(1)
+        self.started = True
+        self.bar.set_description_str(f"global: {name}")
+
+    def close(self) -> None:
+        if self.started:
+            self.bar.update(1)
+        self.bar.close()
+
+
+def _stage_bar(total: int) -> _StageBar | None:
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover
+        return None
+    return _StageBar(tqdm(total=total, leave=False, dynamic_ncols=True, bar_format="{desc} [{n}/{total} stages, {elapsed}]"))
+
+
 def _read_K(path: str) -> np.ndarray:
     p = Path(path)
     if not p.is_file():
@@ -57,7 +84,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         write_ply,
     )
     from .pairwise import PairwiseOptions, image_view_graph, parse_estimator_options
-    from .pipeline import run_global
+    from .pipeline import num_stages, run_global
 
     d = Path(args.images)
     if not d.is_dir():
@@ -96,7 +123,12 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
         f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
     )
-    res = run_global(ig.graph, ig.bearings, float(0.5 * (K[0, 0] + K[1, 1])))
+    bar = None if args.no_progress else _stage_bar(num_stages())
+    try:
+        res = run_global(ig.graph, ig.bearings, float(0.5 * (K[0, 0] + K[1, 1])), on_stage=None if bar is None else bar.stage)
+    finally:
+        if bar is not None:
+            bar.close()
     est = np.all(np.isfinite(res.centres), axis=1)
     rec = res.reconstruction
     print(f"cameras: {int(est.sum())}/{len(images)} posed; outlier edges: {len(res.rotation.outlier_edges)}; points: {rec.num_valid}/{len(res.tracks)} valid")

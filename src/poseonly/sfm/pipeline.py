@@ -25,7 +25,10 @@ from .viewgraph import ViewGraph
 
 BearingsFn = Callable[[Tracks], np.ndarray]
 
-__all__ = ["BearingsFn", "GlobalOptions", "GlobalResult", "filter_observations", "run_global"]
+__all__ = ["STAGES", "BearingsFn", "GlobalOptions", "GlobalResult", "filter_observations", "num_stages", "run_global"]
+
+# the stages of run_global in order; each filter round runs "filter", "LiGT" and "points" again
+STAGES = ("rotation averaging", "tracks", "LiGT", "points", "filter")
 
 
 @dataclass(frozen=True)
@@ -41,6 +44,12 @@ class GlobalOptions:
     max_error_px: float = MAX_ERROR_PX
     filter_rounds: int = 2
     ligt_reweight: int = 0
+
+
+def num_stages(options: GlobalOptions | None = None) -> int:
+    """The most ``on_stage`` calls :func:`run_global` makes with ``options`` (fewer when a filter round finds
+    nothing to drop)."""
+    return 4 + 3 * (options or GlobalOptions()).filter_rounds
 
 
 @dataclass
@@ -75,24 +84,32 @@ def run_global(
     bearings_of: BearingsFn,
     focal: float,
     options: GlobalOptions | None = None,
+    on_stage: Callable[[str], None] | None = None,
 ) -> GlobalResult:
     """Global poses and points of ``graph``. ``bearings_of(tracks) -> (M, 3)`` gives the unit
-    camera-frame bearings of the tracks' observations; ``focal`` (px) scales reprojection errors."""
+    camera-frame bearings of the tracks' observations; ``focal`` (px) scales reprojection errors.
+    ``on_stage(name)``, if given, is called as each stage starts (one of :data:`STAGES`; the
+    filter rounds repeat the last three), e.g. to drive a progress bar."""
     opt = options or GlobalOptions()
     if len(graph) == 0:
         raise InputError("the view graph has no edges")
+    stage = on_stage or (lambda name: None)
     times: dict[str, float] = {}
+    stage("rotation averaging")
     t0 = time.perf_counter()
     ra = average_rotations(graph.num_views, graph.pairs(), graph.rotations(), graph.weights(), max_error_deg=opt.max_rotation_error_deg, min_error_deg=opt.min_rotation_error_deg)
     times["rotation_averaging"] = time.perf_counter() - t0
+    stage("tracks")
     t0 = time.perf_counter()
     tracks = build_tracks(graph, min_length=opt.min_track_length, conflicts=opt.conflicts, edge_mask=ra.inlier_edges)
     f = bearings_of(tracks)
     times["tracks"] = time.perf_counter() - t0
     info: dict[str, object] = {"tracks_built": len(tracks), "observations_built": tracks.num_observations, "tracks_conflicting": tracks.num_conflicting}
+    stage("LiGT")
     t0 = time.perf_counter()
     lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg, reweight_iterations=opt.ligt_reweight)
     times["ligt"] = time.perf_counter() - t0
+    stage("points")
     t0 = time.perf_counter()
     rec = reconstruct_points(ra.rotations, lg.centres, tracks, f, focal=focal, max_error_px=opt.max_error_px)
     times["reconstruction"] = time.perf_counter() - t0
@@ -100,10 +117,13 @@ def run_global(
         keep = rec.obs_valid
         if np.all(keep[np.isfinite(rec.error_px)]):
             break
+        stage("filter")
         t0 = time.perf_counter()
         tracks, f, _ = filter_observations(tracks, f, keep, opt.min_track_length)
+        stage("LiGT")
         lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg, reweight_iterations=opt.ligt_reweight)
         times["ligt"] += time.perf_counter() - t0
+        stage("points")
         t0 = time.perf_counter()
         rec = reconstruct_points(ra.rotations, lg.centres, tracks, f, focal=focal, max_error_px=opt.max_error_px)
         times["reconstruction"] += time.perf_counter() - t0
