@@ -34,6 +34,18 @@ def _jsonable(o: Any):
     raise TypeError(type(o))
 
 
+def strict_json(o: Any) -> Any:
+    """``o`` with every NaN / inf float (in nested dicts, lists and tuples) replaced by ``None``, so
+    that the JSON written is strict (readable by any JSON parser, not only Python's)."""
+    if isinstance(o, dict):
+        return {k: strict_json(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [strict_json(v) for v in o]
+    if isinstance(o, (float, np.floating)):
+        return float(o) if np.isfinite(o) else None
+    return o
+
+
 def write_json(path: str | Path, data: Any) -> Path:
     return atomic_write_text(path, json.dumps(data, indent=2, default=_jsonable))
 

@@ -111,21 +111,9 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
     }
     if args.ba:
         from ..sfm.colmap_ba import bundle_adjust, poses_from_reconstruction
-        from ..sfm.export import build_colmap_reconstruction
+        from ..sfm.export import colmap_model_of
 
-        rc = res.reconstruction
-        model = build_colmap_reconstruction(
-            [p.name for p in sc.image_paths],
-            ig.K,
-            [f.image_size for f in ig.features],
-            [f.keypoints for f in ig.features],
-            res.rotations,
-            res.centres,
-            res.tracks,
-            rc.points,
-            rc.valid,
-            rc.obs_valid,
-        )
+        model = colmap_model_of([p.name for p in sc.image_paths], ig, res)
         model, t_ba = bundle_adjust(model)
         R_ba, C_ba = poses_from_reconstruction(model, len(sc))
         out["ba"] = _scores(R_ba, C_ba, R_gt, C_gt) | {"time_s": t_ba}

@@ -72,6 +72,7 @@ from ._common import (
     pyplot,
     savefig,
     single_thread,
+    strict_json,
     write_json,
 )
 
@@ -790,17 +791,6 @@ def figure(res: dict, path: Path) -> Path | None:
     return path
 
 
-def _clean(o: Any) -> Any:
-    """NaN / inf -> None so that the JSON is strict."""
-    if isinstance(o, dict):
-        return {k: _clean(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_clean(v) for v in o]
-    if isinstance(o, (float, np.floating)):
-        return float(o) if np.isfinite(o) else None
-    return o
-
-
 # ------------------------------------------------------------------------------------------------
 # diagnosis of the pairs the default loses
 
@@ -998,7 +988,7 @@ def main(argv: list[str] | None = None) -> int:
     res["command"] = cmd
     md = to_markdown(res, cmd)
     atomic_write_text(out / "real_bench.md", md)
-    write_json(out / "real_bench.json", _clean(res))
+    write_json(out / "real_bench.json", strict_json(res))
     figure(res, out / "real_bench.png")
     print(md)
     if args.diagnose:

@@ -49,7 +49,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..geometry import InputError, bearings_from_pixels, rotation_error_deg, translation_error_deg
-from ._common import atomic_write_text, code_version, fmt, machine, markdown_table, progress, savefig, write_json
+from ._common import atomic_write_text, code_version, fmt, machine, markdown_table, progress, savefig, strict_json, write_json
 
 OURS = ("poseonly", "gnc-ransac+LiGTopt", "gnc-ransac")
 OPENGV = "opengv-ransac-5pt"
@@ -614,17 +614,6 @@ def figure(res: dict, path: Path) -> Path | None:
     return path
 
 
-def _clean(o: Any) -> Any:
-    """NaN / inf -> None so that the JSON is strict."""
-    if isinstance(o, dict):
-        return {k: _clean(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_clean(v) for v in o]
-    if isinstance(o, (float, np.floating)):
-        return float(o) if np.isfinite(o) else None
-    return o
-
-
 def run(args: argparse.Namespace) -> int:
     if not args.path:
         raise InputError("give the folder holding the Strecha scenes (PATH), or set POSEONLY_STRECHA")
@@ -658,7 +647,7 @@ def run(args: argparse.Namespace) -> int:
     res["command"] = cmd
     md = to_markdown(res, cmd)
     atomic_write_text(out / "strecha.md", md)
-    write_json(out / "strecha.json", _clean(res))
+    write_json(out / "strecha.json", strict_json(res))
     figure(res, out / "strecha.png")
     print(md)
     return 0

@@ -77,7 +77,7 @@ def _read_K(path: str) -> np.ndarray:
 
 def cmd_sfm(args: argparse.Namespace) -> int:
     from .export import (
-        build_colmap_reconstruction,
+        colmap_model_of,
         plot_reconstruction,
         point_colors,
         write_colmap_model,
@@ -151,19 +151,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     except ImportError:
         print("pycolmap is not installed: COLMAP model not written (points.ply and poses.json are)")
     else:
-        model = build_colmap_reconstruction(
-            [p.name for p in images],
-            ig.K,
-            [f.image_size for f in ig.features],
-            [f.keypoints for f in ig.features],
-            res.rotations,
-            res.centres,
-            res.tracks,
-            rec.points,
-            rec.valid,
-            rec.obs_valid,
-            colors,
-        )
+        model = colmap_model_of([p.name for p in images], ig, res, colors)
         write_colmap_model(model, out / "sparse" / "0", binary=not args.text)
         print(f"COLMAP model: {out / 'sparse' / '0'} ({model.num_reg_images()} images, {model.num_points3D()} points)")
     print(f"total {time.perf_counter() - t0:.1f} s; outputs in {out}")

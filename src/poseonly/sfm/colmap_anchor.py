@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from .colmap_ba import poses_from_reconstruction
 from .pairwise import ImageGraph
 from .tracks import Tracks
 
@@ -41,19 +42,6 @@ def _base_reconstruction(ig: ImageGraph, tracks: Tracks | None) -> Any:
         rec.add_camera_with_trivial_rig(cam)
         rec.add_image_with_trivial_frame(pycolmap.Image(name=f"{k:06d}", keypoints=np.asarray(f.keypoints, dtype=np.float64), camera_id=k + 1, image_id=k + 1))
     return rec
-
-
-def _poses(rec: Any, n: int) -> tuple[np.ndarray, np.ndarray]:
-    R = np.full((n, 3, 3), np.nan)
-    C = np.full((n, 3), np.nan)
-    for k in range(n):
-        img = rec.image(k + 1)
-        if not img.has_pose:
-            continue
-        T = img.cam_from_world().matrix()
-        R[k] = T[:, :3]
-        C[k] = -T[:, :3].T @ T[:, 3]
-    return R, C
 
 
 def run(ig: ImageGraph, tracks: Tracks) -> dict[str, dict[str, Any]]:
@@ -75,7 +63,7 @@ def run(ig: ImageGraph, tracks: Tracks) -> dict[str, dict[str, Any]]:
     t_ra = time.perf_counter() - t0
     if not ok:
         raise RuntimeError("pycolmap.run_rotation_averaging failed")
-    R_ra, _ = _poses(rec, n)
+    R_ra, _ = poses_from_reconstruction(rec, n)
     for t in range(len(tracks)):
         v, kp = tracks.track(t)
         tr = pycolmap.Track()
@@ -90,7 +78,7 @@ def run(ig: ImageGraph, tracks: Tracks) -> dict[str, dict[str, Any]]:
     t_gp = time.perf_counter() - t0
     if not ok:
         raise RuntimeError("pycolmap.run_global_positioning failed")
-    R, C = _poses(rec, n)
+    R, C = poses_from_reconstruction(rec, n)
     return {"rotation averaging + global positioning": {"rotations": R, "centres": C, "time_s": t_ra + t_gp, "rotation_averaging_rotations": R_ra}}
 
 

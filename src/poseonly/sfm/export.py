@@ -9,7 +9,7 @@ import shutil
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -17,7 +17,11 @@ from .._fileutil import publish
 from ..geometry import InputError
 from .tracks import Tracks
 
-__all__ = ["build_colmap_reconstruction", "plot_reconstruction", "point_colors", "write_colmap_model", "write_ply"]
+if TYPE_CHECKING:
+    from .pairwise import ImageGraph
+    from .pipeline import GlobalResult
+
+__all__ = ["build_colmap_reconstruction", "colmap_model_of", "plot_reconstruction", "point_colors", "write_colmap_model", "write_ply"]
 
 
 def point_colors(image_paths: Sequence[str | os.PathLike], keypoints: Sequence[np.ndarray], tracks: Tracks, base_obs: np.ndarray) -> np.ndarray:
@@ -38,6 +42,25 @@ def point_colors(image_paths: Sequence[str | os.PathLike], keypoints: Sequence[n
         y = np.clip(np.round(uv[:, 1]).astype(int), 0, img.shape[0] - 1)
         out[sel] = img[y, x, ::-1]
     return out
+
+
+def colmap_model_of(names: Sequence[str], ig: ImageGraph, res: GlobalResult, colors: np.ndarray | None = None) -> Any:
+    """The ``pycolmap.Reconstruction`` of a global result ``res`` (:func:`poseonly.sfm.pipeline.run_global`)
+    over the images ``names`` of the image graph ``ig`` (calibration, sizes, keypoints)."""
+    rc = res.reconstruction
+    return build_colmap_reconstruction(
+        names,
+        ig.K,
+        [f.image_size for f in ig.features],
+        [f.keypoints for f in ig.features],
+        res.rotations,
+        res.centres,
+        res.tracks,
+        rc.points,
+        rc.valid,
+        rc.obs_valid,
+        colors,
+    )
 
 
 def build_colmap_reconstruction(
