@@ -36,7 +36,7 @@ import numpy as np
 from ..io.strecha import find_scenes, load_scene
 from ..sfm.align import evaluate_poses, pose_auc, relative_pose_errors
 from ..sfm.pairwise import ImageGraph, PairwiseOptions, image_view_graph, parse_estimator_options
-from ..sfm.pipeline import GlobalOptions, GlobalResult, run_global
+from ..sfm.pipeline import ROTATION_WEIGHTS, GlobalOptions, GlobalResult, run_global
 from ..sfm.so3 import angle_deg
 from ._common import code_version, machine, markdown_table, progress, write_outputs
 
@@ -55,6 +55,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
     p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
     p.add_argument("--reweight", type=int, default=0, help="LiGT reweighting iterations (default 0 = openMVG's LiGT)")
+    p.add_argument(
+        "--rotation-weights",
+        choices=ROTATION_WEIGHTS,
+        default=GlobalOptions.rotation_weights,
+        help="rotation averaging's edge weights: the two-view inlier counts (default) or each relative rotation's information",
+    )
     p.add_argument("--no-anchor", action="store_true", help="skip the anchors (pycolmap's and pyTheia's global stages, pycolmap's mappers)")
     p.add_argument("--ba", action="store_true", help="also report our result after an optional pycolmap bundle adjustment")
 
@@ -92,7 +98,7 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
     t0 = time.perf_counter()
     ig = image_view_graph(sc.image_paths, sc.K, options=opt, cache_dir=args.cache, progress=lambda it, **kw: progress(it, **kw))
     t_pairs = time.perf_counter() - t0
-    gopt = GlobalOptions(ligt_reweight=args.reweight)
+    gopt = GlobalOptions(ligt_reweight=args.reweight, rotation_weights=args.rotation_weights)
     res = run_global(ig.graph, ig.bearings, float(sc.K[0, 0]), gopt)
     ev = _scores(res.rotations, res.centres, R_gt, C_gt)
     out: dict[str, Any] = {

@@ -84,7 +84,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         write_ply,
     )
     from .pairwise import PairwiseOptions, image_view_graph, parse_estimator_options
-    from .pipeline import num_stages, run_global
+    from .pipeline import GlobalOptions, num_stages, run_global
 
     d = Path(args.images)
     if not d.is_dir():
@@ -123,9 +123,10 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
         f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
     )
-    bar = None if args.no_progress else _stage_bar(num_stages())
+    gopt = GlobalOptions(rotation_weights=args.rotation_weights)
+    bar = None if args.no_progress else _stage_bar(num_stages(gopt))
     try:
-        res = run_global(ig.graph, ig.bearings, float(0.5 * (K[0, 0] + K[1, 1])), on_stage=None if bar is None else bar.stage)
+        res = run_global(ig.graph, ig.bearings, float(0.5 * (K[0, 0] + K[1, 1])), gopt, on_stage=None if bar is None else bar.stage)
     finally:
         if bar is not None:
             bar.close()
@@ -183,6 +184,12 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     s.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
     s.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
+    s.add_argument(
+        "--rotation-weights",
+        choices=("inliers", "information"),
+        default="inliers",
+        help="rotation averaging's edge weights: the two-view inlier counts (default) or each relative rotation's information (narrow fields of view)",
+    )
     s.set_defaults(func=cmd_sfm)
 
     from ..experiments import global_sfm

@@ -23,7 +23,12 @@ with weights. Steps (global_sfm notes, section 3; as openMVG / COLMAP build them
    They are removed, the largest connected component is kept and the IRLS re-run (``outlier_rounds``).
 
 Edge weights: the caller's (the view graph uses the number of two-view inliers), divided by their
-median so the GM scale means the same on every graph.
+median so the GM scale means the same on every graph. With ``information (E, 3, 3)`` (each relative
+rotation's inverse covariance in view i's frame, :mod:`poseonly.sfm.edge_information`) the IRLS
+weighs edge e by ``GM_e R_i^T Lambda_e R_i`` instead of ``GM_e w_e`` (the residual ``b_ij`` of an
+estimate ``R_ij exp([d]x)`` is ``R_i^T d``): the normal matrix is then the block Laplacian
+``D^T W D`` with 3x3 blocks, factored once per iteration the same way. The spanning tree, L1RA and the
+outlier rule keep the scalar weights.
 """
 
 from __future__ import annotations
@@ -192,6 +197,41 @@ def _irls(Rg, pairs, R_rel, w, D, root, sigma: float, iters: int, tol: float) ->
     return Rg, it
 
 
+def _block_incidence(D: sp.csr_matrix) -> sp.csr_matrix:
+    """``D (x) I_3``: row ``3e + a``, column ``3k + a``."""
+    return sp.kron(D, sp.identity(3, format="csr"), format="csr")
+
+
+def _irls_info(Rg, pairs, R_rel, info, D, root, sigma: float, iters: int, tol: float) -> tuple[np.ndarray, int]:
+    """The IRLS of :func:`_irls` with matrix weights ``GM_e R_i^T info_e R_i`` (``info (E, 3, 3)``)."""
+    n = len(Rg)
+    A = _block_incidence(D)
+    AT = A.T.tocsr()
+    e_idx = np.arange(len(pairs))
+    it = 0
+    for it in range(1, iters + 1):
+        b = _linearise(Rg, pairs, R_rel)
+        e2 = np.sum(b * b, axis=1)
+        wg = sigma**2 / (e2 + sigma**2) ** 2
+        wg = wg / wg.max()
+        Ri = Rg[pairs[:, 0]]
+        W = wg[:, None, None] * np.einsum("eji,ejk,ekl->eil", Ri, info, Ri)
+        Wm = sp.bsr_matrix((W, e_idx, np.arange(len(pairs) + 1)), shape=(3 * len(pairs), 3 * len(pairs))).tocsr()
+        N = (AT @ Wm @ A).tocsc()
+        rhs = AT @ np.einsum("eij,ej->ei", W, b).ravel()
+        x = splu(N, permc_spec="MMD_AT_PLUS_A").solve(rhs).reshape(-1, 3)
+        xf = _expand(x, n, root)
+        Rg = Rg @ exp_so3(xf)
+        if np.abs(xf).max() < tol:
+            break
+    return Rg, it
+
+
+def _normalised_information(info: np.ndarray) -> np.ndarray:
+    """``info (E, 3, 3)`` divided by the median of ``trace / 3`` (the scalar weights' median rule)."""
+    return info / float(np.median(np.trace(info, axis1=1, axis2=2) / 3.0))
+
+
 def _x84_threshold(res_deg: np.ndarray, min_deg: float, max_deg: float) -> float:
     med = float(np.median(res_deg))
     mad = float(np.median(np.abs(res_deg - med)))
@@ -204,6 +244,7 @@ def average_rotations(
     R_rel: np.ndarray,
     weights: np.ndarray | None = None,
     *,
+    information: np.ndarray | None = None,
     init: np.ndarray | None = None,
     l1: bool = True,
     l1_outer: int = 50,
@@ -221,6 +262,8 @@ def average_rotations(
 
     Views outside the largest connected component (after outlier removal) are not estimated
     (``estimated`` False, NaN rotations). ``init (N, 3, 3)`` replaces the spanning-tree start.
+    ``information (E, 3, 3)``: each relative rotation's information in view i's frame (symmetric
+    positive definite), used by the IRLS instead of the scalar weights (module docstring).
     """
     times: dict[str, float] = {}
     n = int(num_views)
@@ -228,6 +271,14 @@ def average_rotations(
     if len(p) == 0:
         raise InputError("rotation averaging needs at least one edge")
     w = w / np.median(w)
+    info_all = None
+    if information is not None:
+        info_all = np.asarray(information, dtype=np.float64)
+        if info_all.shape != (len(p), 3, 3) or not np.all(np.isfinite(info_all)):
+            raise InputError(f"information must be a finite ({len(p)}, 3, 3) array")
+        if np.any(np.linalg.eigvalsh(0.5 * (info_all + np.swapaxes(info_all, 1, 2)))[:, 0] <= 0):
+            raise InputError("information matrices must be positive definite")
+        info_all = _normalised_information(info_all)
     edge_ok = np.ones(len(p), dtype=bool)
     outliers: list[tuple[int, int, float]] = []
     info: dict[str, object] = {}
@@ -268,7 +319,10 @@ def average_rotations(
     for rnd in range(outlier_rounds + 1):
         if len(views) > 1:
             D = _incidence(len(views), pe, root)
-            Rg, k = _irls(Rg, pe, R[emask], w[emask], D, root, sigma, irls_iterations, irls_tol)
+            if info_all is None:
+                Rg, k = _irls(Rg, pe, R[emask], w[emask], D, root, sigma, irls_iterations, irls_tol)
+            else:
+                Rg, k = _irls_info(Rg, pe, R[emask], info_all[emask], D, root, sigma, irls_iterations, irls_tol)
             irls_total += k
         full[:] = np.nan
         full[views] = Rg

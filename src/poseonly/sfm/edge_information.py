@@ -1,0 +1,145 @@
+"""Information (inverse covariance) of each two-view relative rotation, for rotation averaging.
+
+First-order covariance of a least-squares two-view pose (Hartley and Zisserman, section 5.2; used for
+rotation averaging by Zhang, Larsson and Kahl, "Revisiting Rotation Averaging: Uncertainties and
+Robust Losses", CVPR 2023): with the edge's inliers' signed Sampson errors ``r_k`` (radians on the
+sphere) independent with scale ``sigma``, the Gauss-Newton information of the five pose parameters is
+``J^T J / sigma^2``, ``J (m, 5)`` the Jacobian of ``r`` in ``R exp([d]x)`` (``d`` in view i's frame)
+and the translation direction on the sphere. The rotation's information is the Schur complement of the
+translation block (the direction marginalised): a rotation about an axis that trades against the
+translation (narrow fields of view, forward motion) is known less well than one about the baseline,
+which an inlier count cannot say. A ``pure_rotation`` edge (translation not trusted) has the
+information of its rotation-only fit, the chord residuals ``R f1 - f2`` in the tangent plane of ``f2``.
+
+``sigma`` is the edge's own robust scale, ``1.4826 median |r|`` over its inliers (pairs of one scene
+differ in blur, scale change and viewing angle), so a pair with noisier matches weighs less.
+
+Shapes: bearings ``f1, f2 (m, 3)`` (unit, the edge's inliers), ``R (3, 3)``, ``t (3,)``; information
+``(3, 3)`` symmetric positive semi-definite, in view i's frame (``d`` above).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ..geometry import cross, rotation_from_rotvec, skew
+from ..refine._manifold import tangent_basis
+from .tracks import Tracks
+from .viewgraph import ViewGraph
+
+__all__ = ["MIN_EDGE_MATCHES", "edge_informations", "rotation_information", "signed_sampson"]
+
+MAD_TO_SIGMA = 1.4826
+# below this many inliers an edge's information is not estimated (None): 5 parameters and a scale
+MIN_EDGE_MATCHES = 8
+# central differences of the residuals in the pose parameters: residuals of 1e-4-1e-2 rad, second
+# derivatives of order 1, so truncation ~STEP^2 and rounding ~1e-16 / STEP stay below 1e-9 relative
+STEP = 1e-6
+# the smallest eigenvalue of an information is raised to this fraction of its largest (a direction the
+# edge does not constrain still gets a finite weight, so every averaging solve stays well posed)
+MIN_EIGEN_RATIO = 1e-6
+
+
+def signed_sampson(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """``(m,)`` signed Sampson errors on the sphere (radians; ``poseonly.residuals.v_sampson`` is their
+    absolute value): ``f2^T E f1 / sqrt(|P_f2 E f1|^2 + |P_f1 E^T f2|^2)``, ``E = [t]x R``, unit ``t``."""
+    E = skew(t / np.linalg.norm(t)) @ R
+    Ef1 = f1 @ E.T
+    Etf2 = f2 @ E
+    num = np.einsum("ij,ij->i", Ef1, f2)
+    den = np.einsum("ij,ij->i", Ef1, Ef1) + np.einsum("ij,ij->i", Etf2, Etf2) - 2.0 * num * num
+    return num / np.sqrt(np.maximum(den, 1e-300))
+
+
+def _rotation_residuals(R: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """``(2m,)`` the chord ``R f1 - f2`` in two tangent directions of ``f2`` per match."""
+    a = np.where(np.abs(f2[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+    u = cross(f2, a)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = cross(f2, u)
+    d = f1 @ R.T - f2
+    return np.concatenate([np.einsum("ij,ij->i", d, u), np.einsum("ij,ij->i", d, v)])
+
+
+def _jacobian(fun: Callable[[np.ndarray], np.ndarray], k: int) -> np.ndarray:
+    cols = []
+    for a in range(k):
+        e = np.zeros(k)
+        e[a] = STEP
+        cols.append((fun(e) - fun(-e)) / (2.0 * STEP))
+    return np.stack(cols, axis=1)
+
+
+def _floor(info: np.ndarray) -> np.ndarray:
+    w, V = np.linalg.eigh(0.5 * (info + info.T))
+    w = np.maximum(w, MIN_EIGEN_RATIO * max(float(w[-1]), 0.0))
+    return (V * w) @ V.T
+
+
+def rotation_information(R: np.ndarray, t: np.ndarray | None, f1: np.ndarray, f2: np.ndarray) -> np.ndarray | None:
+    """Information ``(3, 3)`` of the rotation of the pose ``X2 = R X1 + t`` estimated from the inlier
+    bearings ``f1, f2 (m, 3)``, in the right perturbation ``R exp([d]x)``; ``t = None``: a rotation
+    without translation (``X2 ~ R X1``). None with fewer than :data:`MIN_EDGE_MATCHES` matches, a
+    noise scale of exactly zero or a translation the matches do not determine."""
+    R = np.asarray(R, dtype=np.float64)
+    f1 = np.asarray(f1, dtype=np.float64)
+    f2 = np.asarray(f2, dtype=np.float64)
+    if len(f1) < MIN_EDGE_MATCHES:
+        return None
+    if t is None:
+
+        def rot_only(p: np.ndarray) -> np.ndarray:
+            return _rotation_residuals(R @ rotation_from_rotvec(p), f1, f2)
+
+        r = _rotation_residuals(R, f1, f2)
+        J = _jacobian(rot_only, 3)
+        sigma = MAD_TO_SIGMA * float(np.median(np.abs(r)))
+        if not sigma > 0:
+            return None
+        return _floor(J.T @ J / sigma**2)
+    tu = np.asarray(t, dtype=np.float64) / np.linalg.norm(t)
+    B = tangent_basis(tu)
+
+    def pose(p: np.ndarray) -> np.ndarray:
+        tp = tu + B @ p[3:]
+        return signed_sampson(R @ rotation_from_rotvec(p[:3]), tp / np.linalg.norm(tp), f1, f2)
+
+    r = signed_sampson(R, tu, f1, f2)
+    sigma = MAD_TO_SIGMA * float(np.median(np.abs(r)))
+    if not sigma > 0:
+        return None
+    J = _jacobian(pose, 5)
+    H = J.T @ J / sigma**2
+    Htt = H[3:, 3:]
+    try:
+        S = H[:3, :3] - H[:3, 3:] @ np.linalg.solve(Htt, H[3:, :3])
+    except np.linalg.LinAlgError:
+        return None
+    return _floor(S) if np.all(np.isfinite(S)) else None
+
+
+def edge_informations(graph: ViewGraph, bearings_of: Callable[[Tracks], np.ndarray]) -> np.ndarray | None:
+    """``(E, 3, 3)`` rotation information of every edge of ``graph`` (in view i's frame), from its
+    inlier matches, whose bearings ``bearings_of`` gives (as for :func:`poseonly.sfm.pipeline.run_global`:
+    every edge's matches are passed as two-observation tracks). None when an edge has none (too few
+    matches, noise-free): the averaging then weighs by the scalar weights."""
+    m = [len(e.matches) for e in graph.edges]
+    if not m or min(m) < MIN_EDGE_MATCHES:
+        return None
+    views = np.concatenate([np.repeat(np.array([[e.i, e.j]]), len(e.matches), axis=0) for e in graph.edges]).ravel()
+    kps = np.concatenate([e.matches for e in graph.edges]).ravel()
+    total = int(sum(m))
+    tr = Tracks(np.arange(0, 2 * total + 1, 2, dtype=np.int64), views.astype(np.int64), kps.astype(np.int64))
+    f = bearings_of(tr).reshape(total, 2, 3)
+    out = np.empty((len(graph.edges), 3, 3))
+    start = 0
+    for k, e in enumerate(graph.edges):
+        fe = f[start : start + m[k]]
+        start += m[k]
+        info = rotation_information(e.R, e.t if e.use_translation else None, fe[:, 0], fe[:, 1])
+        if info is None:
+            return None
+        out[k] = info
+    return out

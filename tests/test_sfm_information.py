@@ -1,0 +1,121 @@
+"""Rotation averaging weighted by each edge's information (poseonly.sfm.edge_information)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from poseonly import InputError, _core, sim
+from poseonly.geometry import bearings_from_pixels
+from poseonly.sfm.edge_information import rotation_information, signed_sampson
+from poseonly.sfm.pipeline import GlobalOptions
+from poseonly.sfm.rotation_averaging import average_rotations
+from poseonly.sfm.so3 import angle_deg, log_so3, project_so3
+from poseonly.sfm.synthetic import make_scene
+from poseonly.residuals import v_sampson
+
+EXACT = 1e-8
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+
+
+def _aligned_mean(R, R_gt):
+    Q = project_so3(np.einsum("nji,njk->ik", R, R_gt)[None])[0]
+    return float(angle_deg(np.einsum("nji,njk->nik", R_gt, R @ Q)).mean())
+
+
+def test_signed_sampson_is_the_residual_table_with_a_sign():
+    sc = sim.make_scene(50, camera="pinhole", noise_px=1.0, seed=1)
+    r = signed_sampson(sc.R, sc.t, sc.f1, sc.f2)
+    np.testing.assert_allclose(np.abs(r), v_sampson(sc.R, sc.t, sc.f1, sc.f2), rtol=1e-12, atol=1e-15)
+    assert np.any(r > 0) and np.any(r < 0)
+
+
+def test_rotation_information_predicts_the_ml_pose_scatter():
+    """Monte Carlo: the covariance of the Sampson-LM pose's rotation over noise draws matches the
+    inverse information (pinhole camera: the strongly anisotropic case, sds 0.12 / 0.10 / 0.02 deg)."""
+    sc0 = sim.make_scene(200, camera="pinhole", noise_px=0.0, seed=3)
+    rng = np.random.default_rng(0)
+    ds, infos = [], []
+    for _ in range(150):
+        f1 = bearings_from_pixels(sc0.u1 + rng.normal(0, 0.5, sc0.u1.shape), sc0.K)
+        f2 = bearings_from_pixels(sc0.u2 + rng.normal(0, 0.5, sc0.u2.shape), sc0.K)
+        R, t, _ = _core.refine_sampson(np.ascontiguousarray(sc0.R), np.ascontiguousarray(sc0.t), f1, f2)
+        ds.append(log_so3((sc0.R.T @ R)[None])[0])
+        infos.append(rotation_information(R, t, f1, f2))
+    C = np.cov(np.array(ds).T)
+    P = np.linalg.inv(np.mean(infos, axis=0))
+    # per-axis standard deviations within 25 % (150 draws: a sd's sampling error is ~6 %)
+    np.testing.assert_allclose(np.sqrt(np.diag(C)), np.sqrt(np.diag(P)), rtol=0.25)
+    # and the dominant direction (the rotation that trades against the translation)
+    u_c, u_p = np.linalg.eigh(C)[1][:, -1], np.linalg.eigh(P)[1][:, -1]
+    assert abs(u_c @ u_p) > 0.99
+
+
+def test_rotation_information_of_a_pure_rotation_and_degenerate_inputs():
+    sc = sim.make_scene(100, kind="rotation", camera="pinhole", noise_px=0.5, seed=2)
+    info = rotation_information(sc.R, None, sc.f1, sc.f2)
+    assert info is not None and np.all(np.linalg.eigvalsh(info) > 0)
+    # a rotation fit is known about every axis; the sd about the optical axis is the largest
+    sd = np.sqrt(np.diag(np.linalg.inv(info)))
+    assert np.argmax(sd) == 2
+    assert rotation_information(sc.R, sc.t if np.any(sc.t) else np.array([1.0, 0, 0]), sc.f1[:5], sc.f2[:5]) is None
+    assert rotation_information(sc.R, None, sc.f1[:5], sc.f2[:5]) is None
+
+
+def test_rotation_averaging_with_information_noise_free_exact():
+    s = make_scene(20, 1500, seed=1)
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(len(s.pairs), 3, 3))
+    info = A @ np.swapaxes(A, 1, 2) + 0.1 * np.eye(3)
+    ra = average_rotations(20, s.pairs, s.R_rel, s.weights, information=info)
+    assert np.radians(_aligned_mean(ra.rotations, s.rotations)) < EXACT
+    assert ra.estimated.all() and not ra.outlier_edges
+
+
+def test_rotation_averaging_information_checked():
+    s = make_scene(10, 800, seed=4)
+    with pytest.raises(InputError, match="information must be"):
+        average_rotations(10, s.pairs, s.R_rel, s.weights, information=np.ones((2, 3, 3)))
+    bad = np.tile(np.diag([1.0, 1.0, -1.0]), (len(s.pairs), 1, 1))
+    with pytest.raises(InputError, match="positive definite"):
+        average_rotations(10, s.pairs, s.R_rel, s.weights, information=bad)
+    with pytest.raises(InputError, match="rotation_weights"):
+        GlobalOptions(rotation_weights="bogus")
+
+
+def test_information_weighting_beats_inlier_counts_on_narrow_cameras(monkeypatch):
+    """Two-view ML edges of 12 cameras with a 20 deg half field of view (benchmarks/ra_information.py;
+    4 seeds there: 0.40x the inlier-weighted error): the information weighs the poorly constrained
+    rotation axis of every edge down."""
+    import poseonly.sfm.synthetic as S
+    import ra_information
+
+    monkeypatch.setattr(S, "HALF_FOV_DEG", 20.0)
+    monkeypatch.setattr(S, "HOME_CONE_DEG", 12.0)
+    e_inl, e_info = ra_information.run_seed(0, 12, 3000, 1.0)
+    assert e_info < 0.7 * e_inl
+
+
+@pytest.mark.parametrize("noise_px", [0.0, 1.0])
+def test_run_global_with_information_weights(noise_px):
+    """The pipeline with ``rotation_weights="information"``: exact on noise-free data, and on noisy
+    wide-field data (where the two-view rotations are about isotropic) as accurate as the inlier counts."""
+    import ra_information
+
+    from poseonly.sfm.align import evaluate_poses
+    from poseonly.sfm.pipeline import run_global
+
+    s = make_scene(12, 1500, seed=5, noise_px=noise_px)
+    g = ra_information.edge_graph(s)
+    errs = {}
+    for mode in ("inliers", "information"):
+        res = run_global(g, lambda tr: s.bearings[tr.keypoints], s.focal, GlobalOptions(rotation_weights=mode))
+        assert res.info["rotation_weights"] == mode
+        errs[mode] = evaluate_poses(res.rotations, res.centres, s.rotations, s.centres)["rot_mean_deg_rotalign"]
+    if noise_px == 0.0:
+        assert np.radians(errs["information"]) < EXACT
+    else:
+        assert errs["information"] < 1.2 * errs["inliers"]
