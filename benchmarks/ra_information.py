@@ -83,7 +83,8 @@ def main(argv: list[str] | None = None) -> int:
     r = np.array(rows)
     print(
         f"mean over {a.seeds} seeds: inliers {r[:, 0].mean():.5f} deg, information {r[:, 1].mean():.5f} deg; "
-        f"ratio of means {r[:, 1].mean() / r[:, 0].mean():.3f}, median ratio {np.median(r[:, 1] / r[:, 0]):.3f}, information better on {int(np.sum(r[:, 1] < r[:, 0]))} of {a.seeds}"
+        f"ratio of means {r[:, 1].mean() / r[:, 0].mean():.3f}, median ratio {np.median(r[:, 1] / r[:, 0]):.3f}, "
+        f"information better on {int(np.sum(r[:, 1] < r[:, 0]))} of {a.seeds}"
     )
     return 0
 

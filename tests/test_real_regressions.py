@@ -5,7 +5,7 @@ seeds 1 and 7 the search used to end on a locally optimised model of a wrong con
 2.37 deg off, status ``ok`` on seed 1) while a model of the right basin, 0.12 deg off, has the lower
 cost under the search's own objective; its raw minimal models never beat the wrong optimised one,
 and LO runs only on new bests. The challengers of the search (``PoseonlyOptions.challengers``) find
-it on every seed (docs/RESULTS_real.md section 0).
+it on every seed (docs/history/RESULTS_real_sessions.md).
 """
 
 from __future__ import annotations

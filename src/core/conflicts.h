@@ -7,7 +7,7 @@
 // epipole sits on a keypoint that many keypoints of the other image were matched to gives all those
 // matches a zero epipolar error (every epipolar line passes through the epipole): on Herz-Jesus-P8
 // views 0 and 6 seven matches into one point made such a model, 80 deg off, outscore the true one
-// on every seed (docs/RESULTS_real.md section 0, ninth session).
+// on every seed (docs/history/RESULTS_real_sessions.md, ninth session).
 //
 // Keypoints are identified by identical bearings (the same pixel through the same calibration).
 // Exact copies of a correspondence (the same keypoint pair, e.g. two orientations on both sides)

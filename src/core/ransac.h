@@ -52,7 +52,7 @@ struct RansacOptions {
   // inliers have a median parallax of at least this, the floor is min(min_iterations,
   // min_iterations_parallax) instead of min_iterations. A weakly constrained pose (small parallax, a
   // flat objective) gains from the longer search; a well-constrained one ends where the stopping rule
-  // says (docs/RESULTS_real.md section 0, fourteenth session)
+  // says (docs/history/RESULTS_real_sessions.md, fourteenth session)
   double floor_parallax = 0.0;
   int min_iterations_parallax = 0;
   // > 0: adaptive stopping assumes an inlier ratio of at least this. For a caller that only needs to
@@ -425,7 +425,7 @@ inline double poisson_hits_needed(double confidence, int hits) {
 // schedule keeps few: on entry-P10's pairs with 16.5-18 % inliers it may stop after 23-68k draws
 // (classical 48-75k), this sum after 1.8-43k (benchmarks/prosac_stop_bound.py). For estimators whose success is an all-inlier minimal sample.
 // Opt-in (progressive_expected): the shorter searches see fewer rival models, and on the real pairs the
-// uniqueness test then let two wrong poses through (docs/RESULTS_real.md section 0, fifteenth session).
+// uniqueness test then let two wrong poses through (docs/history/RESULTS_real_sessions.md, fifteenth session).
 template <class Est, class Sampler>
 double expected_needed(const Est& est, const Sampler& sampler, const std::vector<int>& inl, const RansacOptions& opt) {
   const std::vector<int>& order = sampler.order();

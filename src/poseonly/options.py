@@ -198,7 +198,7 @@ class PoseonlyOptions(CommonOptions):
         "real",
         "a best model whose inliers' median parallax (angle between R f1 and f2) is at least this many degrees lowers the sample floor"
         " to min(min_iterations, min_iterations_parallax): the longer search pays only for weakly constrained poses (measured:"
-        " docs/RESULTS_real.md section 0, fourteenth session); 0: the floor is always min_iterations",
+        " docs/history/RESULTS_real_sessions.md, fourteenth session); 0: the floor is always min_iterations",
         lo=0.0,
         hi=180.0,
     )
@@ -210,7 +210,7 @@ class PoseonlyOptions(CommonOptions):
         "bool",
         "with `scores`: the search also ends by PROSAC's stopping rule (a non-random top-n set of the score order whose draws reach"
         " the count at its inlier ratio, bounded for sampling without replacement; Chum and Matas 2005), not only by the count at"
-        " the inlier ratio of all matches: 0.7-0.94x the time on real pairs, the same accuracy (docs/RESULTS_real.md section 0,"
+        " the inlier ratio of all matches: 0.7-0.94x the time on real pairs, the same accuracy (docs/history/RESULTS_real_sessions.md,"
         " thirteenth session); False: the classical rule alone",
     )
     progressive_rule: str = _opt(
@@ -219,7 +219,7 @@ class PoseonlyOptions(CommonOptions):
         "with `scores` and progressive_stop: 'prosac' (Chum and Matas' rule over the top-n sets) or 'expected' (stop where the"
         " expected number of all-inlier draws of the best model's inliers, summed over the sampler's actual schedule, reaches"
         " the classical rule's -ln(1 - confidence); src/core/ransac.h expected_needed). 'expected' ends hard searches much earlier but"
-        " sees fewer rival models: on the real pairs it let two confident wrong poses through (docs/RESULTS_real.md section 0,"
+        " sees fewer rival models: on the real pairs it let two confident wrong poses through (docs/history/RESULTS_real_sessions.md,"
         " fifteenth session), so the default stays 'prosac'",
         choices=("prosac", "expected"),
     )
@@ -254,7 +254,7 @@ class PoseonlyOptions(CommonOptions):
         "int",
         "each LO step of the search (and the rival's) runs on an evenly strided subset of at most this many of the points within its window"
         " (0: all); its model is then rescored on every match. 1000 left every status and summary figure of the real benchmark unchanged"
-        " (docs/RESULTS_real.md section 0, seventh session) and takes 8-25 % off pairs of 1000-4300 matches",
+        " (docs/history/RESULTS_real_sessions.md, seventh session) and takes 8-25 % off pairs of 1000-4300 matches",
         lo=0,
     )
     adaptive_threshold: bool = _opt(True, "bool")
@@ -287,7 +287,7 @@ class PoseonlyOptions(CommonOptions):
         "int",
         "the ML stage's inliers cross-fitted: a match the ML pose calls an inlier is removed when the ML pose of the other folds"
         " (i % ml_folds) puts it beyond the mixture's decision threshold, and the final pose is EM on every other match (0 or 1: the"
-        " ML pose decides its own inliers; docs/RESULTS_real.md section 0, twelfth and thirteenth sessions)",
+        " ML pose decides its own inliers; docs/history/RESULTS_real_sessions.md, twelfth and thirteenth sessions)",
         lo=0,
         hi=16,
     )

@@ -304,12 +304,12 @@ def _cross_fit(
     returned pose is EM from ``(R, t)`` on every other match. The mixture keeps modelling the outliers
     and the inliers' tail (EM on the cross-fitted inliers alone fits the mixture to truncated errors:
     at 0 % outliers 1.065 / 1.053x the synthetic floor against 1.032 / 1.018x with the veto, wide /
-    pinhole; docs/RESULTS_real.md section 0, thirteenth session). Measured on the synthetic hard cases
+    pinhole; docs/history/RESULTS_real_sessions.md, thirteenth session). Measured on the synthetic hard cases
     (0.3 px noise, 40 scenes each, ``benchmarks/hard_cases.py``): the ML pose's inliers held 2.7 / 2.3 /
     1.7 / 5.4 outliers (low parallax 0.75 / 1.5 deg, repetitive texture, second motion) against PoseLib's
     1.1 / 1.0 / 1.2 / 5.2, and least squares on the true inliers from the ML pose reaches the noise floor
     (the objective, not the optimiser, chose the wrong pose). Five folds (the default) were decided on
-    the real pairs and the seeded low-parallax test (docs/RESULTS_real.md section 0, twelfth session);
+    the real pairs and the seeded low-parallax test (docs/history/RESULTS_real_sessions.md, twelfth session);
     two leave too few matches per fold on small pairs.
 
     ``start = (sigma, g)``: the ML stage's noise scale and inlier share on all matches, where each
