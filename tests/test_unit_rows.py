@@ -73,3 +73,22 @@ def test_bearings_with_nan_and_a_K_report_the_nan_first():
         as_bearings(a, np.eye(3), "f1")
     with pytest.raises(InputError, match="a K was given"):
         as_bearings(np.nan_to_num(a), np.eye(3), "f1")
+
+
+@pytest.mark.parametrize("scale", [1.0, 1e-3, 1e6, 1e140, 1e160])
+def test_pixel_bearings_in_the_core_equal_the_numpy_path(scale):
+    """``as_bearings(..., K_checked=True)`` (one core call) gives the bearings of the numpy path bit
+    for bit, falls back to it for coordinates of 1e150 and more, and raises the same errors."""
+    from poseonly.geometry import as_bearings, check_intrinsics
+
+    rng = np.random.default_rng(2)
+    K = check_intrinsics(np.array([[812.5, 0.3, 321.7], [0.0, 809.1, 243.2], [0.0, 0.0, 1.0]]))
+    u = rng.uniform(-50, 700, size=(300, 2)) * scale
+    fast = as_bearings(u, K, "x1", K_checked=True)
+    slow = as_bearings(u, K, "x1")
+    assert np.array_equal(fast, slow)
+    bad = u.copy()
+    bad[[3, 7]] = np.nan
+    for checked in (True, False):
+        with pytest.raises(InputError, match=r"x1 contains NaN or inf values \(2 rows\)"):
+            as_bearings(bad, K, "x1", K_checked=checked)

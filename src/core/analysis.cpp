@@ -202,6 +202,59 @@ Pose polish_candidate(const Pose& pose, const Points& P, double tau) {
   return (p.R.allFinite() && p.t.allFinite()) ? p : pose;
 }
 
+namespace {
+
+Pose unit_pose(const Pose& p) {
+  Pose q = p;
+  const double nt = q.t.norm();
+  if (nt > 0.0) q.t /= nt;
+  return q;
+}
+
+}  // namespace
+
+SupportComparison compare_support(const Pose& a, const Pose& b, const Points& P, double thr) {
+  const PoseTerms Ta(unit_pose(a)), Tb(unit_pose(b));
+  SupportComparison s;
+  for (int i = 0; i < P.n; ++i) {
+    const bool ia = sampson_chiral(Ta, P.a(i), P.b(i)) < thr, ib = sampson_chiral(Tb, P.a(i), P.b(i)) < thr;
+    s.a += ia;
+    s.b += ib;
+    s.only_a += ia && !ib;
+    s.only_b += ib && !ia;
+  }
+  return s;
+}
+
+TwinAnalysis analyse_twin(const Pose& pose, const Points& P, const uint8_t* mask, double tau) {
+  TwinAnalysis out;
+  PointBuffer sel;
+  for (int i = 0; i < P.n; ++i)
+    if (mask[i]) sel.push(P.f1 + 3 * i, P.f2 + 3 * i);
+  if (sel.view().n < kRefineMinPoints) return out;
+  Pose tw;
+  if (!homography_twin(pose, sel.view(), &tw, &out.planarity)) return out;
+  out.found = true;
+  const SupportComparison screen = compare_support(pose, tw, P, std::min(kPolishWindow * tau, kMaxSupportThreshold));
+  if (!(static_cast<double>(screen.b) >= kTwinSupportScreen * static_cast<double>(std::max<int64_t>(screen.a, 1)))) return out;
+  out.compared = true;
+  out.twin = polish_candidate(tw, P, tau);
+  out.support = compare_support(pose, out.twin, P, std::min(tau, kMaxSupportThreshold));
+  return out;
+}
+
+double median_rotation_angle(const Mat3& R, const Points& P, const uint8_t* mask) {
+  std::vector<double> ang;
+  ang.reserve(static_cast<size_t>(P.n));
+  for (int i = 0; i < P.n; ++i) {
+    if (!mask[i]) continue;
+    const Vec3 a = R * P.a(i);
+    const double c = a(0) * P.f2[3 * i] + a(1) * P.f2[3 * i + 1] + a(2) * P.f2[3 * i + 2];
+    ang.push_back(std::acos(std::clamp(c, -1.0, 1.0)));
+  }
+  return median_of(&ang);
+}
+
 Pose select_by_support(const Pose& pose0, const Points& P, double tau) {
   Pose pose = pose0;
   const double nt = pose.t.norm();

@@ -37,6 +37,32 @@ bool homography_twin(const Pose& pose, const Points& P, Pose* twin, double* plan
 // Cheirality-consistent support: matches with sampson_chiral < thr (pose with unit t).
 int support_count(const Pose& pose, const Points& P, double thr);
 
+// Two poses' cheirality-consistent supports compared (poseonly.analysis.rival_test and planar_twin):
+// the matches with sampson_chiral < thr under a, under b, under a only and under b only (t of either
+// pose of any non-zero length: each is normalised).
+struct SupportComparison {
+  int64_t a = 0, b = 0, only_a = 0, only_b = 0;
+};
+SupportComparison compare_support(const Pose& a, const Pose& b, const Points& P, double thr);
+
+// The status analysis's planar twin (poseonly.analysis.planar_twin documents the decision, made in
+// Python from these counts): the homography twin of `pose` from the matches with mask[i] != 0 (its
+// inliers; none below 6 of them), screened as select_by_support screens it (support at min(1.5 tau,
+// 0.5) at least 30 % of the pose's), polished (polish_candidate) and compared with the pose at
+// min(tau, 0.5). `found`: a twin decomposition exists (planarity set); `compared`: it passed the screen.
+struct TwinAnalysis {
+  bool found = false;
+  bool compared = false;
+  double planarity = 0.0;
+  Pose twin;
+  SupportComparison support;
+};
+TwinAnalysis analyse_twin(const Pose& pose, const Points& P, const uint8_t* mask, double tau);
+
+// The median angle (radians) between R a_i and b_i over the matches with mask[i] != 0 (the cosine
+// clipped to [-1, 1]); NaN when there is none (poseonly.analysis.parallax_deg).
+double median_rotation_angle(const Mat3& R, const Points& P, const uint8_t* mask);
+
 // The twin comparison's polish: angular LiGTopt (Cauchy loss at tau, 20 evaluations) on the matches
 // with sampson_chiral < 1.5 tau (or, with fewer than 6 of them, Sampson < 1.5 tau); the pose itself
 // when it is not a rotation, too few points qualify or the result is not finite.

@@ -115,6 +115,57 @@ static nb::tuple parallax_ratio_py(const ArrayIn& R, const BearingsIn& f1, const
   return nb::make_tuple(r.ratio, r.noise, to_numpy(std::move(Ro), {3, 3}));
 }
 
+using MaskIn = nb::ndarray<const bool, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+
+static const uint8_t* mask_of(const MaskIn& mask, int n) {
+  if (static_cast<int>(mask.shape(0)) != n) throw std::invalid_argument("mask must have shape (n,)");
+  static_assert(sizeof(bool) == 1, "numpy bool is one byte");
+  return reinterpret_cast<const uint8_t*>(mask.data());
+}
+
+static nb::tuple counts_of(const SupportComparison& s) { return nb::make_tuple(s.a, s.b, s.only_a, s.only_b); }
+
+static nb::tuple compare_support_py(const ArrayIn& Ra, const ArrayIn& ta, const ArrayIn& Rb, const ArrayIn& tb, const BearingsIn& f1,
+                                    const BearingsIn& f2, double thr) {
+  const Points P = points_of(f1, f2);
+  const Pose a = pose_of(Ra, ta), b = pose_of(Rb, tb);
+  SupportComparison s;
+  {
+    nb::gil_scoped_release release;
+    s = compare_support(a, b, P, thr);
+  }
+  return counts_of(s);
+}
+
+static nb::object analyse_twin_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, const MaskIn& mask,
+                                  double tau) {
+  const Points P = points_of(f1, f2);
+  const Pose pose = pose_of(R, t);
+  const uint8_t* m = mask_of(mask, P.n);
+  if (!(tau > 0.0 && std::isfinite(tau))) throw std::invalid_argument("tau must be finite and > 0");
+  TwinAnalysis r;
+  {
+    nb::gil_scoped_release release;
+    r = analyse_twin(pose, P, m, tau);
+  }
+  if (!r.found) return nb::none();
+  if (!r.compared) return nb::make_tuple(r.planarity, nb::none());
+  std::vector<double> Ro(9), to(3);
+  put_pose(r.twin, Ro.data(), to.data());
+  return nb::make_tuple(r.planarity, nb::make_tuple(to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}), counts_of(r.support)));
+}
+
+static double median_rotation_angle_py(const ArrayIn& R, const BearingsIn& f1, const BearingsIn& f2, const MaskIn& mask) {
+  const Points P = points_of(f1, f2);
+  if (R.size() != 9) throw std::invalid_argument("R must be (3, 3)");
+  const uint8_t* m = mask_of(mask, P.n);
+  Mat3 M;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) M(i, j) = R.data()[3 * i + j];
+  nb::gil_scoped_release release;
+  return median_rotation_angle(M, P, m);
+}
+
 }  // namespace poseonly
 
 POSEONLY_BIND(analysis) {
@@ -135,6 +186,15 @@ POSEONLY_BIND(analysis) {
         return log_binom_sf(k, n, p);
       },
       nb::arg("k"), nb::arg("n"), nb::arg("p"), "log P(Bin(n, p) >= k) (log-sum-exp of the terms; no underflow; NaN for a NaN p).");
+  m.def("compare_support", &compare_support_py, nb::arg("R_a"), nb::arg("t_a"), nb::arg("R_b"), nb::arg("t_b"), nb::arg("f1"),
+        nb::arg("f2"), nb::arg("thr"),
+        "Cheirality-consistent supports of two poses (sampson_chiral < thr): (under a, under b, a only, b only).");
+  m.def("analyse_twin", &analyse_twin_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("mask"), nb::arg("tau"),
+        "The status analysis's planar twin of (R, t) from the matches in mask (its inliers): None without a twin "
+        "decomposition, (planarity, None) when the twin fails the support screen, else (planarity, (R_twin, "
+        "t_twin, (pose support, twin support, pose only, twin only))) with the polished twin compared at min(tau, 0.5).");
+  m.def("median_rotation_angle", &median_rotation_angle_py, nb::arg("R"), nb::arg("f1"), nb::arg("f2"), nb::arg("mask"),
+        "Median angle (radians) between R f1 and f2 over the matches in mask (NaN when none).");
   m.def("parallax_ratio", &parallax_ratio_py, nb::arg("R"), nb::arg("f1"), nb::arg("f2"), nb::arg("v_pose"), nb::arg("tau"),
         nb::arg("band"), nb::arg("sel_chord2"), nb::arg("min_matches"), nb::arg("irls_rounds"), nb::arg("cauchy_c"),
         nb::arg("chi2_median"), nb::arg("min_parallax"),

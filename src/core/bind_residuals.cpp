@@ -33,11 +33,42 @@ static NpArray residual_matrix(int kind, const ArrayIn& R, const ArrayIn& t, con
   return to_numpy(std::move(out), {k, static_cast<size_t>(P.n)});
 }
 
-// Rows of a (n, 3) scaled to unit length (poseonly.geometry._unit_rows): when every row's largest
+// Rows x (n, 3) scaled to unit length into out (poseonly.geometry._unit_rows): when every row's largest
 // |component| m lies in (1e-150, 1e150), the plain norm sqrt(x x + y y + z z) and zero rows those of
 // norm < zero; otherwise plain rows as before and the others divided by m first (no overflow or
-// underflow), zero rows those with m < zero / sqrt(3). Returns (unit rows, number of zero rows, number
-// of rows with a NaN or inf component; such rows count as neither zero nor plain and come out non-finite).
+// underflow), zero rows those with m < zero / sqrt(3). Counts the zero rows and the rows with a NaN or
+// inf component; when there is one of the latter, no row is computed.
+static void unit_rows_into(const double* x, size_t n, double zero, double* out, int64_t* zeros, int64_t* nonfinite) {
+  constexpr double kHuge = 1e150, kTiny = 1e-150;
+  bool plain = true;
+  *zeros = *nonfinite = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (!(std::isfinite(x[3 * i]) && std::isfinite(x[3 * i + 1]) && std::isfinite(x[3 * i + 2]))) {
+      ++*nonfinite;
+      continue;
+    }
+    const double m = std::max({std::abs(x[3 * i]), std::abs(x[3 * i + 1]), std::abs(x[3 * i + 2])});
+    plain = plain && m < kHuge && m > kTiny;
+  }
+  for (size_t i = 0; i < n && !*nonfinite; ++i) {
+    const double* r = x + 3 * i;
+    double* o = out + 3 * i;
+    const double m = std::max({std::abs(r[0]), std::abs(r[1]), std::abs(r[2])});
+    if (plain || (m < kHuge && m > kTiny)) {
+      const double nrm = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
+      if (plain ? nrm < zero : m < zero / std::sqrt(3.0)) ++*zeros;
+      for (int c = 0; c < 3; ++c) o[c] = r[c] / nrm;
+    } else {
+      if (m < zero / std::sqrt(3.0)) ++*zeros;
+      const double b0 = r[0] / m, b1 = r[1] / m, b2 = r[2] / m;
+      const double nb_ = std::sqrt(b0 * b0 + b1 * b1 + b2 * b2);
+      o[0] = b0 / nb_, o[1] = b1 / nb_, o[2] = b2 / nb_;
+    }
+  }
+}
+
+// Rows of a (n, 3) scaled to unit length (unit_rows_into): (unit rows, number of zero rows, number of
+// rows with a NaN or inf component; such rows count as neither zero nor plain and come out non-finite).
 static nb::tuple unit_rows(const BearingsIn& a, double zero) {
   if (a.shape(1) != 3) throw std::invalid_argument("a must have shape (n, 3)");
   const size_t n = a.shape(0);
@@ -45,34 +76,50 @@ static nb::tuple unit_rows(const BearingsIn& a, double zero) {
   int64_t zeros = 0, nonfinite = 0;
   {
     nb::gil_scoped_release release;
-    const double* x = a.data();
-    constexpr double kHuge = 1e150, kTiny = 1e-150;
-    bool plain = true;
-    for (size_t i = 0; i < n; ++i) {
-      if (!(std::isfinite(x[3 * i]) && std::isfinite(x[3 * i + 1]) && std::isfinite(x[3 * i + 2]))) {
-        ++nonfinite;
-        continue;
-      }
-      const double m = std::max({std::abs(x[3 * i]), std::abs(x[3 * i + 1]), std::abs(x[3 * i + 2])});
-      plain = plain && m < kHuge && m > kTiny;
-    }
-    for (size_t i = 0; i < n && !nonfinite; ++i) {
-      const double* r = x + 3 * i;
-      double* o = out.data() + 3 * i;
-      const double m = std::max({std::abs(r[0]), std::abs(r[1]), std::abs(r[2])});
-      if (plain || (m < kHuge && m > kTiny)) {
-        const double nrm = std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]);
-        if (plain ? nrm < zero : m < zero / std::sqrt(3.0)) ++zeros;
-        for (int c = 0; c < 3; ++c) o[c] = r[c] / nrm;
-      } else {
-        if (m < zero / std::sqrt(3.0)) ++zeros;
-        const double b0 = r[0] / m, b1 = r[1] / m, b2 = r[2] / m;
-        const double nb_ = std::sqrt(b0 * b0 + b1 * b1 + b2 * b2);
-        o[0] = b0 / nb_, o[1] = b1 / nb_, o[2] = b2 / nb_;
-      }
-    }
+    unit_rows_into(a.data(), n, zero, out.data(), &zeros, &nonfinite);
   }
   return nb::make_tuple(to_numpy(std::move(out), {n, static_cast<size_t>(3)}), zeros, nonfinite);
+}
+
+// Pixels a (n, 2) to unit bearings through an upper-triangular K with K[2][2] = 1 (as
+// poseonly.geometry.check_intrinsics returns it; its lower-left entries are ignored): the rays
+// K^-1 [u, v, 1] with the operations of geometry.solve_intrinsics (LAPACK's back-substitution order and
+// reciprocals), then unit_rows_into. Returns None when a pixel's largest |coordinate| reaches 1e150
+// (the caller's overflow-safe path), else (bearings (n, 3), rows with a NaN or inf pixel, rows whose
+// ray is not finite, zero rows); with non-finite pixels or rays the bearings are not computed.
+static nb::object pixel_bearings(const BearingsIn& a, const ArrayIn& K, double zero) {
+  if (a.shape(1) != 2) throw std::invalid_argument("a must have shape (n, 2)");
+  if (K.size() != 9) throw std::invalid_argument("K must be (3, 3)");
+  const size_t n = a.shape(0);
+  const double* k = K.data();
+  std::vector<double> rays(3 * n), out(3 * n);
+  int64_t bad_pixels = 0, bad_rays = 0, zeros = 0, nonfinite = 0;
+  bool huge = false;
+  {
+    nb::gil_scoped_release release;
+    const double* x = a.data();
+    for (size_t i = 0; i < n; ++i) {
+      const double u = x[2 * i], v = x[2 * i + 1];
+      if (!(std::isfinite(u) && std::isfinite(v))) {
+        ++bad_pixels;
+        continue;
+      }
+      huge = huge || !(std::max(std::abs(u), std::abs(v)) < 1e150);
+    }
+    if (!bad_pixels && !huge) {
+      const double i22 = 1.0 / k[8], i11 = 1.0 / k[4], i00 = 1.0 / k[0];
+      for (size_t i = 0; i < n; ++i) {
+        const double r2 = 1.0 * i22;
+        const double b1 = x[2 * i + 1] - k[5] * r2, b0 = x[2 * i] - k[2] * r2;
+        const double r1 = b1 * i11, r0 = (b0 - k[1] * r1) * i00;
+        rays[3 * i] = r0, rays[3 * i + 1] = r1, rays[3 * i + 2] = r2;
+      }
+      unit_rows_into(rays.data(), n, zero, out.data(), &zeros, &nonfinite);
+      bad_rays = nonfinite;
+    }
+  }
+  if (huge && !bad_pixels) return nb::none();
+  return nb::make_tuple(to_numpy(std::move(out), {n, static_cast<size_t>(3)}), bad_pixels, bad_rays, zeros);
 }
 
 }  // namespace poseonly
@@ -85,5 +132,8 @@ POSEONLY_BIND(residuals) {
   m.def("unit_rows", &unit_rows, nb::arg("a"), nb::arg("zero"),
         "Rows of a (n, 3) scaled to unit length without overflow or underflow: (unit rows (n, 3), number of rows shorter than `zero`, "
         "number of rows with NaN or inf; when it is > 0 the rows are not computed).");
+  m.def("pixel_bearings", &pixel_bearings, nb::arg("a"), nb::arg("K"), nb::arg("zero"),
+        "Pixels a (n, 2) -> unit bearings through upper-triangular K (K[2, 2] = 1): None when a coordinate reaches 1e150, "
+        "else (bearings (n, 3), rows with NaN / inf pixels, rows with a non-finite ray, zero rows).");
   m.attr("RESIDUAL_KINDS") = nb::make_tuple("sampson", "sampson-chiral", "ligt", "coplanar", "ppo", "ba", "opengv", "opengv-symmetric");
 }

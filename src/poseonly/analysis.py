@@ -17,23 +17,19 @@ import numpy as np
 from . import _core
 from .geometry import rotation_error_deg
 from .median import median
-from .residuals import v_sampson, v_sampson_chiral
-from .twin import homography_twin
+from .residuals import v_sampson_chiral
 
 __all__ = [
     "NFA_MAX",
     "REFINE_SOLVER",
     "chance_inliers",
     "chance_rate",
-    "kabsch",
     "log10_nfa",
     "log_binom_sf",
     "far_angle",
     "parallax_deg",
     "parallax_ratio",
     "planar_twin",
-    "plausible_twin",
-    "polish",
     "pure_rotation_test",
     "rival_test",
     "sign_test",
@@ -56,6 +52,8 @@ TWIN_SUPPORT_RATIO = 0.9
 # known to this accuracy); measured on temple's ring pairs 24-27: twins 0.3-2.1 deg off, poses 0.01-0.4
 TWIN_MIN_SEPARATION_DEG = 1.0
 CHANCE_SEED = 20240611
+# support counts cap the threshold here (radians; v_sampson_chiral is 1 where a depth is not positive)
+MAX_SUPPORT_THRESHOLD = 0.5
 
 
 def _c(a: np.ndarray) -> np.ndarray:
@@ -66,79 +64,44 @@ def support(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: f
     """Inliers ``(h, n)`` of stacked poses ``(h,3,3), (h,3)``: Sampson error below ``tau`` and
     positive depths (``v_sampson_chiral`` is 1 where a depth is not positive, and ``tau`` is far
     below 1)."""
-    return v_sampson_chiral(R, t, f1, f2) < min(tau, 0.5)
-
-
-def plausible_twin(R, t, tw, f1, f2, tau) -> bool:
-    """Cheap screen before polishing a twin: its raw support reaches 30 % of the pose's (the twin of
-    a non-planar scene keeps a few per cent; an unpolished planar twin measured 40-65 %)."""
-    sup = support(np.stack([R, tw[0]]), np.stack([t, tw[1]]), f1, f2, tau * 1.5).sum(axis=1)
-    return bool(sup[1] >= 0.3 * max(sup[0], 1))
-
-
-POLISH_ITERATIONS = 20
-POLISH_TOL = 1e-12
-
-
-def polish(R, t, f1, f2, tau):
-    """Angular LiGTopt of a candidate on its cheirality-consistent inliers (twin comparison): the
-    core's LM with a Cauchy loss at ``tau`` (``poseonly.refine.ligt.ligt_refine(..., solver="lm")``
-    without its input conversion: the bearings here are already unit)."""
-    inl = support(R[None], t[None], f1, f2, tau * 1.5)[0]
-    if inl.sum() < 6:
-        inl = v_sampson(R, t, f1, f2) < tau * 1.5
-        if inl.sum() < 6:
-            return R, t
-    try:
-        Rr, tr, _ = _core.refine_ligt(
-            _c(R), _c(t), _c(f1[inl]), _c(f2[inl]), None, normalization="angular", loss="cauchy", loss_scale=float(tau), max_iterations=POLISH_ITERATIONS, tol=POLISH_TOL
-        )
-    except ValueError:  # a degenerate candidate (not a rotation, zero t): keep it unpolished
-        return R, t
-    if np.all(np.isfinite(Rr)) and np.all(np.isfinite(tr)):
-        return Rr, tr
-    return R, t
+    return v_sampson_chiral(R, t, f1, f2) < min(tau, MAX_SUPPORT_THRESHOLD)
 
 
 def parallax_deg(R, f1, f2, inl) -> float:
-    """Median angle (degrees) between ``R f1`` and ``f2`` over the inliers (NaN without any)."""
-    if not np.any(inl):
-        return float("nan")
-    Rf1 = f1[inl] @ R.T
-    c = np.clip(np.sum(Rf1 * f2[inl], axis=1), -1.0, 1.0)
-    return float(np.degrees(median(np.arccos(c))))
-
-
-def kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Rotation ``R`` minimising ``sum ||b_i - R a_i||^2`` (unit bearings ``(m, 3)``)."""
-    U, _, Vt = np.linalg.svd(b.T @ a)
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
-    return U @ D @ Vt
+    """Median angle (degrees) between ``R f1`` and ``f2`` over the inliers ``inl (n,)`` (NaN without
+    any). One core call (numpy reference: tests/reference/status.py)."""
+    return float(np.degrees(_core.median_rotation_angle(_c(R), _c(f1), _c(f2), np.ascontiguousarray(inl, dtype=bool))))
 
 
 def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, int] | None, dict[str, Any]]:
     """The homography twin of ``(R, t)`` when it explains the data about as well (planar scene).
 
+    The core (``_core.analyse_twin``; numpy reference: tests/reference/status.py) decomposes the
+    homography of the dominant plane through the inliers ``inl (n,)`` (at least 6), screens the twin as
+    the pose-only choice does (its support at 1.5 ``tau`` at least 30 % of the pose's: the twin of a
+    non-planar scene keeps a few per cent, an unpolished planar twin 40-65 %), polishes it (angular
+    LiGTopt, Cauchy loss at ``tau``, on its cheirality-consistent inliers at 1.5 ``tau``) and counts both
+    poses' cheirality-consistent support at ``tau``. The twin is reported when its support reaches
+    :data:`TWIN_SUPPORT_RATIO` of the pose's, the sign test does not prefer the pose at
+    :data:`AMBIGUITY_LEVEL` and it is more than :data:`TWIN_MIN_SEPARATION_DEG` away.
+
     Returns ``(twin, info)``: ``twin = (R_twin, t_twin, support)`` or ``None``; ``info`` holds
     ``planarity`` and ``support``/``twin_support`` when a twin was polished.
     """
     info: dict[str, Any] = {}
-    twin = None
-    sel = np.nonzero(inl)[0]
-    tw = homography_twin(R, t, f1[sel], f2[sel]) if len(sel) >= 6 else None
-    if tw is not None:
-        info["planarity"] = tw[2]
-    if tw is not None and plausible_twin(R, t, tw, f1, f2, tau):
-        Rt, tt = polish(tw[0], tw[1], f1, f2, tau)
-        S = support(np.stack([R, Rt]), np.stack([t, tt]), f1, f2, tau)
-        sup = S.sum(axis=1)
-        only_pose, only_twin = int(np.count_nonzero(S[0] & ~S[1])), int(np.count_nonzero(S[1] & ~S[0]))
-        lp = sign_test(only_pose, only_twin)
-        sep = rotation_error_deg(R, Rt)
-        info.update(support=int(sup[0]), twin_support=int(sup[1]), twin_log10_p=lp, twin_separation_deg=sep)
-        if sup[1] >= TWIN_SUPPORT_RATIO * sup[0] and lp >= np.log10(AMBIGUITY_LEVEL) and sep > TWIN_MIN_SEPARATION_DEG:
-            twin = (Rt, tt, int(sup[1]))
-    return twin, info
+    r = _core.analyse_twin(_c(R), _c(t), _c(f1), _c(f2), np.ascontiguousarray(inl, dtype=bool), float(tau))
+    if r is None:
+        return None, info
+    info["planarity"] = float(r[0])
+    if r[1] is None:
+        return None, info
+    Rt, tt, (sup_pose, sup_twin, only_pose, only_twin) = r[1]
+    lp = sign_test(only_pose, only_twin)
+    sep = rotation_error_deg(R, Rt)
+    info.update(support=int(sup_pose), twin_support=int(sup_twin), twin_log10_p=lp, twin_separation_deg=sep)
+    if sup_twin >= TWIN_SUPPORT_RATIO * sup_pose and lp >= np.log10(AMBIGUITY_LEVEL) and sep > TWIN_MIN_SEPARATION_DEG:
+        return (Rt, tt, int(sup_twin)), info
+    return None, info
 
 
 def rival_test(R, t, R_rival, t_rival, f1, f2, tau, min_separation_deg) -> dict[str, Any]:
@@ -152,12 +115,11 @@ def rival_test(R, t, R_rival, t_rival, f1, f2, tau, min_separation_deg) -> dict[
     poses 45-150 deg apart share 13-16 of 18-22 inliers; refined rivals of sound poses mostly fall
     back into the pose's basin). Returns ``rival_support``, ``rival_only``, ``pose_only``,
     ``rival_separation_deg``, ``rival_log10_p`` and ``ambiguous`` (bool)."""
-    S = support(np.stack([R, R_rival]), np.stack([t, t_rival]), f1, f2, tau)
-    only_pose, only_rival = int(np.count_nonzero(S[0] & ~S[1])), int(np.count_nonzero(S[1] & ~S[0]))
+    _, rival_support, only_pose, only_rival = _core.compare_support(_c(R), _c(t), _c(R_rival), _c(t_rival), _c(f1), _c(f2), min(float(tau), MAX_SUPPORT_THRESHOLD))
     sep = rotation_error_deg(R, R_rival)
     lp = sign_test(only_pose, only_rival)
     return {
-        "rival_support": int(S[1].sum()),
+        "rival_support": int(rival_support),
         "rival_only": only_rival,
         "pose_only": only_pose,
         "rival_separation_deg": sep,

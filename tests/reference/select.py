@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from poseonly.analysis import plausible_twin, polish, support
+from poseonly.analysis import support
 from poseonly.geometry import essential_from_pose, rotation_error_deg
 from poseonly.identify import identify_poses
 from poseonly.residuals import v_sampson
 from poseonly.solvers.lirp import lirp_batch
 from poseonly.twin import homography_twin
+
+from .status import plausible_twin, polish
 
 SAME_BASIN_DEG = 1.0
 
