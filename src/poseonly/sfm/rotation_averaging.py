@@ -34,6 +34,7 @@ outlier rule keep the scalar weights.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -180,21 +181,21 @@ def _l1ra(Rg, pairs, R_rel, w, D, root, outer: int, admm_iters: int, tol: float)
     return Rg, it, total_admm
 
 
-def _irls(Rg, pairs, R_rel, w, D, root, sigma: float, iters: int, tol: float) -> tuple[np.ndarray, int]:
-    n = len(Rg)
-    it = 0
-    for it in range(1, iters + 1):
-        b = _linearise(Rg, pairs, R_rel)
-        e2 = np.sum(b * b, axis=1)
-        wg = w * sigma**2 / (e2 + sigma**2) ** 2
+# one IRLS step's weighted solve: (rotations, b (E, 3), Geman-McClure denominators (e^2 + sigma^2)^2)
+# -> the reduced update (N - 1, 3)
+WeightedSolve = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+
+
+def _scalar_solve(D: sp.csr_matrix, w: np.ndarray, sigma: float) -> WeightedSolve:
+    """Edge weights ``GM_e w_e``: the weighted Laplacian ``D^T W D`` (one factorisation, three
+    right-hand sides)."""
+
+    def solve(Rg: np.ndarray, b: np.ndarray, den: np.ndarray) -> np.ndarray:
+        wg = w * sigma**2 / den
         wg = wg / wg.max()
-        lu = _factor(D, wg)
-        x = lu.solve(np.asfortranarray(D.T @ (wg[:, None] * b)))
-        xf = _expand(x, n, root)
-        Rg = Rg @ exp_so3(xf)
-        if np.abs(xf).max() < tol:
-            break
-    return Rg, it
+        return _factor(D, wg).solve(np.asfortranarray(D.T @ (wg[:, None] * b)))
+
+    return solve
 
 
 def _block_incidence(D: sp.csr_matrix) -> sp.csr_matrix:
@@ -202,24 +203,36 @@ def _block_incidence(D: sp.csr_matrix) -> sp.csr_matrix:
     return sp.kron(D, sp.identity(3, format="csr"), format="csr")
 
 
-def _irls_info(Rg, pairs, R_rel, info, D, root, sigma: float, iters: int, tol: float) -> tuple[np.ndarray, int]:
-    """The IRLS of :func:`_irls` with matrix weights ``GM_e R_i^T info_e R_i`` (``info (E, 3, 3)``)."""
-    n = len(Rg)
+def _information_solve(D: sp.csr_matrix, pairs: np.ndarray, info: np.ndarray, sigma: float) -> WeightedSolve:
+    """Edge weights ``GM_e R_i^T info_e R_i`` (``info (E, 3, 3)`` in view i's frame): the block
+    Laplacian ``(D (x) I_3)^T W (D (x) I_3)`` with 3x3 blocks."""
     A = _block_incidence(D)
     AT = A.T.tocsr()
-    e_idx = np.arange(len(pairs))
+    e = len(pairs)
+    e_idx = np.arange(e)
+
+    def solve(Rg: np.ndarray, b: np.ndarray, den: np.ndarray) -> np.ndarray:
+        wg = sigma**2 / den
+        wg = wg / wg.max()
+        Ri = Rg[pairs[:, 0]]
+        W = wg[:, None, None] * np.einsum("eji,ejk,ekl->eil", Ri, info, Ri)
+        Wm = sp.bsr_matrix((W, e_idx, np.arange(e + 1)), shape=(3 * e, 3 * e)).tocsr()
+        N = (AT @ Wm @ A).tocsc()
+        rhs = AT @ np.einsum("eij,ej->ei", W, b).ravel()
+        return splu(N, permc_spec="MMD_AT_PLUS_A").solve(rhs).reshape(-1, 3)
+
+    return solve
+
+
+def _irls(Rg, pairs, R_rel, solve: WeightedSolve, root, sigma: float, iters: int, tol: float) -> tuple[np.ndarray, int]:
+    """Geman-McClure IRLS (module docstring, step 4), relinearised every iteration, until the update is
+    below ``tol``; ``solve`` weighs the edges (:func:`_scalar_solve` or :func:`_information_solve`)."""
+    n = len(Rg)
     it = 0
     for it in range(1, iters + 1):
         b = _linearise(Rg, pairs, R_rel)
         e2 = np.sum(b * b, axis=1)
-        wg = sigma**2 / (e2 + sigma**2) ** 2
-        wg = wg / wg.max()
-        Ri = Rg[pairs[:, 0]]
-        W = wg[:, None, None] * np.einsum("eji,ejk,ekl->eil", Ri, info, Ri)
-        Wm = sp.bsr_matrix((W, e_idx, np.arange(len(pairs) + 1)), shape=(3 * len(pairs), 3 * len(pairs))).tocsr()
-        N = (AT @ Wm @ A).tocsc()
-        rhs = AT @ np.einsum("eij,ej->ei", W, b).ravel()
-        x = splu(N, permc_spec="MMD_AT_PLUS_A").solve(rhs).reshape(-1, 3)
+        x = solve(Rg, b, (e2 + sigma**2) ** 2)
         xf = _expand(x, n, root)
         Rg = Rg @ exp_so3(xf)
         if np.abs(xf).max() < tol:
@@ -319,10 +332,8 @@ def average_rotations(
     for rnd in range(outlier_rounds + 1):
         if len(views) > 1:
             D = _incidence(len(views), pe, root)
-            if info_all is None:
-                Rg, k = _irls(Rg, pe, R[emask], w[emask], D, root, sigma, irls_iterations, irls_tol)
-            else:
-                Rg, k = _irls_info(Rg, pe, R[emask], info_all[emask], D, root, sigma, irls_iterations, irls_tol)
+            solve = _scalar_solve(D, w[emask], sigma) if info_all is None else _information_solve(D, pe, info_all[emask], sigma)
+            Rg, k = _irls(Rg, pe, R[emask], solve, root, sigma, irls_iterations, irls_tol)
             irls_total += k
         full[:] = np.nan
         full[views] = Rg
