@@ -162,6 +162,28 @@ inline void scored_residuals(const Est& est, const typename Est::Terms& T, int i
   }
 }
 
+// The scorers' pass over the data: residuals in blocks of kScoreBlock, each block mapped to per-point
+// costs in place by `point_costs(v, b)` (a branch-free loop, so it runs on SIMD lanes), optionally
+// copied to terms, and summed in point order with an exact bail-out once the sum exceeds `bail`.
+template <bool Chiral, class Est, class Model, class PointCosts>
+inline double block_pass(const Est& est, const Model& m, double bail, double* terms, PointCosts point_costs) {
+  const auto T = est.terms(m);
+  double c = 0.0;
+  const int n = est.num_data();
+  double v[kScoreBlock];
+  for (int i0 = 0; i0 < n; i0 += kScoreBlock) {
+    const int b = std::min(kScoreBlock, n - i0);
+    scored_residuals<Chiral>(est, T, i0, b, v);
+    point_costs(v, b);
+    if (terms) std::copy(v, v + b, terms + i0);
+    for (int k = 0; k < b; ++k) {
+      c += v[k];
+      if (c > bail) return c;
+    }
+  }
+  return c;
+}
+
 // Squared-error truncated at thr (MSAC, Torr and Zisserman 2000).
 struct MsacScorer {
   double thr;
@@ -174,22 +196,10 @@ struct MsacScorer {
   }
   template <bool Chiral, class Est, class Model>
   double pass(const Est& est, const Model& m, double bail, double* terms = nullptr) const {
-    const auto T = est.terms(m);
     const double t2 = thr * thr;
-    double c = 0.0;
-    const int n = est.num_data();
-    double v[kScoreBlock];
-    for (int i0 = 0; i0 < n; i0 += kScoreBlock) {
-      const int b = std::min(kScoreBlock, n - i0);
-      scored_residuals<Chiral>(est, T, i0, b, v);
-      for (int k = 0; k < b; ++k) v[k] = std::isfinite(v[k]) ? std::min(v[k] * v[k], t2) : t2;  // vectorised
-      if (terms) std::copy(v, v + b, terms + i0);
-      for (int k = 0; k < b; ++k) {
-        c += v[k];
-        if (c > bail) return c;
-      }
-    }
-    return c;
+    return block_pass<Chiral>(est, m, bail, terms, [t2](double* v, int b) {
+      for (int k = 0; k < b; ++k) v[k] = std::isfinite(v[k]) ? std::min(v[k] * v[k], t2) : t2;
+    });
   }
 };
 
@@ -206,27 +216,15 @@ struct MultiMsacScorer {
   }
   template <bool Chiral, class Est, class Model>
   double pass(const Est& est, const Model& m, double bail, double* terms = nullptr) const {
-    const auto T = est.terms(m);
     // min(v2, t2 / s) / (t2 / s) = s min(v2, t2 / s) / t2 (s = 1, 4, 16: exact scalings): one
     // multiplication by 1 / t2 per point instead of three divisions
     const double t2 = thr * thr, t2b = 0.25 * t2, t2c = 0.0625 * t2, inv = 1.0 / t2;
-    double c = 0.0;
-    const int n = est.num_data();
-    double v[kScoreBlock];
-    for (int i0 = 0; i0 < n; i0 += kScoreBlock) {
-      const int b = std::min(kScoreBlock, n - i0);
-      scored_residuals<Chiral>(est, T, i0, b, v);
-      for (int k = 0; k < b; ++k) {  // vectorised: each point's three normalised truncated terms
+    return block_pass<Chiral>(est, m, bail, terms, [=](double* v, int b) {
+      for (int k = 0; k < b; ++k) {  // each point's three normalised truncated terms
         const double v2 = std::isfinite(v[k]) ? v[k] * v[k] : std::numeric_limits<double>::infinity();
         v[k] = (std::min(v2, t2) + 4.0 * std::min(v2, t2b) + 16.0 * std::min(v2, t2c)) * inv;
       }
-      if (terms) std::copy(v, v + b, terms + i0);
-      for (int k = 0; k < b; ++k) {
-        c += v[k];
-        if (c > bail) return c;
-      }
-    }
-    return c;
+    });
   }
 };
 
@@ -242,21 +240,10 @@ struct CountScorer {
   }
   template <bool Chiral, class Est, class Model>
   double pass(const Est& est, const Model& m, double bail, double* terms = nullptr) const {
-    const auto T = est.terms(m);
-    double c = 0.0;
-    const int n = est.num_data();
-    double v[kScoreBlock];
-    for (int i0 = 0; i0 < n; i0 += kScoreBlock) {
-      const int b = std::min(kScoreBlock, n - i0);
-      scored_residuals<Chiral>(est, T, i0, b, v);
-      for (int k = 0; k < b; ++k) v[k] = v[k] < thr ? 0.0 : 1.0;  // vectorised
-      if (terms) std::copy(v, v + b, terms + i0);
-      for (int k = 0; k < b; ++k) {
-        c += v[k];
-        if (c > bail) return c;
-      }
-    }
-    return c;
+    const double t = thr;
+    return block_pass<Chiral>(est, m, bail, terms, [t](double* v, int b) {
+      for (int k = 0; k < b; ++k) v[k] = v[k] < t ? 0.0 : 1.0;
+    });
   }
 };
 
