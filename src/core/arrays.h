@@ -7,6 +7,8 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "common.h"
 
@@ -60,6 +62,13 @@ inline void put_pose(const Pose& p, double* R, double* t) {
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) R[3 * i + j] = p.R(i, j);
   for (int i = 0; i < 3; ++i) t[i] = p.t(i);
+}
+
+// The pose as numpy arrays (R (3, 3), t (3,)), the elements the bindings return.
+inline std::pair<NpArray, NpArray> pose_arrays(const Pose& p) {
+  std::vector<double> R(9), t(3);
+  put_pose(p, R.data(), t.data());
+  return {to_numpy(std::move(R), {3, 3}), to_numpy(std::move(t), {3})};
 }
 
 }  // namespace poseonly

@@ -48,9 +48,8 @@ static nb::object homography_twin_py(const ArrayIn& R, const ArrayIn& t, const B
     ok = homography_twin(pose, P, &tw, &planarity);
   }
   if (!ok) return nb::none();
-  std::vector<double> Ro(9), to(3);
-  put_pose(tw, Ro.data(), to.data());
-  return nb::make_tuple(to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}), planarity);
+  auto [Ro, to] = pose_arrays(tw);
+  return nb::make_tuple(Ro, to, planarity);
 }
 
 static nb::object decompose_homography_py(const ArrayIn& H) {
@@ -79,9 +78,8 @@ static nb::tuple select_by_support_py(const ArrayIn& R, const ArrayIn& t, const 
     nb::gil_scoped_release release;
     out = select_by_support(pose, P, tau);
   }
-  std::vector<double> Ro(9), to(3);
-  put_pose(out, Ro.data(), to.data());
-  return nb::make_tuple(to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}));
+  auto [Ro, to] = pose_arrays(out);
+  return nb::make_tuple(Ro, to);
 }
 
 static nb::tuple parallax_ratio_py(const ArrayIn& R, const BearingsIn& f1, const BearingsIn& f2, const ArrayIn& v, double tau,
@@ -150,9 +148,8 @@ static nb::object analyse_twin_py(const ArrayIn& R, const ArrayIn& t, const Bear
   }
   if (!r.found) return nb::none();
   if (!r.compared) return nb::make_tuple(r.planarity, nb::none());
-  std::vector<double> Ro(9), to(3);
-  put_pose(r.twin, Ro.data(), to.data());
-  return nb::make_tuple(r.planarity, nb::make_tuple(to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}), counts_of(r.support)));
+  auto [Ro, to] = pose_arrays(r.twin);
+  return nb::make_tuple(r.planarity, nb::make_tuple(Ro, to, counts_of(r.support)));
 }
 
 static double median_rotation_angle_py(const ArrayIn& R, const BearingsIn& f1, const BearingsIn& f2, const MaskIn& mask) {

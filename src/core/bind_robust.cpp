@@ -228,9 +228,8 @@ nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, c
       if (sampson_chiral(T, P.a(i), P.b(i)) < std::min(threshold, 0.5)) inl.push_back(i);
     ok = est.local_optimization(&p, inl, threshold);
   }
-  std::vector<double> Ro(9), to(3);
-  put_pose(p, Ro.data(), to.data());
-  return nb::make_tuple(to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}), ok);
+  auto [Ro, to] = pose_arrays(p);
+  return nb::make_tuple(Ro, to, ok);
 }
 
 // The ML stage's options from the binding's arguments, checked (ml_refine and ml_cross_fit).
@@ -282,11 +281,10 @@ nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, 
     nb::gil_scoped_release release;
     ml_refine(P, pose_of(R, t), mo, &r, sc);
   }
-  std::vector<double> Ro(9), to(3);
-  put_pose(r.pose, Ro.data(), to.data());
+  auto [Ro, to] = pose_arrays(r.pose);
   nb::dict d;
-  d["R"] = to_numpy(std::move(Ro), {3, 3});
-  d["t"] = to_numpy(std::move(to), {3});
+  d["R"] = Ro;
+  d["t"] = to;
   d["sigma"] = r.sigma;
   d["nu"] = r.nu;
   d["alpha"] = r.alpha;
@@ -323,9 +321,8 @@ nb::tuple ml_cross_fit_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& 
     nb::gil_scoped_release release;
     ok = ml_cross_fit(P, pose_of(R, t), co, sc, &out, &vetoed);
   }
-  std::vector<double> Ro(9), to(3);
-  put_pose(out, Ro.data(), to.data());
-  return nb::make_tuple(to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}), vetoed, ok);
+  auto [Ro, to] = pose_arrays(out);
+  return nb::make_tuple(Ro, to, vetoed, ok);
 }
 
 nb::tuple gnc_ransac(const BearingsIn& f1, const BearingsIn& f2, double theta, uint64_t seed, int sample_size,

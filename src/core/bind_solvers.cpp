@@ -138,8 +138,7 @@ const double* checked_weights(const std::optional<VectorIn>& w, int n) {
 }
 
 nb::tuple refine_result(const Pose& p, const RefineStats& s) {
-  std::vector<double> R(9), t(3);
-  put_pose(p, R.data(), t.data());
+  auto [R, t] = pose_arrays(p);
   nb::dict d;
   d["iterations"] = s.iterations;
   d["evaluations"] = s.evaluations;
@@ -148,7 +147,7 @@ nb::tuple refine_result(const Pose& p, const RefineStats& s) {
   d["final_cost"] = s.final_cost;
   d["loss_scale"] = s.loss_scale;
   d["positive_depth_fraction"] = s.positive_depth_fraction;
-  return nb::make_tuple(to_numpy(std::move(R), {size_t{3}, size_t{3}}), to_numpy(std::move(t), {size_t{3}}), d);
+  return nb::make_tuple(R, t, d);
 }
 
 nb::tuple refine_sampson_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2,
