@@ -55,7 +55,9 @@ def run_seed(seed: int, views: int, points: int, noise_px: float) -> tuple[float
 
     sc = make_scene(views, points, noise_px=noise_px, seed=seed)
     g = edge_graph(sc)
-    info = edge_informations(g, lambda tr: sc.bearings[tr.keypoints])
+    info, fallback = edge_informations(g, lambda tr: sc.bearings[tr.keypoints])
+    if info is None or fallback.any():
+        raise SystemExit(f"seed {seed}: {int(fallback.sum())} of {len(fallback)} edges without an information")
     errs = []
     for inf in (None, info):
         ra = average_rotations(g.num_views, g.pairs(), g.rotations(), g.weights(), information=inf)

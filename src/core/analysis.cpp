@@ -164,6 +164,7 @@ constexpr int kPolishIterations = 20;
 constexpr double kPolishTol = 1e-12;
 constexpr int kLigtAngular = 2;             // refine_ligt normalization code of "angular"
 constexpr double kMaxSupportThreshold = 0.5;
+constexpr int kTwinMinInliers = 6;  // analysis.planar_twin: no twin from fewer inliers
 // select_by_support: a candidate this close to the search's pose (pose_distance_deg; the challengers'
 // distinct-basin distance, RansacOptions::challenger_distance) is another estimate of the same pose,
 // not an alternative: a support count cannot rank two estimates of one pose (a noisier linear solve
@@ -226,19 +227,46 @@ SupportComparison compare_support(const Pose& a, const Pose& b, const Points& P,
   return s;
 }
 
+namespace {
+
+// The homography twin of `pose` (unit t) from the matches `source` (its inliers), screened by its
+// cheirality-consistent support on all matches `P` at min(1.5 tau, 0.5) (at least 30 % of the pose's:
+// the twin of a non-planar scene keeps a few per cent, an unpolished planar twin 40-65 %) and polished.
+// The pose-only choice (select_by_support) and the status analysis (analyse_twin) share it.
+struct ScreenedTwin {
+  bool found = false;   // a twin decomposition exists (planarity set)
+  bool passed = false;  // it passed the screen (twin set, polished)
+  double planarity = 0.0;
+  Pose twin;
+};
+
+ScreenedTwin screened_twin(const Pose& pose, const Points& source, const Points& P, double tau) {
+  ScreenedTwin out;
+  Pose tw;
+  if (!homography_twin(pose, source, &tw, &out.planarity)) return out;
+  out.found = true;
+  const double thr_s = std::min(kPolishWindow * tau, kMaxSupportThreshold);
+  const int s0 = support_count(pose, P, thr_s), s1 = support_count(tw, P, thr_s);
+  if (!(s1 >= kTwinSupportScreen * std::max(s0, 1))) return out;
+  out.passed = true;
+  out.twin = polish_candidate(tw, P, tau);
+  return out;
+}
+
+}  // namespace
+
 TwinAnalysis analyse_twin(const Pose& pose, const Points& P, const uint8_t* mask, double tau) {
   TwinAnalysis out;
   PointBuffer sel;
   for (int i = 0; i < P.n; ++i)
     if (mask[i]) sel.push(P.f1 + 3 * i, P.f2 + 3 * i);
-  if (sel.view().n < kRefineMinPoints) return out;
-  Pose tw;
-  if (!homography_twin(pose, sel.view(), &tw, &out.planarity)) return out;
-  out.found = true;
-  const SupportComparison screen = compare_support(pose, tw, P, std::min(kPolishWindow * tau, kMaxSupportThreshold));
-  if (!(static_cast<double>(screen.b) >= kTwinSupportScreen * static_cast<double>(std::max<int64_t>(screen.a, 1)))) return out;
+  if (sel.view().n < kTwinMinInliers) return out;
+  const ScreenedTwin st = screened_twin(unit_pose(pose), sel.view(), P, tau);
+  out.found = st.found;
+  out.planarity = st.planarity;
+  if (!st.passed) return out;
   out.compared = true;
-  out.twin = polish_candidate(tw, P, tau);
+  out.twin = st.twin;
   out.support = compare_support(pose, out.twin, P, std::min(tau, kMaxSupportThreshold));
   return out;
 }
@@ -278,13 +306,8 @@ Pose select_by_support(const Pose& pose0, const Points& P, double tau) {
   cand.reserve(kLirpCandidates + 2);
   cand.push_back(base);
   for (int k = 0; k < kLirpCandidates; ++k) cand.push_back(lr.id[k].pose);
-  Pose tw;
-  double planarity = 0.0;
-  if (homography_twin(base, S, &tw, &planarity)) {
-    const double thr_s = std::min(kPolishWindow * tau, kMaxSupportThreshold);
-    const int s0 = support_count(base, P, thr_s), s1 = support_count(tw, P, thr_s);
-    if (s1 >= kTwinSupportScreen * std::max(s0, 1)) cand.push_back(polish_candidate(tw, P, tau));
-  }
+  const ScreenedTwin st = screened_twin(base, S, P, tau);
+  if (st.passed) cand.push_back(st.twin);
   int best = 0, best_sup = -1;
   for (size_t k = 0; k < cand.size(); ++k) {
     if (k > 0 && !(pose_distance_deg(cand[k], base) >= kSameBasinDeg)) continue;

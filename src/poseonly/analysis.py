@@ -1,7 +1,7 @@
 """Analysis of a final model: cheirality-consistent support, planar twin, pure rotation, chance inliers.
 
 Everything the status decision (:mod:`poseonly.result`) needs to know about a pose besides its own
-inliers: whether the homography twin (:mod:`poseonly.twin`) explains the data about as well
+inliers: whether the homography twin (the core's ``analyse_twin``) explains the data about as well
 (planar scene), whether a rotation without translation does (pure rotation), and how many inliers
 the pose would collect by chance. Shapes: bearings ``f1, f2 (n, 3)`` (unit), ``R (3, 3)`` or
 stacked ``(h, 3, 3)``, ``t (3,)`` or ``(h, 3)``; ``tau`` is an angle (radians).
@@ -81,7 +81,7 @@ def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, i
     the pose-only choice does (its support at 1.5 ``tau`` at least 30 % of the pose's: the twin of a
     non-planar scene keeps a few per cent, an unpolished planar twin 40-65 %), polishes it (angular
     LiGTopt, Cauchy loss at ``tau``, on its cheirality-consistent inliers at 1.5 ``tau``) and counts both
-    poses' cheirality-consistent support at ``tau``. The twin is reported when its support reaches
+    poses' cheirality-consistent support at ``min(tau, 0.5)``. The twin is reported when its support reaches
     :data:`TWIN_SUPPORT_RATIO` of the pose's, the sign test does not prefer the pose at
     :data:`AMBIGUITY_LEVEL` and it is more than :data:`TWIN_MIN_SEPARATION_DEG` away.
 

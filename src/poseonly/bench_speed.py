@@ -152,14 +152,15 @@ def gnc_ransac_row(scenes: int, repeats: int) -> dict:
     return row
 
 
-# alternating serial / threaded repeats of the 8 pairs (~0.1 s each): on a shared 2-core VM single
-# repeats ranged 1.1-3.3x and the median of 5 moved by +-0.15 between runs; of 21, by a few hundredths
+# alternating serial / threaded repeats of the 8 pairs (0.04-0.1 s each): on a shared 2-core VM single
+# repeats ranged 1.1-3.3x and the median of 5 moved by +-0.15 between runs; 21, with their quartiles
 THREAD_REPEATS = 21
 
 
 def threads_row(pairs: int = 8, workers: int = 2, repeats: int = THREAD_REPEATS) -> dict:
     """``pairs`` pairs estimated serially and on ``workers`` threads, alternating ``repeats`` times;
-    the median of the per-repeat speed-ups (a shared machine's load moves single runs by +-10 %)."""
+    the median of the per-repeat speed-ups and their quartiles (a shared machine's load moves single
+    repeats by tens of per cent)."""
     from . import estimate_relative_pose, sim
 
     scs = [sim.make_scene(N_POINTS, camera="pinhole", noise_px=NOISE_PX, outlier_fraction=0.5, seed=300 + s) for s in range(pairs)]

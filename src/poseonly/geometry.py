@@ -183,7 +183,8 @@ def check_intrinsics(K: np.ndarray, name: str = "K") -> np.ndarray:
     Kinv_ok = math.isfinite(1.0 / fx) and math.isfinite(1.0 / fy) and math.isfinite(det) and det > 0
     if not Kinv_ok:
         raise InputError(f"{name} has focal lengths out of the representable range (fx = {fx:g}, fy = {fy:g})")
-    if det < 1e-12 * max(1.0, max(abs(v) for v in kn)) ** 2:
+    big = max(1.0, max(abs(v) for v in kn))
+    if det < 1e-12 * big * big:  # a product, not ** 2: an inf, not an OverflowError, for K entries ~1e200
         raise InputError(f"{name} is singular (det = {det:.3g})")
     return Kn
 

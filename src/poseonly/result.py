@@ -25,7 +25,6 @@ from .analysis import (
     rival_test,
 )
 from .geometry import essential_from_pose, rotation_error_deg
-from .median import median
 from .residuals import v_sampson
 
 __all__ = ["STATUSES", "RelativePoseResult", "degenerate_result", "finish", "valid_pose"]
@@ -229,7 +228,7 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
         n_in = int(inl.sum())
         weights = inl.astype(float)
         residuals = ang * focal
-        par = float(np.degrees(median(ang[inl]))) if n_in else float("nan")
+        par = parallax_deg(R, f1, f2, inl)
         msg = (
             f"a rotation without translation explains {n_in} matches within {2 * tau_rot * focal:g} px and the pose's "
             f"other inliers are no more than chance (median parallax {par:.3f} deg): R is reliable, the "

@@ -22,6 +22,10 @@ import numpy as np
 
 from ..geometry import InputError, check_intrinsics
 
+# pipeline.ROTATION_WEIGHTS, default first, written out so that the CLI's start does not import scipy
+# (tests/test_sfm_information.py checks that they agree)
+CLI_ROTATION_WEIGHTS = ("inliers", "information")
+
 __all__ = ["IMAGE_EXTS", "add_parsers", "cmd_sfm"]
 
 IMAGE_EXTS = (".jpg", ".jpeg", ".png", ".JPG", ".JPEG", ".PNG")
@@ -186,8 +190,8 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
     s.add_argument(
         "--rotation-weights",
-        choices=("inliers", "information"),
-        default="inliers",
+        choices=CLI_ROTATION_WEIGHTS,
+        default=CLI_ROTATION_WEIGHTS[0],
         help="rotation averaging's edge weights: the two-view inlier counts (default) or each relative rotation's information (narrow fields of view)",
     )
     s.set_defaults(func=cmd_sfm)

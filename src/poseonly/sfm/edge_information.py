@@ -72,9 +72,15 @@ def _jacobian(fun: Callable[[np.ndarray], np.ndarray], k: int) -> np.ndarray:
     return np.stack(cols, axis=1)
 
 
-def _floor(info: np.ndarray) -> np.ndarray:
+def _floor(info: np.ndarray) -> np.ndarray | None:
+    """``info`` symmetrised with its eigenvalues raised to :data:`MIN_EIGEN_RATIO` of the largest;
+    None when it has no positive eigenvalue or is not finite."""
+    if not np.all(np.isfinite(info)):
+        return None
     w, V = np.linalg.eigh(0.5 * (info + info.T))
-    w = np.maximum(w, MIN_EIGEN_RATIO * max(float(w[-1]), 0.0))
+    if not w[-1] > 0:
+        return None
+    w = np.maximum(w, MIN_EIGEN_RATIO * float(w[-1]))
     return (V * w) @ V.T
 
 
@@ -117,29 +123,40 @@ def rotation_information(R: np.ndarray, t: np.ndarray | None, f1: np.ndarray, f2
         S = H[:3, :3] - H[:3, 3:] @ np.linalg.solve(Htt, H[3:, :3])
     except np.linalg.LinAlgError:
         return None
-    return _floor(S) if np.all(np.isfinite(S)) else None
+    return _floor(S)
 
 
-def edge_informations(graph: ViewGraph, bearings_of: Callable[[Tracks], np.ndarray]) -> np.ndarray | None:
-    """``(E, 3, 3)`` rotation information of every edge of ``graph`` (in view i's frame), from its
-    inlier matches, whose bearings ``bearings_of`` gives (as for :func:`poseonly.sfm.pipeline.run_global`:
-    every edge's matches are passed as two-observation tracks). None when an edge has none (too few
-    matches, noise-free): the averaging then weighs by the scalar weights."""
+def edge_informations(graph: ViewGraph, bearings_of: Callable[[Tracks], np.ndarray]) -> tuple[np.ndarray | None, np.ndarray]:
+    """``(information (E, 3, 3), fallback (E,))``: the rotation information of every edge of ``graph``
+    (in view i's frame) from its inlier matches, whose bearings ``bearings_of`` gives (as for
+    :func:`poseonly.sfm.pipeline.run_global`: the matches are passed as two-observation tracks).
+
+    An edge without one (fewer than :data:`MIN_EDGE_MATCHES` matches, no scatter, a translation its
+    matches do not determine; ``fallback`` True) gets its weight (the inlier count) times the median
+    information per unit weight of the others, isotropic. ``information`` is None when no edge has one."""
+    E = len(graph.edges)
+    fallback = np.ones(E, dtype=bool)
+    out = np.zeros((E, 3, 3))
     m = [len(e.matches) for e in graph.edges]
-    if not m or min(m) < MIN_EDGE_MATCHES:
-        return None
-    views = np.concatenate([np.repeat(np.array([[e.i, e.j]]), len(e.matches), axis=0) for e in graph.edges]).ravel()
-    kps = np.concatenate([e.matches for e in graph.edges]).ravel()
-    total = int(sum(m))
-    tr = Tracks(np.arange(0, 2 * total + 1, 2, dtype=np.int64), views.astype(np.int64), kps.astype(np.int64))
-    f = bearings_of(tr).reshape(total, 2, 3)
-    out = np.empty((len(graph.edges), 3, 3))
-    start = 0
-    for k, e in enumerate(graph.edges):
-        fe = f[start : start + m[k]]
-        start += m[k]
-        info = rotation_information(e.R, e.t if e.use_translation else None, fe[:, 0], fe[:, 1])
-        if info is None:
-            return None
-        out[k] = info
-    return out
+    use = [k for k in range(E) if m[k] >= MIN_EDGE_MATCHES]
+    if use:
+        views = np.concatenate([np.repeat(np.array([[graph.edges[k].i, graph.edges[k].j]]), m[k], axis=0) for k in use]).ravel()
+        kps = np.concatenate([graph.edges[k].matches for k in use]).ravel()
+        total = int(sum(m[k] for k in use))
+        tr = Tracks(np.arange(0, 2 * total + 1, 2, dtype=np.int64), views.astype(np.int64), kps.astype(np.int64))
+        f = bearings_of(tr).reshape(total, 2, 3)
+        start = 0
+        for k in use:
+            e = graph.edges[k]
+            fe = f[start : start + m[k]]
+            start += m[k]
+            info = rotation_information(e.R, e.t if e.use_translation else None, fe[:, 0], fe[:, 1])
+            if info is not None:
+                out[k] = info
+                fallback[k] = False
+    if fallback.all():
+        return None, fallback
+    w = np.array([e.weight for e in graph.edges])
+    per_weight = float(np.median(np.trace(out[~fallback], axis1=1, axis2=2) / 3.0 / w[~fallback]))
+    out[fallback] = (w[fallback] * per_weight)[:, None, None] * np.eye(3)
+    return out, fallback

@@ -240,9 +240,18 @@ def _irls(Rg, pairs, R_rel, solve: WeightedSolve, root, sigma: float, iters: int
     return Rg, it
 
 
+# an edge's information is capped at this multiple of the median (by trace): one edge whose matches
+# scatter far less than the others' (a tiny noise estimate) must not pin the solution
+MAX_INFORMATION_RATIO = 100.0
+
+
 def _normalised_information(info: np.ndarray) -> np.ndarray:
-    """``info (E, 3, 3)`` divided by the median of ``trace / 3`` (the scalar weights' median rule)."""
-    return info / float(np.median(np.trace(info, axis1=1, axis2=2) / 3.0))
+    """``info (E, 3, 3)`` divided by the median of ``trace / 3`` (the scalar weights' median rule),
+    each capped at :data:`MAX_INFORMATION_RATIO` (by trace)."""
+    tr = np.trace(info, axis1=1, axis2=2) / 3.0
+    med = float(np.median(tr))
+    scale = np.minimum(1.0, MAX_INFORMATION_RATIO * med / tr) / med
+    return info * scale[:, None, None]
 
 
 def _x84_threshold(res_deg: np.ndarray, min_deg: float, max_deg: float) -> float:
@@ -289,7 +298,10 @@ def average_rotations(
         info_all = np.asarray(information, dtype=np.float64)
         if info_all.shape != (len(p), 3, 3) or not np.all(np.isfinite(info_all)):
             raise InputError(f"information must be a finite ({len(p)}, 3, 3) array")
-        if np.any(np.linalg.eigvalsh(0.5 * (info_all + np.swapaxes(info_all, 1, 2)))[:, 0] <= 0):
+        if not np.allclose(info_all, np.swapaxes(info_all, 1, 2), rtol=1e-9, atol=0.0):
+            raise InputError("information matrices must be symmetric")
+        info_all = 0.5 * (info_all + np.swapaxes(info_all, 1, 2))
+        if np.any(np.linalg.eigvalsh(info_all)[:, 0] <= 0):
             raise InputError("information matrices must be positive definite")
         info_all = _normalised_information(info_all)
     edge_ok = np.ones(len(p), dtype=bool)
