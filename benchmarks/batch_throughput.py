@@ -1,10 +1,10 @@
-"""Throughput of poseonly.estimate_relative_poses: 1 process, N processes, a local Dask cluster.
+"""Throughput of poseonly.estimate_relative_poses: 1 process, N processes, N threads, a local Dask cluster.
 
     python benchmarks/batch_throughput.py [--pairs 1000] [--points 200] [--jobs 2] [--repeats 3] [--out DIR]
 
 Pairs: synthetic pinhole scenes (poseonly.sim, 640x480, f = 800) seen through an OPENCV camera,
 ``--points`` matches with 30 % outliers and 0.5 px noise. Wall time includes starting the pool /
-cluster (what a user waits for). Serial and pooled runs alternate ``--repeats`` times (medians), and
+cluster (what a user waits for). Serial, process-pool and thread-pool runs rotate ``--repeats`` times (medians), and
 PoseLib runs the same pairs on 1 and N forked processes: the scaling this machine allows. Prints a table and writes batch_throughput.json to ``--out``
 (default: a new folder ./batch_throughput_<time>). The load average is printed: on a shared
 machine, label the numbers "measured under load".
@@ -76,20 +76,24 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default=None, help="output folder (default: a new ./batch_throughput_<time>)")
     a = ap.parse_args(argv)
     pairs = make_pairs(a.pairs, a.points)
-    walls: dict[str, list[float]] = {"1 process": [], f"{a.jobs} processes": []}
-    speedups, same = [], True
+    schedules = {"1 process": {"n_jobs": 1}, f"{a.jobs} processes": {"n_jobs": a.jobs}, f"{a.jobs} threads": {"n_jobs": a.jobs, "backend": "threads"}}
+    walls: dict[str, list[float]] = {name: [] for name in schedules}
+    speedups: dict[str, list[float]] = {name: [] for name in list(schedules)[1:]}
+    same = True
     base: dict = {}
-    for rep in range(a.repeats):  # alternate the order, so that drifts of the machine do not favour one
-        order = [1, a.jobs] if rep % 2 == 0 else [a.jobs, 1]
+    names = list(schedules)
+    for rep in range(a.repeats):  # rotate the order, so that drifts of the machine do not favour one
+        order = names[rep % len(names) :] + names[: rep % len(names)]
         got = {}
-        for j in order:
-            t, res = run(pairs, n_jobs=j)
-            got[j] = t
-            walls["1 process" if j == 1 else f"{a.jobs} processes"].append(t)
+        for name in order:
+            t, res = run(pairs, **schedules[name])
+            got[name] = t
+            walls[name].append(t)
             if not base:
                 base = res
             same &= all(np.array_equal(base[k].result.R, res[k].result.R) for k in base)
-        speedups.append(got[1] / got[a.jobs])
+        for name in speedups:
+            speedups[name].append(got["1 process"] / got[name])
     pl1 = [run_poselib(pairs, 1) for _ in range(a.repeats)]
     plj = [run_poselib(pairs, a.jobs) for _ in range(a.repeats)]
     est_s = sum(r.result.time_s for r in base.values() if r.result is not None)
@@ -106,13 +110,15 @@ def main(argv: list[str] | None = None) -> int:
         rows.append((f"Dask LocalCluster, {a.jobs} workers (incl. start-up, 1 run)", time.perf_counter() - t0))
         same &= all(np.array_equal(base[k].result.R, on_dask[k].result.R) for k in base)
     load = os.getloadavg()
-    sp, plsp = float(np.median(speedups)), float(np.median(pl1) / np.median(plj))
+    sp = {name: float(np.median(v)) for name, v in speedups.items()}
+    plsp = float(np.median(pl1) / np.median(plj))
     print(f"{a.pairs} pairs x {a.points} matches, {a.repeats} repeats; load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} cores")
     print(f"results identical across schedules: {same}")
     print(f"{'schedule':<56} {'wall s':>8} {'pairs/s':>8} {'speed-up':>8}")
     for name, t in rows:
         print(f"{name:<56} {t:8.2f} {a.pairs / t:8.1f} {t1 / t:8.2f}")
-    print(f"median of the per-repeat speed-ups, {a.jobs} processes / 1: {sp:.2f}x (runs: {', '.join(f'{x:.2f}' for x in speedups)})")
+    for name, v in speedups.items():
+        print(f"median of the per-repeat speed-ups, {name} / 1: {sp[name]:.2f}x (runs: {', '.join(f'{x:.2f}' for x in v)})")
     print(f"PoseLib on the same pairs, {a.jobs} processes / 1: {plsp:.2f}x (median wall {np.median(pl1):.2f} s / {np.median(plj):.2f} s): the machine's scaling")
     print(f"sum of the per-pair estimation times (serial run): {est_s:.2f} s of {walls['1 process'][0]:.2f} s wall")
     out = Path(a.out or f"batch_throughput_{time.strftime('%Y%m%d-%H%M%S')}")

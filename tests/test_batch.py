@@ -1,5 +1,5 @@
-"""Batch API (issue 13 item 2): per-pair results identical serially, on a process pool and on a
-Dask LocalCluster; seeds from keys; bad pairs reported, bad options rejected."""
+"""Batch API (issue 13 item 2): per-pair results identical serially, on a process pool, on a thread
+pool and on a Dask LocalCluster; seeds from keys; bad pairs reported, bad options rejected."""
 
 import numpy as np
 import pytest
@@ -41,6 +41,8 @@ def test_serial_pool_dask_identical():
     assert len(serial) == 6
     pooled = _summary(poseonly.estimate_relative_poses(pairs, n_jobs=2, chunk_size=2, progress=False, seed=7))
     _same(serial, pooled)
+    threaded = _summary(poseonly.estimate_relative_poses(pairs, n_jobs=2, backend="threads", chunk_size=1, progress=False, seed=7))
+    _same(serial, threaded)
     distributed = pytest.importorskip("dask.distributed")
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as lc, distributed.Client(lc) as client:
         on_dask = _summary(poseonly.estimate_relative_poses(iter(pairs), client=client, chunk_size=2, progress=False, seed=7))
@@ -70,6 +72,8 @@ def test_bad_pair_reported_bad_options_raise():
         poseonly.estimate_relative_poses(pairs, bogus=1)
     with pytest.raises(ValueError, match="n_jobs"):
         poseonly.estimate_relative_poses(pairs, n_jobs=0)
+    with pytest.raises(ValueError, match="backend"):
+        poseonly.estimate_relative_poses(pairs, n_jobs=2, backend="fibers")
     with pytest.raises(ValueError, match="unknown keys"):
         list(poseonly.estimate_relative_poses([{"x1": 1, "x2": 2, "foo": 3}], progress=False))
 
@@ -106,11 +110,54 @@ def test_other_methods_accepted():
         assert r.error is None and r.result.method == method
 
 
-def test_early_stop_pool():
-    gen = poseonly.estimate_relative_poses(_pairs(6), n_jobs=2, chunk_size=1, progress=False)
+@pytest.mark.parametrize("backend", ["processes", "threads"])
+def test_early_stop_pool(backend):
+    gen = poseonly.estimate_relative_poses(_pairs(6), n_jobs=2, backend=backend, chunk_size=1, progress=False)
     first = next(gen)
     gen.close()  # the pool shuts down without running the queued chunks
     assert first.error is None
+
+
+def test_blas_limit_shared_by_concurrent_estimates(monkeypatch):
+    """The one-thread BLAS limit is process-wide: overlapping estimates (a caller's threads, the batch's
+    thread backend) set it once and the last to leave restores the original limits; a per-call limit
+    would be restored by the first estimate to finish while the other still runs."""
+    import threading
+
+    from poseonly import api
+
+    calls = []
+
+    class Limiter:
+        def restore_original_limits(self):
+            calls.append("restore")
+
+    class Controller:
+        def limit(self, limits, user_api):
+            assert (limits, user_api) == (1, "blas")
+            calls.append("limit")
+            return Limiter()
+
+    monkeypatch.setitem(api._BLAS_STATE, "controller", Controller())
+    inside, leave_first = threading.Event(), threading.Event()
+
+    def first():
+        with api._blas_single_thread():
+            inside.set()
+            leave_first.wait(5)
+
+    t = threading.Thread(target=first)
+    t.start()
+    assert inside.wait(5)
+    with api._blas_single_thread():
+        leave_first.set()
+        t.join(5)
+        assert calls == ["limit"] and api._BLAS_STATE["users"] == 1  # the first has left: still limited
+    assert calls == ["limit", "restore"] and api._BLAS_STATE["users"] == 0 and api._BLAS_STATE["limiter"] is None
+    # and an exception inside an estimate releases it too
+    with pytest.raises(RuntimeError), api._blas_single_thread():
+        raise RuntimeError
+    assert calls == ["limit", "restore", "limit", "restore"] and api._BLAS_STATE["users"] == 0
 
 
 def test_pair_scores_and_noise_scales_reach_the_estimator():

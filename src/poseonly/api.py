@@ -45,7 +45,9 @@ whose error is within ``threshold_px`` (it is loose for low-parallax points).
 from __future__ import annotations
 
 import contextlib
+import threading
 import time
+from collections.abc import Iterator
 from typing import Any, cast
 
 import numpy as np
@@ -79,20 +81,38 @@ METHODS = tuple(OPTIONS)
 MIN_EPIPOLAR_RANK = 6
 RANK_RTOL = 1e-9
 
-_CONTROLLER = None
+_BLAS_LOCK = threading.Lock()
+_BLAS_STATE: dict[str, Any] = {"controller": None, "limiter": None, "users": 0}
 
 
-def _blas_single_thread():
+@contextlib.contextmanager
+def _blas_single_thread() -> Iterator[None]:
     """Limit BLAS to one thread while estimating (the matrices are tiny: a multi-threaded BLAS on a
-    loaded machine made the demo pair 2.7x slower). No-op without ``threadpoolctl``."""
-    global _CONTROLLER
+    loaded machine made the demo pair 2.7x slower). No-op without ``threadpoolctl``.
+
+    The limit is process-wide, so concurrent estimates (a caller's thread pool, the batch's thread
+    backend) share it: the first to enter sets it and the last to leave restores the original limits
+    (a per-call limit would be restored by the first estimate to finish while others still run)."""
+    with _BLAS_LOCK:
+        st = _BLAS_STATE
+        if st["controller"] is None:
+            try:
+                from threadpoolctl import ThreadpoolController
+            except ImportError:  # pragma: no cover - optional
+                st["controller"] = False
+            else:
+                st["controller"] = ThreadpoolController()
+        if st["controller"] and st["users"] == 0:
+            st["limiter"] = st["controller"].limit(limits=1, user_api="blas")
+        st["users"] += 1
     try:
-        from threadpoolctl import ThreadpoolController
-    except ImportError:  # pragma: no cover - optional
-        return contextlib.nullcontext()
-    if _CONTROLLER is None:
-        _CONTROLLER = ThreadpoolController()
-    return _CONTROLLER.limit(limits=1, user_api="blas")
+        yield
+    finally:
+        with _BLAS_LOCK:
+            st["users"] -= 1
+            if st["users"] == 0 and st["limiter"] is not None:
+                st["limiter"].restore_original_limits()
+                st["limiter"] = None
 
 
 def _focal(K1, K2, focal_px):

@@ -1,5 +1,9 @@
 """Many pairs: :func:`estimate_relative_poses` over an iterable of pairs, serially, on a local
-process pool or on a Dask cluster, yielding each pair's result as its chunk finishes.
+process or thread pool or on a Dask cluster, yielding each pair's result as its chunk finishes.
+
+Threads (``backend="threads"``) work because the compiled core releases the GIL for its numeric work,
+which is about 90 % of a pair (``benchmarks/stage_times.py --core-share``): no worker processes to
+start, no pickling, and it runs where processes cannot be forked (notebooks, Windows).
 
 Determinism: the seed of a pair is derived from the base ``seed`` option and the pair's key
 (:func:`pair_seed`, a BLAKE2b hash), never from its position in the schedule, so the result of a
@@ -29,12 +33,13 @@ import numpy as np
 from .api import RelativePoseResult, estimate_relative_pose
 from .geometry import InputError
 
-__all__ = ["DASK_CHUNK", "POOL_CHUNK", "Pair", "PairResult", "estimate_relative_poses", "pair_seed"]
+__all__ = ["BACKENDS", "DASK_CHUNK", "POOL_CHUNK", "Pair", "PairResult", "estimate_relative_poses", "pair_seed"]
 
 POOL_CHUNK = 16  # pairs per task on a local process pool (small: early results, even load)
 DASK_CHUNK = 256  # pairs per task on Dask (amortises the scheduler's per-task overhead)
 MIN_CHUNKS_PER_WORKER = 4  # a known-size batch is cut finer when it would give fewer chunks per worker
 IN_FLIGHT_PER_WORKER = 2  # chunks queued per worker: keeps workers busy without loading everything
+BACKENDS = ("processes", "threads")  # the local pool's workers (n_jobs > 1)
 DASK_RETRIES = 3
 _SEED_BITS = 63
 _CHECK_POINTS = 100
@@ -158,6 +163,7 @@ def estimate_relative_poses(
     pairs: Iterable[Any],
     *,
     n_jobs: int = 1,
+    backend: str = "processes",
     client: Any = None,
     chunk_size: int | None = None,
     progress: bool = True,
@@ -168,8 +174,9 @@ def estimate_relative_poses(
     input order: sort by ``index`` or use ``key``).
 
     ``pairs``: an iterable of :class:`Pair` or dicts with its fields (``x1, x2`` ``(n, 2)`` or
-    ``(n, 3)``, ``camera1/camera2`` or ``K1/K2``, ``key``, ``options``). ``n_jobs``: local processes
-    (1 = in this process, -1 = all cores); ``client``: a ``dask.distributed.Client`` or a scheduler
+    ``(n, 3)``, ``camera1/camera2`` or ``K1/K2``, ``key``, ``options``). ``n_jobs``: local workers
+    (1 = in this process, -1 = all cores), ``backend`` ``"processes"`` or ``"threads"`` (the same
+    results either way); ``client``: a ``dask.distributed.Client`` or a scheduler
     address (then ``n_jobs`` is ignored). ``options``: those of
     :func:`poseonly.estimate_relative_pose` (``method``, ``threshold_px``, ...); ``seed`` is the base
     seed of :func:`pair_seed`. ``progress``: a tqdm bar (if tqdm is installed)."""
@@ -179,12 +186,14 @@ def estimate_relative_poses(
         raise InputError(f"chunk_size must be a positive int, got {chunk_size!r}")
     if not isinstance(retries, (int, np.integer)) or retries < 0:
         raise InputError(f"retries must be an int >= 0, got {retries!r}")
+    if backend not in BACKENDS:
+        raise InputError(f"backend must be one of {BACKENDS}, got {backend!r}")
     _check_options(options)
     total = len(pairs) if hasattr(pairs, "__len__") else None  # type: ignore[arg-type]
-    return _generate(pairs, int(n_jobs), client, chunk_size, progress, int(retries), options, total)
+    return _generate(pairs, int(n_jobs), backend, client, chunk_size, progress, int(retries), options, total)
 
 
-def _generate(pairs, n_jobs, client, chunk_size, progress, retries, options, total) -> Iterator[PairResult]:
+def _generate(pairs, n_jobs, backend, client, chunk_size, progress, retries, options, total) -> Iterator[PairResult]:
     bar = _progress(total, progress)
     try:
         if client is not None:
@@ -193,7 +202,7 @@ def _generate(pairs, n_jobs, client, chunk_size, progress, retries, options, tot
             runner = (_run_chunk(c, options) for c in _chunks(pairs, chunk_size or 1))
         else:
             n = (os.cpu_count() or 1) if n_jobs == -1 else n_jobs
-            runner = _pool(pairs, n, chunk_size or _auto_chunk(POOL_CHUNK, total, n), options)
+            runner = _pool(pairs, n, chunk_size or _auto_chunk(POOL_CHUNK, total, n), options, backend)
         for results in runner:
             yield from results
             if bar is not None:
@@ -211,24 +220,28 @@ def _auto_chunk(default: int, total: int | None, workers: int) -> int:
     return max(1, min(default, -(-total // (MIN_CHUNKS_PER_WORKER * workers))))
 
 
-def _pool(pairs, n_jobs: int, chunk_size: int, options) -> Iterator[list[PairResult]]:
+def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processes") -> Iterator[list[PairResult]]:
     import multiprocessing as mp
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, Executor, ProcessPoolExecutor, ThreadPoolExecutor, wait
     from multiprocessing.context import BaseContext
 
-    # workers never fork the caller (no inherited threads or locks): a fork server started from a clean
-    # interpreter that has imported poseonly once forks them where available (POSIX), else spawn;
-    # either way they are children of this process (their CPU time is accounted to it)
-    ctx: BaseContext
-    if "forkserver" in mp.get_all_start_methods():
-        fs = mp.get_context("forkserver")
-        fs.set_forkserver_preload(["poseonly.batch"])
-        ctx = fs
-    else:  # pragma: no cover - Windows
-        ctx = mp.get_context("spawn")
+    ex: Executor
+    if backend == "threads":
+        ex = ThreadPoolExecutor(max_workers=n_jobs, thread_name_prefix="poseonly")
+    else:
+        # workers never fork the caller (no inherited threads or locks): a fork server started from a
+        # clean interpreter that has imported poseonly once forks them where available (POSIX), else
+        # spawn; either way they are children of this process (their CPU time is accounted to it)
+        ctx: BaseContext
+        if "forkserver" in mp.get_all_start_methods():
+            fs = mp.get_context("forkserver")
+            fs.set_forkserver_preload(["poseonly.batch"])
+            ctx = fs
+        else:  # pragma: no cover - Windows
+            ctx = mp.get_context("spawn")
+        ex = ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx)
     chunks = _chunks(pairs, chunk_size)
     limit = IN_FLIGHT_PER_WORKER * n_jobs
-    ex = ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx)
     try:
         pending = set()
         for c in chunks:
