@@ -143,3 +143,39 @@ def test_distorted_camera_as_accurate(model):
         e1.append(rotation_error_deg(sc.R, r1.R))
     assert np.median(e1) <= 1.05 * np.median(e0), (np.median(e0), np.median(e1))
     assert np.median(e0) < 1.0
+
+
+@pytest.mark.parametrize(
+    "k", [(-0.1, 0.01, 0.0, 0.0, 0, 0, 0, 0), (-0.3, 0.1, 0.002, -0.001, 0.01, 0.02, 0.001, 0.0001), (0.5, 0.0, 0, 0, 0, 0, 0, 0), (-0.6, 0, 0, 0, 0, 0, 0, 0)]
+)
+def test_core_undistortion_equals_the_numpy_reference(k):
+    """The core's Newton undistortion gives the numpy reference's roots bit for bit, and the same
+    verdicts, on points inside and far beyond the distortion's fold (tests/reference/cameras.py)."""
+    from poseonly import _core
+    from poseonly.cameras import NEWTON_MAX_ITER, NEWTON_TOL
+    from reference import cameras as ref
+
+    rng = np.random.default_rng(3)
+    xd, yd = rng.uniform(-2.0, 2.0, 2000), rng.uniform(-2.0, 2.0, 2000)
+    xd[:5] = [0.0, np.nan, np.inf, 1e6, -1e-300]
+    u, v, ok = _core.undistort_brown(xd, yd, np.array(k, float), NEWTON_TOL, NEWTON_MAX_ITER)
+    with np.errstate(all="ignore"):
+        ur, vr, okr = ref.undistort_brown(xd, yd, np.array(k, float))
+    same = ok.astype(bool) == okr
+    assert same.all(), np.flatnonzero(~same)
+    assert np.array_equal(u[okr], ur[okr]) and np.array_equal(v[okr], vr[okr])
+    assert 0 < okr.sum() < len(okr) or k[0] >= 0
+
+
+def test_core_fisheye_undistortion_equals_the_numpy_reference():
+    from poseonly import _core
+    from poseonly.cameras import NEWTON_MAX_ITER, NEWTON_TOL
+    from reference import cameras as ref
+
+    rd = np.concatenate([np.linspace(0.0, 4.0, 1500), [np.nan, np.inf, 1e-14]])
+    for k in [(0.05, -0.01, 0.002, -0.0003), (-0.2, 0.05, 0.0, 0.0)]:
+        th, ok = _core.undistort_fisheye(rd, np.array(k), NEWTON_TOL, NEWTON_MAX_ITER)
+        with np.errstate(all="ignore"):
+            thr, okr = ref.undistort_fisheye(rd, np.array(k))
+        assert np.array_equal(ok.astype(bool), okr)
+        assert np.array_equal(th[okr], thr[okr])

@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from . import _core
 from .geometry import InputError
 
 __all__ = ["MODELS", "NEWTON_TOL", "Camera", "as_camera", "from_opencv", "lift_pair"]
@@ -140,47 +141,13 @@ class Camera:
         return u * rad + 2.0 * p1 * uv + p2 * (r2 + 2.0 * u * u), v * rad + 2.0 * p2 * uv + p1 * (r2 + 2.0 * v * v)
 
     def _undistort_brown(self, xd: np.ndarray, yd: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Newton on ``distort(u, v) = (xd, yd)`` with the analytic 2x2 Jacobian; returns ``u, v`` and a
-        converged mask."""
-        k1, k2, p1, p2, k3, k4, k5, k6 = _brown_params(self.model, np.asarray(self.params))
-        u, v = xd.copy(), yd.copy()
-        done = np.zeros(len(u), bool)
-        for _ in range(NEWTON_MAX_ITER):
-            r2 = u * u + v * v
-            num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
-            den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
-            dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)  # d num / d r2
-            dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
-            rad = num / den
-            drad = (dnum * den - num * dden) / (den * den)  # d rad / d r2
-            uv = u * v
-            fu = u * rad + 2.0 * p1 * uv + p2 * (r2 + 2.0 * u * u) - xd
-            fv = v * rad + 2.0 * p2 * uv + p1 * (r2 + 2.0 * v * v) - yd
-            # d r2/du = 2u, d r2/dv = 2v
-            j11 = rad + 2.0 * u * u * drad + 2.0 * p1 * v + 6.0 * p2 * u
-            j12 = 2.0 * u * v * drad + 2.0 * p1 * u + 2.0 * p2 * v
-            j21 = 2.0 * u * v * drad + 2.0 * p2 * v + 2.0 * p1 * u
-            j22 = rad + 2.0 * v * v * drad + 2.0 * p2 * u + 6.0 * p1 * v
-            det = j11 * j22 - j12 * j21
-            with np.errstate(divide="ignore", invalid="ignore"):
-                du = (j22 * fu - j12 * fv) / det
-                dv = (j11 * fv - j21 * fu) / det
-            du = np.where(done, 0.0, du)
-            dv = np.where(done, 0.0, dv)
-            u, v = u - du, v - dv
-            step = np.hypot(du, dv)
-            done |= step <= NEWTON_TOL * np.maximum(1.0, np.hypot(u, v))
-            if done.all():
-                break
-        ok = done & np.isfinite(u) & np.isfinite(v)
-        # a root is the physical one only where the map is locally invertible and preserves
-        # orientation (det J > 0) and the radial factor does not flip the point through the centre
-        # (Newton can reach a spurious root of the polynomial beyond the distortion's fold)
-        ok &= (rad > 0) & (det > 0)
-        # a converged root must reproduce the distorted point
-        ru, rv = self._distort_brown(u, v)
-        ok &= np.hypot(ru - xd, rv - yd) <= 1e-9 * np.maximum(1.0, np.hypot(xd, yd))
-        return u, v, ok
+        """Newton on ``distort(u, v) = (xd, yd)`` with the analytic 2x2 Jacobian, in the core (GIL
+        released); returns ``u, v`` and a mask of the points that converged to the physical root (the map
+        locally invertible and orientation-preserving there, ``det J > 0``, the radial factor positive: past
+        the distortion's fold Newton can reach a spurious root) and reproduce the distorted point."""
+        k = np.array(_brown_params(self.model, np.asarray(self.params)), dtype=np.float64)
+        u, v, ok = _core.undistort_brown(np.ascontiguousarray(xd, dtype=np.float64), np.ascontiguousarray(yd, dtype=np.float64), k, NEWTON_TOL, NEWTON_MAX_ITER)
+        return u, v, ok.astype(bool)
 
     def _fisheye_poly(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``theta_d(theta) = theta (1 + k1 t^2 + k2 t^4 + k3 t^6 + k4 t^8)`` and its derivative."""
@@ -206,18 +173,9 @@ class Camera:
         yd = (uv[:, 1] - cy) / fy
         if self.model == "OPENCV_FISHEYE":
             rd = np.hypot(xd, yd)
-            theta = rd.copy()
-            done = np.zeros(len(rd), bool)
-            for _ in range(NEWTON_MAX_ITER):
-                g, dg = self._fisheye_poly(theta)
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    step = np.where(done, 0.0, (g - rd) / dg)
-                theta = theta - step
-                done |= np.abs(step) <= NEWTON_TOL * np.maximum(1.0, theta)
-                if done.all():
-                    break
-            g, dg = self._fisheye_poly(theta)
-            ok = done & np.isfinite(theta) & (theta >= 0) & (dg > 0) & (np.abs(g - rd) <= 1e-9 * np.maximum(1.0, rd))
+            k = np.array([float(c) for c in self.params[4:8]], dtype=np.float64)
+            theta, ok8 = _core.undistort_fisheye(np.ascontiguousarray(rd), k, NEWTON_TOL, NEWTON_MAX_ITER)  # Newton, GIL released
+            ok = ok8.astype(bool)
             with np.errstate(divide="ignore", invalid="ignore"):
                 s = np.where(rd > _FISHEYE_EPS, np.sin(theta) / rd, 1.0)
             b = np.column_stack([xd * s, yd * s, np.cos(theta)])

@@ -1,0 +1,85 @@
+#include "cameras.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace poseonly {
+
+namespace {
+
+inline void distort_brown(double u, double v, const double k[8], double* xd, double* yd) {
+  const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3], k3 = k[4], k4 = k[5], k5 = k[6], k6 = k[7];
+  const double r2 = u * u + v * v;
+  const double num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+  const double den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
+  const double rad = num / den;
+  const double uv = u * v;
+  *xd = u * rad + 2.0 * p1 * uv + p2 * (r2 + 2.0 * u * u);
+  *yd = v * rad + 2.0 * p2 * uv + p1 * (r2 + 2.0 * v * v);
+}
+
+}  // namespace
+
+void undistort_brown(const double* xd, const double* yd, int n, const double k[8], double tol, int max_iter, double* u_out, double* v_out,
+                     uint8_t* ok) {
+  const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3], k3 = k[4], k4 = k[5], k5 = k[6], k6 = k[7];
+  for (int i = 0; i < n; ++i) {
+    const double x = xd[i], y = yd[i];
+    double u = x, v = y, rad = 0.0, det = 0.0;
+    bool done = false;
+    for (int it = 0; it < max_iter && !done; ++it) {
+      const double r2 = u * u + v * v;
+      const double num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+      const double den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
+      const double dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2);
+      const double dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2);
+      rad = num / den;
+      const double drad = (dnum * den - num * dden) / (den * den);
+      const double uv = u * v;
+      const double fu = u * rad + 2.0 * p1 * uv + p2 * (r2 + 2.0 * u * u) - x;
+      const double fv = v * rad + 2.0 * p2 * uv + p1 * (r2 + 2.0 * v * v) - y;
+      const double j11 = rad + 2.0 * u * u * drad + 2.0 * p1 * v + 6.0 * p2 * u;
+      const double j12 = 2.0 * u * v * drad + 2.0 * p1 * u + 2.0 * p2 * v;
+      const double j21 = 2.0 * u * v * drad + 2.0 * p2 * v + 2.0 * p1 * u;
+      const double j22 = rad + 2.0 * v * v * drad + 2.0 * p2 * u + 6.0 * p1 * v;
+      det = j11 * j22 - j12 * j21;
+      const double du = (j22 * fu - j12 * fv) / det;
+      const double dv = (j11 * fv - j21 * fu) / det;
+      u = u - du;
+      v = v - dv;
+      done = std::hypot(du, dv) <= tol * std::max(1.0, std::hypot(u, v));
+    }
+    bool good = done && std::isfinite(u) && std::isfinite(v) && rad > 0.0 && det > 0.0;
+    double ru, rv;
+    distort_brown(u, v, k, &ru, &rv);
+    good = good && std::hypot(ru - x, rv - y) <= 1e-9 * std::max(1.0, std::hypot(x, y));
+    u_out[i] = u;
+    v_out[i] = v;
+    ok[i] = good;
+  }
+}
+
+void undistort_fisheye(const double* rd, int n, const double k[4], double tol, int max_iter, double* theta_out, uint8_t* ok) {
+  const double k1 = k[0], k2 = k[1], k3 = k[2], k4 = k[3];
+  auto poly = [=](double th, double* g, double* dg) {
+    const double t2 = th * th;
+    *g = th * (1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))));
+    *dg = 1.0 + t2 * (3.0 * k1 + t2 * (5.0 * k2 + t2 * (7.0 * k3 + t2 * 9.0 * k4)));
+  };
+  for (int i = 0; i < n; ++i) {
+    const double r = rd[i];
+    double th = r, g, dg;
+    bool done = false;
+    for (int it = 0; it < max_iter && !done; ++it) {
+      poly(th, &g, &dg);
+      const double step = (g - r) / dg;
+      th = th - step;
+      done = std::abs(step) <= tol * std::max(1.0, th);
+    }
+    poly(th, &g, &dg);
+    theta_out[i] = th;
+    ok[i] = done && std::isfinite(th) && th >= 0.0 && dg > 0.0 && std::abs(g - r) <= 1e-9 * std::max(1.0, r);
+  }
+}
+
+}  // namespace poseonly
