@@ -89,3 +89,37 @@ def test_sfm_command_from_colmap_database(tmp_path):
     assert rec.num_reg_images() == N_IMAGES
     assert rec.num_points3D() > 100
     assert rec.compute_mean_reprojection_error() < 2.0
+
+
+def test_pairwise_stage_on_threads_gives_the_same_graph(tmp_path):
+    """``jobs`` threads extract, match and estimate concurrently; the graph is the one of one thread
+    (seeds by pair index, results added in pair order)."""
+    if not (SCENE / "images" / "K.txt").is_file():
+        pytest.skip("shared Strecha data not available")
+    from poseonly.sfm.pairwise import PairwiseOptions, image_view_graph
+
+    images = sorted((SCENE / "images").glob("*.jpg"))[:3]
+    K = np.loadtxt(SCENE / "images" / "K.txt")
+    opt = PairwiseOptions(max_features=1500)
+    one = image_view_graph(images, K, options=opt, jobs=1)
+    two = image_view_graph(images, K, options=opt, jobs=2)
+    assert one.pair_stats == two.pair_stats and len(one.graph) == len(two.graph) > 0
+    for a, b in zip(one.graph.edges, two.graph.edges):
+        assert (a.i, a.j) == (b.i, b.j) and np.array_equal(a.R, b.R) and np.array_equal(a.matches, b.matches)
+
+
+def test_map_ordered_keeps_order_and_checks_jobs():
+    import time
+
+    from poseonly.geometry import InputError
+    from poseonly.sfm.pairwise import map_ordered
+
+    def slow_first(x):
+        time.sleep(0.02 if x == 0 else 0.0)
+        return x * x
+
+    assert list(map_ordered(slow_first, range(10), jobs=3)) == [x * x for x in range(10)]
+    assert list(map_ordered(slow_first, iter(range(5)), jobs=1)) == [0, 1, 4, 9, 16]
+    for bad in (0, -2, 1.5, True):
+        with pytest.raises(InputError, match="jobs"):
+            list(map_ordered(slow_first, range(3), jobs=bad))

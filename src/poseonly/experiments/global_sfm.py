@@ -61,6 +61,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         default=GlobalOptions.rotation_weights,
         help="rotation averaging's edge weights: the two-view inlier counts (default) or each relative rotation's information",
     )
+    p.add_argument("--jobs", type=int, default=1, help="threads for the features, matching and two-view stages (default 1; the same result for any number)")
     p.add_argument("--no-anchor", action="store_true", help="skip the anchors (pycolmap's and pyTheia's global stages, pycolmap's mappers)")
     p.add_argument("--ba", action="store_true", help="also report our result after an optional pycolmap bundle adjustment")
 
@@ -96,7 +97,7 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
         estimator_options=parse_estimator_options(args.two_view_option),
     )
     t0 = time.perf_counter()
-    ig = image_view_graph(sc.image_paths, sc.K, options=opt, cache_dir=args.cache, progress=lambda it, **kw: progress(it, **kw))
+    ig = image_view_graph(sc.image_paths, sc.K, options=opt, cache_dir=args.cache, progress=lambda it, **kw: progress(it, **kw), jobs=args.jobs)
     t_pairs = time.perf_counter() - t0
     gopt = GlobalOptions(ligt_reweight=args.reweight, rotation_weights=args.rotation_weights)
     res = run_global(ig.graph, ig.bearings, float(sc.K[0, 0]), gopt)

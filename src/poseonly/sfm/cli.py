@@ -107,7 +107,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     if args.database:
         from .colmap_db import database_view_graph
 
-        ig, names = database_view_graph(args.database, options=opt, cache_dir=cache, progress=prog)
+        ig, names = database_view_graph(args.database, options=opt, cache_dir=cache, progress=prog, jobs=args.jobs)
         images = [d / nm for nm in names]
         missing = [str(p) for p in images if not p.is_file()]
         if missing:
@@ -122,7 +122,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         if len(images) < 3:
             raise InputError(f"{d} holds {len(images)} images; global SfM needs at least 3")
         K = _read_K(args.K)
-        ig = image_view_graph(images, K, options=opt, cache_dir=cache, progress=prog)
+        ig = image_view_graph(images, K, options=opt, cache_dir=cache, progress=prog, jobs=args.jobs)
     print(
         f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
         f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
@@ -186,6 +186,7 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--text", action="store_true", help="write the COLMAP model as text")
     s.add_argument("--no-progress", action="store_true", help="no progress bars")
     s.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
+    s.add_argument("--jobs", type=int, default=-1, help="threads for the features, matching and two-view stages (default -1: one per core; the same result for any number)")
     s.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
     s.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
     s.add_argument(

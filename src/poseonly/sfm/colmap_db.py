@@ -19,16 +19,22 @@ import numpy as np
 from ..features import Features, match_noise_scales
 from ..geometry import InputError
 from ..io.colmap_db import keypoint_scales
-from .pairwise import ImageGraph, PairwiseOptions, two_view
+from .pairwise import ImageGraph, PairwiseOptions, TwoView, map_ordered, two_view
 from .viewgraph import ViewGraph
 
 __all__ = ["database_view_graph"]
 
 
 def database_view_graph(
-    db_path: str | os.PathLike, *, options: PairwiseOptions | None = None, cache_dir: str | os.PathLike | None = None, progress: Callable | None = None
+    db_path: str | os.PathLike,
+    *,
+    options: PairwiseOptions | None = None,
+    cache_dir: str | os.PathLike | None = None,
+    progress: Callable | None = None,
+    jobs: int = 1,
 ) -> tuple[ImageGraph, list[str]]:
-    """``(ImageGraph, image names)`` from the COLMAP database ``db_path``."""
+    """``(ImageGraph, image names)`` from the COLMAP database ``db_path``; the pairs are estimated on
+    ``jobs`` threads (:func:`poseonly.sfm.pairwise.map_ordered`: the same graph for any number)."""
     import pycolmap
 
     p = Path(db_path)
@@ -72,14 +78,20 @@ def database_view_graph(
     putative: dict[tuple[int, int], np.ndarray] = {}
     cache = Path(cache_dir) if cache_dir is not None else None
     t0 = time.perf_counter()
-    for k, (i, j, m) in enumerate(wrap(pairs, desc="pairs", total=len(pairs))):
-        putative[(i, j)] = m
+
+    def pair_job(kp: tuple[int, tuple[int, int, np.ndarray]]) -> TwoView | None:
+        k, (i, j, m) = kp
         if len(m) < opt.min_matches:
+            return None
+        ns = match_noise_scales(feats[i], feats[j], m)
+        return two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, opt.seed + k, cache, focal_px=0.5 * (focal[i] + focal[j]), noise_scales=ns)
+
+    for (i, j, m), r in zip(pairs, wrap(map_ordered(pair_job, enumerate(pairs), jobs), desc="pairs", total=len(pairs))):
+        putative[(i, j)] = m
+        if r is None:
             graph.rejected.append((i, j, f"{len(m)} putative matches"))
             stats.append((i, j, len(m), 0, "few_matches"))
             continue
-        ns = match_noise_scales(feats[i], feats[j], m)
-        r = two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, opt.seed + k, cache, focal_px=0.5 * (focal[i] + focal[j]), noise_scales=ns)
         graph.add_result(i, j, r, m)
         stats.append((i, j, len(m), int(r.num_inliers), r.status))
     times["two_view"] = time.perf_counter() - t0
