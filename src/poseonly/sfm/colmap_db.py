@@ -86,14 +86,14 @@ def database_view_graph(
         ns = match_noise_scales(feats[i], feats[j], m)
         return two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, opt.seed + k, cache, focal_px=0.5 * (focal[i] + focal[j]), noise_scales=ns)
 
-    for (i, j, m), r in zip(pairs, wrap(map_ordered(pair_job, enumerate(pairs), jobs), desc="pairs", total=len(pairs))):
-        putative[(i, j)] = m
+    for (i, j, pm), r in zip(pairs, wrap(map_ordered(pair_job, enumerate(pairs), jobs), desc="pairs", total=len(pairs))):
+        putative[(i, j)] = pm
         if r is None:
-            graph.rejected.append((i, j, f"{len(m)} putative matches"))
-            stats.append((i, j, len(m), 0, "few_matches"))
+            graph.rejected.append((i, j, f"{len(pm)} putative matches"))
+            stats.append((i, j, len(pm), 0, "few_matches"))
             continue
-        graph.add_result(i, j, r, m)
-        stats.append((i, j, len(m), int(r.num_inliers), r.status))
+        graph.add_result(i, j, r, pm)
+        stats.append((i, j, len(pm), int(r.num_inliers), r.status))
     times["two_view"] = time.perf_counter() - t0
     ig = ImageGraph(feats, np.array(Ks), graph, stats, times, putative, normalized)
     return ig, [im.name for im in images]
