@@ -72,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pairs", type=int, default=1000, help="number of pairs")
     ap.add_argument("--points", type=int, default=200, help="matches per pair")
     ap.add_argument("--jobs", type=int, default=2, help="processes of the pool and workers of the Dask cluster")
-    ap.add_argument("--repeats", type=int, default=3, help="alternating serial / pooled runs; medians are reported (default 3)")
+    ap.add_argument("--repeats", type=int, default=3, help="rounds of the serial, process-pool and thread-pool runs (their order rotates); medians are reported (default 3)")
     ap.add_argument("--out", default=None, help="output folder (default: a new ./batch_throughput_<time>)")
     a = ap.parse_args(argv)
     pairs = make_pairs(a.pairs, a.points)

@@ -123,3 +123,33 @@ def test_map_ordered_keeps_order_and_checks_jobs():
     for bad in (0, -2, 1.5, True):
         with pytest.raises(InputError, match="jobs"):
             list(map_ordered(slow_first, range(3), jobs=bad))
+    # None is an item like any other
+    items = [1, 2, 3, 4, None, 6, 7]
+    assert list(map_ordered(lambda x: x, items, jobs=2)) == items == list(map_ordered(lambda x: x, items, jobs=1))
+
+
+def test_map_ordered_raises_at_the_failing_item_and_cancels_the_queue():
+    import threading
+
+    from poseonly.sfm.pairwise import map_ordered
+
+    ran = []
+    lock = threading.Lock()
+
+    def fn(x):
+        with lock:
+            ran.append(x)
+        if x == 1:
+            raise RuntimeError("item 1")
+        return x
+
+    gen = map_ordered(fn, range(1000), jobs=2)
+    assert next(gen) == 0
+    with pytest.raises(RuntimeError, match="item 1"):
+        next(gen)
+    assert len(ran) < 20  # the window (2 x jobs) and a few refills, not the 1000 items
+    ran.clear()
+    gen = map_ordered(fn, range(2, 1000), jobs=2)
+    assert next(gen) == 2
+    gen.close()  # the caller stops early: the queued items are cancelled
+    assert len(ran) < 20

@@ -4,6 +4,7 @@
 #include "register.h"
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace poseonly {
@@ -13,6 +14,7 @@ static nb::tuple undistort_brown_py(const VectorIn& xd, const VectorIn& yd, cons
   if (yd.shape(0) != n) throw std::invalid_argument("xd and yd must have the same length");
   if (k.shape(0) != 8) throw std::invalid_argument("k must hold (k1, k2, p1, p2, k3, k4, k5, k6)");
   if (max_iter < 1) throw std::invalid_argument("max_iter must be >= 1");
+  if (n > static_cast<size_t>(std::numeric_limits<int>::max())) throw std::invalid_argument("too many points");
   std::vector<double> u(n), v(n);
   std::vector<uint8_t> ok(n);
   {
@@ -26,6 +28,7 @@ static nb::tuple undistort_fisheye_py(const VectorIn& rd, const VectorIn& k, dou
   const size_t n = rd.shape(0);
   if (k.shape(0) != 4) throw std::invalid_argument("k must hold (k1, k2, k3, k4)");
   if (max_iter < 1) throw std::invalid_argument("max_iter must be >= 1");
+  if (n > static_cast<size_t>(std::numeric_limits<int>::max())) throw std::invalid_argument("too many points");
   std::vector<double> theta(n);
   std::vector<uint8_t> ok(n);
   {

@@ -7,6 +7,23 @@ namespace poseonly {
 
 namespace {
 
+// The radial factor and the Jacobian's determinant of the distortion at (u, v) (the fold checks).
+inline void fold_terms(double u, double v, const double k[8], double* rad, double* det) {
+  const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3], k3 = k[4], k4 = k[5], k5 = k[6], k6 = k[7];
+  const double r2 = u * u + v * v;
+  const double num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+  const double den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
+  const double dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2);
+  const double dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2);
+  *rad = num / den;
+  const double drad = (dnum * den - num * dden) / (den * den);
+  const double j11 = *rad + 2.0 * u * u * drad + 2.0 * p1 * v + 6.0 * p2 * u;
+  const double j12 = 2.0 * u * v * drad + 2.0 * p1 * u + 2.0 * p2 * v;
+  const double j21 = 2.0 * u * v * drad + 2.0 * p2 * v + 2.0 * p1 * u;
+  const double j22 = *rad + 2.0 * v * v * drad + 2.0 * p2 * u + 6.0 * p1 * v;
+  *det = j11 * j22 - j12 * j21;
+}
+
 inline void distort_brown(double u, double v, const double k[8], double* xd, double* yd) {
   const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3], k3 = k[4], k4 = k[5], k5 = k[6], k6 = k[7];
   const double r2 = u * u + v * v;
@@ -25,7 +42,7 @@ void undistort_brown(const double* xd, const double* yd, int n, const double k[8
   const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3], k3 = k[4], k4 = k[5], k5 = k[6], k6 = k[7];
   for (int i = 0; i < n; ++i) {
     const double x = xd[i], y = yd[i];
-    double u = x, v = y, rad = 0.0, det = 0.0;
+    double u = x, v = y;
     bool done = false;
     for (int it = 0; it < max_iter && !done; ++it) {
       const double r2 = u * u + v * v;
@@ -33,7 +50,7 @@ void undistort_brown(const double* xd, const double* yd, int n, const double k[8
       const double den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
       const double dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2);
       const double dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2);
-      rad = num / den;
+      const double rad = num / den;
       const double drad = (dnum * den - num * dden) / (den * den);
       const double uv = u * v;
       const double fu = u * rad + 2.0 * p1 * uv + p2 * (r2 + 2.0 * u * u) - x;
@@ -42,13 +59,17 @@ void undistort_brown(const double* xd, const double* yd, int n, const double k[8
       const double j12 = 2.0 * u * v * drad + 2.0 * p1 * u + 2.0 * p2 * v;
       const double j21 = 2.0 * u * v * drad + 2.0 * p2 * v + 2.0 * p1 * u;
       const double j22 = rad + 2.0 * v * v * drad + 2.0 * p2 * u + 6.0 * p1 * v;
-      det = j11 * j22 - j12 * j21;
+      const double det = j11 * j22 - j12 * j21;
       const double du = (j22 * fu - j12 * fv) / det;
       const double dv = (j11 * fv - j21 * fu) / det;
       u = u - du;
       v = v - dv;
       done = std::hypot(du, dv) <= tol * std::max(1.0, std::hypot(u, v));
     }
+    // the root is the physical one only where the map is locally invertible and preserves orientation
+    // (det J > 0) and the radial factor does not flip the point through the centre, both at the root
+    double rad, det;
+    fold_terms(u, v, k, &rad, &det);
     bool good = done && std::isfinite(u) && std::isfinite(v) && rad > 0.0 && det > 0.0;
     double ru, rv;
     distort_brown(u, v, k, &ru, &rv);

@@ -10,7 +10,8 @@ namespace poseonly {
 
 // Brown-Conrady (COLMAP's SIMPLE_RADIAL ... FULL_OPENCV): k = (k1, k2, p1, p2, k3, k4, k5, k6). For each
 // of the n points (xd, yd): the undistorted (u, v) and ok = converged, finite, locally invertible with
-// preserved orientation (det J > 0, radial factor > 0) and reproducing (xd, yd) to 1e-9 (relative).
+// preserved orientation at the root (det J > 0, radial factor > 0) and reproducing (xd, yd) to 1e-9
+// (relative). n must fit an int (the binding checks).
 void undistort_brown(const double* xd, const double* yd, int n, const double k[8], double tol, int max_iter, double* u, double* v,
                      uint8_t* ok);
 

@@ -45,6 +45,7 @@ whose error is within ``threshold_px`` (it is loose for low-parallax points).
 from __future__ import annotations
 
 import contextlib
+import os
 import threading
 import time
 from collections.abc import Iterator
@@ -83,6 +84,18 @@ RANK_RTOL = 1e-9
 
 _BLAS_LOCK = threading.Lock()
 _BLAS_STATE: dict[str, Any] = {"controller": None, "limiter": None, "users": 0}
+
+
+def _reset_blas_state_in_child() -> None:
+    """A child forked while estimates ran in other threads starts with none running (its copy of the
+    count would otherwise never return to 0, and its estimates would never set the limit)."""
+    _BLAS_STATE.update(limiter=None, users=0)
+    global _BLAS_LOCK
+    _BLAS_LOCK = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_reset_blas_state_in_child)
 
 
 @contextlib.contextmanager

@@ -175,8 +175,8 @@ def estimate_relative_poses(
 
     ``pairs``: an iterable of :class:`Pair` or dicts with its fields (``x1, x2`` ``(n, 2)`` or
     ``(n, 3)``, ``camera1/camera2`` or ``K1/K2``, ``key``, ``options``). ``n_jobs``: local workers
-    (1 = in this process, -1 = all cores), ``backend`` ``"processes"`` or ``"threads"`` (the same
-    results either way); ``client``: a ``dask.distributed.Client`` or a scheduler
+    (1 = in this process, -1 = all cores), ``backend`` ``"processes"`` or ``"threads"`` for
+    ``n_jobs > 1`` (the same results either way; not used with ``n_jobs = 1`` or a ``client``); ``client``: a ``dask.distributed.Client`` or a scheduler
     address (then ``n_jobs`` is ignored). ``options``: those of
     :func:`poseonly.estimate_relative_pose` (``method``, ``threshold_px``, ...); ``seed`` is the base
     seed of :func:`pair_seed`. ``progress``: a tqdm bar (if tqdm is installed)."""

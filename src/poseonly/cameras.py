@@ -3,7 +3,7 @@
 A :class:`Camera` holds a COLMAP camera model (the same names, parameter orders and distortion
 equations as COLMAP's ``src/colmap/sensor/models.h``) and lifts pixels ``(n, 2)`` to unit bearings
 ``(n, 3)`` (:meth:`Camera.unproject`) or projects camera-frame points ``(n, 3)`` to pixels
-(:meth:`Camera.project`). Supported natively, vectorised in numpy:
+(:meth:`Camera.project`). Supported natively (projection in numpy, undistortion in the compiled core):
 
 ========================  ==========================================================
 ``SIMPLE_PINHOLE``        ``f, cx, cy``
@@ -15,10 +15,12 @@ equations as COLMAP's ``src/colmap/sensor/models.h``) and lifts pixels ``(n, 2)`
 ``FULL_OPENCV``           ``fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6``
 ========================  ==========================================================
 
-Undistortion is Newton's method with the analytic Jacobian (2-D for the Brown-Conrady models,
-1-D in ``theta`` for the fisheye), started at the distorted point, stopped when every point's step
-is below :data:`NEWTON_TOL` (relative). Points where it does not converge (outside the region
-where the distortion is invertible) raise :class:`ValueError` naming how many and the first index.
+Undistortion is Newton's method per point with the analytic Jacobian (2-D for the Brown-Conrady
+models, 1-D in ``theta`` for the fisheye), started at the distorted point and stopped when its step is
+below :data:`NEWTON_TOL` (relative), in the core with the GIL released (``src/core/cameras.cpp``; the
+numpy version it replaced, the same roots bit for bit, is ``tests/reference/cameras.py``). Points
+where it does not converge to the physical root (outside the region where the distortion is
+invertible) raise :class:`ValueError` naming how many and the first index.
 
 Pixel convention: COLMAP's (the centre of the top-left pixel is ``(0.5, 0.5)``); the principal
 point is wherever the parameters put it, so any consistent convention works.

@@ -1,6 +1,7 @@
 """numpy reference of the undistortion (``poseonly.cameras.Camera.unproject``) as it was before the
-core's ``undistort_brown`` / ``undistort_fisheye``: Newton's method vectorised over the points. The
-core must give the same roots (tests/test_cameras.py)."""
+core's ``undistort_brown`` / ``undistort_fisheye``: Newton's method vectorised over the points, with
+the fold checks (radial factor and Jacobian determinant) evaluated at the root, as the core does. The
+core must give the same roots and verdicts (tests/test_cameras.py)."""
 
 from __future__ import annotations
 
@@ -17,6 +18,23 @@ def distort_brown(u, v, k):
     rad = num / den
     uv = u * v
     return u * rad + 2.0 * p1 * uv + p2 * (r2 + 2.0 * u * u), v * rad + 2.0 * p2 * uv + p1 * (r2 + 2.0 * v * v)
+
+
+def fold_terms(u, v, k):
+    """The radial factor and the Jacobian's determinant of the distortion at ``(u, v)``."""
+    k1, k2, p1, p2, k3, k4, k5, k6 = k
+    r2 = u * u + v * v
+    num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+    dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
+    dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
+    rad = num / den
+    drad = (dnum * den - num * dden) / (den * den)
+    j11 = rad + 2.0 * u * u * drad + 2.0 * p1 * v + 6.0 * p2 * u
+    j12 = 2.0 * u * v * drad + 2.0 * p1 * u + 2.0 * p2 * v
+    j21 = 2.0 * u * v * drad + 2.0 * p2 * v + 2.0 * p1 * u
+    j22 = rad + 2.0 * v * v * drad + 2.0 * p2 * u + 6.0 * p1 * v
+    return rad, j11 * j22 - j12 * j21
 
 
 def undistort_brown(xd, yd, k):
@@ -51,6 +69,7 @@ def undistort_brown(xd, yd, k):
         if done.all():
             break
     ok = done & np.isfinite(u) & np.isfinite(v)
+    rad, det = fold_terms(u, v, k)  # at the root (the loop's last values are at the last step's start)
     ok &= (rad > 0) & (det > 0)
     ru, rv = distort_brown(u, v, k)
     ok &= np.hypot(ru - xd, rv - yd) <= 1e-9 * np.maximum(1.0, np.hypot(xd, yd))

@@ -186,7 +186,13 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--text", action="store_true", help="write the COLMAP model as text")
     s.add_argument("--no-progress", action="store_true", help="no progress bars")
     s.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
-    s.add_argument("--jobs", type=int, default=-1, help="threads for the features, matching and two-view stages (default -1: one per core; the same result for any number)")
+    s.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        help="threads for the features, matching and two-view stages (-1: one per core; the same result for any number). Default 1: "
+        "OpenCV's SIFT and matching already use every core, and each concurrent SIFT holds its own image pyramid in memory",
+    )
     s.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
     s.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
     s.add_argument(

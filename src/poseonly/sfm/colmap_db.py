@@ -86,7 +86,7 @@ def database_view_graph(
         ns = match_noise_scales(feats[i], feats[j], m)
         return two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, opt.seed + k, cache, focal_px=0.5 * (focal[i] + focal[j]), noise_scales=ns)
 
-    for (i, j, pm), r in zip(pairs, wrap(map_ordered(pair_job, enumerate(pairs), jobs), desc="pairs", total=len(pairs))):
+    for (i, j, pm), r in zip(pairs, wrap(map_ordered(pair_job, enumerate(pairs), jobs), desc="pairs", total=len(pairs)), strict=True):
         putative[(i, j)] = pm
         if r is None:
             graph.rejected.append((i, j, f"{len(pm)} putative matches"))

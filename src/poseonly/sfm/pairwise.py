@@ -230,12 +230,17 @@ def two_view(
     return out
 
 
+_END = object()  # map_ordered's end-of-input marker (an item may be None)
+
+
 def map_ordered(fn: Callable[[Any], Any], items: Iterable[Any], jobs: int = 1) -> Iterator[Any]:
     """``fn`` over ``items``, results in the items' order: in this thread (``jobs = 1``) or on a pool of
-    ``jobs`` threads (``-1``: one per core) with at most ``2 jobs`` items in flight."""
+    ``jobs`` threads (``-1``: one per core available to this process) with at most ``2 jobs`` items in
+    flight. An exception of ``fn`` is raised at its item; then, or when the caller stops early, the
+    queued items are cancelled (only the running ones finish)."""
     if not isinstance(jobs, (int, np.integer)) or isinstance(jobs, bool) or jobs == 0 or jobs < -1:
         raise InputError(f"jobs must be a positive int or -1 (all cores), got {jobs!r}")
-    n = (os.cpu_count() or 1) if jobs == -1 else int(jobs)
+    n = _available_cores() if jobs == -1 else int(jobs)
     if n == 1:
         yield from map(fn, items)
         return
@@ -243,13 +248,24 @@ def map_ordered(fn: Callable[[Any], Any], items: Iterable[Any], jobs: int = 1) -
     from concurrent.futures import ThreadPoolExecutor
 
     it = iter(items)
-    with ThreadPoolExecutor(max_workers=n, thread_name_prefix="poseonly-sfm") as ex:
+    ex = ThreadPoolExecutor(max_workers=n, thread_name_prefix="poseonly-sfm")
+    try:
         window = deque(ex.submit(fn, x) for _, x in zip(range(2 * n), it))
         while window:
             yield window.popleft().result()
-            nxt = next(it, None)
-            if nxt is not None:
+            nxt = next(it, _END)
+            if nxt is not _END:
                 window.append(ex.submit(fn, nxt))
+    finally:
+        ex.shutdown(wait=True, cancel_futures=True)
+
+
+def _available_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the platform has one)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return os.cpu_count() or 1
 
 
 def image_view_graph(
@@ -265,8 +281,8 @@ def image_view_graph(
     """Features of ``images``, matches and two-view poses of ``pairs`` (default: all ``i < j``),
     as an :class:`ImageGraph`. ``K`` is ``(3, 3)`` shared or ``(N, 3, 3)`` per image; ``progress``
     wraps an iterable (e.g. tqdm); ``jobs`` threads (:func:`map_ordered`; the same graph for any
-    number). ``times_s`` holds the summed per-item times of each stage (with threads, more than the
-    wall time)."""
+    number). ``times_s``: ``features`` is the stage's wall time, ``matching`` and ``two_view`` the
+    summed per-pair times (with threads, more than their wall time)."""
     opt = options or PairwiseOptions()
     n = len(images)
     if n < 2:
@@ -301,7 +317,7 @@ def image_view_graph(
     stats: list[tuple[int, int, int, int, str]] = []
     tm = te = 0.0
     done = map_ordered(pair_job, enumerate(plist), jobs)
-    for (i, j), (idx, r, dm, de) in zip(plist, wrap(done, desc="pairs", total=len(plist))):
+    for (i, j), (idx, r, dm, de) in zip(plist, wrap(done, desc="pairs", total=len(plist)), strict=True):
         tm += dm
         te += de
         putative[(i, j)] = idx
