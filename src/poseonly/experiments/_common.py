@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import platform
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 
@@ -44,6 +46,23 @@ def strict_json(o: Any) -> Any:
     if isinstance(o, (float, np.floating)):
         return float(o) if np.isfinite(o) else None
     return o
+
+
+def figure_writer(draw: Callable[[Any, Any], Any]) -> Callable[[Any, Path], None]:
+    """The figure function that :func:`finish_run` / :func:`write_outputs` call, from ``draw(plt, res)``
+    that makes the figure and returns it: pyplot on the Agg backend (no figure without matplotlib),
+    the figure saved atomically (:func:`savefig`) and closed."""
+
+    @functools.wraps(draw)
+    def write(res: Any, path: Path) -> None:
+        plt = pyplot()
+        if plt is None:  # pragma: no cover - matplotlib is an optional dependency
+            return
+        fig = draw(plt, res)
+        savefig(fig, path)
+        plt.close(fig)
+
+    return write
 
 
 def write_json(path: str | Path, data: Any) -> Path:

@@ -32,13 +32,13 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from .. import sim
 from ..geometry import normalize, rotation_error_deg
-from ._common import finish_run, fmt, markdown_table, progress, pyplot, stamp
+from ._common import figure_writer, finish_run, fmt, markdown_table, progress, stamp
 from .opengv_ransac import get_refiner, opengv_ransac_5pt
 
 OUTLIERS = tuple(round(0.1 * k, 1) for k in range(10))
@@ -233,11 +233,8 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _figure(res: dict, path: Path) -> None:
-    plt = pyplot()
-    if plt is None:  # pragma: no cover
-        return
-    from ._common import savefig
+@figure_writer
+def _figure(plt: Any, res: dict) -> Any:
 
     x = 100 * np.asarray(res["outliers"])
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), squeeze=False)
@@ -254,5 +251,4 @@ def _figure(res: dict, path: Path) -> None:
     axes[0, 0].legend(fontsize=7)
     fig.suptitle(f"Appendix B (n = {res['n']}, {res['noise_px']:g} px, {res['trials']} trials)")
     fig.tight_layout(rect=(0, 0, 1, 0.96))
-    savefig(fig, path)
-    plt.close(fig)
+    return fig

@@ -43,14 +43,13 @@ from __future__ import annotations
 import argparse
 import os
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..geometry import normalize, rotation_error_deg
 from ..sim import make_scene
-from ._common import finish_run, fmt, markdown_table, progress, pyplot, single_thread, stamp
+from ._common import figure_writer, finish_run, fmt, markdown_table, progress, single_thread, stamp
 
 OUTLIERS = (0.0, 0.2, 0.4, 0.5, 0.6, 0.7, 0.8)
 QUICK_OUTLIERS = (0.0, 0.5, 0.8)
@@ -331,11 +330,8 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _figure(res: dict, path: Path) -> None:
-    plt = pyplot()
-    if plt is None:  # pragma: no cover
-        return
-    from ._common import savefig
+@figure_writer
+def _figure(plt: Any, res: dict) -> Any:
 
     x = 100 * np.asarray(res["outliers"])
     panels = [
@@ -364,5 +360,4 @@ def _figure(res: dict, path: Path) -> None:
     axes[0, 0].legend(fontsize=7)
     fig.suptitle(f"Robust estimators (n = {res['n']}, {res['noise_px']:g} px, {res['trials']} trials; dashed: initial, solid: optimised)")
     fig.tight_layout(rect=(0, 0, 1, 0.96))
-    savefig(fig, path)
-    plt.close(fig)
+    return fig

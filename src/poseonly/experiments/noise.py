@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -36,7 +35,7 @@ from ..solvers.fivept import fivept_batch
 from ..solvers.lirp import lirp_batch
 from ..solvers.sevenpt import sevenpt_batch
 from ..solvers.sixpt import sixpt_philip_batch, sixpt_pizarro_batch
-from ._common import finish_run, fmt, markdown_table, progress, pyplot, stamp
+from ._common import figure_writer, finish_run, fmt, markdown_table, progress, stamp
 from .opengv_ransac import get_refiner
 
 KINDS = ("normal", "planar")
@@ -242,11 +241,8 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _figure(res: dict, path: Path) -> None:
-    plt = pyplot()
-    if plt is None:  # pragma: no cover
-        return
-    from ._common import savefig
+@figure_writer
+def _figure(plt: Any, res: dict) -> Any:
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 8), squeeze=False)
     lv = np.asarray(res["levels"])
@@ -270,5 +266,4 @@ def _figure(res: dict, path: Path) -> None:
             ax.legend(fontsize=7)
     fig.suptitle(f"Rotation error vs noise (n = {res['n']}, {res['trials']} trials; 0 px values in the table)")
     fig.tight_layout(rect=(0, 0, 1, 0.96))
-    savefig(fig, path)
-    plt.close(fig)
+    return fig

@@ -27,7 +27,6 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -36,7 +35,7 @@ from ..estimator import lirp_estimator
 from ..geometry import rotation_error_deg
 from ..robust.gnc import GNCOptions, gnc_irls_batch
 from ..sim import make_scene
-from ._common import finish_run, markdown_table, progress, pyplot, stamp
+from ._common import figure_writer, finish_run, markdown_table, progress, stamp
 from .opengv_ransac import opengv_ransac_5pt
 
 RESIDUALS = ("coplanar", "ba", "opengv", "ppo", "ligt")
@@ -183,11 +182,8 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _figure(res: dict, path: Path) -> None:
-    plt = pyplot()
-    if plt is None:  # pragma: no cover
-        return
-    from ._common import savefig
+@figure_writer
+def _figure(plt: Any, res: dict) -> Any:
 
     x = 100 * np.asarray(res["outliers"])
     fig, axes = plt.subplots(2, 2, figsize=(11, 8), squeeze=False)
@@ -212,5 +208,4 @@ def _figure(res: dict, path: Path) -> None:
             ax.legend(fontsize=7)
     fig.suptitle(f"GNC-IRLS residual selection (n = {res['n']}, {res['noise_px']:g} px, {res['trials']} trials; solid mean, dotted median)")
     fig.tight_layout(rect=(0, 0, 1, 0.96))
-    savefig(fig, path)
-    plt.close(fig)
+    return fig

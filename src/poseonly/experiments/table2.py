@@ -19,7 +19,7 @@ import numpy as np
 from ..geometry import rotation_error_deg
 from ..sim import make_scene
 from ..solvers.lirp import lirp_batch
-from ._common import markdown_table, progress, pyplot, write_outputs
+from ._common import figure_writer, markdown_table, progress, write_outputs
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -118,11 +118,8 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _figure(res: dict, path: Path) -> None:
-    plt = pyplot()
-    if plt is None:  # pragma: no cover
-        return
-    from ._common import savefig
+@figure_writer
+def _figure(plt: Any, res: dict) -> Any:
 
     ms = res["methods"]
     labels = [f"{r['scene']}\n{r['noise_px']} px" for r in res["rows"]]
@@ -137,5 +134,4 @@ def _figure(res: dict, path: Path) -> None:
         a.set_xticks(x + 0.4 - wdt / 2, labels)
         a.set_title(t)
     ax[0].legend(fontsize=8)
-    savefig(fig, path)
-    plt.close(fig)
+    return fig
