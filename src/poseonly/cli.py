@@ -5,7 +5,7 @@ poseonly relpose IMG1 IMG2 (--K K.txt | --K1 A --K2 B | --focal F [--pp CX CY]) 
 poseonly relpose --matches matches.npz [--K ...]
 poseonly experiment NAME [--trials N] [--quick] [--out DIR] [...]
 poseonly bench NAME [...]
-poseonly colmap verify DATABASE [--pairs FILE] [--overwrite] [--jobs N | --dask ADDRESS]
+poseonly colmap verify DATABASE [--pairs FILE] [--overwrite] [--jobs N [--threads] | --dask ADDRESS]
 poseonly bench real DIR... [--seeds K] [--methods ...] [--out DIR] [--cache DIR] [--max-pairs N]
 """
 

@@ -169,6 +169,7 @@ def verify_database(
     pairs_file: str | Path | None = None,
     overwrite: bool = False,
     n_jobs: int = 1,
+    backend: str = "processes",
     client: Any = None,
     chunk_size: int | None = None,
     write_every: int = WRITE_EVERY,
@@ -179,8 +180,9 @@ def verify_database(
     """Verify the matched pairs of the COLMAP database ``path`` and write their two-view geometries
     (module docstring). ``options``: those of :func:`poseonly.estimate_relative_pose`
     (``threshold_px``, ``method``, ``seed`` ...); ``noise_scales``: pass each match's
-    ``sqrt(s1 s2)`` of its keypoints' scales (when the database stores keypoint shapes). Returns a
-    :class:`VerifySummary`."""
+    ``sqrt(s1 s2)`` of its keypoints' scales (when the database stores keypoint shapes); ``n_jobs``,
+    ``backend`` (``"processes"`` or ``"threads"``) and ``client`` as :func:`poseonly.estimate_relative_poses`
+    takes them (the database is read and written in this thread only). Returns a :class:`VerifySummary`."""
     t0 = time.perf_counter()
     if not isinstance(write_every, int) or write_every < 1:
         raise InputError(f"write_every must be a positive int, got {write_every!r}")
@@ -211,7 +213,7 @@ def verify_database(
             buf.clear()
             src.direct.clear()
 
-        for pr in estimate_relative_poses(src, n_jobs=n_jobs, client=client, chunk_size=chunk_size, progress=progress, **options):
+        for pr in estimate_relative_poses(src, n_jobs=n_jobs, backend=backend, client=client, chunk_size=chunk_size, progress=progress, **options):
             buf.append(src.row(pr))
             if len(buf) + len(src.direct) >= write_every:
                 flush()
@@ -232,7 +234,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--threshold", type=float, default=None, help="inlier threshold in pixels (default: the method's, 1 px for the default method)")
     p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"estimation method (default {DEFAULT_METHOD})")
     p.add_argument("--seed", type=int, default=0, help="base seed; each pair's seed derives from it and the pair id")
-    p.add_argument("--jobs", type=int, default=1, help="local worker processes (-1: all cores; default 1)")
+    p.add_argument("--jobs", type=int, default=1, help="local workers (-1: all cores; default 1): processes, or threads with --threads")
+    p.add_argument("--threads", action="store_true", help="the local workers are threads (the core releases the GIL), not processes")
     p.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS instead of local processes")
     p.add_argument("--chunk", type=int, default=None, help="pairs per task (default 16 local, 256 on Dask)")
     p.add_argument("--write-every", type=int, default=WRITE_EVERY, help=f"pairs per database transaction (default {WRITE_EVERY})")
@@ -247,6 +250,7 @@ def run_cli(args: argparse.Namespace) -> int:
         pairs_file=args.pairs,
         overwrite=args.overwrite,
         n_jobs=args.jobs,
+        backend="threads" if args.threads else "processes",
         client=args.dask,
         chunk_size=args.chunk,
         write_every=args.write_every,
