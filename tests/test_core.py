@@ -73,6 +73,30 @@ def test_lirp_matches_reference_on_noisy_data():
         assert c["cand_valid"][0].sum() == r["cand_valid"][0].sum()
 
 
+def test_lirp_best_only_scoring_picks_the_same_candidate():
+    """``all_costs=False`` stops a candidate once it cannot win (an exact bail-out): the same best
+    candidate, pose and cost as scoring all 18, bit for bit; stopped candidates keep ``inf``."""
+    stopped = 0
+    for seed in range(40):
+        n = 6 + 7 * (seed % 9)
+        s = sim.make_scene(n, noise_px=[0.0, 0.5, 3.0][seed % 3], seed=seed, camera="wide" if seed % 2 else "pinhole", outlier_fraction=0.3 if seed % 4 == 0 else 0.0)
+        w = None if seed % 5 else np.random.default_rng(seed).uniform(0.0, 1.0, (1, n))
+        full = lirp_batch(s.f1[None], s.f2[None], w, all_costs=True)
+        fast = lirp_batch(s.f1[None], s.f2[None], w, all_costs=False)
+        b = int(full["best"][0])
+        assert int(fast["best"][0]) == b
+        assert np.array_equal(fast["R"], full["R"]) and np.array_equal(fast["t"], full["t"])
+        assert fast["cand_cost"][0, b] == full["cand_cost"][0, b]
+        assert np.array_equal(fast["cand_valid"], full["cand_valid"])
+        scored = np.isfinite(fast["cand_cost"][0])
+        # a scored candidate's cost is exact; a valid one that was stopped costs more than the best
+        np.testing.assert_array_equal(fast["cand_cost"][0, scored], full["cand_cost"][0, scored])
+        gone = full["cand_valid"][0] & ~scored
+        assert np.all(full["cand_cost"][0, gone] > full["cand_cost"][0, b])
+        stopped += int(gone.sum())
+    assert stopped > 100  # the bail-out does fire
+
+
 @pytest.mark.parametrize("weights", ["1e100", "mixed"])
 def test_lirp_extreme_weights(weights):
     """The numba SVD returned R = I (24 deg off) with status ok for 1e100 weights; the core rescales."""

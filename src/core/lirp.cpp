@@ -1,6 +1,7 @@
 // LiRP (Algorithm 1) and pose-only identification; see lirp.h and the paper's Section 5.
 #include "lirp.h"
 
+#include <algorithm>
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <Eigen/SVD>
@@ -220,6 +221,12 @@ void lirp_candidates(const Points& P, const double* w, LirpCandidates* out) {
   out->E[c++] = unit_or(q1, q3);
   out->E[c++] = unit_or(q2, q3);
   out->E[c++] = unit_or(q3, q3);
+  const Vec9& sv = out->singular_values;
+  for (int k = 0; k < kLirpCandidates; ++k) {
+    const Eigen::Map<const Vec9> e(out->E[k].data());
+    const double a1 = e.dot(q1) * sv(6), a2 = e.dot(q2) * sv(7), a3 = e.dot(q3) * sv(8);
+    out->algebraic[k] = a1 * a1 + a2 * a2 + a3 * a3;
+  }
 }
 
 Vec9 epipolar_singular_values(const Points& P) {
@@ -333,6 +340,7 @@ struct IdPoints {
   int n = 0;
   std::vector<double> buf;  // one allocation for the seven arrays
   double *x1, *y1, *z1, *x2, *y2, *z2, *w;
+  double ws = 0.0;  // the weights' sum, in point order
   IdPoints(const Points& P, const double* wts) : n(P.n), buf(7 * static_cast<size_t>(P.n)) {
     double* b = buf.data();
     x1 = b, y1 = b + n, z1 = b + 2 * n, x2 = b + 3 * n, y2 = b + 4 * n, z2 = b + 5 * n, w = b + 6 * n;
@@ -340,6 +348,7 @@ struct IdPoints {
       x1[i] = P.f1[3 * i], y1[i] = P.f1[3 * i + 1], z1[i] = P.f1[3 * i + 2];
       x2[i] = P.f2[3 * i], y2[i] = P.f2[3 * i + 1], z2[i] = P.f2[3 * i + 2];
       w[i] = wts ? (wts[i] > 0.0 ? wts[i] : 0.0) : 1.0;
+      ws += w[i];
     }
   }
   IdPoints(const IdPoints&) = delete;  // the pointers point into buf
@@ -380,7 +389,7 @@ void sign_terms(const Frames& fr, const IdPoints& S, int i0, int m, double* out)
 
 // The identification sums (loop 1), accumulated in point order.
 struct SignSums {
-  double m1[2] = {0.0, 0.0}, raw[2] = {0.0, 0.0}, m2[2] = {0.0, 0.0}, ws = 0.0;
+  double m1[2] = {0.0, 0.0}, raw[2] = {0.0, 0.0}, m2[2] = {0.0, 0.0};
 };
 
 SignSums sign_sums(const Frames& fr, const IdPoints& S) {
@@ -390,7 +399,6 @@ SignSums sign_sums(const Frames& fr, const IdPoints& S) {
     const int m = std::min(kIdBlock, S.n - i0);
     sign_terms(fr, S, i0, m, buf);
     for (int k = 0; k < m; ++k) {
-      T.ws += S.w[i0 + k];
       for (int r = 0; r < 2; ++r) {
         T.m1[r] += buf[(3 * r) * kIdBlock + k];
         T.raw[r] += buf[(3 * r + 1) * kIdBlock + k];
@@ -429,45 +437,67 @@ void ppo_terms(const Frames& fr, const IdPoints& S, double s, double sigma, int 
     const double beta = std::sqrt(std::max((1.0 - ab) * (1.0 + ab), 0.0));
     const double p = alpha * ab + beta * bt;
     const double rho = alpha * beta;
-    const double omc = h > 0.0 ? e_abs * e_abs / (rho * (rho + h)) : (rho - h) / rho;
+    // each 1 - cos is one division of selected operands (the same rounding as dividing in both
+    // branches and selecting the quotient, at half the divisions)
+    const double omc = (h > 0.0 ? e_abs * e_abs : rho - h) / (h > 0.0 ? rho * (rho + h) : rho);
     const double q2 = rho > 0.0 ? 2.0 * rho * rho * omc : 0.0;
     const double r = std::sqrt(p * p + q2);
-    const double omc2 = p > 0.0 ? q2 / (r * (r + p)) : (r - p) / r;
+    const double omc2 = (p > 0.0 ? q2 : r - p) / (p > 0.0 ? r * (r + p) : r);
     const double v = r > 0.0 ? std::sqrt(2.0 * omc2) : 1.0;  // eps = 0: normalize(eps) = 0, |0 - f2| = 1
     out[k] = wi > 0.0 ? wi * v : 0.0;
   }
 }
 
-double ppo_sum(const Frames& fr, const IdPoints& S, double s, double sigma) {
-  double c = 0.0, buf[kIdBlock];
-  for (int i0 = 0; i0 < S.n; i0 += kIdBlock) {
-    const int m = std::min(kIdBlock, S.n - i0);
+// Blocks of the PPO sum: small, so that a candidate that cannot win stops early (8 points: two
+// AVX2 vectors; the sum runs in point order whatever the block, so the result does not depend on it).
+constexpr int kPpoBlock = 8;
+
+// The weighted mean v_PPO, sum * norm; kInf as soon as a running mean exceeds `bound` (the terms are
+// non-negative and each is added in point order, so the running sum never decreases and the full
+// mean would exceed `bound` too: an exact bail-out, as the scorers' in ransac.h).
+double ppo_mean(const Frames& fr, const IdPoints& S, double s, double sigma, double norm, double bound) {
+  double c = 0.0, buf[kPpoBlock];
+  for (int i0 = 0; i0 < S.n; i0 += kPpoBlock) {
+    const int m = std::min(kPpoBlock, S.n - i0);
     ppo_terms(fr, S, s, sigma, i0, m, buf);
     for (int k = 0; k < m; ++k) c += buf[k];
+    if (c * norm > bound) return kInf;
   }
+  const double cost = c * norm;
+  return std::isfinite(cost) ? cost : kInf;
+}
+
+// A candidate after the pose-only depth conditions, before its cost: the frames and signs of its pose.
+struct Signed {
+  Frames fr;
+  double s = 1.0, sigma = 1.0, norm = 1.0;
+};
+
+Signed identify_signs(const Mat3& E, const IdPoints& S, Identified* out) {
+  Signed c;
+  c.fr = essential_frames(E);
+  // per point, with a = R f1: a.t = v3.f1 and b.t = u3.f2 for both rotations, a.b = bt at +- f2^T F f1;
+  // h = (a x b).(b x t) = ab bt - at, h' = (a x b).(a x t) = bt - at ab (Lagrange identity)
+  const SignSums T = sign_sums(c.fr, S);
+  c.norm = 1.0 / std::max(S.ws, kTiny);
+  // the twisted pair makes every depth product negative: keep the rotation with the larger M1
+  // (tie: the larger raw sum of h h')
+  const int pick = (T.m1[1] > T.m1[0] || (T.m1[1] == T.m1[0] && T.raw[1] > T.raw[0])) ? 1 : 0;
+  c.s = pick ? -1.0 : 1.0;
+  out->M1 = T.m1[pick] * c.norm;
+  const double M2 = T.m2[pick] * c.norm;
+  c.sigma = M2 < 0.0 ? -1.0 : 1.0;
+  out->pose.R = c.fr.u3 * c.fr.v3.transpose() + c.s * c.fr.F;
+  out->pose.t = c.sigma * c.fr.u3;
+  out->valid = out->M1 > 0.0 && std::abs(M2) > 0.0;
+  out->cost = kInf;
   return c;
 }
 
 void identify_points(const Mat3& E, const IdPoints& S, CostMode mode, Identified* out) {
-  const Frames fr = essential_frames(E);
-  // per point, with a = R f1: a.t = v3.f1 and b.t = u3.f2 for both rotations, a.b = bt at +- f2^T F f1;
-  // h = (a x b).(b x t) = ab bt - at, h' = (a x b).(a x t) = bt - at ab (Lagrange identity)
-  const SignSums T = sign_sums(fr, S);
-  const double norm = 1.0 / std::max(T.ws, kTiny);
-  // the twisted pair makes every depth product negative: keep the rotation with the larger M1
-  // (tie: the larger raw sum of h h')
-  const int pick = (T.m1[1] > T.m1[0] || (T.m1[1] == T.m1[0] && T.raw[1] > T.raw[0])) ? 1 : 0;
-  const double s = pick ? -1.0 : 1.0;
-  out->M1 = T.m1[pick] * norm;
-  const double M2 = T.m2[pick] * norm;
-  const double sigma = M2 < 0.0 ? -1.0 : 1.0;
-  out->pose.R = fr.u3 * fr.v3.transpose() + s * fr.F;
-  out->pose.t = sigma * fr.u3;
-  out->valid = out->M1 > 0.0 && std::abs(M2) > 0.0;
-  out->cost = kInf;
+  const Signed c = identify_signs(E, S, out);
   if (mode == CostMode::Never || (mode == CostMode::IfValid && !out->valid)) return;
-  const double cost = ppo_sum(fr, S, s, sigma) * norm;
-  out->cost = std::isfinite(cost) ? cost : kInf;
+  out->cost = ppo_mean(c.fr, S, c.s, c.sigma, c.norm, kInf);
 }
 
 }  // namespace
@@ -492,12 +522,36 @@ int rank_best(const std::array<Identified, kLirpCandidates>& id) {
 void lirp(const Points& P, const double* w, bool all_costs, LirpResult* out) {
   lirp_candidates(P, w, &out->cand);
   const IdPoints S(P, w);
-  bool any_valid_cost = false;
-  for (int k = 0; k < kLirpCandidates; ++k) {
-    identify_points(out->cand.E[k], S, all_costs ? CostMode::Always : CostMode::IfValid, &out->id[k]);
-    any_valid_cost |= out->id[k].valid && std::isfinite(out->id[k].cost);
+  if (all_costs) {
+    for (int k = 0; k < kLirpCandidates; ++k) identify_points(out->cand.E[k], S, CostMode::Always, &out->id[k]);
+    out->best = rank_best(out->id);
+    return;
   }
-  if (!all_costs && !any_valid_cost)  // no valid candidate: rank every candidate by its cost
+  // Best only. Every candidate's signs first; then the valid candidates' costs, the least algebraic
+  // error first (a good bound early), each stopped once its running mean exceeds the least cost so far
+  // (ppo_mean). A stopped candidate's full cost is larger than a computed one's, so rank_best (least
+  // cost, the first of equal costs) picks what it picks with every cost computed; stopped candidates
+  // keep cost kInf.
+  std::array<Signed, kLirpCandidates> sg;
+  std::array<int, kLirpCandidates> order;
+  for (int k = 0; k < kLirpCandidates; ++k) {
+    sg[k] = identify_signs(out->cand.E[k], S, &out->id[k]);
+    order[k] = k;
+  }
+  const auto key = [&](int k) { return std::isnan(out->cand.algebraic[k]) ? kInf : out->cand.algebraic[k]; };  // a strict weak order
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return key(a) < key(b); });
+  bool any_valid_cost = false;
+  double least = kInf;
+  for (int k : order) {
+    if (!out->id[k].valid) continue;
+    const Signed& c = sg[k];
+    out->id[k].cost = ppo_mean(c.fr, S, c.s, c.sigma, c.norm, least);
+    if (std::isfinite(out->id[k].cost)) {
+      any_valid_cost = true;
+      least = std::min(least, out->id[k].cost);
+    }
+  }
+  if (!any_valid_cost)  // no valid candidate: rank every candidate by its cost
     for (int k = 0; k < kLirpCandidates; ++k) out->id[k].cost = ppo_cost(out->id[k].pose, P, w);
   out->best = rank_best(out->id);
 }

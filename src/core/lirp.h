@@ -15,6 +15,9 @@ struct LirpCandidates {
   Vec9 singular_values = Vec9::Zero();  // of the weighted epipolar matrix A, descending
   double d_min = kInf;                  // Table 2 indicator: min |lambda_i - lambda_j| of C1
   double d_min_C2 = kInf;               // the same for C2
+  // |A vec(E_k)|^2 of each candidate (the weighted algebraic epipolar error, from its coordinates in
+  // the basis q1, q2, q3 and their singular values): the order in which lirp() scores them
+  std::array<double, kLirpCandidates> algebraic{};
 };
 
 // One candidate reduced to one pose by the pose-only depth conditions.
