@@ -135,3 +135,18 @@ def test_expected_rule_option_reaches_the_search_and_is_checked():
         estimate_relative_pose(sc.f1, sc.f2, focal_px=800.0, progressive_rule="uniform")
     with pytest.raises(ValueError):
         ransac_relpose(sc.f1, sc.f2, TAU, 0, scores=s, progressive_rule="uniform")
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_min_draws_bound_only_the_progressive_rule(seed):
+    sc = _scene(0.7, seed)
+    s = _informative_scores(sc, seed)
+    early, full = _search(sc, s, True), _search(sc, s, False)
+    floor = early.num_iterations + 500
+    held = _search(sc, s, True, progressive_min_draws=floor)
+    # the progressive rule waits for the floor, the classical rule still ends the search where it did
+    assert held.num_iterations == min(floor, full.num_iterations)
+    easy = _scene(0.0, seed)  # the classical rule alone stops an easy search long before the floor
+    assert _search(easy, _informative_scores(easy, seed), True, progressive_min_draws=10**5).num_iterations < 1000
+    with pytest.raises(ValueError, match="progressive_min_draws"):
+        _search(sc, s, True, progressive_min_draws=-1)

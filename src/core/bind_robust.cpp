@@ -111,7 +111,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
                          int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order,
                          int lo, double rival_distance, bool chiral, int min_hits, int challengers, double challenger_distance,
                          int lo_max_points, bool keypoint_once, bool progressive_stop, double floor_parallax,
-                         int min_iterations_parallax, bool progressive_expected) {
+                         int min_iterations_parallax, bool progressive_expected, int progressive_min_draws) {
   const Points P = points_of(f1, f2);
   if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
   if (min_hits < 1 || min_hits > 64) throw std::invalid_argument("min_hits must be in [1, 64]");
@@ -125,6 +125,8 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   ro.challenger_distance = challenger_distance;
   ro.progressive_stop = progressive_stop;
   ro.progressive_expected = progressive_expected;
+  if (progressive_min_draws < 0) throw std::invalid_argument("progressive_min_draws must be >= 0");
+  ro.progressive_min_draws = progressive_min_draws;
   if (!(floor_parallax >= 0.0 && floor_parallax <= 3.141592653589793)) throw std::invalid_argument("floor_parallax must be in [0, pi] radians");
   if (min_iterations_parallax < 0) throw std::invalid_argument("min_iterations_parallax must be >= 0");
   ro.floor_parallax = floor_parallax;
@@ -441,7 +443,7 @@ POSEONLY_BIND(robust) {
         nb::arg("order") = Order(), nb::arg("lo") = 0, nb::arg("rival_distance") = 0.0, nb::arg("chiral") = false, nb::arg("min_hits") = 1,
         nb::arg("challengers") = 0, nb::arg("challenger_distance") = 1.0, nb::arg("lo_max_points") = 0, nb::arg("keypoint_once") = false,
         nb::arg("progressive_stop") = false, nb::arg("floor_parallax") = 0.0, nb::arg("min_iterations_parallax") = 0,
-        nb::arg("progressive_expected") = false,
+        nb::arg("progressive_expected") = false, nb::arg("progressive_min_draws") = 0,
         "LO-RANSAC of minimal hypotheses (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
         "Sampson error against `threshold` (radians); scoring 0 msac, 1 multi-scale msac, 2 count; `order` "
         "(a permutation, best match first) switches to PROSAC; lo 0: LiRP GNC-IRLS, 1: Sampson LM; chiral: a match "
@@ -450,7 +452,7 @@ POSEONLY_BIND(robust) {
         "models of that many other basins (challenger_distance degrees apart) are locally optimised after the loop and replace the result "
         "if they beat it (num_challenger_lo, challenger_won in stats); lo_max_points > 0: each LO runs on an evenly strided subset of at most that many of its window's points; keypoint_once (with chiral): "
         "of the matches that share a keypoint (identical bearings) only the best correspondence scores and is an inlier (conflicts.h; "
-        "keypoint_groups in stats); progressive_stop (with order): also stop by PROSAC's rule (ransac.h progressive_needed), or with progressive_expected where the "
+        "keypoint_groups in stats); progressive_stop (with order): also stop by PROSAC's rule (ransac.h progressive_needed; not before progressive_min_draws draws), or with progressive_expected where the "
         "expected all-inlier draws of the sampler's schedule reach the confidence (ransac.h expected_needed); floor_parallax > 0 (radians): while the best model's "
         "inliers have a median parallax of at least that, the sample floor is min(min_iterations, min_iterations_parallax). Returns (R, t, stats).");
   m.def("search_cost", &search_cost, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"), nb::arg("scoring") = 1,

@@ -48,6 +48,10 @@ struct RansacOptions {
   // progressive_expected by the expected all-inlier draws of the sampler's schedule (expected_needed)
   bool progressive_stop = false;
   bool progressive_expected = false;
+  // the progressive rule may end the search only after this many draws (the classical rule is not
+  // affected): it trusts the order, and an order that puts one consistent region first can stop the
+  // search before the best basin's sample was drawn
+  int progressive_min_draws = 0;
   // > 0 (radians), with an estimator that measures parallax (parallax_cos): while the best model's
   // inliers have a median parallax of at least this, the floor is min(min_iterations,
   // min_iterations_parallax) instead of min_iterations. A weakly constrained pose (small parallax, a
@@ -581,7 +585,8 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
         needed = samples_needed(est.success_probability(std::max(static_cast<double>(inl.size()) / n, opt.min_inlier_ratio)), opt.confidence, opt.min_hits);
       if constexpr (HasProgressiveOrder<Sampler>::value) {
         if (opt.adaptive && opt.progressive_stop)
-          needed = std::min(needed, opt.progressive_expected ? expected_needed(est, sampler, inl, opt) : progressive_needed(est, sampler, inl, opt));
+          needed = std::min(needed, std::max(static_cast<double>(opt.progressive_min_draws),
+                                             opt.progressive_expected ? expected_needed(est, sampler, inl, opt) : progressive_needed(est, sampler, inl, opt)));
       }
       if constexpr (HasParallax<Est>::value) {
         if (opt.floor_parallax > 0.0)

@@ -213,6 +213,8 @@ METHODS: dict[str, MethodFn] = {
     # the keypoints' sizes as noise scales
     "poseonly": ours(use_scores=True, use_scales=True),
     "poseonly-noscale": ours(use_scores=True),
+    # the sampling order by neighbour consistency first (poseonly.robust.consistency), the ratio scores breaking ties
+    "poseonly-consistency": ours(use_scores=True, use_scales=True, consistency_k=10),
     "poseonly-noscores": ours(),
     "gnc-ransac": ours("gnc-ransac"),
     "poselib-1px": poselib(1.0),

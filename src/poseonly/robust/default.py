@@ -17,6 +17,7 @@ from ..analysis import REFINE_SOLVER, support
 from ..median import median
 from ..options import PoseonlyOptions
 from ..residuals import get_residual, v_sampson, v_sampson_chiral
+from .consistency import consistency_order_scores
 from .ransac import RansacResult, core_seed, ransac_relpose
 
 __all__ = ["keep_better", "local_optimization", "make_rng", "msac_chiral", "noise_threshold", "refine_ligt", "rival_support_ratio", "run_poseonly", "select_by_support"]
@@ -151,8 +152,9 @@ def rival_support_ratio(r: RansacResult, n: int, tau: float, scoring: str) -> fl
     return max(full - rc, 0.0) / max(full - r.score, 1e-300)
 
 
-def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scores: np.ndarray | None) -> RansacResult:
-    """The LO-RANSAC search of :func:`run_poseonly` at ``tau`` (radians)."""
+def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scores: np.ndarray | None, consistent: bool = False) -> RansacResult:
+    """The LO-RANSAC search of :func:`run_poseonly` at ``tau`` (radians); ``consistent``: ``scores`` is
+    the neighbour-consistency order (PROSAC's rule then waits for ``consistency_min_draws``)."""
     return ransac_relpose(
         f1,
         f2,
@@ -179,6 +181,7 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
         floor_parallax_deg=o.floor_parallax_deg,
         min_iterations_parallax=o.min_iterations_parallax,
         progressive_rule=o.progressive_rule,
+        progressive_min_draws=o.consistency_min_draws if consistent else 0,
     )
 
 
@@ -389,7 +392,10 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
        ``benchmarks/research_study.py``): better at 80 % outliers, worse at 0-50 %, neutral on real
        pairs (sigma ~0.15-0.35 px at 1 px triggers it on 6 of 424), hence off by default.
     """
-    r = _search(f1, f2, tau, o, scores)
+    # the sampling order: neighbour consistency first (consistency_k > 0, enough matches), then the caller's scores
+    consistent = 0 < o.consistency_k and len(f1) >= o.consistency_min_matches * o.consistency_k
+    order_scores = consistency_order_scores(f1, f2, scores, o.consistency_k) if consistent else scores
+    r = _search(f1, f2, tau, o, order_scores, consistent)
     num_hyp = r.num_iterations * MAX_ROOTS_PER_SAMPLE + r.num_lo + FINAL_CANDIDATES
     diag: dict[str, Any] = {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored, "num_hypotheses": num_hyp}
     if o.challengers:
@@ -430,7 +436,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                 # inliers and its pose sits in that part's basin. Search again at 3 sigma (at most the
                 # mixture's range, so outliers cannot widen it further), as if the user had set it.
                 tau2 = min(RESEARCH_SIGMAS * sig, T)
-                r2 = _search(f1, f2, tau2, o, scores)
+                r2 = _search(f1, f2, tau2, o, order_scores, consistent)
                 iterations += r2.num_iterations
                 diag["num_hypotheses"] += r2.num_iterations * MAX_ROOTS_PER_SAMPLE + r2.num_lo + FINAL_CANDIDATES
                 R2, t2 = select_by_support(r2.R, r2.t, f1, f2, tau2)

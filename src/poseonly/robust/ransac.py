@@ -108,6 +108,7 @@ def ransac_relpose(
     floor_parallax_deg: float = 0.0,
     min_iterations_parallax: int = 0,
     progressive_rule: str = "prosac",
+    progressive_min_draws: int = 0,
 ) -> RansacResult:
     """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
@@ -144,7 +145,8 @@ def ransac_relpose(
     (``src/core/ransac.h`` ``progressive_needed``); with ``progressive_rule="expected"`` instead when the
     expected number of all-inlier draws of the best model's inliers, summed over the sampler's actual
     schedule, reaches the classical rule's ``-ln(1 - confidence)`` (``expected_needed``: the classical
-    criterion for the draws PROSAC makes). ``floor_parallax_deg > 0``: while the best model's
+    criterion for the draws PROSAC makes); either rule ends the search only after
+    ``progressive_min_draws`` draws (the classical rule is not affected). ``floor_parallax_deg > 0``: while the best model's
     inliers have a median parallax (angle between ``R f1`` and ``f2``) of at least that, the sample
     floor is ``min(min_iterations, min_iterations_parallax)`` instead of ``min_iterations``.
     """
@@ -185,6 +187,7 @@ def ransac_relpose(
         float(np.radians(floor_parallax_deg)),
         int(min_iterations_parallax),
         progressive_rule == "expected",
+        int(progressive_min_draws),
     )
     v = get_residual("sampson")(R, t, f1, f2)
     return RansacResult(

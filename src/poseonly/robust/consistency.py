@@ -1,0 +1,60 @@
+"""Local neighbourhood consistency of matches: a data-driven sampling order for the default's search.
+
+A correct match lies in a region where the two views are related by a smooth motion, so its nearest
+neighbours among the matches in view 1 are largely its nearest neighbours in view 2 too; a wrong match
+pairs two unrelated places, and its two neighbourhoods share only what chance puts there (about
+``k^2 / n``). The count of shared neighbours (the neighbourhood-preservation cue of GMS, Bian et al.,
+CVPR 2017, and LPM, Ma et al., IJCV 2019; NAPSAC's locality assumption, Myatt et al., BMVC 2002) ranks
+matches as PROSAC wants: on the shared real pairs it separates the matches within 1 px of the
+ground-truth geometry from the others far better than SIFT's ratio test (ROC AUC 0.80-0.91 against
+0.73-0.79 per dataset; 0.80-0.81 against 0.65-0.69 on pairs made to have 8 % inliers;
+``python benchmarks/consistency_auc.py``). It only orders the samples: every match is still scored and
+the objective is unchanged.
+
+Neighbours are taken on the unit bearings (chord distance, monotone in the angle), so any camera model,
+fisheye beyond 90 degrees included, is handled alike.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+CONSISTENCY_K = 10  # neighbours per view (GMS / LPM use 4-10 cells or neighbours; more dilutes locality)
+
+
+def _neighbours(f: np.ndarray, k: int) -> np.ndarray:
+    """``(n, k)`` indices of each bearing's ``k`` nearest other bearings (ties broken by the tree,
+    deterministically; a duplicate bearing counts as a neighbour)."""
+    from scipy.spatial import cKDTree
+
+    n = len(f)
+    _, idx = cKDTree(f).query(f, k + 1)
+    idx = np.asarray(idx, dtype=np.int64).reshape(n, k + 1)
+    own = idx == np.arange(n)[:, None]
+    # drop each row's own index (where a duplicate came first, its own index may sit anywhere or be
+    # missing: then drop the last column instead)
+    missing = ~own.any(axis=1)
+    own[missing, k] = True
+    return idx[~own].reshape(n, k)
+
+
+def neighbour_consistency(f1: np.ndarray, f2: np.ndarray, k: int = CONSISTENCY_K) -> np.ndarray:
+    """``(n,)`` int: for each match of ``f1, f2 (n, 3)`` (unit bearings), how many of its ``k`` nearest
+    matches in view 1 are also among its ``k`` nearest in view 2 (``k`` is capped at ``n - 1``)."""
+    n = len(f1)
+    k = min(int(k), n - 1)
+    if k < 1:
+        return np.zeros(n, dtype=np.int64)
+    a = _neighbours(np.ascontiguousarray(f1, dtype=float), k)
+    b = _neighbours(np.ascontiguousarray(f2, dtype=float), k)
+    return (a[:, :, None] == b[:, None, :]).any(axis=2).sum(axis=1).astype(np.int64)
+
+
+def consistency_order_scores(f1: np.ndarray, f2: np.ndarray, scores: np.ndarray | None, k: int = CONSISTENCY_K) -> np.ndarray:
+    """``(n,)`` sampling scores (higher first): the neighbour consistency, ties broken by the caller's
+    ``scores`` (their rank, so any scale works) and then by input order."""
+    c = neighbour_consistency(f1, f2, k).astype(float)
+    if scores is None or len(c) == 0:
+        return c
+    rank = np.argsort(np.argsort(np.asarray(scores, dtype=float), kind="stable"), kind="stable")
+    return c + rank / len(c)

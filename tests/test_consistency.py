@@ -1,0 +1,80 @@
+"""Neighbour consistency (poseonly.robust.consistency): the sampling order of ``consistency_k > 0``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import poseonly
+from poseonly import sim
+from poseonly.geometry import rotation_error_deg
+from poseonly.robust.consistency import consistency_order_scores, neighbour_consistency
+
+
+def _plane_pair(n: int, outliers: float, seed: int):
+    """Matches of a textured plane (neighbourhoods preserved between the views) plus random re-pairings."""
+    s = sim.make_scene(n, kind="planar", camera="pinhole", noise_px=0.5, outlier_fraction=outliers, seed=seed)
+    return s.f1, s.f2, s.inliers
+
+
+def test_correct_matches_share_their_neighbours():
+    f1, f2, inl = _plane_pair(400, 0.5, 3)
+    c = neighbour_consistency(f1, f2, 10)
+    assert c.shape == (400,) and c.dtype == np.int64 and c.min() >= 0 and c.max() <= 10
+    assert c[inl].mean() > 3 * c[~inl].mean()
+
+
+def test_counts_match_a_brute_force_definition():
+    rng = np.random.default_rng(0)
+    f1 = rng.normal(size=(60, 3))
+    f2 = rng.normal(size=(60, 3))
+    f1 /= np.linalg.norm(f1, axis=1, keepdims=True)
+    f2 /= np.linalg.norm(f2, axis=1, keepdims=True)
+    k = 6
+
+    def knn(f):
+        d = np.linalg.norm(f[:, None] - f[None], axis=2)
+        np.fill_diagonal(d, np.inf)
+        return np.argsort(d, axis=1, kind="stable")[:, :k]
+
+    a, b = knn(f1), knn(f2)
+    want = np.array([len(set(a[i]) & set(b[i])) for i in range(60)])
+    np.testing.assert_array_equal(neighbour_consistency(f1, f2, k), want)
+
+
+def test_small_sets_duplicates_and_determinism():
+    assert neighbour_consistency(np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]]), 10).tolist() == [0]
+    f1, f2, _ = _plane_pair(50, 0.0, 1)
+    c = neighbour_consistency(f1, f2, 100)  # k capped at n - 1: every other match is a neighbour in both views
+    assert np.all(c == 49)
+    dup1, dup2 = np.repeat(f1, 2, axis=0), np.repeat(f2, 2, axis=0)  # every match twice (a keypoint matched twice)
+    d = neighbour_consistency(dup1, dup2, 5)
+    assert d.shape == (100,) and np.all(d >= 1)  # at least the twin is a neighbour in both views
+    np.testing.assert_array_equal(d, neighbour_consistency(dup1, dup2, 5))
+
+
+def test_order_scores_break_ties_by_the_callers_scores():
+    f1, f2, _ = _plane_pair(100, 0.3, 2)
+    c = neighbour_consistency(f1, f2, 10)
+    s = np.random.default_rng(1).uniform(-5, 50, 100)  # any scale
+    key = consistency_order_scores(f1, f2, s, 10)
+    assert np.array_equal(np.floor(key), c)
+    same = c == np.bincount(c).argmax()
+    idx = np.flatnonzero(same)
+    assert np.array_equal(np.argsort(-key[idx], kind="stable"), np.argsort(-s[idx], kind="stable"))
+    np.testing.assert_array_equal(consistency_order_scores(f1, f2, None, 10), c)
+
+
+def test_the_default_with_the_consistency_order():
+    s = sim.make_scene(300, camera="pinhole", noise_px=0.0, outlier_fraction=0.5, seed=4)
+    r = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, consistency_k=10, seed=0)
+    assert r.status == "ok" and rotation_error_deg(r.R, s.R) < 1e-6
+    r2 = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, consistency_k=10, seed=0)
+    assert np.array_equal(r.R, r2.R) and np.array_equal(r.inliers, r2.inliers)
+
+
+@pytest.mark.parametrize("bad", [-1, 65, 2.5, "10"])
+def test_bad_consistency_k_is_an_input_error(bad):
+    s = sim.make_scene(40, camera="pinhole", seed=0)
+    with pytest.raises(ValueError, match="consistency_k"):
+        poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, consistency_k=bad)
