@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 import poseonly
-from poseonly import sim
+from poseonly import _core, sim
 from poseonly.geometry import rotation_error_deg
 from poseonly.robust.consistency import consistency_order_scores, neighbour_consistency
+from reference import neighbours as ref_nb
 
 
 def _plane_pair(n: int, outliers: float, seed: int):
@@ -22,6 +23,25 @@ def test_correct_matches_share_their_neighbours():
     c = neighbour_consistency(f1, f2, 10)
     assert c.shape == (400,) and c.dtype == np.int64 and c.min() >= 0 and c.max() <= 10
     assert c[inl].mean() > 3 * c[~inl].mean()
+
+
+@pytest.mark.parametrize("kind", ["sphere", "cone", "duplicates", "ties"])
+def test_core_neighbours_match_the_reference(kind):
+    rng = np.random.default_rng(len(kind))
+    for _ in range(8):
+        n = int(rng.integers(2, 300))
+        k = int(rng.integers(1, min(n - 1, 24) + 1))
+        f = rng.normal(size=(n, 3))
+        if kind == "cone":
+            f[:, 2] = np.abs(f[:, 2]) + 6.0
+        elif kind == "duplicates":
+            f = np.repeat(f[: max(n // 3, 1)], 3, axis=0)[:n]
+        elif kind == "ties":
+            f = np.round(f, 1)
+        f = np.ascontiguousarray(f / np.linalg.norm(f, axis=1, keepdims=True))
+        np.testing.assert_array_equal(_core.nearest_neighbours(f, k), ref_nb.nearest_neighbours(f, k))
+    with pytest.raises(ValueError, match="k must be"):
+        _core.nearest_neighbours(f, len(f))
 
 
 def test_counts_match_a_brute_force_definition():

@@ -19,35 +19,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import _core
+
 CONSISTENCY_K = 10  # neighbours per view (GMS / LPM use 4-10 cells or neighbours; more dilutes locality)
-
-
-def _neighbours(f: np.ndarray, k: int) -> np.ndarray:
-    """``(n, k)`` indices of each bearing's ``k`` nearest other bearings (ties broken by the tree,
-    deterministically; a duplicate bearing counts as a neighbour)."""
-    from scipy.spatial import cKDTree
-
-    n = len(f)
-    _, idx = cKDTree(f).query(f, k + 1)
-    idx = np.asarray(idx, dtype=np.int64).reshape(n, k + 1)
-    own = idx == np.arange(n)[:, None]
-    # drop each row's own index (where a duplicate came first, its own index may sit anywhere or be
-    # missing: then drop the last column instead)
-    missing = ~own.any(axis=1)
-    own[missing, k] = True
-    return idx[~own].reshape(n, k)
 
 
 def neighbour_consistency(f1: np.ndarray, f2: np.ndarray, k: int = CONSISTENCY_K) -> np.ndarray:
     """``(n,)`` int: for each match of ``f1, f2 (n, 3)`` (unit bearings), how many of its ``k`` nearest
-    matches in view 1 are also among its ``k`` nearest in view 2 (``k`` is capped at ``n - 1``)."""
+    matches in view 1 (chord distance, ties by index; a duplicate bearing is a neighbour) are also among
+    its ``k`` nearest in view 2; ``k`` is capped at ``n - 1``. One core call (a grid search, exact;
+    numpy reference: tests/reference/neighbours.py)."""
     n = len(f1)
     k = min(int(k), n - 1)
     if k < 1:
         return np.zeros(n, dtype=np.int64)
-    a = _neighbours(np.ascontiguousarray(f1, dtype=float), k)
-    b = _neighbours(np.ascontiguousarray(f2, dtype=float), k)
-    return (a[:, :, None] == b[:, None, :]).any(axis=2).sum(axis=1).astype(np.int64)
+    return _core.neighbour_consistency(np.ascontiguousarray(f1, dtype=float), np.ascontiguousarray(f2, dtype=float), k)
 
 
 def consistency_order_scores(f1: np.ndarray, f2: np.ndarray, scores: np.ndarray | None, k: int = CONSISTENCY_K) -> np.ndarray:

@@ -1,0 +1,49 @@
+// Bindings of the neighbour search (poseonly.robust.consistency), GIL released.
+#include "arrays.h"
+#include "neighbours.h"
+#include "register.h"
+
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+namespace poseonly {
+
+static void check_k(size_t n, int k) {
+  if (n > static_cast<size_t>(std::numeric_limits<int32_t>::max())) throw std::invalid_argument("too many bearings");
+  if (k < 1 || static_cast<size_t>(k) >= n) throw std::invalid_argument("k must be in [1, n - 1]");
+}
+
+static NpInt nearest_neighbours_py(const BearingsIn& f, int k) {
+  const size_t n = f.shape(0);
+  if (f.shape(1) != 3) throw std::invalid_argument("bearings must have shape (n, 3)");
+  check_k(n, k);
+  std::vector<int32_t> idx(n * k);
+  {
+    nb::gil_scoped_release release;
+    nearest_neighbours(f.data(), static_cast<int>(n), k, idx.data());
+  }
+  return to_numpy_t<int64_t>(std::vector<int64_t>(idx.begin(), idx.end()), {n, static_cast<size_t>(k)});
+}
+
+static NpInt neighbour_consistency_py(const BearingsIn& f1, const BearingsIn& f2, int k) {
+  const Points P = points_of(f1, f2);
+  const size_t n = static_cast<size_t>(P.n);
+  check_k(n, k);
+  std::vector<int64_t> out(n);
+  {
+    nb::gil_scoped_release release;
+    neighbour_consistency(P.f1, P.f2, P.n, k, out.data());
+  }
+  return to_numpy_t<int64_t>(std::move(out), {n});
+}
+
+}  // namespace poseonly
+
+POSEONLY_BIND(neighbours) {
+  using namespace poseonly;
+  m.def("nearest_neighbours", &nearest_neighbours_py, nb::arg("f"), nb::arg("k"),
+        "(n, k) int64: each unit bearing's k nearest other bearings (chord distance, nearest first, ties by index); 1 <= k < n.");
+  m.def("neighbour_consistency", &neighbour_consistency_py, nb::arg("f1"), nb::arg("f2"), nb::arg("k"),
+        "(n,) int64: for each match, how many of its k nearest matches in view 1 are among its k nearest in view 2; 1 <= k < n.");
+}
