@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 SCRIPTS = sorted((Path(__file__).resolve().parents[1] / "benchmarks").glob("*.py"))
@@ -107,3 +108,28 @@ def test_pair_probe_counts_the_truth_and_the_poses():
     for r in rows[1:]:
         assert r["R_err"] < 1.0 and 0 < r["gt_within"] <= min(r["within"], truth["within"])
     assert all(r["status"] == "ok" for r in ours)
+
+
+def test_hard_pair_augmentation():
+    """benchmarks/hard_pair_time.py's augment: at least 500 matches, the truth's share at most the
+    target, every added match off the truth, the pair's own matches kept."""
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    try:
+        import hard_pair_time
+    finally:
+        sys.path.pop(0)
+    rng = np.random.default_rng(0)
+    n = 200
+    u1 = rng.uniform(0, 640, (n, 2))
+    u2 = u1 + np.where(np.arange(n)[:, None] < 60, 5.0, rng.uniform(-200, 200, (n, 2)))  # the first 60 on the "truth"
+
+    def sampson(a, b):  # a stand-in truth: a pure 5 px shift
+        return np.linalg.norm(b - a - 5.0, axis=1)
+
+    err = sampson(u1, u2)
+    on = err < 1.0
+    a1, a2, r, s = hard_pair_time.augment(u1, u2, rng.random(n), np.ones(n), on, err, 0.08, np.random.default_rng(1), sampson)
+    assert len(a1) == len(a2) == len(r) == len(s) >= max(hard_pair_time.MIN_MATCHES, int(np.ceil(60 / 0.08)))
+    assert np.count_nonzero(sampson(a1, a2) < 1.0) == 60
+    kept = {tuple(x) for x in np.hstack([a1, a2]).round(9)}
+    assert all(tuple(x) in kept for x in np.hstack([u1, u2]).round(9))
