@@ -1,4 +1,4 @@
-"""Neighbour consistency (poseonly.robust.consistency): the sampling order of ``consistency_k > 0``."""
+"""Neighbour consistency (poseonly.robust.consistency): the sampling order of ``consistency="always"`` or ``"fallback"``."""
 
 from __future__ import annotations
 
@@ -87,14 +87,32 @@ def test_order_scores_break_ties_by_the_callers_scores():
 
 def test_the_default_with_the_consistency_order():
     s = sim.make_scene(300, camera="pinhole", noise_px=0.0, outlier_fraction=0.5, seed=4)
-    r = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, consistency_k=10, seed=0)
+    r = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, consistency="always", seed=0)
     assert r.status == "ok" and rotation_error_deg(r.R, s.R) < 1e-6
-    r2 = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, consistency_k=10, seed=0)
+    r2 = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, consistency="always", seed=0)
     assert np.array_equal(r.R, r2.R) and np.array_equal(r.inliers, r2.inliers)
 
 
-@pytest.mark.parametrize("bad", [-1, 65, 2.5, "10"])
-def test_bad_consistency_k_is_an_input_error(bad):
+BAD_OPTIONS = [("consistency_k", 0), ("consistency_k", 65), ("consistency_k", 2.5), ("consistency", "sometimes"), ("consistency", True), ("consistency_after", 0)]
+
+
+@pytest.mark.parametrize(("name", "bad"), BAD_OPTIONS)
+def test_bad_consistency_options_are_input_errors(name, bad):
     s = sim.make_scene(40, camera="pinhole", seed=0)
-    with pytest.raises(ValueError, match="consistency_k"):
-        poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, consistency_k=bad)
+    with pytest.raises(ValueError, match=name):
+        poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, **{name: bad})
+
+
+def test_fallback_leaves_a_converged_search_alone_and_takes_over_a_long_one():
+    # 0 % outliers: the search ends long before consistency_after samples: the plain search, draw for draw
+    s = sim.make_scene(400, kind="planar", camera="pinhole", noise_px=0.5, seed=5)
+    a = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, seed=1)
+    b = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, seed=1, consistency="fallback")
+    assert np.array_equal(a.R, b.R) and np.array_equal(a.inliers, b.inliers) and a.num_iterations == b.num_iterations
+    assert "consistency" not in b.diagnostics
+    # 85 % outliers: the first 3000 samples do not converge, the consistency order continues the search,
+    # and the reported iterations hold both stages
+    h = sim.make_scene(600, camera="pinhole", noise_px=0.5, outlier_fraction=0.85, seed=6)
+    c = poseonly.estimate_relative_pose(h.u1, h.u2, h.K, h.K, seed=1, consistency="fallback", consistency_after=500)
+    assert c.diagnostics["consistency"] in ("fallback", "fallback-unused")
+    assert c.num_iterations > 500 and c.status == "ok" and rotation_error_deg(c.R, h.R) < 0.5

@@ -57,7 +57,7 @@ RansacStats run_sampled(Est& est, Scoring scoring, double thr, const std::vector
     UniformSampler s(est.num_data(), est.sample_size(), seed);
     return run_scored(est, scoring, thr, s, ro, best, rival, chiral, K);
   }
-  ProsacSampler s(order, est.sample_size(), ro.max_iterations, seed);
+  ProsacSampler s(order, est.sample_size(), ro.prosac_trials > 0 ? ro.prosac_trials : ro.max_iterations, seed);
   return run_scored(est, scoring, thr, s, ro, best, rival, chiral, K);
 }
 
@@ -103,6 +103,7 @@ nb::dict stats_dict(const RansacStats& st) {
   d["rival_cost"] = st.rival_cost;
   d["num_challenger_lo"] = st.num_challenger_lo;
   d["challenger_won"] = st.challenger_won;
+  d["needed"] = st.needed;
   return d;
 }
 
@@ -111,7 +112,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
                          int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order,
                          int lo, double rival_distance, bool chiral, int min_hits, int challengers, double challenger_distance,
                          int lo_max_points, bool keypoint_once, bool progressive_stop, double floor_parallax,
-                         int min_iterations_parallax, bool progressive_expected, int progressive_min_draws) {
+                         int min_iterations_parallax, bool progressive_expected, int progressive_min_draws, int prosac_trials) {
   const Points P = points_of(f1, f2);
   if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
   if (min_hits < 1 || min_hits > 64) throw std::invalid_argument("min_hits must be in [1, 64]");
@@ -127,6 +128,8 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   ro.progressive_expected = progressive_expected;
   if (progressive_min_draws < 0) throw std::invalid_argument("progressive_min_draws must be >= 0");
   ro.progressive_min_draws = progressive_min_draws;
+  if (prosac_trials < 0) throw std::invalid_argument("prosac_trials must be >= 0");
+  ro.prosac_trials = prosac_trials;
   if (!(floor_parallax >= 0.0 && floor_parallax <= 3.141592653589793)) throw std::invalid_argument("floor_parallax must be in [0, pi] radians");
   if (min_iterations_parallax < 0) throw std::invalid_argument("min_iterations_parallax must be >= 0");
   ro.floor_parallax = floor_parallax;
@@ -443,7 +446,7 @@ POSEONLY_BIND(robust) {
         nb::arg("order") = Order(), nb::arg("lo") = 0, nb::arg("rival_distance") = 0.0, nb::arg("chiral") = false, nb::arg("min_hits") = 1,
         nb::arg("challengers") = 0, nb::arg("challenger_distance") = 1.0, nb::arg("lo_max_points") = 0, nb::arg("keypoint_once") = false,
         nb::arg("progressive_stop") = false, nb::arg("floor_parallax") = 0.0, nb::arg("min_iterations_parallax") = 0,
-        nb::arg("progressive_expected") = false, nb::arg("progressive_min_draws") = 0,
+        nb::arg("progressive_expected") = false, nb::arg("progressive_min_draws") = 0, nb::arg("prosac_trials") = 0,
         "LO-RANSAC of minimal hypotheses (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
         "Sampson error against `threshold` (radians); scoring 0 msac, 1 multi-scale msac, 2 count; `order` "
         "(a permutation, best match first) switches to PROSAC; lo 0: LiRP GNC-IRLS, 1: Sampson LM; chiral: a match "

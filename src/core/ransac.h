@@ -52,6 +52,9 @@ struct RansacOptions {
   // affected): it trusts the order, and an order that puts one consistent region first can stop the
   // search before the best basin's sample was drawn
   int progressive_min_draws = 0;
+  // > 0: the PROSAC sampler's growth schedule is that of this many trials instead of max_iterations
+  // (a search split into stages keeps the schedule of the whole)
+  int prosac_trials = 0;
   // > 0 (radians), with an estimator that measures parallax (parallax_cos): while the best model's
   // inliers have a median parallax of at least this, the floor is min(min_iterations,
   // min_iterations_parallax) instead of min_iterations. A weakly constrained pose (small parallax, a
@@ -88,6 +91,9 @@ struct RansacStats {
   double rival_cost = std::numeric_limits<double>::infinity();  // inf: no rival tracked or found
   int num_challenger_lo = 0;  // LO steps run on challengers
   int challenger_won = 0;     // 1 when a challenger replaced the search's best model
+  // the draws the stopping rule asked for at the end of the loop (inf: no model; above max_iterations:
+  // the search stopped at its cap, not converged)
+  double needed = std::numeric_limits<double>::infinity();
 };
 
 // log P(Bin(k, p) < hits): the chance that k samples, each good with probability p, hold fewer
@@ -594,6 +600,7 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       }
     }
   }
+  st.needed = have ? needed : std::numeric_limits<double>::infinity();
   // the challengers, best first: each locally optimised until its exact cost stops improving or it
   // falls into the best model's basin; one that beats the best replaces it
   // (the search's stopping rule was met for the best model before this phase, not for a winner)

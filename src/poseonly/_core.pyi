@@ -53,6 +53,7 @@ def ransac_relpose(
     min_iterations_parallax: int = 0,
     progressive_expected: bool = False,
     progressive_min_draws: int = 0,
+    prosac_trials: int = 0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def search_cost(
     R: NDArray[np.float64],

@@ -205,27 +205,30 @@ class PoseonlyOptions(CommonOptions):
     min_iterations_parallax: int = _opt(100, "int", "the sample floor for a best model with parallax (see floor_parallax_deg)", lo=0)
     confidence: float = _opt(0.9999, "real", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
     min_hits: int = _opt(1, "int", "adaptive stopping waits for this many all-inlier samples at `confidence`", lo=1, hi=64)
-    consistency_k: int = _opt(
-        0,
-        "int",
-        "k > 0: PROSAC samples the matches in the order of their neighbour consistency (how many of their k nearest matches in"
-        " view 1 are among their k nearest in view 2; poseonly.robust.consistency), ties broken by `scores`; 0: the order of"
-        " `scores` alone, uniform sampling without them",
-        lo=0,
-        hi=64,
+    consistency: str = _opt(
+        "off",
+        "str",
+        "the sampling order by neighbour consistency (poseonly.robust.consistency: how many of a match's consistency_k nearest"
+        " matches in view 1 are among its nearest in view 2; the caller's scores break ties): 'always' (the search samples in"
+        " that order), 'fallback' (a search that has not converged after consistency_after samples in the order of `scores`"
+        " continues in the consistency order and keeps the better of the two models), 'off'; used with at least"
+        " consistency_min_matches * consistency_k matches (docs/RESULTS_real.md, 'Hard pairs')",
+        choices=("off", "fallback", "always"),
     )
+    consistency_k: int = _opt(10, "int", "neighbours per view of the consistency order", lo=1, hi=64)
+    consistency_after: int = _opt(3000, "int", "consistency='fallback': the samples of the first search", lo=1)
     consistency_min_draws: int = _opt(
         3000,
         "int",
-        "with the consistency order (consistency_k > 0): PROSAC's stopping rule may end the search only after this many samples"
-        " (the classical rule is not affected): the order puts consistent regions first, and the rule trusts the order",
+        "in the consistency order PROSAC's stopping rule may end the search only after this many samples (the classical rule"
+        " is not affected): the order puts consistent regions first, and the rule trusts the order",
         lo=0,
     )
     consistency_min_matches: int = _opt(
         20,
         "int",
-        "the consistency order is used only with at least this many matches per neighbour (n >= consistency_min_matches *"
-        " consistency_k): a neighbourhood must be a small part of the matches to be local",
+        "the consistency order needs at least this many matches per neighbour (n >= consistency_min_matches * consistency_k):"
+        " a neighbourhood must be a small part of the matches to be local",
         lo=1,
     )
     progressive_stop: bool = _opt(

@@ -214,7 +214,9 @@ METHODS: dict[str, MethodFn] = {
     "poseonly": ours(use_scores=True, use_scales=True),
     "poseonly-noscale": ours(use_scores=True),
     # the sampling order by neighbour consistency first (poseonly.robust.consistency), the ratio scores breaking ties
-    "poseonly-consistency": ours(use_scores=True, use_scales=True, consistency_k=10),
+    "poseonly-consistency": ours(use_scores=True, use_scales=True, consistency="always"),
+    # the consistency order only for a search that has not converged after 3000 samples
+    "poseonly-fallback": ours(use_scores=True, use_scales=True, consistency="fallback"),
     "poseonly-noscores": ours(),
     "gnc-ransac": ours("gnc-ransac"),
     "poselib-1px": poselib(1.0),

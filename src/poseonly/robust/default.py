@@ -8,6 +8,7 @@ Shapes: bearings ``f1, f2 (n, 3)`` (unit), poses ``R (3, 3)``, ``t (3,)``; ``tau
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -152,9 +153,10 @@ def rival_support_ratio(r: RansacResult, n: int, tau: float, scoring: str) -> fl
     return max(full - rc, 0.0) / max(full - r.score, 1e-300)
 
 
-def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scores: np.ndarray | None, consistent: bool = False) -> RansacResult:
-    """The LO-RANSAC search of :func:`run_poseonly` at ``tau`` (radians); ``consistent``: ``scores`` is
-    the neighbour-consistency order (PROSAC's rule then waits for ``consistency_min_draws``)."""
+def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scores: np.ndarray | None, consistent: bool = False, max_iterations: int | None = None) -> RansacResult:
+    """One LO-RANSAC search of :func:`run_poseonly` at ``tau`` (radians); ``consistent``: ``scores`` is
+    the neighbour-consistency order (PROSAC's rule then waits for ``consistency_min_draws``);
+    ``max_iterations``: a stage of the search (PROSAC keeps the schedule of ``o.max_iterations``)."""
     return ransac_relpose(
         f1,
         f2,
@@ -162,7 +164,7 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
         core_seed(o.seed),
         solver=o.solver,
         scoring=o.scoring,
-        max_iterations=o.max_iterations,
+        max_iterations=o.max_iterations if max_iterations is None else max_iterations,
         min_iterations=o.min_iterations,
         confidence=o.confidence,
         max_lo=o.max_lo,
@@ -182,7 +184,42 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
         min_iterations_parallax=o.min_iterations_parallax,
         progressive_rule=o.progressive_rule,
         progressive_min_draws=o.consistency_min_draws if consistent else 0,
+        prosac_trials=o.max_iterations,
     )
+
+
+def _combined(a: RansacResult, b: RansacResult) -> RansacResult:
+    """The better of two searches' results (the lower cost; ``a`` on ties) with both searches' counts."""
+    r = b if b.score < a.score else a
+    return dataclasses.replace(r, num_iterations=a.num_iterations + b.num_iterations, num_lo=a.num_lo + b.num_lo, num_scored=a.num_scored + b.num_scored)
+
+
+def search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scores: np.ndarray | None) -> tuple[RansacResult, dict[str, Any]]:
+    """The search of :func:`run_poseonly` in the sampling order ``o.consistency`` asks for: the
+    ``scores`` order (PROSAC; uniform without scores), the neighbour-consistency order
+    (``"always"``), or the ``scores`` order for ``consistency_after`` samples and, if that search has
+    not converged, a second search in the consistency order for the rest of the budget (at most the
+    draws the first search's stopping rule still asked for, at least ``consistency_min_draws``), the
+    better of the two kept (``"fallback"``: a search that ends within the first stage is the plain search's, draw
+    for draw). Returns the result (iterations, LO runs and scored models of both stages) and
+    diagnostics (``consistency``: the order that produced the result)."""
+    usable = o.consistency != "off" and len(f1) >= o.consistency_min_matches * o.consistency_k
+    if usable and o.consistency == "always":
+        return _search(f1, f2, tau, o, consistency_order_scores(f1, f2, scores, o.consistency_k), True), {"consistency": "always"}
+    if not (usable and o.consistency == "fallback" and o.consistency_after < o.max_iterations):
+        return _search(f1, f2, tau, o, scores), {}
+    first = _search(f1, f2, tau, o, scores, max_iterations=o.consistency_after)
+    if first.num_iterations < o.consistency_after:
+        return first, {}
+    # the second search's budget: the rest of max_iterations, but not past the draws the first search's
+    # stopping rule asked for (the plain search would have ended there unless it found a better model)
+    budget = o.max_iterations - o.consistency_after
+    needed = float(first.stats.get("needed", np.inf))
+    if np.isfinite(needed):
+        budget = min(budget, max(o.consistency_min_draws, int(np.ceil(needed)) - o.consistency_after))
+    second = _search(f1, f2, tau, o, consistency_order_scores(f1, f2, scores, o.consistency_k), True, budget)
+    r = _combined(first, second)
+    return r, {"consistency": "fallback" if r.score < first.score else "fallback-unused"}
 
 
 FULL_RANGE = 0.1  # radians: the outlier range of the full-range likelihood that compares EM fixed points
@@ -392,12 +429,9 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
        ``benchmarks/research_study.py``): better at 80 % outliers, worse at 0-50 %, neutral on real
        pairs (sigma ~0.15-0.35 px at 1 px triggers it on 6 of 424), hence off by default.
     """
-    # the sampling order: neighbour consistency first (consistency_k > 0, enough matches), then the caller's scores
-    consistent = 0 < o.consistency_k and len(f1) >= o.consistency_min_matches * o.consistency_k
-    order_scores = consistency_order_scores(f1, f2, scores, o.consistency_k) if consistent else scores
-    r = _search(f1, f2, tau, o, order_scores, consistent)
+    r, order_diag = search(f1, f2, tau, o, scores)
     num_hyp = r.num_iterations * MAX_ROOTS_PER_SAMPLE + r.num_lo + FINAL_CANDIDATES
-    diag: dict[str, Any] = {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored, "num_hypotheses": num_hyp}
+    diag: dict[str, Any] = {"num_lo": r.num_lo, "ransac_score": r.score, "num_scored": r.num_scored, "num_hypotheses": num_hyp, **order_diag}
     if o.challengers:
         diag.update(num_challenger_lo=int(r.stats["num_challenger_lo"]), challenger_won=bool(r.stats["challenger_won"]))
         diag["num_hypotheses"] += int(r.stats["num_challenger_lo"])
@@ -436,7 +470,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                 # inliers and its pose sits in that part's basin. Search again at 3 sigma (at most the
                 # mixture's range, so outliers cannot widen it further), as if the user had set it.
                 tau2 = min(RESEARCH_SIGMAS * sig, T)
-                r2 = _search(f1, f2, tau2, o, order_scores, consistent)
+                r2, _ = search(f1, f2, tau2, o, scores)
                 iterations += r2.num_iterations
                 diag["num_hypotheses"] += r2.num_iterations * MAX_ROOTS_PER_SAMPLE + r2.num_lo + FINAL_CANDIDATES
                 R2, t2 = select_by_support(r2.R, r2.t, f1, f2, tau2)

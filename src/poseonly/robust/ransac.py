@@ -109,6 +109,7 @@ def ransac_relpose(
     min_iterations_parallax: int = 0,
     progressive_rule: str = "prosac",
     progressive_min_draws: int = 0,
+    prosac_trials: int = 0,
 ) -> RansacResult:
     """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
@@ -146,7 +147,9 @@ def ransac_relpose(
     expected number of all-inlier draws of the best model's inliers, summed over the sampler's actual
     schedule, reaches the classical rule's ``-ln(1 - confidence)`` (``expected_needed``: the classical
     criterion for the draws PROSAC makes); either rule ends the search only after
-    ``progressive_min_draws`` draws (the classical rule is not affected). ``floor_parallax_deg > 0``: while the best model's
+    ``progressive_min_draws`` draws (the classical rule is not affected). ``prosac_trials > 0``: PROSAC's
+    growth schedule is that of this many trials instead of ``max_iterations`` (a search run in stages
+    draws as the whole would). ``floor_parallax_deg > 0``: while the best model's
     inliers have a median parallax (angle between ``R f1`` and ``f2``) of at least that, the sample
     floor is ``min(min_iterations, min_iterations_parallax)`` instead of ``min_iterations``.
     """
@@ -188,6 +191,7 @@ def ransac_relpose(
         int(min_iterations_parallax),
         progressive_rule == "expected",
         int(progressive_min_draws),
+        int(prosac_trials),
     )
     v = get_residual("sampson")(R, t, f1, f2)
     return RansacResult(
