@@ -188,7 +188,8 @@ class PoseonlyOptions(CommonOptions):
     best model has little parallax (a search that does not stop on the first plausible consensus of a
     weakly constrained pose) and 100 where it has 3 degrees or more, Sampson-LM local optimisation, four
     challengers (the best models of other basins optimised at the end of the search), the ML final
-    refinement on inliers cross-fitted over five folds."""
+    refinement on inliers cross-fitted over five folds; a search that has not converged after 3000
+    samples continues in the neighbour-consistency order (``consistency="fallback"``)."""
 
     threshold_px: float = _opt(1.0, "real", "inlier threshold in pixels", lo=0.0, lo_open=True)
     max_iterations: int = _opt(100000, "int", lo=1)
@@ -206,7 +207,7 @@ class PoseonlyOptions(CommonOptions):
     confidence: float = _opt(0.9999, "real", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
     min_hits: int = _opt(1, "int", "adaptive stopping waits for this many all-inlier samples at `confidence`", lo=1, hi=64)
     consistency: str = _opt(
-        "off",
+        "fallback",
         "str",
         "the sampling order by neighbour consistency (poseonly.robust.consistency: how many of a match's consistency_k nearest"
         " matches in view 1 are among its nearest in view 2; the caller's scores break ties): 'always' (the search samples in"

@@ -215,8 +215,8 @@ METHODS: dict[str, MethodFn] = {
     "poseonly-noscale": ours(use_scores=True),
     # the sampling order by neighbour consistency first (poseonly.robust.consistency), the ratio scores breaking ties
     "poseonly-consistency": ours(use_scores=True, use_scales=True, consistency="always"),
-    # the consistency order only for a search that has not converged after 3000 samples
-    "poseonly-fallback": ours(use_scores=True, use_scales=True, consistency="fallback"),
+    # the default before the consistency fallback (a search in the order of the ratio scores alone)
+    "poseonly-noconsistency": ours(use_scores=True, use_scales=True, consistency="off"),
     "poseonly-noscores": ours(),
     "gnc-ransac": ours("gnc-ransac"),
     "poselib-1px": poselib(1.0),

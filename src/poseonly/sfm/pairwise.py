@@ -42,8 +42,9 @@ MIN_PUTATIVE = 30
 # exact costs; 13: the pose-only choice keeps the search's pose against candidates within 1 deg, the
 # pure-rotation precision test; 14: a pure rotation's R refitted robustly; 15: the precision test's
 # rounding floor on noise-free data; 16-17: the ML collapse guard; 18: the cross-fitted inliers; 19: the
-# cross-fit as a veto; 20: PROSAC's stopping rule; 21: the sample floor by parallax)
-TWO_VIEW_CACHE_TAG = 21
+# cross-fit as a veto; 20: PROSAC's stopping rule; 21: the sample floor by parallax; 22: the
+# neighbour-consistency fallback of searches that have not converged after 3000 samples)
+TWO_VIEW_CACHE_TAG = 22
 
 
 @dataclass(frozen=True)
