@@ -25,7 +25,7 @@ def test_correct_matches_share_their_neighbours():
     assert c[inl].mean() > 3 * c[~inl].mean()
 
 
-@pytest.mark.parametrize("kind", ["sphere", "cone", "duplicates", "ties"])
+@pytest.mark.parametrize("kind", ["sphere", "cone", "duplicates", "ties", "collinear"])
 def test_core_neighbours_match_the_reference(kind):
     rng = np.random.default_rng(len(kind))
     for _ in range(8):
@@ -38,10 +38,17 @@ def test_core_neighbours_match_the_reference(kind):
             f = np.repeat(f[: max(n // 3, 1)], 3, axis=0)[:n]
         elif kind == "ties":
             f = np.round(f, 1)
+        elif kind == "collinear":  # a great circle: a one-cell-thin grid
+            a = rng.uniform(0.0, 2.0, n)
+            f = np.column_stack([np.cos(a), np.sin(a), 1e-9 * rng.normal(size=n)])
         f = np.ascontiguousarray(f / np.linalg.norm(f, axis=1, keepdims=True))
         np.testing.assert_array_equal(_core.nearest_neighbours(f, k), ref_nb.nearest_neighbours(f, k))
     with pytest.raises(ValueError, match="k must be"):
         _core.nearest_neighbours(f, len(f))
+    bad = f.copy()
+    bad[0, 0] = np.nan
+    with pytest.raises(ValueError, match="finite"):
+        _core.nearest_neighbours(bad, 1)
 
 
 def test_counts_match_a_brute_force_definition():
@@ -73,6 +80,12 @@ def test_small_sets_duplicates_and_determinism():
     np.testing.assert_array_equal(d, neighbour_consistency(dup1, dup2, 5))
 
 
+def test_equal_scores_keep_the_input_order():
+    f1, f2, _ = _plane_pair(60, 0.0, 4)
+    k = consistency_order_scores(f1, f2, np.array([1.0, 1.0, 1.0] + [0.0] * 57), 59)  # every match shares every neighbour
+    assert np.argsort(-k, kind="stable")[:3].tolist() == [0, 1, 2]
+
+
 def test_order_scores_break_ties_by_the_callers_scores():
     f1, f2, _ = _plane_pair(100, 0.3, 2)
     c = neighbour_consistency(f1, f2, 10)
@@ -93,7 +106,16 @@ def test_the_default_with_the_consistency_order():
     assert np.array_equal(r.R, r2.R) and np.array_equal(r.inliers, r2.inliers)
 
 
-BAD_OPTIONS = [("consistency_k", 0), ("consistency_k", 65), ("consistency_k", 2.5), ("consistency", "sometimes"), ("consistency", True), ("consistency_after", 0)]
+BAD_OPTIONS = [
+    ("consistency_k", 0),
+    ("consistency_k", 65),
+    ("consistency_k", 2.5),
+    ("consistency", "sometimes"),
+    ("consistency", True),
+    ("consistency_after", 0),
+    ("consistency_min_draws", -1),
+    ("consistency_min_matches", 0),
+]
 
 
 @pytest.mark.parametrize(("name", "bad"), BAD_OPTIONS)
@@ -103,13 +125,52 @@ def test_bad_consistency_options_are_input_errors(name, bad):
         poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, **{name: bad})
 
 
-def test_fallback_leaves_a_converged_search_alone_and_takes_over_a_long_one():
-    # 0 % outliers: the search ends long before consistency_after samples: the plain search, draw for draw
-    s = sim.make_scene(400, kind="planar", camera="pinhole", noise_px=0.5, seed=5)
-    a = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, seed=1)
-    b = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, seed=1, consistency="fallback")
-    assert np.array_equal(a.R, b.R) and np.array_equal(a.inliers, b.inliers) and a.num_iterations == b.num_iterations
-    assert "consistency" not in b.diagnostics
+def _scores(sc, seed: int) -> np.ndarray:
+    """Informative match scores (PROSAC order): the true matches first on average."""
+    return sc.inliers.astype(float) + np.random.default_rng(seed).normal(0.0, 0.7, len(sc.inliers))
+
+
+def _same(a, b) -> bool:
+    return np.array_equal(a.R, b.R) and np.array_equal(a.inliers, b.inliers) and a.num_iterations == b.num_iterations and a.status == b.status
+
+
+@pytest.mark.parametrize("outliers", [0.0, 0.5])
+def test_fallback_leaves_a_converged_search_alone(outliers):
+    # the search ends before consistency_after samples: the plain search, draw for draw (PROSAC's
+    # schedule is that of the whole budget, RansacOptions::prosac_trials)
+    s = sim.make_scene(400, kind="planar", camera="pinhole", noise_px=0.5, outlier_fraction=outliers, seed=5)
+    sc = _scores(s, 5)
+    a = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, scores=sc, seed=1, consistency="off")
+    b = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, scores=sc, seed=1, consistency="fallback")
+    assert _same(a, b) and "consistency" not in b.diagnostics
+
+
+def test_fallback_is_off_below_the_sample_floor():
+    # min_iterations above consistency_after: a first stage would be cut by its cap, not its stopping
+    # rule; the plain search runs (it used to start a second search, and crash with consistency_min_draws=0)
+    s = sim.make_scene(400, camera="pinhole", noise_px=0.5, outlier_fraction=0.5, seed=8)
+    kw = dict(scores=_scores(s, 8), seed=2, min_iterations=2000, floor_parallax_deg=0.0)
+    a = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, consistency="off", **kw)
+    b = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, consistency="fallback", consistency_after=1000, consistency_min_draws=0, **kw)
+    assert _same(a, b) and a.num_iterations >= 2000
+
+
+def test_a_staged_search_keeps_prosacs_schedule():
+    # a search capped at K draws with prosac_trials = M draws as the search with M does, so where that
+    # one ends before K the two are the same; with the cap's own schedule they are not
+    from poseonly.robust.ransac import ransac_relpose
+
+    s = sim.make_scene(400, camera="pinhole", noise_px=0.5, outlier_fraction=0.6, seed=9)
+    sc = _scores(s, 9)
+    kw = dict(scores=sc, confidence=0.9999, min_iterations=0, chiral=True)
+    full = ransac_relpose(s.f1, s.f2, 1.0 / 800.0, 3, max_iterations=100000, **kw)
+    assert full.num_iterations < 3000
+    staged = ransac_relpose(s.f1, s.f2, 1.0 / 800.0, 3, max_iterations=3000, prosac_trials=100000, **kw)
+    assert staged.num_iterations == full.num_iterations and np.array_equal(staged.R, full.R)
+    assert np.isfinite(staged.stats["needed"]) and staged.stats["needed"] <= staged.num_iterations
+
+
+def test_fallback_takes_over_a_long_search():
     # 85 % outliers: the first 3000 samples do not converge, the consistency order continues the search,
     # and the reported iterations hold both stages
     h = sim.make_scene(600, camera="pinhole", noise_px=0.5, outlier_fraction=0.85, seed=6)

@@ -3,6 +3,7 @@
 #include "neighbours.h"
 #include "register.h"
 
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -14,10 +15,16 @@ static void check_k(size_t n, int k) {
   if (k < 1 || static_cast<size_t>(k) >= n) throw std::invalid_argument("k must be in [1, n - 1]");
 }
 
+static void check_finite(const double* f, size_t n) {
+  for (size_t i = 0; i < 3 * n; ++i)
+    if (!std::isfinite(f[i])) throw std::invalid_argument("bearings must be finite");
+}
+
 static NpInt nearest_neighbours_py(const BearingsIn& f, int k) {
   const size_t n = f.shape(0);
   if (f.shape(1) != 3) throw std::invalid_argument("bearings must have shape (n, 3)");
   check_k(n, k);
+  check_finite(f.data(), n);
   std::vector<int32_t> idx(n * k);
   {
     nb::gil_scoped_release release;
@@ -27,9 +34,12 @@ static NpInt nearest_neighbours_py(const BearingsIn& f, int k) {
 }
 
 static NpInt neighbour_consistency_py(const BearingsIn& f1, const BearingsIn& f2, int k) {
+  if (f1.shape(0) > static_cast<size_t>(std::numeric_limits<int32_t>::max())) throw std::invalid_argument("too many bearings");
   const Points P = points_of(f1, f2);
   const size_t n = static_cast<size_t>(P.n);
   check_k(n, k);
+  check_finite(P.f1, n);
+  check_finite(P.f2, n);
   std::vector<int64_t> out(n);
   {
     nb::gil_scoped_release release;

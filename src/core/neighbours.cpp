@@ -10,6 +10,9 @@ namespace poseonly {
 namespace {
 
 constexpr double kPointsPerCell = 2.0;  // grid resolution: about this many bearings per cell of the bounding box
+constexpr int kMaxCells = 4096;         // cells per side at most
+// the ring bound's slack: a chord at least (r - 1) hc in the plane, less a few ulps of rounding
+constexpr double kBoundSlack = 1.0 - 1e-12;
 
 struct Cand {
   double d2;
@@ -44,13 +47,17 @@ void nearest_neighbours(const double* f, int n, int k, int32_t* out) {
     py[i] = p[0] * e2[0] + p[1] * e2[1] + p[2] * e2[2];
     x0 = std::min(x0, px[i]), x1 = std::max(x1, px[i]), y0 = std::min(y0, py[i]), y1 = std::max(y1, py[i]);
   }
-  const double w = std::max(x1 - x0, 1e-12), hgt = std::max(y1 - y0, 1e-12);
-  const double h = std::max(std::sqrt(w * hgt * kPointsPerCell / n), 1e-12);
-  const int gx = std::max(1, std::min(static_cast<int>(w / h) + 1, 4096)), gy = std::max(1, std::min(static_cast<int>(hgt / h) + 1, 4096));
-  const double hx = w / gx * (1.0 + 1e-12), hy = hgt / gy * (1.0 + 1e-12);
-  const double hmin = std::min(hx, hy);
-  auto cell_x = [&](double x) { return std::min(gx - 1, std::max(0, static_cast<int>((x - x0) / hx))); };
-  auto cell_y = [&](double y) { return std::min(gy - 1, std::max(0, static_cast<int>((y - y0) / hy))); };
+  // square cells of side hc: about kPointsPerCell bearings per cell of the bounding box, at most
+  // kMaxCells per side (nearly collinear bearings give a thin box; square cells keep the ring bound
+  // hc useful there, where the thin side's width would make it vanish)
+  const double w = x1 - x0, hgt = y1 - y0;
+  const double area = std::max(w, 1e-12) * std::max(hgt, 1e-12);
+  const double hc = std::max({std::sqrt(area * kPointsPerCell / n), w / kMaxCells, hgt / kMaxCells, 1e-12});
+  const int gx = std::max(1, static_cast<int>(std::min(std::ceil(w / hc), static_cast<double>(kMaxCells))));
+  const int gy = std::max(1, static_cast<int>(std::min(std::ceil(hgt / hc), static_cast<double>(kMaxCells))));
+  const double hmin = hc;
+  auto cell_x = [&](double x) { return std::min(gx - 1, std::max(0, static_cast<int>(std::min((x - x0) / hc, static_cast<double>(gx))))); };
+  auto cell_y = [&](double y) { return std::min(gy - 1, std::max(0, static_cast<int>(std::min((y - y0) / hc, static_cast<double>(gy))))); };
   // counting sort of the bearings by cell
   std::vector<int> start(static_cast<size_t>(gx) * gy + 1, 0), cell(n), items(n);
   for (int i = 0; i < n; ++i) ++start[(cell[i] = cell_y(py[i]) * gx + cell_x(px[i])) + 1];
@@ -83,23 +90,25 @@ void nearest_neighbours(const double* f, int n, int k, int32_t* out) {
         }
       }
     };
-    const int rmax = std::max(gx, gy);
+    const int rmax = std::max({cx, gx - 1 - cx, cy, gy - 1 - cy});  // the last ring that holds cells
     for (int r = 0; r <= rmax; ++r) {
       // ring r: the cells at Chebyshev distance r from (cx, cy); every bearing in it is at least
-      // (r - 1) cells away in the plane, so at least (r - 1) hmin in chord distance
+      // (r - 1) cells away in the plane, so at least (r - 1) hc in chord distance
       if (r >= 2 && static_cast<int>(best.size()) == k) {
-        const double lb = (r - 1) * hmin;
+        const double lb = (r - 1) * hmin * kBoundSlack;
         if (best.front().d2 < lb * lb) break;
       }
       const int xa = cx - r, xb = cx + r, ya = cy - r, yb = cy + r;
-      for (int x = std::max(xa, 0); x <= std::min(xb, gx - 1); ++x) {
-        if (ya >= 0) visit(x, ya);
-        if (r > 0 && yb < gy) visit(x, yb);
-      }
-      for (int y = std::max(ya + 1, 0); y <= std::min(yb - 1, gy - 1); ++y) {
-        if (xa >= 0 && r > 0) visit(xa, y);
-        if (xb < gx && r > 0) visit(xb, y);
-      }
+      const int x_lo = std::max(xa, 0), x_hi = std::min(xb, gx - 1);
+      if (ya >= 0)
+        for (int x = x_lo; x <= x_hi; ++x) visit(x, ya);
+      if (r > 0 && yb < gy)
+        for (int x = x_lo; x <= x_hi; ++x) visit(x, yb);
+      if (r > 0)
+        for (int y = std::max(ya + 1, 0); y <= std::min(yb - 1, gy - 1); ++y) {
+          if (xa >= 0) visit(xa, y);
+          if (xb < gx) visit(xb, y);
+        }
     }
     std::sort_heap(best.begin(), best.end());
     for (int q = 0; q < k; ++q) out[static_cast<size_t>(i) * k + q] = best[q].j;

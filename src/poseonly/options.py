@@ -217,7 +217,7 @@ class PoseonlyOptions(CommonOptions):
         choices=("off", "fallback", "always"),
     )
     consistency_k: int = _opt(10, "int", "neighbours per view of the consistency order", lo=1, hi=64)
-    consistency_after: int = _opt(3000, "int", "consistency='fallback': the samples of the first search", lo=1)
+    consistency_after: int = _opt(3000, "int", "consistency='fallback': the samples of the first search (the fallback is off where min_iterations exceeds it)", lo=1)
     consistency_min_draws: int = _opt(
         3000,
         "int",

@@ -40,7 +40,11 @@ def consistency_order_scores(f1: np.ndarray, f2: np.ndarray, scores: np.ndarray 
     """``(n,)`` sampling scores (higher first): the neighbour consistency, ties broken by the caller's
     ``scores`` (their rank, so any scale works) and then by input order."""
     c = neighbour_consistency(f1, f2, k).astype(float)
-    if scores is None or len(c) == 0:
+    n = len(c)
+    if scores is None or n == 0:
         return c
-    rank = np.argsort(np.argsort(np.asarray(scores, dtype=float), kind="stable"), kind="stable")
-    return c + rank / len(c)
+    # place of each match in the scores order (best first, equal scores in input order, as PROSAC's
+    # order of the scores alone), mapped to [0, 1): the first place gets the largest fraction
+    place = np.empty(n, dtype=np.int64)
+    place[np.argsort(-np.asarray(scores, dtype=float), kind="stable")] = np.arange(n)
+    return c + (n - 1 - place) / n

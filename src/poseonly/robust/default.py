@@ -188,10 +188,36 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
     )
 
 
-def _combined(a: RansacResult, b: RansacResult) -> RansacResult:
-    """The better of two searches' results (the lower cost; ``a`` on ties) with both searches' counts."""
-    r = b if b.score < a.score else a
-    return dataclasses.replace(r, num_iterations=a.num_iterations + b.num_iterations, num_lo=a.num_lo + b.num_lo, num_scored=a.num_scored + b.num_scored)
+def _pose_distance_deg(R1: np.ndarray, t1: np.ndarray, R2: np.ndarray, t2: np.ndarray) -> float:
+    """The core's model distance (``estimators.h`` ``pose_distance_deg``): the larger of the rotation
+    angle and the translation directions' angle, in degrees."""
+    c = float(np.clip(0.5 * (np.trace(R1.T @ R2) - 1.0), -1.0, 1.0))
+    ct = float(np.clip(t1 @ t2 / max(float(np.linalg.norm(t1) * np.linalg.norm(t2)), 1e-300), -1.0, 1.0))
+    return float(np.degrees(max(np.arccos(c), np.arccos(ct))))
+
+
+RIVAL_COST_FACTOR = 1.5  # ransac.h kRivalCostFactor: a rival is scored up to this times the best cost
+
+
+def _combined(a: RansacResult, b: RansacResult, rival_distance: float) -> RansacResult:
+    """The better of two searches' results (the lower cost; ``a`` on ties) with both searches' counts
+    (iterations, LO runs, scored models, challenger LO runs). The rival (the uniqueness test's best
+    model at least ``rival_distance`` from the result, within ``RIVAL_COST_FACTOR`` of its cost) is
+    the better of the winner's and the loser's best model or rival, as one search would have kept it."""
+    r, other = (b, a) if b.score < a.score else (a, b)
+    stats = dict(r.stats)
+    stats["num_challenger_lo"] = int(a.stats.get("num_challenger_lo", 0)) + int(b.stats.get("num_challenger_lo", 0))
+    if rival_distance > 0:
+        best_cost = float(stats.get("rival_cost", np.inf))
+        offers = [(other.R, other.t, float(other.score))]
+        if np.isfinite(float(other.stats.get("rival_cost", np.inf))):
+            offers.append((np.asarray(other.stats["rival_R"]), np.asarray(other.stats["rival_t"]), float(other.stats["rival_cost"])))
+        for Rv, tv, cost in offers:
+            far = _pose_distance_deg(r.R, r.t, Rv, tv) > rival_distance
+            if far and cost <= RIVAL_COST_FACTOR * r.score and cost < best_cost:
+                stats.update(rival_R=Rv, rival_t=tv, rival_cost=cost)
+                best_cost = cost
+    return dataclasses.replace(r, num_iterations=a.num_iterations + b.num_iterations, num_lo=a.num_lo + b.num_lo, num_scored=a.num_scored + b.num_scored, stats=stats)
 
 
 def search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scores: np.ndarray | None) -> tuple[RansacResult, dict[str, Any]]:
@@ -206,19 +232,20 @@ def search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, score
     usable = o.consistency != "off" and len(f1) >= o.consistency_min_matches * o.consistency_k
     if usable and o.consistency == "always":
         return _search(f1, f2, tau, o, consistency_order_scores(f1, f2, scores, o.consistency_k), True), {"consistency": "always"}
-    if not (usable and o.consistency == "fallback" and o.consistency_after < o.max_iterations):
+    # (a first stage shorter than the sample floor would not be the plain search's prefix)
+    if not (usable and o.consistency == "fallback" and o.min_iterations <= o.consistency_after < o.max_iterations):
         return _search(f1, f2, tau, o, scores), {}
     first = _search(f1, f2, tau, o, scores, max_iterations=o.consistency_after)
-    if first.num_iterations < o.consistency_after:
+    needed = float(first.stats.get("needed", np.inf))
+    if first.num_iterations < o.consistency_after or needed <= o.consistency_after:  # converged in the first stage
         return first, {}
     # the second search's budget: the rest of max_iterations, but not past the draws the first search's
     # stopping rule asked for (the plain search would have ended there unless it found a better model)
     budget = o.max_iterations - o.consistency_after
-    needed = float(first.stats.get("needed", np.inf))
     if np.isfinite(needed):
         budget = min(budget, max(o.consistency_min_draws, int(np.ceil(needed)) - o.consistency_after))
     second = _search(f1, f2, tau, o, consistency_order_scores(f1, f2, scores, o.consistency_k), True, budget)
-    r = _combined(first, second)
+    r = _combined(first, second, o.rival_distance)
     return r, {"consistency": "fallback" if r.score < first.score else "fallback-unused"}
 
 
@@ -470,7 +497,9 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                 # inliers and its pose sits in that part's basin. Search again at 3 sigma (at most the
                 # mixture's range, so outliers cannot widen it further), as if the user had set it.
                 tau2 = min(RESEARCH_SIGMAS * sig, T)
-                r2, _ = search(f1, f2, tau2, o, scores)
+                r2, order_diag2 = search(f1, f2, tau2, o, scores)
+                diag.pop("consistency", None)
+                diag.update(order_diag2)
                 iterations += r2.num_iterations
                 diag["num_hypotheses"] += r2.num_iterations * MAX_ROOTS_PER_SAMPLE + r2.num_lo + FINAL_CANDIDATES
                 R2, t2 = select_by_support(r2.R, r2.t, f1, f2, tau2)

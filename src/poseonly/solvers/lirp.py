@@ -51,7 +51,8 @@ def lirp_batch(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None, *, a
     ``cand_valid (h, 18)`` (pose-only depth conditions), ``cand_M1``, ``cand_cost`` (weighted mean PPO;
     with ``all_costs=False`` only what the best needs: valid candidates, least algebraic error first,
     each stopped at ``inf`` once its running mean exceeds the least cost so far, so the best candidate
-    and its cost are those of ``all_costs=True`` bit for bit; every candidate only if none is valid);
+    and its cost are those of ``all_costs=True`` bit for bit where some candidate is valid; if none is,
+    every candidate is scored by the general PPO residual, equal to ~1e-16);
     ``singular_values (h, 9)`` of ``A``, ``d_min`` and ``d_min_C2 (h,)``.
     """
     o = _core.lirp_batch(np.ascontiguousarray(f1, dtype=float), np.ascontiguousarray(f2, dtype=float), None if w is None else np.ascontiguousarray(w, dtype=float), all_costs)
