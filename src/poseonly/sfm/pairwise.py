@@ -43,8 +43,9 @@ MIN_PUTATIVE = 30
 # pure-rotation precision test; 14: a pure rotation's R refitted robustly; 15: the precision test's
 # rounding floor on noise-free data; 16-17: the ML collapse guard; 18: the cross-fitted inliers; 19: the
 # cross-fit as a veto; 20: PROSAC's stopping rule; 21: the sample floor by parallax; 22: the
-# neighbour-consistency fallback of searches that have not converged after 3000 samples)
-TWO_VIEW_CACHE_TAG = 22
+# neighbour-consistency fallback of searches that have not converged after 3000 samples; 23: its two
+# stages' rivals merged, ties of the scores in input order)
+TWO_VIEW_CACHE_TAG = 23
 
 
 @dataclass(frozen=True)
