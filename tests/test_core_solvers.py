@@ -130,6 +130,31 @@ def test_fivept_essentials_match_numpy():
         assert min(min(np.abs(e - Et).max(), np.abs(e + Et).max()) for e in E) < 1e-10
 
 
+@pytest.mark.parametrize("path", [0, 1, 2, 3, 4], ids=["nister", "unit-on-z", "unit-on-x", "unit-on-y", "action-matrix"])
+def test_fivept_each_construction_exact_where_it_passes(path):
+    """Each construction of the solver (Nister's in the four basis orders, the action matrix) returns the
+    true E on noise-free samples wherever it passes its own reliability test, and the automatic choice
+    takes the first that passes (so a sample the natural order rejects is solved by a reordered one)."""
+    passed = rescued = 0
+    for seed in range(120):
+        sc = make_scene(5, ("normal", "planar")[seed % 2], ("wide", "pinhole")[seed // 2 % 2], seed=seed)
+        Et = np.array([[0, -sc.t[2], sc.t[1]], [sc.t[2], 0, -sc.t[0]], [-sc.t[1], sc.t[0], 0]]) @ sc.R
+        Et /= np.linalg.norm(Et)
+        E, ok = core._fivept_essentials_path(sc.f1, sc.f2, path)
+        if not ok:
+            assert len(E) == 0
+            continue
+        passed += 1
+        assert min(min(np.abs(e - Et).max(), np.abs(e + Et).max()) for e in E) < 1e-10, seed
+        earlier = [core._fivept_essentials_path(sc.f1, sc.f2, q)[1] for q in range(path)]
+        if not any(earlier):  # the automatic choice is this construction
+            rescued += path > 0
+            np.testing.assert_array_equal(core._fivept_essentials_path(sc.f1, sc.f2, -1)[0], E)
+    assert passed >= (120 if path == 4 else 80)
+    if path in (1, 4):
+        assert rescued > 0  # the reordered elimination (and the action matrix) do take samples
+
+
 def test_fivept_batch_equals_single_calls():
     sc = make_scene(40, "normal", "wide", noise_px=0.5, seed=4)
     rng = np.random.default_rng(0)

@@ -326,9 +326,18 @@ bool nister_candidates(const Eigen::Matrix<double, 10, 20>& A, const Mat3 basis[
   return true;
 }
 
+// Nister's construction with the basis reordered: E = x X' + y Y' + z Z' + W' with the unit
+// coefficient on another null vector. Its elimination block (the monomials of degree >= 2 in x, y) is
+// a different 10 x 10 matrix, often well conditioned where the natural order's is not: of random
+// samples of the shared real pairs' matches 13.4 % fail the natural order's pivot test and 2.7 % all
+// four orders (with wrong matches added to 8 % inliers 17.8 and 2.7 %; benchmarks/fivept_paths.py);
+// the action matrix costs ~4x a reordered elimination (its Francis QR alone was ~15 % of the
+// solver's time on such samples).
+constexpr int kBasisOrders[3][4] = {{0, 1, 3, 2}, {3, 1, 2, 0}, {0, 3, 2, 1}};  // the unit coefficient on Z, X, Y
+
 // fivept_essentials; polish: the Gauss-Newton polish of (x, y, z) on the template (fivept_poses
 // skips it: its Newton polish of the pose on the epipolar equations reaches rounding level anyway)
-int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots) {
+int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots, FiveptPath path = FiveptPath::kAuto) {
   E->clear();
   if (p.n != 5) return 0;
   // --- null space of the epipolar rows: A^T (9 x 5), column i = kron(f1_i, f2_i) (E column-major)
@@ -356,16 +365,41 @@ int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots) {
   }
   Eigen::Matrix<double, 10, 20> A;
   build_template(basis, &A);
-  if (!nister_candidates(A, basis, polish_roots, E)) {
+  const int want = static_cast<int>(path);  // kAuto = -1, kNister = 0, kReordered1..3 = 1..3, kAction = 4
+  if ((want < 0 || want == 0) && nister_candidates(A, basis, polish_roots, E)) return static_cast<int>(E->size());
+  E->clear();
+  for (int k = 0; k < 3; ++k) {
+    if (want >= 0 && want != k + 1) continue;
+    const Mat3 b2[4] = {basis[kBasisOrders[k][0]], basis[kBasisOrders[k][1]], basis[kBasisOrders[k][2]], basis[kBasisOrders[k][3]]};
+    Eigen::Matrix<double, 10, 20> A2;
+    build_template(b2, &A2);
+    if (nister_candidates(A2, b2, polish_roots, E)) return static_cast<int>(E->size());
     E->clear();
-    action_matrix_candidates(A, basis, polish_roots, E);
   }
+  if (want >= 0 && want != 4) return -1;  // the one construction asked for failed its test
+  action_matrix_candidates(A, basis, polish_roots, E);
   return static_cast<int>(E->size());
+}
+
+// +1 when every point of p is in front of both cameras of (R, t), -1 when of (R, -t), 0 otherwise
+// (it stops at the first point whose depths' signs differ from each other or from the first point's)
+int chiral_sign(const Mat3& R, const Vec3& t, const Points& p) {
+  int sign = 0;
+  for (int i = 0; i < p.n; ++i) {
+    double h, hp;
+    depth_numerators(R, t, p.a(i), p.b(i), &h, &hp);
+    const int si = (h > 0.0 && hp > 0.0) ? 1 : (h < 0.0 && hp < 0.0) ? -1 : 0;
+    if (!si || (sign && si != sign)) return 0;
+    sign = si;
+  }
+  return sign;
 }
 
 }  // namespace
 
-int fivept_essentials(const Points& p, std::vector<Mat3>* E) { return essentials_impl(p, E, true); }
+int fivept_essentials(const Points& p, std::vector<Mat3>* E) { return std::max(essentials_impl(p, E, true), 0); }
+
+int fivept_essentials_path(const Points& p, FiveptPath path, std::vector<Mat3>* E) { return essentials_impl(p, E, true, path); }
 
 bool decompose_chiral(const Mat3& E0, const Points& p, Pose* pose) {
   const double ne = E0.norm();
@@ -383,23 +417,19 @@ bool decompose_chiral(const Mat3& E0, const Points& p, Pose* pose) {
   const Mat3 TE = skew(t) * E;
   for (int s = 0; s < 2; ++s) {
     Mat3 R = s == 0 ? Mat3(C - TE) : Mat3(C + TE);
+    // the points' cheirality on the unpolished R first (a rotation to the solver's rounding): most
+    // candidates of a contaminated sample fail on their first points, before the polish is paid
+    const int sign = chiral_sign(R, t, p);
+    if (!sign) continue;
     for (int it = 0; it < 2; ++it) {  // Newton steps of the polar decomposition: R <- (R + R^-T) / 2
       const double d = R.determinant();
       if (!(std::abs(d) > 0.0)) break;
       R = 0.5 * (R + cofactor(R) / d);
     }
-    int pos = 0, neg = 0;
-    for (int i = 0; i < p.n; ++i) {
-      double h, hp;
-      depth_numerators(R, t, p.a(i), p.b(i), &h, &hp);
-      if (h > 0.0 && hp > 0.0) ++pos;
-      else if (h < 0.0 && hp < 0.0) ++neg;
-    }
-    if (pos == p.n || neg == p.n) {
-      pose->R = R;
-      pose->t = pos == p.n ? t : Vec3(-t);
-      return true;
-    }
+    if (chiral_sign(R, t, p) != sign) continue;  // the returned pose passes on its own R
+    pose->R = R;
+    pose->t = sign > 0 ? t : Vec3(-t);
+    return true;
   }
   return false;
 }
