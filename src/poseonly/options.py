@@ -225,6 +225,15 @@ class PoseonlyOptions(CommonOptions):
         " is not affected): the order puts consistent regions first, and the rule trusts the order",
         lo=0,
     )
+    consistency_rule: str = _opt(
+        "prosac",
+        "str",
+        "the stopping rule of the search in the consistency order (consistency='always', and the second stage of 'fallback'),"
+        " as progressive_rule. 'expected' ends 9 of the 16 hard pairs at 0.1x PoseLib's time, but a compact moving object"
+        " tops the consistency order, and on sparse second-motion scenes it doubles the confident wrong poses"
+        " (docs/RESULTS_real.md, 'Hard pairs'), so the default stays 'prosac'",
+        choices=("prosac", "expected"),
+    )
     consistency_min_matches: int = _opt(
         20,
         "int",

@@ -273,6 +273,8 @@ METHODS: dict[str, MethodFn] = {
     # the search ended where the expected all-inlier draws of the sampler's schedule reach the confidence
     # (progressive_rule="expected", fifteenth session) instead of by PROSAC's per-top-n rule
     "poseonly-expectedstop": ours(use_scores=True, use_scales=True, progressive_rule="expected"),
+    # that rule in the consistency fallback's second stage only (fourth session of 2026-12-06, not adopted)
+    "poseonly-consistencyexpected": ours(use_scores=True, use_scales=True, consistency_rule="expected"),
 }
 DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")
 # the library each method needs (a missing one skips the method with a note)

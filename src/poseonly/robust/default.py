@@ -156,7 +156,8 @@ def rival_support_ratio(r: RansacResult, n: int, tau: float, scoring: str) -> fl
 def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scores: np.ndarray | None, consistent: bool = False, max_iterations: int | None = None) -> RansacResult:
     """One LO-RANSAC search of :func:`run_poseonly` at ``tau`` (radians); ``consistent``: ``scores`` is
     the neighbour-consistency order (PROSAC's rule then waits for ``consistency_min_draws``);
-    ``max_iterations``: a stage of the search (PROSAC keeps the schedule of ``o.max_iterations``)."""
+    ``max_iterations``: a stage of the search (PROSAC keeps the schedule of ``o.max_iterations``). The
+    search in the consistency order stops by ``o.consistency_rule``, the others by ``o.progressive_rule``."""
     return ransac_relpose(
         f1,
         f2,
@@ -182,7 +183,7 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
         progressive_stop=o.progressive_stop,
         floor_parallax_deg=o.floor_parallax_deg,
         min_iterations_parallax=o.min_iterations_parallax,
-        progressive_rule=o.progressive_rule,
+        progressive_rule=o.consistency_rule if consistent else o.progressive_rule,
         progressive_min_draws=o.consistency_min_draws if consistent else 0,
         prosac_trials=o.max_iterations,
     )
