@@ -83,6 +83,37 @@ VALUES = [
 ]
 
 
+# the CLI arguments the fuzzer (and tests/test_properties.py) draws from: valid, invalid and missing values
+CLI_WORDS = (
+    "--threshold",
+    "-1",
+    "0",
+    "nan",
+    "inf",
+    "2",
+    "--focal",
+    "500",
+    "-3",
+    "--pp",
+    "320",
+    "240",
+    "--method",
+    "lirp",
+    "gnc-irls",
+    "bogus",
+    "--seed",
+    "-2",
+    "7",
+    "--json",
+    "--draw",
+    "x.xyz",
+    "--K",
+    "missing.txt",
+    "--ratio",
+    "1.5",
+)
+
+
 class Invalid(AssertionError):
     pass
 
@@ -259,34 +290,7 @@ def case(rng) -> tuple[str, object]:
 
         return fam, low
     # cli
-    words = [
-        "--threshold",
-        "-1",
-        "0",
-        "nan",
-        "inf",
-        "2",
-        "--focal",
-        "500",
-        "-3",
-        "--pp",
-        "320",
-        "240",
-        "--method",
-        "lirp",
-        "gnc-irls",
-        "bogus",
-        "--seed",
-        "-2",
-        "7",
-        "--json",
-        "--draw",
-        "x.xyz",
-        "--K",
-        "missing.txt",
-        "--ratio",
-        "1.5",
-    ]
+    words = CLI_WORDS
     args = [str(w) for w in rng.choice(words, size=int(rng.integers(0, 7)))]
     n = int(rng.integers(0, 31))
     u1, u2 = _array(rng, n, 2), _array(rng, n, 2)

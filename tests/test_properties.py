@@ -313,39 +313,21 @@ def test_low_level_functions(data, fn):
 # ------------------------------------------------------------------------------------------------
 # the CLI
 
-cli_args = st.lists(
-    st.sampled_from(
-        [
-            "--threshold",
-            "-1",
-            "0",
-            "nan",
-            "inf",
-            "2",
-            "--focal",
-            "500",
-            "-3",
-            "--pp",
-            "320",
-            "240",
-            "--method",
-            "lirp",
-            "gnc-irls",
-            "bogus",
-            "--seed",
-            "-2",
-            "7",
-            "--json",
-            "--draw",
-            "x.xyz",
-            "--K",
-            "missing.txt",
-            "--ratio",
-            "1.5",
-        ]
-    ),
-    max_size=6,
-)
+
+def _cli_words() -> list[str]:
+    """The CLI arguments of benchmarks/fuzz.py (one list for the fuzzer and this test)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    try:
+        from fuzz import CLI_WORDS
+    finally:
+        sys.path.pop(0)
+    return list(CLI_WORDS)
+
+
+cli_args = st.lists(st.sampled_from(_cli_words()), max_size=6)
 
 
 @SETTINGS
