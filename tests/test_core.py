@@ -338,3 +338,20 @@ def test_identify_degenerate_spectra_return_rotations(E):
         assert np.linalg.det(R) == pytest.approx(1.0, abs=1e-12)
     assert np.all(np.isfinite(R))
     assert np.linalg.norm(t) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_core_stub_declares_exactly_the_core():
+    """src/poseonly/_core.pyi (what mypy checks the package against) declares every name the compiled
+    core exports, and nothing else."""
+    import ast
+    from pathlib import Path
+
+    import poseonly
+    from poseonly import _core
+
+    tree = ast.parse((Path(poseonly.__file__).parent / "_core.pyi").read_text())
+    declared = {n.name for n in tree.body if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+    declared |= {n.target.id for n in tree.body if isinstance(n, ast.AnnAssign) and isinstance(n.target, ast.Name)}
+    exported = {k for k in dir(_core) if not k.startswith("__")}
+    assert exported - declared == set(), "exported by the core, missing from _core.pyi"
+    assert declared - exported == set(), "declared in _core.pyi, not exported by the core"
