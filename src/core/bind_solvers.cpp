@@ -47,23 +47,24 @@ NpArray fivept_essentials_py(const BearingsIn& f1, const BearingsIn& f2) {
 }
 
 // one construction of the five-point solver (tests, benchmarks/fivept_paths.py): path -1 auto, 0 Nister,
-// 1..3 Nister with the unit coefficient on Z, X, Y, 4 the action matrix; returns (E (k, 3, 3), passed)
+// 1 the action matrix; returns (E (k, 3, 3), the construction that produced E: 0 or 1, or -2 where the
+// sample is rank-deficient or the construction failed its test)
 nb::tuple fivept_essentials_path_py(const BearingsIn& f1, const BearingsIn& f2, int path) {
   const Points P = points_of(f1, f2);
   if (P.n != 5) throw std::invalid_argument("fivept_essentials_path needs exactly 5 bearings per view, shape (5, 3)");
-  if (path < -1 || path > 4) throw std::invalid_argument("path must be -1 (auto), 0 (Nister), 1-3 (reordered) or 4 (action matrix)");
+  if (path < -1 || path > 1) throw std::invalid_argument("path must be -1 (auto), 0 (Nister) or 1 (action matrix)");
   std::vector<Mat3> E;
-  int got;
+  FiveptPath used;
   {
     nb::gil_scoped_release release;
-    got = fivept_essentials_path(P, static_cast<FiveptPath>(path), &E);
+    used = fivept_essentials_path(P, static_cast<FiveptPath>(path), &E);
   }
   const size_t k = E.size();
   std::vector<double> out(9 * k);
   for (size_t h = 0; h < k; ++h)
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) out[9 * h + 3 * i + j] = E[h](i, j);
-  return nb::make_tuple(to_numpy(std::move(out), {k, size_t{3}, size_t{3}}), got >= 0);
+  return nb::make_tuple(to_numpy(std::move(out), {k, size_t{3}, size_t{3}}), static_cast<int>(used));
 }
 
 using SamplesIn = nb::ndarray<const double, nb::ndim<3>, nb::c_contig, nb::device::cpu>;
@@ -250,7 +251,9 @@ POSEONLY_BIND(solvers) {
         "The real essential matrices E (k, 3, 3) of the five-point problem f1, f2 (5, 3): unit Frobenius norm, "
         "largest entry positive, k <= 10.");
   m.def("_fivept_essentials_path", &fivept_essentials_path_py, nb::arg("f1"), nb::arg("f2"), nb::arg("path"),
-        "One construction of the five-point solver (tests): (E (k, 3, 3), whether its reliability test passed).");
+        "One construction of the five-point solver (tests): path -1 the automatic choice, 0 Nister's elimination, 1 the "
+        "action matrix. Returns (E (k, 3, 3), the construction that produced E: 0 or 1, or -2 where the sample is "
+        "rank-deficient or the construction failed its test).");
   m.def("fivept_batch", &fivept_batch_py, nb::arg("f1"), nb::arg("f2"),
         "fivept on b stacked samples f1, f2 (b, 5, 3) in one call: (R (m, 3, 3), t (m, 3), sample index (m,) int64).");
   m.def("refine_sampson", &refine_sampson_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),

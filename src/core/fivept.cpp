@@ -264,11 +264,19 @@ inline void polymul(const double* a, int da, const double* b, int db, double s, 
 // cubic, quartic), i.e. B(z) (x, y, 1)^T = 0; the real roots of the degree-10 det B(z) by a Sturm
 // sequence (sturm.h); (x, y, 1) from the cross product of two rows of B(z). False when elimination
 // or the Sturm chain breaks down (a near-multiple root): the caller then takes the action matrix.
-bool nister_candidates(const Eigen::Matrix<double, 10, 20>& A, const Mat3 basis[4], bool polish_roots, std::vector<Mat3>* E) {
-  Eigen::Matrix<double, 10, 20, Eigen::RowMajor> T;
-  for (int c = 0; c < 20; ++c) T.col(c) = A.col(kNisterCols[c]);
+using NisterTemplate = Eigen::Matrix<double, 10, 20, Eigen::RowMajor>;
+
+// Gauss-Jordan elimination of the template in Nister's column order; the smallest pivot over the
+// largest (0 where the elimination breaks down)
+double nister_eliminate(const Eigen::Matrix<double, 10, 20>& A, NisterTemplate* T) {
+  for (int c = 0; c < 20; ++c) T->col(c) = A.col(kNisterCols[c]);
   double pivot_ratio = 0.0;
-  if (!linalg::gauss_jordan<10, 20>(&T, &pivot_ratio) || !(pivot_ratio >= kNisterMinPivotRatio)) return false;
+  if (!linalg::gauss_jordan<10, 20>(T, &pivot_ratio)) return 0.0;
+  return pivot_ratio;
+}
+
+// The solutions from an eliminated template (nister_eliminate); false where the Sturm chain breaks down.
+bool nister_solve(const Eigen::Matrix<double, 10, 20>& A, const NisterTemplate& T, const Mat3 basis[4], bool polish_roots, std::vector<Mat3>* E) {
   // rows: [x-poly (deg 3), y-poly (deg 3), 1-poly (deg 4)], ascending powers of z; the right block
   // of a row holds the coefficients of x z^2, x z, x, y z^2, y z, y, z^3, z^2, z, 1
   double Bp[3][3][5] = {};
@@ -326,18 +334,12 @@ bool nister_candidates(const Eigen::Matrix<double, 10, 20>& A, const Mat3 basis[
   return true;
 }
 
-// Nister's construction with the basis reordered: E = x X' + y Y' + z Z' + W' with the unit
-// coefficient on another null vector. Its elimination block (the monomials of degree >= 2 in x, y) is
-// a different 10 x 10 matrix, often well conditioned where the natural order's is not: of random
-// samples of the shared real pairs' matches 13.4 % fail the natural order's pivot test and 2.7 % all
-// four orders (with wrong matches added to 8 % inliers 17.8 and 2.7 %; benchmarks/fivept_paths.py);
-// the action matrix costs ~4x a reordered elimination (its Francis QR alone was ~15 % of the
-// solver's time on such samples).
-constexpr int kBasisOrders[3][4] = {{0, 1, 3, 2}, {3, 1, 2, 0}, {0, 3, 2, 1}};  // the unit coefficient on Z, X, Y
-
 // fivept_essentials; polish: the Gauss-Newton polish of (x, y, z) on the template (fivept_poses
 // skips it: its Newton polish of the pose on the epipolar equations reaches rounding level anyway)
-int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots, FiveptPath path = FiveptPath::kAuto) {
+// (`used`: the construction that produced E, kNone where the sample is rank-deficient or the one
+// construction asked for failed its test)
+int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots, FiveptPath path = FiveptPath::kAuto, FiveptPath* used = nullptr) {
+  if (used) *used = FiveptPath::kNone;
   E->clear();
   if (p.n != 5) return 0;
   // --- null space of the epipolar rows: A^T (9 x 5), column i = kron(f1_i, f2_i) (E column-major)
@@ -365,19 +367,17 @@ int essentials_impl(const Points& p, std::vector<Mat3>* E, bool polish_roots, Fi
   }
   Eigen::Matrix<double, 10, 20> A;
   build_template(basis, &A);
-  const int want = static_cast<int>(path);  // kAuto = -1, kNister = 0, kReordered1..3 = 1..3, kAction = 4
-  if ((want < 0 || want == 0) && nister_candidates(A, basis, polish_roots, E)) return static_cast<int>(E->size());
-  E->clear();
-  for (int k = 0; k < 3; ++k) {
-    if (want >= 0 && want != k + 1) continue;
-    const Mat3 b2[4] = {basis[kBasisOrders[k][0]], basis[kBasisOrders[k][1]], basis[kBasisOrders[k][2]], basis[kBasisOrders[k][3]]};
-    Eigen::Matrix<double, 10, 20> A2;
-    build_template(b2, &A2);
-    if (nister_candidates(A2, b2, polish_roots, E)) return static_cast<int>(E->size());
+  NisterTemplate T;
+  if (path != FiveptPath::kAction) {
+    if (nister_eliminate(A, &T) >= kNisterMinPivotRatio && nister_solve(A, T, basis, polish_roots, E)) {
+      if (used) *used = FiveptPath::kNister;
+      return static_cast<int>(E->size());
+    }
     E->clear();
+    if (path == FiveptPath::kNister) return 0;  // the construction asked for failed its test
   }
-  if (want >= 0 && want != 4) return -1;  // the one construction asked for failed its test
   action_matrix_candidates(A, basis, polish_roots, E);
+  if (used) *used = FiveptPath::kAction;
   return static_cast<int>(E->size());
 }
 
@@ -397,9 +397,13 @@ int chiral_sign(const Mat3& R, const Vec3& t, const Points& p) {
 
 }  // namespace
 
-int fivept_essentials(const Points& p, std::vector<Mat3>* E) { return std::max(essentials_impl(p, E, true), 0); }
+int fivept_essentials(const Points& p, std::vector<Mat3>* E) { return essentials_impl(p, E, true); }
 
-int fivept_essentials_path(const Points& p, FiveptPath path, std::vector<Mat3>* E) { return essentials_impl(p, E, true, path); }
+FiveptPath fivept_essentials_path(const Points& p, FiveptPath path, std::vector<Mat3>* E) {
+  FiveptPath used;
+  essentials_impl(p, E, true, path, &used);
+  return used;
+}
 
 bool decompose_chiral(const Mat3& E0, const Points& p, Pose* pose) {
   const double ne = E0.norm();

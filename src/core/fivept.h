@@ -10,15 +10,13 @@
 //      null vector. PoseLib's construction; ~1.6x faster per sample than step 4 (measured on a
 //      C++ driver: 6.7 against 10.7 us for fivept_poses on noisy samples);
 //   4. where step 3 is unreliable (a Gauss-Jordan pivot below 1e-2 of the largest: low parallax,
-//      ~6 % of ordinary samples, 13 % of random samples of real pairs; or a near-multiple root in
-//      the Sturm chain) step 3 again with the unit coefficient moved to Z, X or Y in turn (a
-//      different elimination block; the first that passes is taken);
-//   5. where all four orders fail (~3 % of random samples of real pairs) the Stewenius path:
+//      ~6 % of ordinary samples, 13 % of random samples of real pairs, benchmarks/fivept_paths.py;
+//      or a near-multiple root in the Sturm chain) the Stewenius path:
 //      G = A1^{-1} A2, the 10 x 10 action matrix of multiplication by x; its eigenvalues by
 //      Parlett-Reinsch balancing, Hessenberg form and Francis double-shift QR (EISPACK hqr; Eigen's
 //      EigenSolver on the fixed 10 x 10 cost ~5x more); each real eigenvalue's eigenvector by two
 //      steps of inverse iteration on the 6 x 6 system left by the four unit rows of the action matrix;
-//   6. (fivept_essentials) (x, y, z) = v[6:9] / v9 polished by two Gauss-Newton steps on the ten template equations
+//   5. (fivept_essentials) (x, y, z) = v[6:9] / v9 polished by two Gauss-Newton steps on the ten template equations
 //      (kept only if they lower the residual); E = x X + y Y + z Z + W (v6 X + v7 Y + v8 Z + v9 W when
 //      v9 ~ 0), unit Frobenius norm, largest entry positive.
 // Only the real solutions are returned (|Im lambda| <= kFiveptRealTol (1 + |lambda|), as numpy's
@@ -33,15 +31,16 @@ namespace poseonly {
 
 constexpr double kFiveptRealTol = 1e-8;
 
-// Which construction fivept_essentials_path takes (tests): kAuto is fivept_essentials' choice (Nister
-// in the natural basis order, then the reordered ones, then the action matrix); the others take one
-// construction and return -1 (E empty) where it fails its reliability test, else E->size().
-enum class FiveptPath { kAuto = -1, kNister = 0, kReordered1 = 1, kReordered2 = 2, kReordered3 = 3, kAction = 4 };
+// The constructions of the solver (fivept_essentials_path: tests and benchmarks/fivept_paths.py): kAuto
+// is fivept_essentials' choice (Nister's elimination, else the action matrix); kNister and kAction take
+// one construction only. It returns the construction that produced E: kNone where the sample is
+// rank-deficient or the construction asked for fails its test (E then empty).
+enum class FiveptPath { kNone = -2, kAuto = -1, kNister = 0, kAction = 1 };
 
 // The real essential matrices of a minimal sample (p.n must be 5; returns 0 otherwise or when a step
 // breaks down, e.g. coincident points). E is cleared first; returns E->size() (<= 10).
 int fivept_essentials(const Points& p, std::vector<Mat3>* E);
-int fivept_essentials_path(const Points& p, FiveptPath path, std::vector<Mat3>* E);
+FiveptPath fivept_essentials_path(const Points& p, FiveptPath path, std::vector<Mat3>* E);
 
 // Every real solution decomposed into the pose (unit t) under which all five points have positive
 // pose-only depths h^T t > 0 and h'^T t > 0 (depth_numerators); solutions without such a
