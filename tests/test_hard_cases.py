@@ -135,7 +135,9 @@ def test_low_parallax_is_not_a_pure_rotation(scene):
     r = estimate_relative_pose(c.u1, c.u2, c.K, c.K, seed=scene)
     assert r.status == "ok", r.message
     assert r.diagnostics["pure_rotation"] is False
-    assert r.diagnostics["parallax_ratio"] > 2 * PRECISION_RATIO
+    # 28.6-45.7 before the ML stage's inlier share was bounded by the outliers beyond its band (the
+    # decision, and with it the band this ratio is measured in, tightened: 22.8-24.1)
+    assert r.diagnostics["parallax_ratio"] > 1.5 * PRECISION_RATIO
     assert _rerr(c, r.R) < 0.2
     assert r.num_inliers >= 0.95 * np.count_nonzero(c.inliers)
 

@@ -142,8 +142,64 @@ void em_terms_block(const InlierModel& M, double g, double out_density, double T
 // most `steps` steps, until s moves by at most tol relative and g by tol): false when fewer than
 // kMinInliers expected inliers remain. `p` (optional) gets the posteriors at the result.
 // q (optional, as r): per-match inverse noise scales, the inlier density of r_i being q_i f(q_i r_i).
+// Regularised incomplete beta I_x(a, b) (Numerical Recipes' betacf continued fraction, Lentz's method).
+double incomplete_beta(double a, double b, double x) {
+  if (!(x > 0.0)) return 0.0;
+  if (!(x < 1.0)) return 1.0;
+  const double front = std::exp(std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log1p(-x));
+  const bool flip = x > (a + 1.0) / (a + b + 2.0);
+  const double aa = flip ? b : a, bb = flip ? a : b, xx = flip ? 1.0 - x : x;
+  constexpr double tiny = 1e-300, eps = 1e-14;
+  double c = 1.0, d = 1.0 - (aa + bb) * xx / (aa + 1.0);
+  d = 1.0 / (std::abs(d) < tiny ? tiny : d);
+  double h = d;
+  for (int m = 1; m <= 200; ++m) {
+    const int m2 = 2 * m;
+    double num = m * (bb - m) * xx / ((aa + m2 - 1.0) * (aa + m2));
+    d = 1.0 + num * d, c = 1.0 + num / c;
+    d = 1.0 / (std::abs(d) < tiny ? tiny : d), c = std::abs(c) < tiny ? tiny : c;
+    h *= d * c;
+    num = -(aa + m) * (aa + bb + m) * xx / ((aa + m2) * (aa + m2 + 1.0));
+    d = 1.0 + num * d, c = 1.0 + num / c;
+    d = 1.0 / (std::abs(d) < tiny ? tiny : d), c = std::abs(c) < tiny ? tiny : c;
+    const double del = d * c;
+    h *= del;
+    if (std::abs(del - 1.0) < eps) break;
+  }
+  const double fr = front / aa * h;  // I_x(a, b) = fr, or 1 - fr with the roles of a, b and x, 1 - x swapped
+  return flip ? 1.0 - fr : fr;
+}
+
+// P(r >= x) for an inlier's error r (the half-normal or half-t of M)
+double inlier_survival(const InlierModel& M, double x) {
+  const double z = x / M.s;
+  if (!M.student()) return std::erfc(z / std::sqrt(2.0));
+  return incomplete_beta(0.5 * M.nu, 0.5, M.nu / (M.nu + z * z));
+}
+
+// The largest inlier share g of the nT matches below T that the matches just outside the band allow:
+// a wrong match's Sampson error has a flat density near 0, so the `near` matches in [T, 2T), less the
+// inliers' own tail there (sp P(T <= r < 2T) / P(r < T), sp the expected inliers below T), say that as
+// many of the matches below T are outliers. Without it the EM's g goes to 1 whenever the band itself
+// shows no outlier density, the p = 1/2 decision then moves to the band's edge, and outliers the pose
+// has bent towards pass the cross-fit's veto (sim_hard's second motion: 2.5 px decisions at 0.29 px noise).
+double band_g_max(const InlierModel& M, double Tr, int nT, double near, double sp) {
+  if (nT <= 0 || near <= 0) return 1.0 - 1e-9;
+  const double s1 = inlier_survival(M, Tr), s2 = inlier_survival(M, 2.0 * Tr), below = 1.0 - s1;
+  const double tail = below > 0.0 ? sp * (s1 - s2) / below : 0.0;
+  const double out_near = std::max(near - tail, 0.0);
+  return std::clamp(1.0 - out_near / nT, 1e-6, 1.0 - 1e-9);
+}
+
+// the matches in [T, 2T)
+int near_band(const std::vector<double>& r, double Tr) {
+  int near = 0;
+  for (double x : r) near += x >= Tr && x < 2.0 * Tr;
+  return near;
+}
+
 bool fit_scale(const std::vector<double>& r, const std::vector<double>* q, double Tr, double nu, double floor, int steps, double tol,
-               double* s, double* g, std::vector<double>* p) {
+               double* s, double* g, std::vector<double>* p, double near = 0.0) {
   const int n = static_cast<int>(r.size());
   int nT = 0;  // the matches below T (fixed errors)
   for (int i = 0; i < n; ++i) nT += r[i] < Tr;
@@ -164,7 +220,7 @@ bool fit_scale(const std::vector<double>& r, const std::vector<double>* q, doubl
     if (sp < kMinInliers) return false;
     const double s0 = *s, g0 = *g;
     *s = std::clamp(std::sqrt(spur2 / sp), floor, Tr);
-    *g = std::clamp(sp / std::max(nT, 1), 1e-6, 1.0 - 1e-9);
+    *g = std::clamp(sp / std::max(nT, 1), 1e-6, band_g_max(M, Tr, nT, near, sp));
     if (std::abs(*s - s0) <= tol * s0 && std::abs(*g - g0) <= tol) break;
   }
   if (p) {
@@ -207,6 +263,7 @@ void select_tails(const std::vector<double>& r, const std::vector<double>& c, bo
   std::vector<double> sub, csub, q;
   int nT = 0;
   for (double x : r) nT += x < Tr;
+  const int near_all = near_band(r, Tr);  // from all the errors (the subsample holds only those below T)
   const int stride = std::max(1, (nT + kNuSample - 1) / kNuSample);
   int k = 0;
   for (size_t i = 0; i < r.size(); ++i)
@@ -214,6 +271,7 @@ void select_tails(const std::vector<double>& r, const std::vector<double>& c, bo
       sub.push_back(r[i]);
       if (!c.empty()) csub.push_back(c[i]);
     }
+  const double near_sub = nT > 0 ? near_all * static_cast<double>(sub.size()) / nT : 0.0;  // scaled to the subsample
   double best_ll = -INFINITY;
   *nu_out = INFINITY, *alpha_out = 0.0;
   for (double alpha : kAlphaGrid) {
@@ -223,7 +281,7 @@ void select_tails(const std::vector<double>& r, const std::vector<double>& c, bo
     double sv = s, gv = g;
     for (double nu : kNuGrid) {
       if (!student && std::isfinite(nu)) continue;
-      if (!fit_scale(sub, qp, Tr, nu, floor, kNuEmSteps, kNuEmTol, &sv, &gv, nullptr)) {
+      if (!fit_scale(sub, qp, Tr, nu, floor, kNuEmSteps, kNuEmTol, &sv, &gv, nullptr, near_sub)) {
         sv = s, gv = g;
         continue;
       }
@@ -338,7 +396,7 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
       if (alpha != 0.0) inverse_scales(c, alpha, &q), qp = &q;
     }
     // E: the mixture's parameters to convergence on the current errors, then the posteriors
-    if (!fit_scale(r, qp, Tr, nu, opt.sigma_floor, kEmSteps, kEmTol, &sigma, &g, &p)) break;
+    if (!fit_scale(r, qp, Tr, nu, opt.sigma_floor, kEmSteps, kEmTol, &sigma, &g, &p, near_band(r, Tr))) break;
     // M: the pose maximising sum p_i log f(q_i r_i): weighted least squares with weights p_i q_i^2
     // (Gaussian) or, for the t, the Cauchy loss of scale sqrt(nu) s on q_i r_i with the posteriors as
     // outer weights (its IRLS weights are the t's precisions, recomputed at every LM step)
@@ -385,7 +443,7 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
   // last E-step, as before)
   if (std::isfinite(nu) || qp) {
     double sv = sigma, gv = g;
-    if (fit_scale(r, qp, Tr, nu, opt.sigma_floor, kEmSteps, kEmTol, &sv, &gv, nullptr)) sigma = sv, g = gv;
+    if (fit_scale(r, qp, Tr, nu, opt.sigma_floor, kEmSteps, kEmTol, &sv, &gv, nullptr, near_band(r, Tr))) sigma = sv, g = gv;
   }
   // final posteriors at the returned pose
   const InlierModel M(sigma, nu);
@@ -403,7 +461,7 @@ void ml_refine(const Points& P, const Pose& start, const MlOptions& opt, MlResul
   out->decision = decision(M, g, Tr);
   if (M.student() || qp) {
     double sg = sigma0, gg = g0;
-    const bool fitted = fit_scale(r, nullptr, Tr, INFINITY, opt.sigma_floor, kEmSteps, kEmTol, &sg, &gg, nullptr);
+    const bool fitted = fit_scale(r, nullptr, Tr, INFINITY, opt.sigma_floor, kEmSteps, kEmTol, &sg, &gg, nullptr, near_band(r, Tr));
     out->decision_gauss = fitted ? decision(InlierModel(sg, INFINITY), gg, Tr) : 0.0;
     out->sigma_gauss = fitted ? sg : 0.0;
   } else {

@@ -45,7 +45,7 @@ MIN_PUTATIVE = 30
 # cross-fit as a veto; 20: PROSAC's stopping rule; 21: the sample floor by parallax; 22: the
 # neighbour-consistency fallback of searches that have not converged after 3000 samples; 23: its two
 # stages' rivals merged, ties of the scores in input order)
-TWO_VIEW_CACHE_TAG = 23
+TWO_VIEW_CACHE_TAG = 24
 
 
 @dataclass(frozen=True)
