@@ -178,9 +178,10 @@ def test_the_reported_scale_and_share_are_a_fixed_point_of_em(seed, nu):
     from scipy.stats import t as student_t
 
     sf = lambda x: 2.0 * student_t.sf(x / s, nu)  # noqa: E731  P(r >= x) of an inlier's error (half-t)
-    tail = np.sum(p) * (sf(T) - sf(2 * T)) / (1.0 - sf(T))
-    g_max = 1.0 - max(near - tail, 0.0) / len(r)
-    g1 = min(np.sum(p) / len(r), g_max)
+    sp = np.sum(p)
+    b = max(near - sp * (sf(T) - sf(2 * T)) / (1.0 - sf(T)), 0.0)
+    g_max = max(1.0 - b / len(r), sp / (len(r) + b))
+    g1 = min(sp / len(r), g_max)
     assert abs(s1 - s) <= 1e-5 * s
     assert abs(g1 - g) <= 1e-5
 

@@ -138,10 +138,6 @@ void em_terms_block(const InlierModel& M, double g, double out_density, double T
   }
 }
 
-// The mixture's scale s and inlier share g at fixed nu on fixed errors r (EM from the given s, g, at
-// most `steps` steps, until s moves by at most tol relative and g by tol): false when fewer than
-// kMinInliers expected inliers remain. `p` (optional) gets the posteriors at the result.
-// q (optional, as r): per-match inverse noise scales, the inlier density of r_i being q_i f(q_i r_i).
 // Regularised incomplete beta I_x(a, b) (Numerical Recipes' betacf continued fraction, Lentz's method).
 double incomplete_beta(double a, double b, double x) {
   if (!(x > 0.0)) return 0.0;
@@ -177,18 +173,32 @@ double inlier_survival(const InlierModel& M, double x) {
   return incomplete_beta(0.5 * M.nu, 0.5, M.nu / (M.nu + z * z));
 }
 
+// kBandQuantiles evenly spaced quantiles of the inverse noise scales q of the matches below T: the
+// inliers' tail of band_g_max averaged over them (an inlier's error r_i has P(r_i >= x) = S(q_i x))
+constexpr int kBandQuantiles = 5;
+
 // The largest inlier share g of the nT matches below T that the matches just outside the band allow:
 // a wrong match's Sampson error has a flat density near 0, so the `near` matches in [T, 2T), less the
-// inliers' own tail there (sp P(T <= r < 2T) / P(r < T), sp the expected inliers below T), say that as
-// many of the matches below T are outliers. Without it the EM's g goes to 1 whenever the band itself
-// shows no outlier density, the p = 1/2 decision then moves to the band's edge, and outliers the pose
-// has bent towards pass the cross-fit's veto (sim_hard's second motion: 2.5 px decisions at 0.29 px noise).
-double band_g_max(const InlierModel& M, double Tr, int nT, double near, double sp) {
+// inliers' own expected tail there (sp P(T <= r < 2T) / P(r < T), sp the expected inliers below T;
+// averaged over the quantiles qk of the inverse noise scales, none: q = 1), say that about b as many of
+// the matches below T are outliers: g <= 1 - b / nT. Without it the EM's g goes to 1 whenever the band
+// itself shows no outlier density, the p = 1/2 decision then moves to the band's edge, and outliers the
+// pose has bent towards pass the cross-fit's veto (sim_hard's second motion: 2.5 px decisions at 0.29 px
+// noise). Wrong matches that cluster just outside the band (a second motion, a repeated structure)
+// would make that bound collapse g (to the point where EM stops), so it is softened to the share with
+// the b matches counted as extra outliers, sp / (nT + b), where it is the lower: g stays within
+// [sp / (nT + b), sp / nT].
+double band_g_max(const InlierModel& M, double Tr, int nT, double near, double sp, const std::vector<double>& qk) {
   if (nT <= 0 || near <= 0) return 1.0 - 1e-9;
-  const double s1 = inlier_survival(M, Tr), s2 = inlier_survival(M, 2.0 * Tr), below = 1.0 - s1;
-  const double tail = below > 0.0 ? sp * (s1 - s2) / below : 0.0;
-  const double out_near = std::max(near - tail, 0.0);
-  return std::clamp(1.0 - out_near / nT, 1e-6, 1.0 - 1e-9);
+  double ratio = 0.0;
+  const int m = qk.empty() ? 1 : static_cast<int>(qk.size());
+  for (int k = 0; k < m; ++k) {
+    const double qi = qk.empty() ? 1.0 : qk[k];
+    const double s1 = inlier_survival(M, qi * Tr), s2 = inlier_survival(M, 2.0 * qi * Tr), below = 1.0 - s1;
+    ratio += below > 0.0 ? (s1 - s2) / below : 0.0;
+  }
+  const double b = std::max(near - sp * ratio / m, 0.0);
+  return std::clamp(std::max(1.0 - b / nT, sp / (nT + b)), 1e-6, 1.0 - 1e-9);
 }
 
 // the matches in [T, 2T)
@@ -198,11 +208,30 @@ int near_band(const std::vector<double>& r, double Tr) {
   return near;
 }
 
+// The mixture's scale s and inlier share g at fixed nu on fixed errors r (EM from the given s, g, at
+// most `steps` steps, until s moves by at most tol relative and g by tol): false when fewer than
+// kMinInliers expected inliers remain. `p` (optional) gets the posteriors at the result.
+// q (optional, as r): per-match inverse noise scales, the inlier density of r_i being q_i f(q_i r_i).
+// near: the matches in [T, 2T) of the full error set, scaled to r's if r is a subsample (band_g_max).
 bool fit_scale(const std::vector<double>& r, const std::vector<double>* q, double Tr, double nu, double floor, int steps, double tol,
-               double* s, double* g, std::vector<double>* p, double near = 0.0) {
+               double* s, double* g, std::vector<double>* p, double near) {
   const int n = static_cast<int>(r.size());
   int nT = 0;  // the matches below T (fixed errors)
   for (int i = 0; i < n; ++i) nT += r[i] < Tr;
+  std::vector<double> qk;  // quantiles of the inverse noise scales below T (band_g_max)
+  if (q && near > 0.0 && nT > 0) {
+    std::vector<double> qs;
+    qs.reserve(nT);
+    for (int i = 0; i < n; ++i)
+      if (r[i] < Tr) qs.push_back((*q)[i]);
+    size_t from = 0;  // the quantiles in increasing order, each selection on the part above the previous one
+    for (int k = 0; k < kBandQuantiles; ++k) {
+      const size_t at = std::max(from, static_cast<size_t>((k + 0.5) / kBandQuantiles * qs.size()));
+      std::nth_element(qs.begin() + static_cast<std::ptrdiff_t>(from), qs.begin() + static_cast<std::ptrdiff_t>(at), qs.end());
+      qk.push_back(qs[at]);
+      from = at + 1 < qs.size() ? at + 1 : at;
+    }
+  }
   double pib[kEmBlock], tb[kEmBlock];
   for (int e = 0; e < steps; ++e) {
     const InlierModel M(*s, nu);
@@ -220,7 +249,7 @@ bool fit_scale(const std::vector<double>& r, const std::vector<double>* q, doubl
     if (sp < kMinInliers) return false;
     const double s0 = *s, g0 = *g;
     *s = std::clamp(std::sqrt(spur2 / sp), floor, Tr);
-    *g = std::clamp(sp / std::max(nT, 1), 1e-6, band_g_max(M, Tr, nT, near, sp));
+    *g = std::clamp(sp / std::max(nT, 1), 1e-6, band_g_max(M, Tr, nT, near, sp, qk));
     if (std::abs(*s - s0) <= tol * s0 && std::abs(*g - g0) <= tol) break;
   }
   if (p) {

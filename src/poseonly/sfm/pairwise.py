@@ -44,9 +44,9 @@ MIN_PUTATIVE = 30
 # rounding floor on noise-free data; 16-17: the ML collapse guard; 18: the cross-fitted inliers; 19: the
 # cross-fit as a veto; 20: PROSAC's stopping rule; 21: the sample floor by parallax; 22: the
 # neighbour-consistency fallback of searches that have not converged after 3000 samples; 23: its two
-# stages' rivals merged, ties of the scores in input order; 24: the ML stage's inlier share bounded by the
+# stages' rivals merged, ties of the scores in input order; 24-25: the ML stage's inlier share bounded by the
 # matches just outside its band)
-TWO_VIEW_CACHE_TAG = 24
+TWO_VIEW_CACHE_TAG = 25
 
 
 @dataclass(frozen=True)
