@@ -219,6 +219,32 @@ nb::tuple refine_residuals_py(int kind, const ArrayIn& R, const ArrayIn& t, cons
   return nb::make_tuple(to_numpy(std::move(r), {m}), to_numpy(std::move(J), {m, size_t{5}}));
 }
 
+// first-order pose covariance (refine.h pose_covariance); t None: a rotation without translation
+nb::tuple pose_covariance_py(const ArrayIn& R, const std::optional<ArrayIn>& t, const BearingsIn& f1, const BearingsIn& f2,
+                             const std::optional<VectorIn>& w) {
+  const Points P = points_of(f1, f2);
+  const double* wp = checked_weights(w, P.n);
+  Pose pose;
+  if (t) {
+    pose = checked_pose(R, *t);
+  } else {
+    if (R.ndim() != 2 || R.shape(0) != 3 || R.shape(1) != 3) throw std::invalid_argument("R must have shape (3, 3)");
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) pose.R(i, j) = R.data()[3 * i + j];
+    if (!pose.R.allFinite() || (pose.R.transpose() * pose.R - Mat3::Identity()).cwiseAbs().maxCoeff() > 1e-6 || pose.R.determinant() < 0.0)
+      throw std::invalid_argument("R must be a finite rotation matrix (R^T R = I, det R = +1)");
+  }
+  PoseCovariance c;
+  {
+    nb::gil_scoped_release release;
+    c = pose_covariance(P, wp, pose, t.has_value());
+  }
+  std::vector<double> Cr(9), Ct(9);
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) Cr[3 * a + b] = c.rotation(a, b), Ct[3 * a + b] = c.translation(a, b);
+  return nb::make_tuple(to_numpy(std::move(Cr), {3, 3}), to_numpy(std::move(Ct), {3, 3}), c.sigma, c.matches, c.ok);
+}
+
 nb::tuple refine_normal_equations_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, const VectorIn& x,
                                      const std::optional<VectorIn>& w, bool blocks, const std::string& loss, double loss_scale,
                                      bool weights_outside, const std::optional<VectorIn>& residual_weights) {
@@ -270,6 +296,14 @@ POSEONLY_BIND(solvers) {
         "LiGTopt (poseonly.refine.ligt.ligt_refine(..., solver='lm')): LM on IRLS normal equations of "
         "sum_i s^2 rho(|sqrt(w_i) L~_i t|^2 / s^2) with normalization none | theta2 | angular; other arguments as "
         "refine_sampson. Returns (R, unit t, stats dict).");
+  m.def("pose_covariance", &pose_covariance_py, nb::arg("R"), nb::arg("t").none(), nb::arg("f1"), nb::arg("f2"),
+        nb::arg("w") = nb::none(),
+        "First-order covariance sigma^2 (J^T J)^-1 of the pose (R (3, 3), t (3,)) fitted by least squares on the Sampson "
+        "errors of the matches f1, f2 (n, 3) with w_i > 0 (w (n,): inverse variances up to a constant or a 0 / 1 mask; "
+        "None: all), sigma = 1.4826 median |sqrt(w_i) r_i|. t None: a rotation without translation (its chord residuals). "
+        "Returns (rotation covariance (3, 3) in radians^2 of the left perturbation exp([d]x) R, translation covariance "
+        "(3, 3) of the unit t (rank 2, tangent to t; zero without t), sigma (radians), matches used, ok); not ok "
+        "(covariances inf): too few matches, a zero scale or a parameter the matches do not constrain.");
   m.def("_refine_normal_equations", &refine_normal_equations_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
         nb::arg("x"), nb::arg("w") = nb::none(), nb::arg("blocks") = true, nb::arg("loss") = "linear", nb::arg("loss_scale") = 1.0,
         nb::arg("weights_outside") = false, nb::arg("residual_weights") = nb::none(),

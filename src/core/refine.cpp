@@ -3,6 +3,7 @@
 
 #include <Eigen/LU>
 
+#include "analysis.h"
 #include "residuals.h"
 
 #include <algorithm>
@@ -633,6 +634,83 @@ void refine_residuals(const Points& p, const double* w, const Pose& start, const
       for (int k = 0; k < 5; ++k) (*J)[(static_cast<size_t>(i) * m + c) * 5 + k] = sw * Ji[c][k];
     }
   }
+}
+
+namespace {
+
+// the smallest eigenvalue of an information, relative to its largest, that still counts as constrained
+constexpr double kCovarianceMinEigenRatio = 1e-12;
+constexpr double kRayleighMedian = 1.1774100225154747;  // sqrt(2 ln 2)
+
+// Sigma = sigma^2 H^-1 for a symmetric information H (false when it is not positive definite)
+template <int D>
+bool invert_information(const Eigen::Matrix<double, D, D>& H, double s2, Eigen::Matrix<double, D, D>* C) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, D, D>> es(0.5 * (H + H.transpose()));
+  if (es.info() != Eigen::Success) return false;
+  const auto& ev = es.eigenvalues();
+  if (!(ev(D - 1) > 0.0) || !std::isfinite(ev(D - 1)) || !(ev(0) > kCovarianceMinEigenRatio * ev(D - 1))) return false;
+  *C = s2 * es.eigenvectors() * ev.cwiseInverse().asDiagonal() * es.eigenvectors().transpose();
+  return true;
+}
+
+}  // namespace
+
+PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pose, bool translation) {
+  PoseCovariance out;
+  const double inf = std::numeric_limits<double>::infinity();
+  out.rotation = Mat3::Constant(inf);
+  out.translation = translation ? Mat3::Constant(inf) : Mat3::Zero();
+  std::vector<double> absr;
+  Pose unit = pose;
+  if (translation) unit.t.normalize();
+  if (translation && !(unit.t.allFinite())) return out;
+  if (!translation) unit.t = Vec3::UnitZ();  // (the chart needs a direction; only R is used)
+  const Chart chart(unit);
+  const double x0[5] = {0, 0, 0, 0, 0};
+  Frame F;
+  chart.eval(x0, true, &F.R, &F.t, &F.Jl, &F.Jt);
+  if (translation) {
+    Mat5 H = Mat5::Zero();
+    for (int i = 0; i < p.n; ++i) {
+      const double wi = w ? w[i] : 1.0;
+      if (!(wi > 0.0)) continue;
+      double r[1], J[1][5];
+      sampson_point(F, p.a(i), p.b(i), true, r, J);
+      const Eigen::Map<const Vec5> Ji(J[0]);
+      H.noalias() += wi * Ji * Ji.transpose();
+      absr.push_back(std::sqrt(wi) * std::abs(r[0]));
+    }
+    out.matches = static_cast<int>(absr.size());
+    if (out.matches < kRefineMinPoints) return out;
+    out.sigma = kMadFactor * median_of(&absr);
+    Mat5 C;
+    if (!(out.sigma > 0.0 && std::isfinite(out.sigma)) || !H.allFinite() || !invert_information<5>(H, out.sigma * out.sigma, &C)) return out;
+    out.rotation = C.topLeftCorner<3, 3>();
+    out.translation = F.Jt * C.bottomRightCorner<2, 2>() * F.Jt.transpose();
+  } else {
+    // chord residuals u_k^T (R f1 - f2), u_k spanning the tangent plane of f2: sum_k u_k u_k^T = I - f2 f2^T;
+    // d(R f1)/dw = -[R f1]x (left perturbation)
+    Mat3 H = Mat3::Zero();
+    for (int i = 0; i < p.n; ++i) {
+      const double wi = w ? w[i] : 1.0;
+      if (!(wi > 0.0)) continue;
+      const Vec3 b = p.b(i).normalized();
+      const Vec3 a = unit.R * p.a(i);
+      const Mat3 P = Mat3::Identity() - b * b.transpose();
+      const Mat3 A = skew(a);
+      H.noalias() += wi * (A.transpose() * P * A);
+      absr.push_back(std::sqrt(wi) * (P * (a - b)).norm());
+    }
+    out.matches = static_cast<int>(absr.size());
+    if (out.matches < 3) return out;
+    // a match's chord is two Gaussian components of scale sigma: its norm is Rayleigh, median sigma sqrt(2 ln 2)
+    out.sigma = median_of(&absr) / kRayleighMedian;
+    Mat3 C;
+    if (!(out.sigma > 0.0 && std::isfinite(out.sigma)) || !H.allFinite() || !invert_information<3>(H, out.sigma * out.sigma, &C)) return out;
+    out.rotation = C;
+  }
+  out.ok = true;
+  return out;
 }
 
 }  // namespace poseonly

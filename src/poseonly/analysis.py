@@ -30,6 +30,7 @@ __all__ = [
     "parallax_deg",
     "parallax_ratio",
     "planar_twin",
+    "pose_uncertainty",
     "pure_rotation_test",
     "rival_test",
     "sign_test",
@@ -71,6 +72,28 @@ def parallax_deg(R, f1, f2, inl) -> float:
     """Median angle (degrees) between ``R f1`` and ``f2`` over the inliers ``inl (n,)`` (NaN without
     any). One core call (numpy reference: tests/reference/status.py)."""
     return float(np.degrees(_core.median_rotation_angle(_c(R), _c(f1), _c(f2), np.ascontiguousarray(inl, dtype=bool))))
+
+
+def pose_uncertainty(R: np.ndarray, t: np.ndarray | None, f1: np.ndarray, f2: np.ndarray, inl: np.ndarray) -> dict[str, Any]:
+    """First-order covariance of the pose fitted to its inliers ``inl (n,)`` (Hartley and Zisserman,
+    section 5.2.3): ``sigma^2 (J^T J)^-1``, ``J`` the Jacobian of the inliers' Sampson errors in the
+    pose's five parameters, ``sigma = 1.4826 median |r|`` over the inliers (the core's
+    ``pose_covariance``). The rotation's block has the translation direction marginalised: a rotation
+    that trades against the translation (a narrow field of view, a small object turning in front of
+    the camera) is known less well than the inlier count says. ``t = None``: a rotation without
+    translation (the chord residuals ``R f1 - f2``).
+
+    Returns ``rotation_covariance (3, 3)`` (radians^2, the left perturbation ``exp([d]x) R``),
+    ``translation_covariance (3, 3)`` (of the unit ``t``; rank 2, tangent to ``t``; zero without
+    ``t``) and ``rotation_std_deg`` / ``translation_std_deg``: the standard deviation along the
+    least constrained axis (square root of the largest eigenvalue), in degrees; ``inf`` where the
+    inliers do not constrain the pose (fewer than 6, a zero scale, a singular information)."""
+    Cr, Ct, sigma, _, ok = _core.pose_covariance(_c(R), None if t is None else _c(t), _c(f1), _c(f2), np.ascontiguousarray(inl, dtype=float))
+    if not ok:
+        return {"rotation_covariance": None, "translation_covariance": None, "rotation_std_deg": np.inf, "translation_std_deg": np.inf}
+    std_r = float(np.degrees(np.sqrt(max(float(np.linalg.eigvalsh(Cr)[-1]), 0.0))))
+    std_t = float(np.degrees(np.sqrt(max(float(np.linalg.eigvalsh(Ct)[-1]), 0.0)))) if t is not None else float("nan")
+    return {"rotation_covariance": Cr, "translation_covariance": Ct if t is not None else None, "rotation_std_deg": std_r, "translation_std_deg": std_t}
 
 
 def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, int] | None, dict[str, Any]]:

@@ -46,6 +46,9 @@ STATUS_CONFIG = {
     "ok": "CALIBRATED",
     "planar_ambiguous": "PLANAR_OR_PANORAMIC",
     "ambiguous": "MULTIPLE",
+    # the inliers single out the epipolar geometry, the rotation is only poorly determined: COLMAP gets the
+    # inlier matches as calibrated two-view geometry (its bundle adjustment re-estimates every pose)
+    "uncertain": "CALIBRATED",
     "pure_rotation": "PANORAMIC",
     "too_few_inliers": "DEGENERATE",
     "degenerate": "DEGENERATE",

@@ -161,6 +161,12 @@ def _opt(default: Any, kind: str, doc: str = "", **kw: Any) -> Any:
 
 
 SCHEDULES = ("ms-tls", "gnc-tls")
+# status "uncertain" above this rotation standard deviation (first order, degrees): an ok pose's rotation
+# is then within ~3 deg at three sigmas, below the edge-outlier thresholds of rotation averaging (ours
+# min(5 deg, max(X84, 1 deg)), sfm.rotation_averaging). Measured on the real pairs
+# (docs/RESULTS_real.md, "Pose uncertainty"): every ok pose of the Strecha and KITTI pairs is below
+# 0.2 deg; on temple the two ok poses more than 5 deg off are at 1.4-1.8 deg
+MAX_ROTATION_STD_DEG = 1.0
 
 
 @dataclass(frozen=True)
@@ -172,6 +178,13 @@ class CommonOptions:
     seed: int | np.random.Generator = _opt(0, "seed", "random seed")  # noqa: RUF009
     refine: bool = _opt(True, "bool", "LiGTopt on the inliers")
     min_inliers: int = _opt(15, "int", "inliers needed for status ok", lo=6)
+    max_rotation_std_deg: float = _opt(
+        MAX_ROTATION_STD_DEG,
+        "real",
+        "the largest first-order standard deviation of the rotation (degrees, its least constrained axis) of an ok pose; above it the status is uncertain",
+        lo=0.0,
+        lo_open=True,
+    )
 
     def check(self) -> None:
         """Check every field against its :class:`Spec` (raises :class:`InputError`)."""

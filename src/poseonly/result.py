@@ -21,15 +21,17 @@ from .analysis import (
     log10_nfa,
     parallax_deg,
     planar_twin,
+    pose_uncertainty,
     pure_rotation_test,
     rival_test,
 )
 from .geometry import essential_from_pose, rotation_error_deg
+from .options import MAX_ROTATION_STD_DEG
 from .residuals import v_sampson
 
 __all__ = ["STATUSES", "RelativePoseResult", "degenerate_result", "finish", "valid_pose"]
 
-STATUSES = ("ok", "planar_ambiguous", "ambiguous", "pure_rotation", "too_few_inliers", "degenerate")
+STATUSES = ("ok", "planar_ambiguous", "ambiguous", "uncertain", "pure_rotation", "too_few_inliers", "degenerate")
 
 
 # a returned R must satisfy |R^T R - I|_max < ORTHO_TOL and det R > 0 (else no valid pose was found)
@@ -83,6 +85,11 @@ class RelativePoseResult:
     * ``"ambiguous"`` -- a second pose far from this one (``diagnostics["rival_R"]``,
       ``["rival_t"]``, at least ``rival_distance`` degrees of rotation away) explains at least as
       many matches of its own: the two views do not single out the pose;
+    * ``"uncertain"`` -- the inliers single out the pose but do not pin its rotation down: its
+      first-order standard deviation (``diagnostics["rotation_std_deg"]``, the least constrained
+      axis, translation direction marginalised) exceeds ``max_rotation_std_deg`` (1 deg by default;
+      typical of a small object or a narrow field of view with few matches, where the rotation trades
+      against the translation); the pose is the best estimate, ``rotation_covariance`` says how good;
     * ``"pure_rotation"`` -- a rotation without translation explains the matches, the pose's
       extra inliers are no more than chance and the rotation leaves no parallax above the noise on
       the matches both explain (``diagnostics["parallax_ratio"]``, see
@@ -94,8 +101,14 @@ class RelativePoseResult:
     * ``"degenerate"`` -- the correspondences do not determine a pose (e.g. all points identical)
       or the method found no valid model: ``R``, ``t`` and ``E`` are ``None``.
 
+    ``rotation_covariance`` and ``translation_covariance`` are the pose's first-order covariance
+    from its inliers (:func:`poseonly.analysis.pose_uncertainty`: radians^2, the rotation's in the
+    perturbation ``exp([d]x) R``, the unit translation's tangent to ``t``), ``None`` where no pose or
+    no finite covariance exists (for ``pure_rotation`` the rotation-only fit's, no translation's).
+
     Shapes: ``R (3, 3)``, ``t (3,)`` (unit), ``E (3, 3)``, ``inliers (n,)`` bool, ``weights (n,)``,
-    ``residuals_px (n,)`` (NaN when undefined).
+    ``residuals_px (n,)`` (NaN when undefined), ``rotation_covariance (3, 3)``,
+    ``translation_covariance (3, 3)``.
     """
 
     R: np.ndarray | None
@@ -117,6 +130,8 @@ class RelativePoseResult:
     twin_inliers: int = 0
     time_s: float = 0.0
     diagnostics: dict[str, Any] = field(default_factory=dict)
+    rotation_covariance: np.ndarray | None = None
+    translation_covariance: np.ndarray | None = None
 
     @property
     def ok(self) -> bool:
@@ -151,6 +166,10 @@ class RelativePoseResult:
             d["R_twin"] = _json_array(self.R_twin)
             d["t_twin"] = _json_array(self.t_twin)
             d["twin_inliers"] = int(self.twin_inliers)
+        if self.rotation_covariance is not None:
+            d["rotation_covariance"] = _json_array(self.rotation_covariance)
+        if self.translation_covariance is not None:
+            d["translation_covariance"] = _json_array(self.translation_covariance)
         return d
 
 
@@ -184,14 +203,15 @@ def _rotation_angles(R, f1, f2) -> np.ndarray:
     return np.arccos(c)
 
 
-def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inliers=15) -> RelativePoseResult:
+def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inliers=15, max_rotation_std_deg=MAX_ROTATION_STD_DEG) -> RelativePoseResult:
     """Inliers, residuals, analysis and status of a method's final model ``(R, t)``.
 
     Order of the decision: no valid model -> ``degenerate``; a significant rotation-only model
     and no significant translation -> ``pure_rotation``; too few inliers or an NFA above
     :data:`poseonly.analysis.NFA_MAX` -> ``too_few_inliers``; a planar twin -> ``planar_ambiguous``;
     a rival pose (``diag["rival_R"]``, the default method's uniqueness test) that explains as many
-    matches of its own -> ``ambiguous``; else ``ok``.
+    matches of its own -> ``ambiguous``; a rotation standard deviation above
+    ``max_rotation_std_deg`` -> ``uncertain``; else ``ok``.
     """
     tau_search = tau
     if "tau_effective" in diag:  # the default method's noise-matched threshold (<= the user's)
@@ -220,11 +240,15 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     par = parallax_deg(R, f1, f2, inl)
     residuals = v * focal
     needed = max(6, min_inliers)
-    if rot["pure_rotation"]:
+    # the covariance of the model the status speaks for: the rotation-only fit's on its inliers, or the pose's
+    rot_inl = _rotation_inliers_mask(R_rot, f1, f2, tau_rot) if rot["pure_rotation"] else None
+    unc = pose_uncertainty(R, t, f1, f2, inl) if rot_inl is None else pose_uncertainty(R_rot, None, f1, f2, rot_inl)
+    diag.update(rotation_std_deg=unc["rotation_std_deg"], translation_std_deg=unc["translation_std_deg"])
+    if rot_inl is not None:
         status = "pure_rotation"
         R = R_rot  # the robust rotation-only fit is the estimate of R here
         ang = _rotation_angles(R, f1, f2)
-        inl = _rotation_inliers_mask(R, f1, f2, tau_rot)
+        inl = rot_inl
         n_in = int(inl.sum())
         weights = inl.astype(float)
         residuals = ang * focal
@@ -264,6 +288,13 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
                     f"{amb['rival_only']} matches the pose does not, against the pose's {amb['pose_only']} it does not: "
                     "the matches do not single out the pose"
                 )
+            elif not unc["rotation_std_deg"] <= max_rotation_std_deg:
+                status = "uncertain"
+                msg = (
+                    f"{n_in} inliers within {thr_px:g} px single out the pose, but they determine its rotation only to "
+                    f"{unc['rotation_std_deg']:.2f} deg (one standard deviation, first order; max_rotation_std_deg = "
+                    f"{max_rotation_std_deg:g}): see rotation_covariance"
+                )
             else:
                 status, msg = "ok", f"{n_in} inliers within {thr_px:g} px (expected false alarms 10^{lnfa:.0f})"
     return RelativePoseResult(
@@ -286,6 +317,8 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
         twin_inliers=twin_n,
         time_s=time.perf_counter() - t0,
         diagnostics=diag,
+        rotation_covariance=unc["rotation_covariance"],
+        translation_covariance=unc["translation_covariance"],
     )
 
 

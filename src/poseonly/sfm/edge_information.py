@@ -10,9 +10,11 @@ translation block (the direction marginalised): a rotation about an axis that tr
 translation (narrow fields of view, forward motion) is known less well than one about the baseline,
 which an inlier count cannot say. A ``pure_rotation`` edge (translation not trusted) has the
 information of its rotation-only fit, the chord residuals ``R f1 - f2`` in the tangent plane of ``f2``.
+The computation is the core's (``pose_covariance``, the status analysis's pose uncertainty).
 
-``sigma`` is the edge's own robust scale, ``1.4826 median |r|`` over its inliers (pairs of one scene
-differ in blur, scale change and viewing angle), so a pair with noisier matches weighs less.
+``sigma`` is the edge's own robust scale, ``1.4826 median |r|`` over its inliers (the chords: median
+norm / sqrt(2 ln 2), a Rayleigh's median) (pairs of one scene differ in blur, scale change and viewing
+angle), so a pair with noisier matches weighs less.
 
 Shapes: bearings ``f1, f2 (m, 3)`` (unit, the edge's inliers), ``R (3, 3)``, ``t (3,)``; information
 ``(3, 3)`` symmetric positive semi-definite, in view i's frame (``d`` above).
@@ -24,19 +26,15 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..geometry import cross, rotation_from_rotvec, skew
-from ..refine._manifold import tangent_basis
+from .. import _core
+from ..geometry import skew
 from .tracks import Tracks
 from .viewgraph import ViewGraph
 
 __all__ = ["MIN_EDGE_MATCHES", "edge_informations", "rotation_information", "signed_sampson"]
 
-MAD_TO_SIGMA = 1.4826
 # below this many inliers an edge's information is not estimated (None): 5 parameters and a scale
 MIN_EDGE_MATCHES = 8
-# central differences of the residuals in the pose parameters: residuals of 1e-4-1e-2 rad, second
-# derivatives of order 1, so truncation ~STEP^2 and rounding ~1e-16 / STEP stay below 1e-9 relative
-STEP = 1e-6
 # the smallest eigenvalue of an information is raised to this fraction of its largest (a direction the
 # edge does not constrain still gets a finite weight, so every averaging solve stays well posed)
 MIN_EIGEN_RATIO = 1e-6
@@ -51,25 +49,6 @@ def signed_sampson(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray)
     num = np.einsum("ij,ij->i", Ef1, f2)
     den = np.einsum("ij,ij->i", Ef1, Ef1) + np.einsum("ij,ij->i", Etf2, Etf2) - 2.0 * num * num
     return num / np.sqrt(np.maximum(den, 1e-300))
-
-
-def _rotation_residuals(R: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
-    """``(2m,)`` the chord ``R f1 - f2`` in two tangent directions of ``f2`` per match."""
-    a = np.where(np.abs(f2[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
-    u = cross(f2, a)
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
-    v = cross(f2, u)
-    d = f1 @ R.T - f2
-    return np.concatenate([np.einsum("ij,ij->i", d, u), np.einsum("ij,ij->i", d, v)])
-
-
-def _jacobian(fun: Callable[[np.ndarray], np.ndarray], k: int) -> np.ndarray:
-    cols = []
-    for a in range(k):
-        e = np.zeros(k)
-        e[a] = STEP
-        cols.append((fun(e) - fun(-e)) / (2.0 * STEP))
-    return np.stack(cols, axis=1)
 
 
 def _floor(info: np.ndarray) -> np.ndarray | None:
@@ -87,43 +66,23 @@ def _floor(info: np.ndarray) -> np.ndarray | None:
 def rotation_information(R: np.ndarray, t: np.ndarray | None, f1: np.ndarray, f2: np.ndarray) -> np.ndarray | None:
     """Information ``(3, 3)`` of the rotation of the pose ``X2 = R X1 + t`` estimated from the inlier
     bearings ``f1, f2 (m, 3)``, in the right perturbation ``R exp([d]x)``; ``t = None``: a rotation
-    without translation (``X2 ~ R X1``). None with fewer than :data:`MIN_EDGE_MATCHES` matches, a
-    noise scale of exactly zero or a translation the matches do not determine."""
-    R = np.asarray(R, dtype=np.float64)
-    f1 = np.asarray(f1, dtype=np.float64)
-    f2 = np.asarray(f2, dtype=np.float64)
+    without translation (``X2 ~ R X1``). The inverse of the core's first-order covariance
+    (:func:`poseonly.analysis.pose_uncertainty`, left perturbation ``exp([w]x) R``, ``w = R d``: the
+    information in ``d`` is ``R^T I_w R``). None with fewer than :data:`MIN_EDGE_MATCHES` matches, a
+    noise scale of exactly zero or a pose the matches do not determine. numpy reference (central
+    differences): tests/reference/pose_covariance.py."""
+    R = np.ascontiguousarray(R, dtype=np.float64)
     if len(f1) < MIN_EDGE_MATCHES:
         return None
-    if t is None:
-
-        def rot_only(p: np.ndarray) -> np.ndarray:
-            return _rotation_residuals(R @ rotation_from_rotvec(p), f1, f2)
-
-        r = _rotation_residuals(R, f1, f2)
-        J = _jacobian(rot_only, 3)
-        sigma = MAD_TO_SIGMA * float(np.median(np.abs(r)))
-        if not sigma > 0:
-            return None
-        return _floor(J.T @ J / sigma**2)
-    tu = np.asarray(t, dtype=np.float64) / np.linalg.norm(t)
-    B = tangent_basis(tu)
-
-    def pose(p: np.ndarray) -> np.ndarray:
-        tp = tu + B @ p[3:]
-        return signed_sampson(R @ rotation_from_rotvec(p[:3]), tp / np.linalg.norm(tp), f1, f2)
-
-    r = signed_sampson(R, tu, f1, f2)
-    sigma = MAD_TO_SIGMA * float(np.median(np.abs(r)))
-    if not sigma > 0:
+    tt = None if t is None else np.ascontiguousarray(t, dtype=np.float64)
+    Cw, _, _, _, ok = _core.pose_covariance(R, tt, np.ascontiguousarray(f1, dtype=np.float64), np.ascontiguousarray(f2, dtype=np.float64))
+    if not ok:
         return None
-    J = _jacobian(pose, 5)
-    H = J.T @ J / sigma**2
-    Htt = H[3:, 3:]
     try:
-        S = H[:3, :3] - H[:3, 3:] @ np.linalg.solve(Htt, H[3:, :3])
+        info_w = np.linalg.inv(0.5 * (Cw + Cw.T))
     except np.linalg.LinAlgError:
         return None
-    return _floor(S)
+    return _floor(R.T @ info_w @ R)
 
 
 def edge_informations(graph: ViewGraph, bearings_of: Callable[[Tracks], np.ndarray]) -> tuple[np.ndarray | None, np.ndarray]:

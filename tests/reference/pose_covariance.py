@@ -1,0 +1,68 @@
+"""numpy reference of the core's ``pose_covariance`` (``src/core/refine.cpp``): the first-order
+covariance ``sigma^2 (J^T J)^-1`` of a pose from the Sampson errors of its inliers, ``J`` by central
+differences in the chart of the Sampson LM (``R = exp([w]x) R0``, ``t = normalize(t0 + B v)``).
+
+Shapes: ``R (3, 3)``, ``t (3,)`` or None (a rotation without translation: the chord residuals
+``R f1 - f2`` in the tangent plane of ``f2``), ``f1, f2 (n, 3)``, ``w (n,)``; covariances ``(3, 3)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from poseonly.geometry import cross, rotation_from_rotvec
+from poseonly.refine._manifold import tangent_basis
+from poseonly.sfm.edge_information import signed_sampson
+
+MAD_TO_SIGMA = 1.4826
+RAYLEIGH_MEDIAN = np.sqrt(2.0 * np.log(2.0))
+# central differences: residuals of 1e-4-1e-2 rad, second derivatives of order 1, so truncation ~STEP^2
+# and rounding ~1e-16 / STEP stay below 1e-9 relative
+STEP = 1e-6
+
+
+def _jacobian(fun, k: int) -> np.ndarray:
+    cols = []
+    for a in range(k):
+        e = np.zeros(k)
+        e[a] = STEP
+        cols.append((fun(e) - fun(-e)) / (2.0 * STEP))
+    return np.stack(cols, axis=1)
+
+
+def _chords(R: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+    """``(2m,)`` the chord ``R f1 - f2`` in two tangent directions of ``f2`` per match."""
+    a = np.where(np.abs(f2[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+    u = cross(f2, a)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = cross(f2, u)
+    d = f1 @ R.T - f2
+    return np.concatenate([np.einsum("ij,ij->i", d, u), np.einsum("ij,ij->i", d, v)])
+
+
+def pose_covariance(R, t, f1, f2, w=None) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(rotation covariance, translation covariance, sigma)``, as the core's (without its checks)."""
+    w = np.ones(len(f1)) if w is None else np.asarray(w, float)
+    keep = w > 0
+    f1, f2, sw = f1[keep], f2[keep], np.sqrt(w[keep])
+    if t is None:
+        m = len(f1)
+
+        def res(p: np.ndarray) -> np.ndarray:
+            return np.tile(sw, 2) * _chords(rotation_from_rotvec(p) @ R, f1, f2)
+
+        r = res(np.zeros(3))
+        sigma = float(np.median(np.hypot(r[:m], r[m:]))) / RAYLEIGH_MEDIAN
+        J = _jacobian(res, 3)
+        return sigma**2 * np.linalg.inv(J.T @ J), np.zeros((3, 3)), sigma
+    tu = np.asarray(t, float) / np.linalg.norm(t)
+    B = tangent_basis(tu)
+
+    def pose(p: np.ndarray) -> np.ndarray:
+        tp = tu + B @ p[3:]
+        return sw * signed_sampson(rotation_from_rotvec(p[:3]) @ R, tp / np.linalg.norm(tp), f1, f2)
+
+    sigma = MAD_TO_SIGMA * float(np.median(np.abs(pose(np.zeros(5)))))
+    J = _jacobian(pose, 5)
+    C = sigma**2 * np.linalg.inv(J.T @ J)
+    return C[:3, :3], B @ C[3:, 3:] @ B.T, sigma
