@@ -265,9 +265,15 @@ PRECISION_MIN_PARALLAX = 1e-4
 # 2-D residual as well (far_angle: P(chi^2_2 > 5.3^2) ~ 1e-6)
 FAR_SIGMAS = 5.3
 CAUCHY_C = 2.385  # the Cauchy loss's scale in noise sigmas (95 % efficiency at the Gaussian)
-# ... and only where the noise is resolved: the pose's robust noise scale at most this fraction of the
-# threshold (at a threshold near the noise the band truncates e and inflates the ratio)
-PRECISION_NOISE = 0.35
+# ... and only where the noise is resolved: the pose's robust noise scale at most the threshold (beyond
+# it the threshold truncates the inliers' own errors). It was 0.35 of the threshold: the test was then
+# off wherever the threshold had been matched to the noise (2.5 sigma, noise / threshold 0.4: every
+# pair at 1 px noise), and a small object turning in front of a narrow camera (fixated: the rotation
+# cancels most of the translation's image motion) was called a pure rotation, its rotation-only fit
+# 8 deg off (tests/test_pose_uncertainty.py). On synthetic pure rotations (0.3-3 px noise, 0-80 %
+# outliers, 60-1500 matches, both cameras, 10 scenes a cell) the ratio stays at most 5.3 with the
+# noise at up to 1.5 thresholds, and every status is the same at 0.35 and without the bound
+PRECISION_NOISE = 1.0
 CHI2_1_MEDIAN = 0.45493642311957283  # median of chi^2 with one degree of freedom
 
 
