@@ -129,6 +129,7 @@ def cmd_demo(args) -> int:
     print("ground truth:")
     print(_fmt_pose(d["R_gt"], d["t_gt"]))
     print(f"rotation error: {d['rotation_error_deg']:.4f} deg, translation direction error: {d['translation_error_deg']:.3f} deg")
+    print(f"deviation from the matches' noise alone (1 sigma, first order): rotation {d['rotation_std_deg']:.4f} deg, translation direction {d['translation_std_deg']:.3f} deg")
     print(f"time: features+matching {d['time_features_s']:.2f} s, robust estimation {d['time_estimate_s'] * 1e3:.1f} ms")
     if "drawing" in d:
         print(f"match drawing: {d['drawing']} (green inliers, red outliers)")
@@ -184,13 +185,16 @@ def cmd_relpose(args) -> int:
     else:
         print(_fmt_pose(r.R, r.t))
         print(f"inliers: {r.num_inliers} / {len(pr.u1)} matches ({100 * r.inlier_ratio:.1f}%)")
+        if r.rotation_covariance is not None:
+            std_t = r.diagnostics.get("translation_std_deg", float("nan"))
+            print(f"deviation from the matches' noise alone (1 sigma, first order): rotation {r.diagnostics['rotation_std_deg']:.3g} deg, translation direction {std_t:.3g} deg")
         print(f"status: {r.status}: {r.message}")
         print(f"time: features+matching {pr.time_features_s:.2f} s, estimation {pr.time_estimate_s * 1e3:.1f} ms")
     return exit_code(r.status)
 
 
 # exit codes of `poseonly relpose` (documented in the README): a pose to trust, a result whose status
-# says it is not one (planar_ambiguous, ambiguous, pure_rotation, too_few_inliers), no pose (degenerate) or an error
+# says it is not one (planar_ambiguous, ambiguous, uncertain, pure_rotation, too_few_inliers), no pose (degenerate) or an error
 EXIT_OK, EXIT_NOT_OK, EXIT_ERROR = 0, 1, 2
 
 

@@ -182,6 +182,8 @@ def run_demo(draw: str | Path | None = "poseonly_demo_matches.png", method: str 
         "t_gt": d.t_gt,
         "rotation_error_deg": float(rotation_error_deg(d.R_gt, r.R)) if r.R is not None else float("nan"),
         "translation_error_deg": float(translation_error_deg(d.t_gt, r.t)) if r.t is not None else float("nan"),
+        "rotation_std_deg": float(r.diagnostics.get("rotation_std_deg", float("nan"))),
+        "translation_std_deg": float(r.diagnostics.get("translation_std_deg", float("nan"))),
         "time_features_s": pr.time_features_s,
         "time_estimate_s": pr.time_estimate_s,
     }
