@@ -112,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
         for n in a.sizes:
             draws = a.draws_large if (a.large is not None and a.draws_large and n >= a.large) else a.draws
             st = Counter(_run(_random_case, [(kind, n, SEED_BASE + d, a.max_iterations) for d in range(draws)], a.workers))
-            amb = st["planar_ambiguous"] + st["ambiguous"]
+            amb = st["planar_ambiguous"] + st["ambiguous"] + st["uncertain"]
             rows.append(f"| random {kind} | {n} | {draws} | {st['ok']} | {st['too_few_inliers']} | {st['pure_rotation']} | {amb} | {st['degenerate']} |")
             print(rows[-1], flush=True)
     rot_rows = []
@@ -121,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
         rot_rows.append(
             f"| {100 * w:.0f} % | {a.rotation_n} | {a.rotation_draws} | {st['ok']} | {st['pure_rotation']} "
             f"({100 * st['pure_rotation'] / a.rotation_draws:.1f} %) | {st['too_few_inliers']} | "
-            f"{st['planar_ambiguous'] + st['ambiguous'] + st['degenerate']} |"
+            f"{st['planar_ambiguous'] + st['ambiguous'] + st['uncertain'] + st['degenerate']} |"
         )
         print(rot_rows[-1], flush=True)
     gen_rows = []
@@ -147,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
                 [
                     "Random matches (no pose exists; every `ok` is a false alarm):",
                     "",
-                    "| data | n | draws | ok | too_few_inliers | pure_rotation | planar_ambiguous or ambiguous | degenerate |",
+                    "| data | n | draws | ok | too_few_inliers | pure_rotation | planar_ambiguous, ambiguous or uncertain | degenerate |",
                     "|---|---|---|---|---|---|---|---|",
                     *rows,
                     "",

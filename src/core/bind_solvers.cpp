@@ -135,8 +135,11 @@ Pose checked_pose(const ArrayIn& R, const ArrayIn& t) {
   if (!p.R.allFinite() || !p.t.allFinite()) throw std::invalid_argument("R and t must be finite");
   if ((p.R.transpose() * p.R - Mat3::Identity()).cwiseAbs().maxCoeff() > 1e-6 || p.R.determinant() < 0.0)
     throw std::invalid_argument("R must be a rotation matrix (R^T R = I, det R = +1)");
+  const double mx = p.t.cwiseAbs().maxCoeff();  // scaled first: the norm of a t near 1e200 overflows
+  if (!(mx > 0.0)) throw std::invalid_argument("t must be non-zero");
+  p.t /= mx;
   const double nt = p.t.norm();
-  if (!(nt > 1e-12)) throw std::invalid_argument("t must be non-zero");
+  if (!(mx * nt > 1e-12)) throw std::invalid_argument("t must be non-zero");
   p.t /= nt;
   return p;
 }
@@ -221,8 +224,9 @@ nb::tuple refine_residuals_py(int kind, const ArrayIn& R, const ArrayIn& t, cons
 
 // first-order pose covariance (refine.h pose_covariance); t None: a rotation without translation
 nb::tuple pose_covariance_py(const ArrayIn& R, const std::optional<ArrayIn>& t, const BearingsIn& f1, const BearingsIn& f2,
-                             const std::optional<VectorIn>& w) {
-  const Points P = points_of(f1, f2);
+                             const std::optional<VectorIn>& w, double threshold) {
+  const Points P = checked_points(f1, f2, 0);
+  if (!(threshold >= 0.0) || !std::isfinite(threshold)) throw std::invalid_argument("threshold must be finite and >= 0");
   const double* wp = checked_weights(w, P.n);
   Pose pose;
   if (t) {
@@ -237,7 +241,7 @@ nb::tuple pose_covariance_py(const ArrayIn& R, const std::optional<ArrayIn>& t, 
   PoseCovariance c;
   {
     nb::gil_scoped_release release;
-    c = pose_covariance(P, wp, pose, t.has_value());
+    c = pose_covariance(P, wp, pose, t.has_value(), threshold);
   }
   std::vector<double> Cr(9), Ct(9);
   for (int a = 0; a < 3; ++a)
@@ -297,10 +301,12 @@ POSEONLY_BIND(solvers) {
         "sum_i s^2 rho(|sqrt(w_i) L~_i t|^2 / s^2) with normalization none | theta2 | angular; other arguments as "
         "refine_sampson. Returns (R, unit t, stats dict).");
   m.def("pose_covariance", &pose_covariance_py, nb::arg("R"), nb::arg("t").none(), nb::arg("f1"), nb::arg("f2"),
-        nb::arg("w") = nb::none(),
+        nb::arg("w") = nb::none(), nb::arg("threshold") = 0.0,
         "First-order covariance sigma^2 (J^T J)^-1 of the pose (R (3, 3), t (3,)) fitted by least squares on the Sampson "
         "errors of the matches f1, f2 (n, 3) with w_i > 0 (w (n,): inverse variances up to a constant or a 0 / 1 mask; "
-        "None: all), sigma = 1.4826 median |sqrt(w_i) r_i|. t None: a rotation without translation (its chord residuals). "
+        "None: all), sigma = 1.4826 median |sqrt(w_i) r_i| (threshold > 0: the matches were selected by |r| < threshold and "
+        "sigma solves the truncated median; inf, not ok, where the threshold does not resolve the noise) times the "
+        "small-sample factor sqrt(k / (k - p)). t None: a rotation without translation (its chord residuals). "
         "Returns (rotation covariance (3, 3) in radians^2 of the left perturbation exp([d]x) R, translation covariance "
         "(3, 3) of the unit t (rank 2, tangent to t; zero without t), sigma (radians), matches used, ok); not ok "
         "(covariances inf): too few matches, a zero scale or a parameter the matches do not constrain.");

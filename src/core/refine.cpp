@@ -641,8 +641,9 @@ namespace {
 // the smallest eigenvalue of an information, relative to its largest, that still counts as constrained
 constexpr double kCovarianceMinEigenRatio = 1e-12;
 constexpr double kRayleighMedian = 1.1774100225154747;  // sqrt(2 ln 2)
+constexpr int kScaleBisections = 200;
 
-// Sigma = sigma^2 H^-1 for a symmetric information H (false when it is not positive definite)
+// Sigma = s2 H^-1 for a symmetric information H (false when it is not positive definite)
 template <int D>
 bool invert_information(const Eigen::Matrix<double, D, D>& H, double s2, Eigen::Matrix<double, D, D>* C) {
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, D, D>> es(0.5 * (H + H.transpose()));
@@ -653,61 +654,96 @@ bool invert_information(const Eigen::Matrix<double, D, D>& H, double s2, Eigen::
   return true;
 }
 
+// The fraction of |e| below x * sigma: half-normal (chords = false: 2 Phi(x) - 1) or Rayleigh (chords =
+// true, the norm of a 2-D Gaussian: 1 - exp(-x^2 / 2)).
+double below(double x, bool chords) { return chords ? -std::expm1(-0.5 * x * x) : std::erf(x / std::sqrt(2.0)); }
+
+// The noise scale sigma of errors |e| known only below `threshold` (the matches were selected by it) whose
+// median is `med`: the root in a = threshold / sigma of F(q a) = F(a) / 2, q = med / threshold (F: below()).
+// q -> 0 is the untruncated estimate; as q approaches the median of a uniform truncation (1/2, or 1/sqrt(2)
+// for chords) sigma grows without bound: inf where q reaches it (the threshold does not resolve the noise).
+double truncated_scale(double med, double threshold, bool chords) {
+  const double q = med / threshold;
+  auto g = [&](double a) { return below(q * a, chords) - 0.5 * below(a, chords); };
+  double lo = 1e-3, hi = 1e3;  // a = threshold / sigma; g(lo) < 0 < g(hi) when the noise is resolved
+  if (!(g(lo) < 0.0)) return std::numeric_limits<double>::infinity();
+  if (!(g(hi) > 0.0)) return med / (chords ? kRayleighMedian : 1.0 / kMadFactor);  // no truncation to speak of
+  for (int k = 0; k < kScaleBisections && hi - lo > 1e-12 * hi; ++k) {
+    const double mid = std::sqrt(lo * hi);
+    (g(mid) < 0.0 ? lo : hi) = mid;
+  }
+  return threshold / (0.5 * (lo + hi));
+}
+
 }  // namespace
 
-PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pose, bool translation) {
+PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pose, bool translation, double threshold) {
   PoseCovariance out;
   const double inf = std::numeric_limits<double>::infinity();
   out.rotation = Mat3::Constant(inf);
   out.translation = translation ? Mat3::Constant(inf) : Mat3::Zero();
+  // the weights' scale cancels (H and sigma^2 both scale with it): divided by their largest against underflow
+  double wmax = 0.0;
+  for (int i = 0; i < p.n; ++i) wmax = std::max(wmax, w ? w[i] : 1.0);
+  if (!(wmax > 0.0) || !std::isfinite(wmax)) return out;
   std::vector<double> absr;
   Pose unit = pose;
-  if (translation) unit.t.normalize();
-  if (translation && !(unit.t.allFinite())) return out;
-  if (!translation) unit.t = Vec3::UnitZ();  // (the chart needs a direction; only R is used)
+  if (translation) {
+    unit.t /= unit.t.cwiseAbs().maxCoeff();  // (no overflow in the norm)
+    unit.t.normalize();
+    if (!unit.t.allFinite()) return out;
+  } else {
+    unit.t = Vec3::UnitZ();  // (the chart needs a direction; only R is used)
+  }
   const Chart chart(unit);
   const double x0[5] = {0, 0, 0, 0, 0};
   Frame F;
   chart.eval(x0, true, &F.R, &F.t, &F.Jl, &F.Jt);
-  if (translation) {
-    Mat5 H = Mat5::Zero();
-    for (int i = 0; i < p.n; ++i) {
-      const double wi = w ? w[i] : 1.0;
-      if (!(wi > 0.0)) continue;
+  const int params = translation ? 5 : 3;
+  Mat5 H5 = Mat5::Zero();
+  Mat3 H3 = Mat3::Zero();
+  for (int i = 0; i < p.n; ++i) {
+    const double wi = (w ? w[i] : 1.0) / wmax;
+    if (!(wi > 0.0)) continue;
+    if (translation) {
       double r[1], J[1][5];
       sampson_point(F, p.a(i), p.b(i), true, r, J);
       const Eigen::Map<const Vec5> Ji(J[0]);
-      H.noalias() += wi * Ji * Ji.transpose();
+      H5.noalias() += wi * Ji * Ji.transpose();
       absr.push_back(std::sqrt(wi) * std::abs(r[0]));
+    } else {
+      // chord residuals u_k^T (R f1 - f2), u_k spanning the tangent plane of f2: sum_k u_k u_k^T = I - f2 f2^T;
+      // d(exp([w]x) R f1)/dw = -[R f1]x (left perturbation)
+      const Vec3 b = p.b(i).normalized();
+      const Vec3 a = unit.R * p.a(i).normalized();
+      const Mat3 P = Mat3::Identity() - b * b.transpose();
+      const Mat3 A = skew(a);
+      H3.noalias() += wi * (A.transpose() * P * A);
+      absr.push_back(std::sqrt(wi) * (P * (a - b)).norm());  // a match's two components: Rayleigh
     }
-    out.matches = static_cast<int>(absr.size());
-    if (out.matches < kRefineMinPoints) return out;
-    out.sigma = kMadFactor * median_of(&absr);
+  }
+  out.matches = static_cast<int>(absr.size());
+  // residual degrees of freedom: one Sampson error per match and 5 parameters, or two chord components and 3
+  const int dof = translation ? out.matches - params : 2 * out.matches - params;
+  if (out.matches < (translation ? kRefineMinPoints : 3) || dof <= 0) return out;
+  const double med = median_of(&absr);
+  // the scale of the residuals weighted by w / wmax (the threshold too: sqrt(w_i) |r_i| < threshold)
+  const double sn = threshold > 0.0 ? truncated_scale(med, threshold / std::sqrt(wmax), !translation)
+                                     : (translation ? kMadFactor * med : med / kRayleighMedian);
+  out.sigma = sn * std::sqrt(wmax);  // the scale of a unit-weight residual
+  if (!std::isfinite(sn)) return out;  // the threshold does not resolve the noise (sigma inf)
+  // small-sample correction of the scale (the residuals are those of a fit of `params` parameters)
+  const double s2 = sn * sn * (translation ? out.matches : 2.0 * out.matches) / dof;
+  if (translation) {
     Mat5 C;
-    if (!(out.sigma > 0.0 && std::isfinite(out.sigma)) || !H.allFinite() || !invert_information<5>(H, out.sigma * out.sigma, &C)) return out;
+    if (!H5.allFinite() || !invert_information<5>(H5, 1.0, &C)) return out;
+    C *= s2;  // (s2 = 0: exact residuals, a zero covariance)
     out.rotation = C.topLeftCorner<3, 3>();
     out.translation = F.Jt * C.bottomRightCorner<2, 2>() * F.Jt.transpose();
   } else {
-    // chord residuals u_k^T (R f1 - f2), u_k spanning the tangent plane of f2: sum_k u_k u_k^T = I - f2 f2^T;
-    // d(R f1)/dw = -[R f1]x (left perturbation)
-    Mat3 H = Mat3::Zero();
-    for (int i = 0; i < p.n; ++i) {
-      const double wi = w ? w[i] : 1.0;
-      if (!(wi > 0.0)) continue;
-      const Vec3 b = p.b(i).normalized();
-      const Vec3 a = unit.R * p.a(i);
-      const Mat3 P = Mat3::Identity() - b * b.transpose();
-      const Mat3 A = skew(a);
-      H.noalias() += wi * (A.transpose() * P * A);
-      absr.push_back(std::sqrt(wi) * (P * (a - b)).norm());
-    }
-    out.matches = static_cast<int>(absr.size());
-    if (out.matches < 3) return out;
-    // a match's chord is two Gaussian components of scale sigma: its norm is Rayleigh, median sigma sqrt(2 ln 2)
-    out.sigma = median_of(&absr) / kRayleighMedian;
     Mat3 C;
-    if (!(out.sigma > 0.0 && std::isfinite(out.sigma)) || !H.allFinite() || !invert_information<3>(H, out.sigma * out.sigma, &C)) return out;
-    out.rotation = C;
+    if (!H3.allFinite() || !invert_information<3>(H3, 1.0, &C)) return out;
+    out.rotation = s2 * C;
   }
   out.ok = true;
   return out;

@@ -76,14 +76,21 @@ void refine_residuals(const Points& p, const double* w, const Pose& start, const
 // First-order covariance of a relative pose fitted by least squares on the Sampson errors (Hartley and
 // Zisserman, section 5.2.3: Sigma = sigma^2 (J^T J)^-1, J the errors' Jacobian in the pose's five
 // parameters) of the matches with w_i > 0, each scaled by sqrt(w_i) (w_i an inverse variance up to a
-// constant, or a 0 / 1 inlier mask). sigma = 1.4826 median_{w_i > 0} |sqrt(w_i) r_i| (robust to the
-// few wrong matches an inlier set keeps). Parameters: the chart of refine_sampson at the pose, so the
-// rotation block is in the left perturbation R = exp([w]x) R0 (radians^2) and the translation block is
-// mapped to R^3 through the tangent basis B (t = t0 + B v: a rank-2 3x3, tangent to unit t).
-// Rotation-only (translation = false; a pose without translation, X2 ~ R X1): the chord R f1 - f2 in the
-// tangent plane of f2 (two residuals per match), the covariance of w only (translation left zero).
-// ok = false (covariances inf) with fewer than 6 weighted matches (3 without translation), a zero or
-// non-finite scale or a singular information (a parameter the matches do not constrain).
+// constant, or a 0 / 1 inlier mask). Parameters: the chart of refine_sampson at the pose, so the rotation
+// block is in the left perturbation R = exp([w]x) R0 (radians^2) and the translation block is mapped to
+// R^3 through the tangent basis B (t = t0 + B v: a rank-2 3x3, tangent to unit t). Rotation-only
+// (translation = false; a pose without translation, X2 ~ R X1): the chord R f1 - f2 in the tangent plane
+// of f2 (two residuals per match), the covariance of w only (translation left zero).
+// sigma: from the median m of |sqrt(w_i) r_i| (robust to the few wrong matches an inlier set keeps):
+// 1.4826 m (chords: m / sqrt(2 ln 2), a Rayleigh's median); with threshold > 0 the matches were selected
+// by sqrt(w_i) |r_i| < threshold (chords: |R f1 - f2|; w a 0 / 1 mask: |r_i| < threshold), so their
+// errors are a truncated sample and
+// sigma solves the truncated distribution's median (inf where m / threshold reaches the median of a
+// uniform truncation: the threshold does not resolve the noise); then scaled by sqrt(k / (k - p)), k
+// the residuals and p the parameters (a least-squares fit's residuals are smaller than its noise).
+// ok = false (covariances inf) with fewer than 6 weighted matches (3 without translation), an unresolved
+// or non-finite scale or a singular information (a parameter the matches do not constrain); a zero scale
+// (exact residuals) gives a zero covariance.
 struct PoseCovariance {
   Mat3 rotation = Mat3::Zero();
   Mat3 translation = Mat3::Zero();
@@ -91,6 +98,6 @@ struct PoseCovariance {
   int matches = 0;
   bool ok = false;
 };
-PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pose, bool translation = true);
+PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pose, bool translation = true, double threshold = 0.0);
 
 }  // namespace poseonly

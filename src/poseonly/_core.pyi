@@ -169,7 +169,7 @@ def refine_ligt(
     tol: float = 1e-12,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def pose_covariance(
-    R: NDArray[np.float64], t: NDArray[np.float64] | None, f1: NDArray[np.float64], f2: NDArray[np.float64], w: NDArray[np.float64] | None = None
+    R: NDArray[np.float64], t: NDArray[np.float64] | None, f1: NDArray[np.float64], f2: NDArray[np.float64], w: NDArray[np.float64] | None = None, threshold: float = 0.0
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float, int, bool]: ...
 def _refine_residuals(
     kind: int, R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], x: NDArray[np.float64], w: NDArray[np.float64] | None = None

@@ -87,9 +87,11 @@ class RelativePoseResult:
       many matches of its own: the two views do not single out the pose;
     * ``"uncertain"`` -- the inliers single out the pose but do not pin its rotation down: its
       first-order standard deviation (``diagnostics["rotation_std_deg"]``, the least constrained
-      axis, translation direction marginalised) exceeds ``max_rotation_std_deg`` (1 deg by default;
+      axis, translation direction marginalised) exceeds ``max_rotation_std_deg`` (5/3 deg by default;
       typical of a small object or a narrow field of view with few matches, where the rotation trades
-      against the translation); the pose is the best estimate, ``rotation_covariance`` says how good;
+      against the translation), or is not known (the threshold does not resolve the matches' noise:
+      ``diagnostics["noise_sigma_px"]`` inf); the pose is the best estimate, ``rotation_covariance``
+      says how good;
     * ``"pure_rotation"`` -- a rotation without translation explains the matches, the pose's
       extra inliers are no more than chance and the rotation leaves no parallax above the noise on
       the matches both explain (``diagnostics["parallax_ratio"]``, see
@@ -102,7 +104,7 @@ class RelativePoseResult:
       or the method found no valid model: ``R``, ``t`` and ``E`` are ``None``.
 
     ``rotation_covariance`` and ``translation_covariance`` are the pose's first-order covariance
-    from its inliers (:func:`poseonly.analysis.pose_uncertainty`: radians^2, the rotation's in the
+    from the matches within the search threshold (:func:`poseonly.analysis.pose_uncertainty`: radians^2, the rotation's in the
     perturbation ``exp([d]x) R``, the unit translation's tangent to ``t``), ``None`` where no pose or
     no finite covariance exists (for ``pure_rotation`` the rotation-only fit's, no translation's).
 
@@ -241,9 +243,14 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     residuals = v * focal
     needed = max(6, min_inliers)
     # the covariance of the model the status speaks for: the rotation-only fit's on its inliers, or the pose's
+    # on the matches within the search threshold (a decision threshold shrunk by the ML stage would truncate
+    # the inliers' noise and leave the pose's precision to a few matches)
     rot_inl = _rotation_inliers_mask(R_rot, f1, f2, tau_rot) if rot["pure_rotation"] else None
-    unc = pose_uncertainty(R, t, f1, f2, inl) if rot_inl is None else pose_uncertainty(R_rot, None, f1, f2, rot_inl)
-    diag.update(rotation_std_deg=unc["rotation_std_deg"], translation_std_deg=unc["translation_std_deg"])
+    if rot_inl is None:
+        unc = pose_uncertainty(R, t, f1, f2, v < tau_rot, tau_rot)
+    else:
+        unc = pose_uncertainty(R_rot, None, f1, f2, rot_inl, _rotation_chord(tau_rot))
+    diag.update(rotation_std_deg=unc["rotation_std_deg"], translation_std_deg=unc["translation_std_deg"], noise_sigma_px=unc["noise_sigma"] * focal)
     if rot_inl is not None:
         status = "pure_rotation"
         R = R_rot  # the robust rotation-only fit is the estimate of R here
@@ -290,11 +297,20 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
                 )
             elif not unc["rotation_std_deg"] <= max_rotation_std_deg:
                 status = "uncertain"
-                msg = (
-                    f"{n_in} inliers within {thr_px:g} px single out the pose, but they determine its rotation only to "
-                    f"{unc['rotation_std_deg']:.2f} deg (one standard deviation, first order; max_rotation_std_deg = "
-                    f"{max_rotation_std_deg:g}): see rotation_covariance"
-                )
+                if not np.isfinite(unc["noise_sigma"]):
+                    msg = (
+                        f"{n_in} inliers within {thr_px:g} px single out the pose, but their errors fill the threshold "
+                        "as if it cut a much wider noise: the threshold does not resolve the noise, and how well the "
+                        "matches determine the pose is not known (a larger threshold_px tells)"
+                    )
+                elif not np.isfinite(unc["rotation_std_deg"]):
+                    msg = f"{n_in} inliers within {thr_px:g} px single out the pose, but they do not determine its rotation (a singular information)"
+                else:
+                    msg = (
+                        f"{n_in} inliers within {thr_px:g} px single out the pose, but they determine its rotation only to "
+                        f"{unc['rotation_std_deg']:.2f} deg (one standard deviation, first order; max_rotation_std_deg = "
+                        f"{max_rotation_std_deg:g}): see rotation_covariance"
+                    )
             else:
                 status, msg = "ok", f"{n_in} inliers within {thr_px:g} px (expected false alarms 10^{lnfa:.0f})"
     return RelativePoseResult(
@@ -322,9 +338,14 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     )
 
 
+def _rotation_chord(tau: float) -> float:
+    """The chord ``|R f1 - f2|`` below which a match fits a rotation (the angle ROTATION_THRESHOLD_FACTOR tau)."""
+    return float(2.0 * np.sin(0.5 * ROTATION_THRESHOLD_FACTOR * tau))
+
+
 def _rotation_inliers_mask(R, f1, f2, tau) -> np.ndarray:
     d = f1 @ R.T - f2
-    return np.sum(d * d, axis=1) < (2.0 * np.sin(0.5 * ROTATION_THRESHOLD_FACTOR * tau)) ** 2
+    return np.sum(d * d, axis=1) < _rotation_chord(tau) ** 2
 
 
 def degenerate_result(

@@ -9,6 +9,8 @@ Shapes: ``R (3, 3)``, ``t (3,)`` or None (a rotation without translation: the ch
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import brentq
+from scipy.special import erf
 
 from poseonly.geometry import cross, rotation_from_rotvec
 from poseonly.refine._manifold import tangent_basis
@@ -40,8 +42,28 @@ def _chords(R: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
     return np.concatenate([np.einsum("ij,ij->i", d, u), np.einsum("ij,ij->i", d, v)])
 
 
-def pose_covariance(R, t, f1, f2, w=None) -> tuple[np.ndarray, np.ndarray, float]:
-    """``(rotation covariance, translation covariance, sigma)``, as the core's (without its checks)."""
+def _below(x: float, chords: bool) -> float:
+    return float(-np.expm1(-0.5 * x * x)) if chords else float(erf(x / np.sqrt(2.0)))
+
+
+def _scale(med: float, threshold: float, chords: bool) -> float:
+    """sigma from the median ``med`` of errors: untruncated (threshold 0) or truncated at ``threshold``
+    (the root of F(q a) = F(a) / 2, a = threshold / sigma; inf where there is none)."""
+    if threshold <= 0:
+        return med / RAYLEIGH_MEDIAN if chords else MAD_TO_SIGMA * med
+    q = med / threshold
+
+    def g(a: float) -> float:
+        return _below(q * a, chords) - 0.5 * _below(a, chords)
+
+    if not g(1e-3) < 0:
+        return float("inf")
+    return threshold / brentq(g, 1e-3, 1e3, xtol=1e-14, rtol=1e-13)
+
+
+def pose_covariance(R, t, f1, f2, w=None, threshold: float = 0.0) -> tuple[np.ndarray, np.ndarray, float]:
+    """``(rotation covariance, translation covariance, sigma)``, as the core's (without its checks); the
+    covariances carry the small-sample factor ``k / (k - p)`` (k residuals, p parameters)."""
     w = np.ones(len(f1)) if w is None else np.asarray(w, float)
     keep = w > 0
     f1, f2, sw = f1[keep], f2[keep], np.sqrt(w[keep])
@@ -52,9 +74,9 @@ def pose_covariance(R, t, f1, f2, w=None) -> tuple[np.ndarray, np.ndarray, float
             return np.tile(sw, 2) * _chords(rotation_from_rotvec(p) @ R, f1, f2)
 
         r = res(np.zeros(3))
-        sigma = float(np.median(np.hypot(r[:m], r[m:]))) / RAYLEIGH_MEDIAN
+        sigma = _scale(float(np.median(np.hypot(r[:m], r[m:]))), threshold, True)
         J = _jacobian(res, 3)
-        return sigma**2 * np.linalg.inv(J.T @ J), np.zeros((3, 3)), sigma
+        return sigma**2 * 2 * m / (2 * m - 3) * np.linalg.inv(J.T @ J), np.zeros((3, 3)), sigma
     tu = np.asarray(t, float) / np.linalg.norm(t)
     B = tangent_basis(tu)
 
@@ -62,7 +84,8 @@ def pose_covariance(R, t, f1, f2, w=None) -> tuple[np.ndarray, np.ndarray, float
         tp = tu + B @ p[3:]
         return sw * signed_sampson(rotation_from_rotvec(p[:3]) @ R, tp / np.linalg.norm(tp), f1, f2)
 
-    sigma = MAD_TO_SIGMA * float(np.median(np.abs(pose(np.zeros(5)))))
+    sigma = _scale(float(np.median(np.abs(pose(np.zeros(5))))), threshold, False)
     J = _jacobian(pose, 5)
-    C = sigma**2 * np.linalg.inv(J.T @ J)
+    m = len(f1)
+    C = sigma**2 * m / (m - 5) * np.linalg.inv(J.T @ J)
     return C[:3, :3], B @ C[3:, 3:] @ B.T, sigma

@@ -82,7 +82,8 @@ def edge_from_result(i: int, j: int, result: Any, matches: np.ndarray, weight: f
 class ViewGraph:
     """Views ``0..num_views-1`` and their pairwise edges (at most one per unordered pair).
 
-    ``rejected`` lists ``(i, j, reason)`` of pairs not added.
+    ``rejected`` lists ``(i, j, reason)`` of pairs not added (any status but ``ok`` and ``pure_rotation``:
+    ``ambiguous``, ``planar_ambiguous``, ``uncertain``, ``too_few_inliers``, ``degenerate``).
     """
 
     num_views: int
