@@ -35,7 +35,9 @@ def test_signed_sampson_is_the_residual_table_with_a_sign():
 
 def test_rotation_information_predicts_the_ml_pose_scatter():
     """Monte Carlo: the covariance of the Sampson-LM pose's rotation over noise draws matches the
-    inverse information (pinhole camera: the strongly anisotropic case, sds 0.12 / 0.10 / 0.02 deg)."""
+    inverse information (pinhole camera: the strongly anisotropic case, sds 0.12 / 0.10 / 0.02 deg).
+    The information is the core's pose_covariance (left perturbation) turned to the right one, so this
+    checks both."""
     sc0 = sim.make_scene(200, camera="pinhole", noise_px=0.0, seed=3)
     rng = np.random.default_rng(0)
     ds, infos = [], []
