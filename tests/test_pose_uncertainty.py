@@ -92,8 +92,12 @@ def test_poorly_determined_rotation_is_uncertain_not_ok(seed):
     assert std > 1.0 and "determine its rotation only to" in r.message
     assert r.rotation_covariance is not None and np.degrees(np.sqrt(np.linalg.eigvalsh(r.rotation_covariance)[-1])) == pytest.approx(std)
     # the same pose with the bound lifted is ok
-    lifted = estimate_relative_pose(u1, u2, K, K, seed=0, max_rotation_std_deg=180.0)
-    assert lifted.status == "ok" and rotation_error_deg(lifted.R, r.R) == 0.0
+    for bound in (180.0, np.inf):
+        lifted = estimate_relative_pose(u1, u2, K, K, seed=0, max_rotation_std_deg=bound)
+        assert lifted.status == "ok" and rotation_error_deg(lifted.R, r.R) == 0.0
+    for bad in (0.0, -1.0, np.nan, -np.inf):
+        with pytest.raises(ValueError, match="max_rotation_std_deg"):
+            estimate_relative_pose(u1, u2, K, K, seed=0, max_rotation_std_deg=bad)
     d = json.loads(json.dumps(r.to_dict(), allow_nan=False))
     assert d["status"] == "uncertain" and np.shape(d["rotation_covariance"]) == (3, 3)
 

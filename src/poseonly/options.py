@@ -57,6 +57,7 @@ class Spec:
     hi_open: bool = False
     choices: tuple[str, ...] = ()
     doc: str = ""
+    inf: bool = False  # "real": +inf is allowed too (a bound that never binds)
 
     def describe(self) -> str:
         """What a valid value is, e.g. ``"a finite real > 0"``."""
@@ -69,6 +70,8 @@ class Spec:
         if self.kind == "str":
             return "one of " + ", ".join(repr(c) for c in self.choices)
         base = {"real": "a finite real number", "int": "an integer", "scale": "a positive finite real number"}[self.kind]
+        if self.kind == "real" and self.inf:
+            base = "a real number (inf allowed)"
         if self.kind == "scale":
             return base + " or one of " + ", ".join(repr(c) for c in self.choices)
         bounds = []
@@ -134,7 +137,7 @@ def check_value(name: str, v: Any, s: Spec) -> Any:
         x: float = int(v)
     else:
         x = float(v)
-        if not math.isfinite(x) or (s.kind == "scale" and not x > 0):
+        if not (math.isfinite(x) or (s.inf and x == math.inf)) or (s.kind == "scale" and not x > 0):
             raise bad_value()
     if not _in_bounds(x, s):
         raise bad_value()
@@ -183,9 +186,11 @@ class CommonOptions:
     max_rotation_std_deg: float = _opt(
         MAX_ROTATION_STD_DEG,
         "real",
-        "the largest first-order standard deviation of the rotation (degrees, its least constrained axis) of an ok pose; above it the status is uncertain",
+        "the largest first-order standard deviation of the rotation (degrees, its least constrained axis) of an ok pose; above it, "
+        "or where it cannot be estimated, the status is uncertain (inf: never)",
         lo=0.0,
         lo_open=True,
+        inf=True,
     )
 
     def check(self) -> None:

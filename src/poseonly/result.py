@@ -295,7 +295,7 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
                     f"{amb['rival_only']} matches the pose does not, against the pose's {amb['pose_only']} it does not: "
                     "the matches do not single out the pose"
                 )
-            elif not unc["rotation_std_deg"] <= max_rotation_std_deg:
+            elif max_rotation_std_deg < np.inf and not unc["rotation_std_deg"] <= max_rotation_std_deg:
                 status = "uncertain"
                 if not np.isfinite(unc["noise_sigma"]):
                     msg = (
