@@ -129,7 +129,7 @@ def test_fixated_small_object_is_not_a_pure_rotation(f, seed):
 
 
 def test_truncated_scale_recovers_the_noise():
-    """Errors selected by a threshold at 1.5 noise scales: their median alone gives ~0.87 sigma, the
+    """Errors selected by a threshold at 1.5 noise scales: their median alone gives ~0.85 sigma, the
     truncated median's root recovers sigma (5000 matches: the median's sampling error ~2 %; the
     Sampson errors of a real camera are a mixture of scales over the image, not one half-normal, so
     nearer the noise the root drifts: 0.87-1.18 sigma at one scale on these scenes)."""

@@ -305,8 +305,8 @@ POSEONLY_BIND(solvers) {
         "First-order covariance sigma^2 (J^T J)^-1 of the pose (R (3, 3), t (3,)) fitted by least squares on the Sampson "
         "errors of the matches f1, f2 (n, 3) with w_i > 0 (w (n,): inverse variances up to a constant or a 0 / 1 mask; "
         "None: all), sigma = 1.4826 median |sqrt(w_i) r_i| (threshold > 0: the matches were selected by |r| < threshold and "
-        "sigma solves the truncated median; inf, not ok, where the threshold does not resolve the noise) times the "
-        "small-sample factor sqrt(k / (k - p)). t None: a rotation without translation (its chord residuals). "
+        "sigma solves the truncated median; inf, not ok, where the threshold does not resolve the noise); the covariance "
+        "has the small-sample factor k / (k - p) (the returned sigma not). t None: a rotation without translation (its chord residuals). "
         "Returns (rotation covariance (3, 3) in radians^2 of the left perturbation exp([d]x) R, translation covariance "
         "(3, 3) of the unit t (rank 2, tangent to t; zero without t), sigma (radians), matches used, ok); not ok "
         "(covariances inf): too few matches, a zero scale or a parameter the matches do not constrain.");

@@ -85,7 +85,10 @@ def pose_uncertainty(R: np.ndarray, t: np.ndarray | None, f1: np.ndarray, f2: np
     ``sigma`` comes from the median inlier error; ``threshold`` (radians; chords for ``t = None``) is the
     one that selected the inliers: their errors are a truncated sample, and sigma solves the truncated
     distribution's median (a tight threshold hides most of the noise: without this a threshold at the
-    noise level gives 0.6x sigma), times ``sqrt(k / (k - p))`` for the fit's ``p`` parameters. The
+    noise level gives 0.66x sigma), and the covariance has the factor ``k / (k - p)`` for the fit's ``p``
+    parameters. Where the noise exceeds the threshold the robust pose is fitted to a tight band that
+    pulls its errors in, the truncation is seldom detected and the deviation is several times too
+    small (docs/RESULTS_real.md, "Pose uncertainty"). The
     covariance describes a least-squares pose on these inliers at their noise; the calibration and the
     ground truth's own errors (0.01-0.05 deg on Strecha and KITTI) are not in it.
 
@@ -93,8 +96,8 @@ def pose_uncertainty(R: np.ndarray, t: np.ndarray | None, f1: np.ndarray, f2: np
     ``translation_covariance (3, 3)`` (of the unit ``t``; rank 2, tangent to ``t``; None without ``t``),
     ``rotation_std_deg`` / ``translation_std_deg`` (the standard deviation along the least constrained
     axis, square root of the largest eigenvalue, in degrees) and ``noise_sigma`` (radians). ``inf``
-    deviations (covariances None) where the inliers do not determine the pose (fewer than 6, a singular
-    information) or the threshold does not resolve their noise (``noise_sigma`` inf)."""
+    deviations (covariances None) where the inliers do not determine the pose (fewer than 6, 3 without
+    ``t``, a singular information) or the threshold does not resolve their noise (``noise_sigma`` inf)."""
     Cr, Ct, sigma, _, ok = _core.pose_covariance(_c(R), None if t is None else _c(t), _c(f1), _c(f2), np.ascontiguousarray(inl, dtype=float), threshold=float(threshold))
     if not ok:
         return {"rotation_covariance": None, "translation_covariance": None, "rotation_std_deg": np.inf, "translation_std_deg": np.inf, "noise_sigma": float(sigma)}

@@ -10,7 +10,8 @@ translation block (the direction marginalised): a rotation about an axis that tr
 translation (narrow fields of view, forward motion) is known less well than one about the baseline,
 which an inlier count cannot say. A ``pure_rotation`` edge (translation not trusted) has the
 information of its rotation-only fit, the chord residuals ``R f1 - f2`` in the tangent plane of ``f2``.
-The computation is the core's (``pose_covariance``, the status analysis's pose uncertainty).
+The computation is the core's ``pose_covariance`` (which the status analysis also uses, there with the
+search threshold's truncation undone; here on the edge's inlier matches, no threshold).
 
 ``sigma`` is the edge's own robust scale, ``1.4826 median |r|`` over its inliers (the chords: median
 norm / sqrt(2 ln 2), a Rayleigh's median) (pairs of one scene differ in blur, scale change and viewing
