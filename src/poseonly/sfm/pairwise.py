@@ -45,8 +45,9 @@ MIN_PUTATIVE = 30
 # cross-fit as a veto; 20: PROSAC's stopping rule; 21: the sample floor by parallax; 22: the
 # neighbour-consistency fallback of searches that have not converged after 3000 samples; 23: its two
 # stages' rivals merged, ties of the scores in input order; 24-25: the ML stage's inlier share bounded by the
-# matches just outside its band; 26: the status uncertain, the pure-rotation precision test at noise up to the threshold)
-TWO_VIEW_CACHE_TAG = 26
+# matches just outside its band; 26: the status uncertain, the pure-rotation precision test at noise up to the
+# threshold; 27: its noise check)
+TWO_VIEW_CACHE_TAG = 27
 
 
 @dataclass(frozen=True)
