@@ -18,6 +18,8 @@ def test_parse_estimator_options():
         ("chiral_scoring", False),
     )
     assert parse_estimator_options(None) == ()
+    assert parse_estimator_options(["max_rotation_std_deg=inf", "x=Infinity"]) == (("max_rotation_std_deg", float("inf")), ("x", float("inf")))
+    PairwiseOptions(estimator_options=(("max_rotation_std_deg", float("inf")),))
     for bad in ("ml_tails", "=gauss"):
         with pytest.raises(InputError, match="KEY=VALUE"):
             parse_estimator_options([bad])

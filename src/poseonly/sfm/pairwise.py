@@ -83,7 +83,8 @@ class PairwiseOptions:
 
 def parse_estimator_options(items: Sequence[str] | None) -> tuple[tuple[str, Any], ...]:
     """``KEY=VALUE`` strings (the CLI's ``--two-view-option``) as ``(name, value)`` pairs; a VALUE that
-    parses as JSON (numbers, true / false, null) is that value, else the string."""
+    parses as JSON (numbers, true / false, null) is that value, ``inf`` / ``-inf`` / ``nan`` the float,
+    else the string."""
     import json
 
     out: list[tuple[str, Any]] = []
@@ -94,7 +95,8 @@ def parse_estimator_options(items: Sequence[str] | None) -> tuple[tuple[str, Any
         try:
             value: Any = json.loads(val)
         except ValueError:
-            value = val
+            # inf / nan as Python spells them (JSON has no such numbers; e.g. max_rotation_std_deg=inf)
+            value = float(val) if val.strip().lower() in ("inf", "+inf", "-inf", "nan") else val
         out.append((key.strip(), value))
     return tuple(out)
 
