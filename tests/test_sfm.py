@@ -154,6 +154,29 @@ def test_rotation_averaging_outliers_removed_and_within_1p2x_of_clean():
     assert not np.any(ra.inlier_edges & s.outlier)
 
 
+def test_rotation_averaging_gm_scale_from_the_data_downweights_moderately_bad_edges():
+    """5 % of the edges 0.6 deg off among edges with 0.05 deg noise: the fixed 5 deg scale weighs them
+    fully, the data's (5x the median L1RA residual) does not."""
+    from poseonly.sfm.rotation_averaging import GM_SCALE_FACTOR, SIGMA_DEG
+    from poseonly.sfm.so3 import exp_so3
+
+    s = make_scene(40, 4000, seed=5, rotation_noise_deg=0.05)
+    rng = np.random.default_rng(5)
+    R_rel = s.R_rel.copy()
+    bad = rng.choice(len(R_rel), len(R_rel) // 20, replace=False)
+    v = rng.normal(size=(len(bad), 3))
+    R_rel[bad] = exp_so3(np.radians(0.6) * v / np.linalg.norm(v, axis=1, keepdims=True)) @ R_rel[bad]
+    fixed = average_rotations(40, s.pairs, R_rel, s.weights, sigma_deg=SIGMA_DEG)
+    data = average_rotations(40, s.pairs, R_rel, s.weights)
+    assert fixed.info["sigma_deg"] == SIGMA_DEG
+    assert 0.01 < data.info["sigma_deg"] < 0.5 and data.info["sigma_deg"] == pytest.approx(GM_SCALE_FACTOR * 0.06, rel=0.5)
+    e_fixed = _aligned_rot_err(fixed.rotations, s.rotations).mean()
+    e_data = _aligned_rot_err(data.rotations, s.rotations).mean()
+    assert e_data < 0.9 * e_fixed
+    with pytest.raises(InputError, match="sigma_deg"):
+        average_rotations(40, s.pairs, R_rel, s.weights, sigma_deg=0.0)
+
+
 def test_rotation_averaging_disconnected_view_not_estimated():
     s = make_scene(10, 800, seed=4)
     keep = (s.pairs[:, 0] != 9) & (s.pairs[:, 1] != 9)
