@@ -56,6 +56,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
     p.add_argument("--reweight", type=int, default=0, help="LiGT reweighting iterations (default 0 = openMVG's LiGT)")
     p.add_argument(
+        "--rotation-sigma",
+        type=float,
+        default=None,
+        metavar="DEG",
+        help="rotation averaging's Geman-McClure scale in degrees (default: from the data, 5x the median edge residual after L1RA, at most 5)",
+    )
+    p.add_argument(
         "--rotation-weights",
         choices=ROTATION_WEIGHTS,
         default=GlobalOptions.rotation_weights,
@@ -99,7 +106,7 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
     t0 = time.perf_counter()
     ig = image_view_graph(sc.image_paths, sc.K, options=opt, cache_dir=args.cache, progress=lambda it, **kw: progress(it, **kw), jobs=args.jobs)
     t_pairs = time.perf_counter() - t0
-    gopt = GlobalOptions(ligt_reweight=args.reweight, rotation_weights=args.rotation_weights)
+    gopt = GlobalOptions(ligt_reweight=args.reweight, rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma)
     res = run_global(ig.graph, ig.bearings, float(sc.K[0, 0]), gopt)
     ev = _scores(res.rotations, res.centres, R_gt, C_gt)
     out: dict[str, Any] = {

@@ -127,7 +127,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
         f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
     )
-    gopt = GlobalOptions(rotation_weights=args.rotation_weights)
+    gopt = GlobalOptions(rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma)
     bar = None if args.no_progress else _stage_bar(num_stages(gopt))
     try:
         res = run_global(ig.graph, ig.bearings, float(0.5 * (K[0, 0] + K[1, 1])), gopt, on_stage=None if bar is None else bar.stage)
@@ -195,6 +195,13 @@ def add_parsers(sub: Any, esub: Any) -> None:
     )
     s.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
     s.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
+    s.add_argument(
+        "--rotation-sigma",
+        type=float,
+        default=None,
+        metavar="DEG",
+        help="rotation averaging's Geman-McClure scale in degrees (default: from the data, 5x the median edge residual after L1RA, at most 5)",
+    )
     s.add_argument(
         "--rotation-weights",
         choices=CLI_ROTATION_WEIGHTS,
