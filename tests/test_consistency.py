@@ -177,3 +177,22 @@ def test_fallback_takes_over_a_long_search():
     c = poseonly.estimate_relative_pose(h.u1, h.u2, h.K, h.K, seed=1, consistency="fallback", consistency_after=500)
     assert c.diagnostics["consistency"] in ("fallback", "fallback-unused")
     assert c.num_iterations > 500 and c.status == "ok" and rotation_error_deg(c.R, h.R) < 0.5
+
+
+def test_the_remainder_search_finds_the_scene_behind_a_compact_second_motion():
+    # 70 static matches, 50 on a compact moving object, 700 random: the object tops the consistency order
+    # and the expected-draws rule ends on its motion; the search of the remainder finds the scene's,
+    # which costs less, and the object's motion stays as the uniqueness test's rival (not `ok`)
+    from poseonly import sim_hard
+
+    c = sim_hard.second_motion(n_static=70, n_moving=50, n_random=700, seed=4)
+    kw = dict(seed=4, consistency_rule="expected")
+    a = poseonly.estimate_relative_pose(c.u1, c.u2, c.K, c.K, **kw)
+    b = poseonly.estimate_relative_pose(c.u1, c.u2, c.K, c.K, consistency_remainder=True, **kw)
+    assert rotation_error_deg(a.R, c.R_wrong) < 8.0 < rotation_error_deg(a.R, c.R)
+    assert rotation_error_deg(b.R, c.R) < 1.0 and b.status == "ambiguous"
+    assert b.num_iterations > a.num_iterations
+    # a search that used its whole budget is left alone
+    d = poseonly.estimate_relative_pose(c.u1, c.u2, c.K, c.K, seed=4, consistency_remainder=True, max_iterations=4000, consistency_after=1000)
+    e = poseonly.estimate_relative_pose(c.u1, c.u2, c.K, c.K, seed=4, max_iterations=4000, consistency_after=1000)
+    assert _same(d, e)

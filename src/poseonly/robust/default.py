@@ -19,7 +19,7 @@ from ..median import median
 from ..options import PoseonlyOptions
 from ..residuals import get_residual, v_sampson, v_sampson_chiral
 from .consistency import consistency_order_scores
-from .ransac import RansacResult, core_seed, ransac_relpose
+from .ransac import RansacResult, core_seed, ransac_relpose, search_cost
 
 __all__ = ["keep_better", "local_optimization", "make_rng", "msac_chiral", "noise_threshold", "refine_ligt", "rival_support_ratio", "run_poseonly", "select_by_support"]
 
@@ -221,6 +221,33 @@ def _combined(a: RansacResult, b: RansacResult, rival_distance: float) -> Ransac
     return dataclasses.replace(r, num_iterations=a.num_iterations + b.num_iterations, num_lo=a.num_lo + b.num_lo, num_scored=a.num_scored + b.num_scored, stats=stats)
 
 
+def _with_remainder(r: RansacResult, budget: int, f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scores: np.ndarray | None) -> RansacResult:
+    """``o.consistency_remainder``: a search ``r`` in the consistency order that ended before its
+    ``budget`` is followed by a second one in the consistency order of the matches outside ``r``'s band
+    (Sampson error at least ``tau``), for as many draws as ``r`` took (at least
+    ``consistency_min_draws``). Its model, scored on all the matches by the search's objective
+    (:func:`search_cost`), replaces ``r`` if it costs less and is offered as the uniqueness test's
+    rival otherwise (:func:`_combined`). Why: a compact second motion (a moving object) has the most
+    consistent neighbourhoods and tops the order; a rule that trusts the order ends on it, and the
+    scene's own matches are left in the remainder, where they come first."""
+    if not (o.consistency_remainder and r.num_iterations < budget):
+        return r
+    rest = np.flatnonzero(~r.inliers)
+    if len(rest) < o.consistency_min_matches * o.consistency_k:
+        return r
+    g1, g2 = f1[rest], f2[rest]
+    order = consistency_order_scores(g1, g2, None if scores is None else scores[rest], o.consistency_k)
+    s = _search(g1, g2, tau, o, order, True, max(o.consistency_min_draws, r.num_iterations))
+    if not (np.all(np.isfinite(s.R)) and np.all(np.isfinite(s.t))):
+        return r
+    cost, _ = search_cost(s.R, s.t, f1, f2, tau, scoring=o.scoring, keypoint_once=o.keypoint_once)
+    v = v_sampson(s.R, s.t, f1, f2)
+    stats = {k: x for k, x in s.stats.items() if not k.startswith("rival_")}
+    stats["rival_cost"] = np.inf
+    whole = dataclasses.replace(s, inliers=v < tau, residuals=v, score=float(cost), stats=stats)
+    return _combined(r, whole, o.rival_distance)
+
+
 def search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scores: np.ndarray | None) -> tuple[RansacResult, dict[str, Any]]:
     """The search of :func:`run_poseonly` in the sampling order ``o.consistency`` asks for: the
     ``scores`` order (PROSAC; uniform without scores), the neighbour-consistency order
@@ -232,7 +259,8 @@ def search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, score
     diagnostics (``consistency``: the order that produced the result)."""
     usable = o.consistency != "off" and len(f1) >= o.consistency_min_matches * o.consistency_k
     if usable and o.consistency == "always":
-        return _search(f1, f2, tau, o, consistency_order_scores(f1, f2, scores, o.consistency_k), True), {"consistency": "always"}
+        r = _search(f1, f2, tau, o, consistency_order_scores(f1, f2, scores, o.consistency_k), True)
+        return _with_remainder(r, o.max_iterations, f1, f2, tau, o, scores), {"consistency": "always"}
     # (a first stage shorter than the sample floor would not be the plain search's prefix)
     if not (usable and o.consistency == "fallback" and o.min_iterations <= o.consistency_after < o.max_iterations):
         return _search(f1, f2, tau, o, scores), {}
@@ -246,6 +274,7 @@ def search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, score
     if np.isfinite(needed):
         budget = min(budget, max(o.consistency_min_draws, int(np.ceil(needed)) - o.consistency_after))
     second = _search(f1, f2, tau, o, consistency_order_scores(f1, f2, scores, o.consistency_k), True, budget)
+    second = _with_remainder(second, budget, f1, f2, tau, o, scores)
     r = _combined(first, second, o.rival_distance)
     return r, {"consistency": "fallback" if r.score < first.score else "fallback-unused"}
 
