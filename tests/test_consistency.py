@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 import poseonly
 from poseonly import _core, sim
-from poseonly.geometry import rotation_error_deg
+from poseonly.geometry import bearings_from_pixels, rotation_error_deg
 from poseonly.robust.consistency import consistency_order_scores, neighbour_consistency
 from reference import neighbours as ref_nb
 
@@ -179,20 +181,52 @@ def test_fallback_takes_over_a_long_search():
     assert c.num_iterations > 500 and c.status == "ok" and rotation_error_deg(c.R, h.R) < 0.5
 
 
-def test_the_remainder_search_finds_the_scene_behind_a_compact_second_motion():
-    # 70 static matches, 50 on a compact moving object, 700 random: the object tops the consistency order
-    # and the expected-draws rule ends on its motion; the search of the remainder finds the scene's,
-    # which costs less, and the object's motion stays as the uniqueness test's rival (not `ok`)
-    from poseonly import sim_hard
+def _first_search_on(R, t, f1, f2, tau, o, iterations=3000):
+    """A consistency-order search's result that ended on the pose (R, t) after ``iterations`` draws."""
+    from poseonly.residuals import v_sampson
+    from poseonly.robust.ransac import RansacResult, search_cost
 
-    c = sim_hard.second_motion(n_static=70, n_moving=50, n_random=700, seed=4)
-    kw = dict(seed=4, consistency_rule="expected")
-    a = poseonly.estimate_relative_pose(c.u1, c.u2, c.K, c.K, **kw)
-    b = poseonly.estimate_relative_pose(c.u1, c.u2, c.K, c.K, consistency_remainder=True, **kw)
-    assert rotation_error_deg(a.R, c.R_wrong) < 8.0 < rotation_error_deg(a.R, c.R)
-    assert rotation_error_deg(b.R, c.R) < 1.0 and b.status == "ambiguous"
-    assert b.num_iterations > a.num_iterations
-    # a search that used its whole budget is left alone
-    d = poseonly.estimate_relative_pose(c.u1, c.u2, c.K, c.K, seed=4, consistency_remainder=True, max_iterations=4000, consistency_after=1000)
-    e = poseonly.estimate_relative_pose(c.u1, c.u2, c.K, c.K, seed=4, max_iterations=4000, consistency_after=1000)
-    assert _same(d, e)
+    cost, _ = search_cost(R, t, f1, f2, tau, scoring=o.scoring, keypoint_once=o.keypoint_once)
+    v = v_sampson(R, t, f1, f2)
+    stats = {"rival_cost": np.inf, "num_challenger_lo": 0, "challenger_won": 0}
+    return RansacResult(R=R, t=t, inliers=v < tau, residuals=v, score=float(cost), num_iterations=iterations, stats=stats)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_the_remainder_search_finds_the_scene_behind_a_compact_second_motion(seed):
+    # 120 static matches, 60 on a compact moving object, 700 random: a consistency-order search that
+    # ended on the object's motion (it tops the order) is followed by one on the remainder, which finds
+    # the scene's, costs less on all the matches and replaces it; the object's motion is the rival
+    from poseonly import sim_hard
+    from poseonly.options import PoseonlyOptions
+    from poseonly.robust.default import _with_remainder
+
+    c = sim_hard.second_motion(n_static=120, n_moving=60, n_random=700, seed=seed)
+    f1, f2 = bearings_from_pixels(c.u1, c.K), bearings_from_pixels(c.u2, c.K)
+    o = PoseonlyOptions(consistency_remainder=True, consistency_rule="expected")
+    tau = o.threshold_px / c.K[0, 0]
+    first = _first_search_on(c.R_wrong, c.t_wrong, f1, f2, tau, o)
+    out = _with_remainder(first, o.max_iterations, f1, f2, tau, o, None)
+    assert rotation_error_deg(out.R, c.R) < 1.0 and out.score < first.score
+    assert rotation_error_deg(np.asarray(out.stats["rival_R"]), c.R_wrong) < 1e-9
+    assert out.num_iterations == 2 * first.num_iterations  # as many draws as the first search took
+    # the budget caps it; off, without cheirality-aware scoring or with no budget left: the first result
+    capped = _with_remainder(first, 4000, f1, f2, tau, o, None)
+    assert capped.num_iterations <= 4000
+    for opt, budget in ((dataclasses.replace(o, consistency_remainder=False), o.max_iterations), (dataclasses.replace(o, chiral_scoring=False), o.max_iterations), (o, 3000)):
+        assert _with_remainder(first, budget, f1, f2, tau, opt, None) is first
+
+
+def test_the_remainder_search_skips_a_search_its_inliers_certify():
+    # half the matches on the returned pose: the classical rule would have ended the search in ~300
+    # draws, so a search that ended there did not stop on trust in its order, and nothing follows
+    from poseonly.options import PoseonlyOptions
+    from poseonly.robust.default import _with_remainder, classical_draws
+
+    s = sim.make_scene(400, camera="pinhole", noise_px=0.5, outlier_fraction=0.5, seed=2)
+    o = PoseonlyOptions(consistency_remainder=True)
+    tau = o.threshold_px / s.K[0, 0]
+    first = _first_search_on(s.R, s.t / np.linalg.norm(s.t), s.f1, s.f2, tau, o, iterations=400)
+    assert classical_draws(int(first.inliers.sum()), 400, 5, o.confidence) < 400
+    assert _with_remainder(first, o.max_iterations, s.f1, s.f2, tau, o, None) is first
+    assert classical_draws(4, 400, 5, 0.99) == np.inf and classical_draws(400, 400, 5, 0.99) == 1.0

@@ -221,29 +221,55 @@ def _combined(a: RansacResult, b: RansacResult, rival_distance: float) -> Ransac
     return dataclasses.replace(r, num_iterations=a.num_iterations + b.num_iterations, num_lo=a.num_lo + b.num_lo, num_scored=a.num_scored + b.num_scored, stats=stats)
 
 
+SAMPLE_SIZES = {"5pt": 5, "lirp": 6}  # the minimal solvers' sample sizes (poseonly.robust.ransac._MINIMAL)
+
+
+def classical_draws(inliers: int, n: int, sample_size: int, confidence: float, min_hits: int = 1) -> float:
+    """The draws after which the classical stopping rule (the inlier share of all the matches, samples
+    drawn without replacement) is satisfied: ``min_hits * log(1 - confidence) / log(1 - p)``, ``p`` the
+    chance that a sample is all inliers (``inf`` where it is 0). The remainder search uses it to tell a
+    search that stopped by the progressive rule's trust in its order from one its inliers certify."""
+    p = 1.0
+    for i in range(sample_size):
+        p *= max(inliers - i, 0) / max(n - i, 1)
+    if not p > 0.0:
+        return np.inf
+    if p >= 1.0:
+        return float(min_hits)
+    return float(min_hits * np.log1p(-confidence) / np.log1p(-p))
+
+
 def _with_remainder(r: RansacResult, budget: int, f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scores: np.ndarray | None) -> RansacResult:
-    """``o.consistency_remainder``: a search ``r`` in the consistency order that ended before its
-    ``budget`` is followed by a second one in the consistency order of the matches outside ``r``'s band
-    (Sampson error at least ``tau``), for as many draws as ``r`` took (at least
-    ``consistency_min_draws``). Its model, scored on all the matches by the search's objective
-    (:func:`search_cost`), replaces ``r`` if it costs less and is offered as the uniqueness test's
-    rival otherwise (:func:`_combined`). Why: a compact second motion (a moving object) has the most
-    consistent neighbourhoods and tops the order; a rule that trusts the order ends on it, and the
-    scene's own matches are left in the remainder, where they come first."""
-    if not (o.consistency_remainder and r.num_iterations < budget):
+    """``o.consistency_remainder``: a search ``r`` in the consistency order that its progressive rule
+    ended (before its ``budget``, and before the classical rule on its inlier share would have:
+    :func:`classical_draws`) is followed by a second one in the consistency order of the matches
+    outside ``r``'s band (Sampson error at least ``tau``), for as many draws as ``r`` took (at least
+    ``consistency_min_draws``, at most what is left of ``budget``). Its model, scored on all the matches
+    by the search's objective (:func:`search_cost`, cheirality-aware: with ``chiral_scoring`` off the
+    two costs would differ, and the step is skipped), replaces ``r`` if it costs less and is offered as
+    the uniqueness test's rival otherwise (:func:`_combined`). Why: a compact second motion (a moving
+    object) has the most consistent neighbourhoods and tops the order; a rule that trusts the order ends
+    on it, and the scene's own matches are left in the remainder, where they come first."""
+    left = budget - r.num_iterations
+    if not (o.consistency_remainder and o.chiral_scoring and left > 0):
+        return r
+    n = len(f1)
+    if r.num_iterations >= classical_draws(int(np.count_nonzero(r.inliers)), n, SAMPLE_SIZES[o.solver], o.confidence, o.min_hits):
         return r
     rest = np.flatnonzero(~r.inliers)
     if len(rest) < o.consistency_min_matches * o.consistency_k:
         return r
     g1, g2 = f1[rest], f2[rest]
     order = consistency_order_scores(g1, g2, None if scores is None else scores[rest], o.consistency_k)
-    s = _search(g1, g2, tau, o, order, True, max(o.consistency_min_draws, r.num_iterations))
+    s = _search(g1, g2, tau, o, order, True, min(left, max(o.consistency_min_draws, r.num_iterations)))
     if not (np.all(np.isfinite(s.R)) and np.all(np.isfinite(s.t))):
         return r
-    cost, _ = search_cost(s.R, s.t, f1, f2, tau, scoring=o.scoring, keypoint_once=o.keypoint_once)
+    cost, inl = search_cost(s.R, s.t, f1, f2, tau, scoring=o.scoring, keypoint_once=o.keypoint_once)
     v = v_sampson(s.R, s.t, f1, f2)
-    stats = {k: x for k, x in s.stats.items() if not k.startswith("rival_")}
-    stats["rival_cost"] = np.inf
+    # its counts on all the matches (the first search's keypoint groups; no rival of its own)
+    stats = {k: x for k, x in r.stats.items() if not k.startswith("rival_")}
+    stats.update(cost=float(cost), num_inliers=len(inl), rival_cost=np.inf, needed=np.inf)
+    stats.update(num_challenger_lo=s.stats.get("num_challenger_lo", 0), challenger_won=s.stats.get("challenger_won", 0))
     whole = dataclasses.replace(s, inliers=v < tau, residuals=v, score=float(cost), stats=stats)
     return _combined(r, whole, o.rival_distance)
 

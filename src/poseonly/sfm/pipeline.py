@@ -20,7 +20,7 @@ from ..geometry import InputError
 from .edge_information import edge_informations
 from .ligt_global import MIN_PARALLAX_DEG, LiGTResult, ligt_positions
 from .reconstruct import MAX_ERROR_PX, Reconstruction, reconstruct_points
-from .rotation_averaging import RotationAveragingResult, average_rotations
+from .rotation_averaging import RotationAveragingResult, average_rotations, checked_sigma_deg
 from .tracks import Tracks, build_tracks
 from .viewgraph import ViewGraph
 
@@ -63,9 +63,7 @@ class GlobalOptions:
     def __post_init__(self) -> None:
         if self.rotation_weights not in ROTATION_WEIGHTS:
             raise InputError(f"rotation_weights must be one of {ROTATION_WEIGHTS}, got {self.rotation_weights!r}")
-        s = self.rotation_sigma_deg
-        if s is not None and (isinstance(s, bool) or not isinstance(s, (int, float)) or not (np.isfinite(s) and s > 0)):
-            raise InputError(f"rotation_sigma_deg must be a finite number > 0 or None, got {s!r}")
+        checked_sigma_deg(self.rotation_sigma_deg, "rotation_sigma_deg")
 
 
 def num_stages(options: GlobalOptions | None = None) -> int:

@@ -17,9 +17,12 @@ with weights. Steps (global_sfm notes, section 3; as openMVG / COLMAP build them
    then rejected as outliers), 20 x 300 and 50 x 100 (converged after 26) found exactly the 952 outliers.
 4. IRLS with Geman-McClure weights per edge, ``w_e sigma^2 / (e^2 + sigma^2)^2`` with
    ``e = ||b_ij||`` (COLMAP's per-edge form), relinearised every iteration, until
-   ``max |x| < irls_tol``. The scale ``sigma`` comes from the data: ``GM_SCALE_FACTOR`` (5) times the
-   median edge residual at the L1RA solution, within ``[SIGMA_MIN_DEG, SIGMA_DEG]`` (an M-estimator
-   with an estimated scale). Chatterjee-Govindu, openMVG and COLMAP fix it at 5 deg, where a
+   ``max |x| < irls_tol``. The scale ``sigma`` comes from the data (an M-estimator with an estimated
+   scale): ``GM_SCALE_FACTOR`` (5) times the median edge residual after ``SCALE_PASS_ITERATIONS``
+   IRLS steps at ``SIGMA_DEG`` (a least-squares-like fit: the L1 solution fits many edges of a sparse
+   graph exactly), divided by ``sqrt(1 - (N - 1) / E)`` (the share of the errors the fit leaves in the
+   residuals), within ``[SIGMA_MIN_DEG, SIGMA_DEG]``; ``SIGMA_DEG`` on graphs with little redundancy
+   (``E < 3 (N - 1)``, ``MIN_SCALE_REDUNDANCY``). Chatterjee-Govindu, openMVG and COLMAP fix it at 5 deg, where a
    GM weight is flat for every residual below about a degree: an edge 0.6 deg off among edges good to
    0.02-0.05 deg (fountain-P11's widest pair) then weighs fully. Measured (docs/SFM.md, "The
    Geman-McClure scale"): 5 % of a synthetic graph's edges 0.6 deg off, mean error 0.81x; a clean
@@ -40,6 +43,7 @@ outlier rule keep the scalar weights.
 
 from __future__ import annotations
 
+import numbers
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -53,11 +57,17 @@ from ..geometry import InputError
 from .so3 import exp_so3, log_so3
 from .viewgraph import largest_component, view_components
 
-__all__ = ["RotationAveragingResult", "average_rotations", "gm_scale_deg", "rotation_residuals_deg", "spanning_tree_rotations"]
+__all__ = ["RotationAveragingResult", "average_rotations", "checked_sigma_deg", "gm_scale_deg", "rotation_residuals_deg", "spanning_tree_rotations"]
 
 SIGMA_DEG = 5.0  # Geman-McClure scale of Chatterjee-Govindu, openMVG, COLMAP: here its upper bound
 GM_SCALE_FACTOR = 5.0  # the data's GM scale: this times the median edge residual at the L1RA solution
 SIGMA_MIN_DEG = 1e-4  # its lower bound (a noise-free graph's residuals are ~0)
+# the data's scale needs redundancy: where the fit absorbs more than a third of the errors' variance (mean
+# leverage (N - 1) / E above 1/3, e.g. a ring whose views see only their nearest neighbours, E / N = 2) a
+# bad edge's error spreads onto its neighbours and a tight scale down-weights the wrong edges (such rings
+# with 5 % of the edges 3 deg off: 1.47x the fixed scale's error; E / N = 4: 1.01x), so SIGMA_DEG is kept
+MIN_SCALE_REDUNDANCY = 2.0 / 3.0
+SCALE_PASS_ITERATIONS = 5  # IRLS steps at SIGMA_DEG whose residuals give the data's scale
 X84_FACTOR = 5.2  # median + 5.2 MAD (openMVG)
 MAD_TO_SIGMA = 1.4826
 ADMM_RHO = 1.0
@@ -263,12 +273,31 @@ def _normalised_information(info: np.ndarray) -> np.ndarray:
     return info * scale[:, None, None]
 
 
-def gm_scale_deg(residuals_deg: np.ndarray) -> float:
-    """The Geman-McClure scale (degrees) of edges with these residuals: ``GM_SCALE_FACTOR`` times
-    their median, within ``[SIGMA_MIN_DEG, SIGMA_DEG]`` (module docstring, step 4)."""
-    if residuals_deg.size == 0:
+def checked_sigma_deg(value: object, name: str = "sigma_deg") -> float | None:
+    """A Geman-McClure scale option: None (from the data) or a finite real number > 0 (degrees; not a
+    bool); anything else is an :class:`InputError` naming ``name``."""
+    if value is None:
+        return None
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not (np.isfinite(float(value)) and float(value) > 0):
+        raise InputError(f"{name} must be a finite number > 0 (degrees) or None (from the data), got {value!r}")
+    return float(value)
+
+
+def gm_scale_deg(residuals_deg: np.ndarray, num_views: int) -> float:
+    """The Geman-McClure scale (degrees) of a connected graph of ``num_views`` views whose ``E`` edges
+    have these residuals ``(E,)`` at a least-squares fit: ``GM_SCALE_FACTOR`` times their median over
+    ``sqrt(1 - (num_views - 1) / E)`` (a fit absorbs the share ``(N - 1) / E`` of the errors' variance, the
+    mean leverage), within ``[SIGMA_MIN_DEG, SIGMA_DEG]``; ``SIGMA_DEG`` where the residuals do not
+    measure the noise (fewer than ``MIN_SCALE_REDUNDANCY`` of the edges' variance left, or no finite
+    median). Module docstring, step 4."""
+    r = np.asarray(residuals_deg, dtype=np.float64).ravel()
+    keep = 1.0 - (int(num_views) - 1) / max(r.size, 1)
+    if r.size == 0 or keep < MIN_SCALE_REDUNDANCY:
         return SIGMA_DEG
-    return float(min(SIGMA_DEG, max(SIGMA_MIN_DEG, GM_SCALE_FACTOR * float(np.median(residuals_deg)))))
+    med = float(np.median(r))
+    if not np.isfinite(med):
+        return SIGMA_DEG
+    return float(min(SIGMA_DEG, max(SIGMA_MIN_DEG, GM_SCALE_FACTOR * med / np.sqrt(keep))))
 
 
 def _x84_threshold(res_deg: np.ndarray, min_deg: float, max_deg: float) -> float:
@@ -309,8 +338,7 @@ def average_rotations(
     times: dict[str, float] = {}
     n = int(num_views)
     p, R, w = _check_inputs(n, pairs, R_rel, weights)
-    if sigma_deg is not None and not (np.isfinite(sigma_deg) and sigma_deg > 0):
-        raise InputError(f"sigma_deg must be finite and > 0 (or None: from the data), got {sigma_deg!r}")
+    sigma_deg = checked_sigma_deg(sigma_deg)
     if len(p) == 0:
         raise InputError("rotation averaging needs at least one edge")
     w = w / np.median(w)
@@ -359,13 +387,22 @@ def average_rotations(
     times["l1"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
+    irls_total = 0
     if sigma_deg is None:
+        # the scale from the residuals of a least-squares-like fit (a few IRLS steps at SIGMA_DEG, where
+        # the GM weights of residuals far below it are flat), not of the L1 solution, which fits many
+        # edges exactly on sparse graphs (nor of the spanning tree's, exact on its edges)
+        if len(views) > 1:
+            sg = np.radians(SIGMA_DEG)
+            D = _incidence(len(views), pe, root)
+            solve = _scalar_solve(D, w[emask], sg) if info_all is None else _information_solve(D, pe, info_all[emask], sg)
+            Rg, k = _irls(Rg, pe, R[emask], solve, root, sg, SCALE_PASS_ITERATIONS, irls_tol)
+            irls_total += k
         start = np.full((n, 3, 3), np.nan)
         start[views] = Rg
-        sigma_deg = gm_scale_deg(rotation_residuals_deg(start, p, R)[emask])
+        sigma_deg = gm_scale_deg(rotation_residuals_deg(start, p, R)[emask], len(views))
     info["sigma_deg"] = float(sigma_deg)
     sigma = np.radians(sigma_deg)
-    irls_total = 0
     full = np.full((n, 3, 3), np.nan)
     for rnd in range(outlier_rounds + 1):
         if len(views) > 1:
