@@ -5,7 +5,7 @@ information of its relative rotation (:func:`poseonly.sfm.edge_information.edge_
 Gauss-Newton matrix of its inliers' Sampson errors at its pose, the edge's own noise scale, the
 translation marginalised); Zhang et al., "Revisiting Rotation Averaging: Uncertainties and Robust
 Losses" (CVPR 2023) weight rotation averaging this way. The pipeline's IRLS
-(:func:`poseonly.sfm.rotation_averaging.average_rotations`, Geman-McClure at 5 deg, relinearised) is
+(:func:`poseonly.sfm.rotation_averaging.average_rotations`, Geman-McClure at the pipeline's scale, relinearised) is
 rerun from the pipeline's averaged rotations on its inlier edges, without L1RA or outlier rounds, with
 four weightings: the inlier count (the pipeline's, a check that it reproduces the pipeline), the full
 3x3 information, its trace / 3 and its smallest eigenvalue; the rotation error after the best
@@ -59,7 +59,7 @@ def main(argv: list[str] | None = None) -> int:
         }
         cells = []
         for kw in variants.values():
-            ra = average_rotations(g.num_views, p, Rrel, init=res.rotations, l1=False, outlier_rounds=0, **kw)
+            ra = average_rotations(g.num_views, p, Rrel, init=res.rotations, l1=False, outlier_rounds=0, sigma_deg=res.info["rotation_sigma_deg"], **kw)
             cells.append(f"{evaluate_poses(ra.rotations, res.centres, R_gt, C_gt)['rot_mean_deg_rotalign']:.4f}")
         print(f"| {sc.name} | " + " | ".join(cells) + f" | {np.median(ev[:, 2] / ev[:, 0]):.0f} |")
     return 0

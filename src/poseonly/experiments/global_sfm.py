@@ -35,6 +35,7 @@ import numpy as np
 
 from ..io.strecha import find_scenes, load_scene
 from ..sfm.align import evaluate_poses, pose_auc, relative_pose_errors
+from ..sfm.cli import positive_degrees
 from ..sfm.pairwise import ImageGraph, PairwiseOptions, image_view_graph, parse_estimator_options
 from ..sfm.pipeline import ROTATION_WEIGHTS, GlobalOptions, GlobalResult, run_global
 from ..sfm.so3 import angle_deg
@@ -57,7 +58,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--reweight", type=int, default=0, help="LiGT reweighting iterations (default 0 = openMVG's LiGT)")
     p.add_argument(
         "--rotation-sigma",
-        type=float,
+        type=positive_degrees,
         default=None,
         metavar="DEG",
         help="rotation averaging's Geman-McClure scale in degrees (default: from the data, 5x the median edge residual after L1RA, at most 5)",
@@ -103,10 +104,10 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
         use_noise_scales=not args.no_noise_scales,
         estimator_options=parse_estimator_options(args.two_view_option),
     )
+    gopt = GlobalOptions(ligt_reweight=args.reweight, rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma)
     t0 = time.perf_counter()
     ig = image_view_graph(sc.image_paths, sc.K, options=opt, cache_dir=args.cache, progress=lambda it, **kw: progress(it, **kw), jobs=args.jobs)
     t_pairs = time.perf_counter() - t0
-    gopt = GlobalOptions(ligt_reweight=args.reweight, rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma)
     res = run_global(ig.graph, ig.bearings, float(sc.K[0, 0]), gopt)
     ev = _scores(res.rotations, res.centres, R_gt, C_gt)
     out: dict[str, Any] = {
@@ -122,6 +123,7 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
         "ours": ev,
         "times_s": {"pairwise (cached parts excluded)": t_pairs, **ig.times_s, **res.times_s},
         "ligt_info": res.ligt.info,
+        "rotation_sigma_deg": res.info["rotation_sigma_deg"],
     }
     if args.ba:
         from ..sfm.colmap_ba import bundle_adjust, poses_from_reconstruction

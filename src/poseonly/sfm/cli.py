@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from ..geometry import InputError, check_intrinsics
+from .rotation_averaging import checked_sigma_deg
 
 # pipeline.ROTATION_WEIGHTS, default first, written out so that the CLI's start does not import scipy
 # (tests/test_sfm_information.py checks that they agree)
@@ -29,6 +30,17 @@ CLI_ROTATION_WEIGHTS = ("inliers", "information")
 __all__ = ["IMAGE_EXTS", "add_parsers", "cmd_sfm"]
 
 IMAGE_EXTS = (".jpg", ".jpeg", ".png", ".JPG", ".JPEG", ".PNG")
+
+
+def positive_degrees(text: str) -> float:
+    """argparse type of ``--rotation-sigma``: a finite number of degrees > 0 (checked before any image
+    is read)."""
+    try:
+        v = checked_sigma_deg(float(text), "--rotation-sigma")
+    except (ValueError, InputError) as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    assert v is not None
+    return v
 
 
 def _progress(it, **kw):
@@ -197,7 +209,7 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
     s.add_argument(
         "--rotation-sigma",
-        type=float,
+        type=positive_degrees,
         default=None,
         metavar="DEG",
         help="rotation averaging's Geman-McClure scale in degrees (default: from the data, 5x the median edge residual after L1RA, at most 5)",
