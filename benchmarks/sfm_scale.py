@@ -51,6 +51,7 @@ def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int) ->
     if stage == "rotation_averaging":
         ra = average_rotations(n, s.pairs, s.R_rel, s.weights)
         extra = {"outliers_found": len(ra.outlier_edges), "outliers_true": int(s.outlier.sum()), "times_s": ra.times_s}
+        extra.update(sigma_deg=ra.info["sigma_deg"], irls_iterations=ra.info["irls_iterations"])
     else:
         lg = ligt_positions(s.rotations, s.tracks, s.bearings)
         extra = {"times_s": lg.times_s, "rows": lg.info["rows"], "nnz_H": lg.info["nnz_H"]}

@@ -25,8 +25,8 @@ with weights. Steps (global_sfm notes, section 3; as openMVG / COLMAP build them
    (``E < 3 (N - 1)``, ``MIN_SCALE_REDUNDANCY``). Chatterjee-Govindu, openMVG and COLMAP fix it at 5 deg, where a
    GM weight is flat for every residual below about a degree: an edge 0.6 deg off among edges good to
    0.02-0.05 deg (fountain-P11's widest pair) then weighs fully. Measured (docs/SFM.md, "The
-   Geman-McClure scale"): 5 % of a synthetic graph's edges 0.6 deg off, mean error 0.81x; a clean
-   graph 1.02x; Strecha under openMVG's protocol 0.93 / 1.01 / 0.82x (P8 / P10 / P11).
+   Geman-McClure scale"): 5 % of a synthetic graph's edges 0.6 deg off, mean error 0.82x; a clean
+   graph 1.02x; Strecha under openMVG's protocol 0.93 / 1.01 / 0.81x (P8 / P10 / P11).
    ``sigma_deg`` fixes it instead.
 5. Outlier edges: residual above ``min(max_error_deg, max(X84, min_error_deg))`` (X84 = median +
    5.2 MAD, openMVG's rule, floored so a clean graph keeps its edges, capped like COLMAP's 10 deg).
