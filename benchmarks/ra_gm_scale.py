@@ -1,5 +1,5 @@
 """Rotation averaging's Geman-McClure scale: fixed at 5 deg (Chatterjee-Govindu, openMVG, COLMAP)
-against the data's (``sigma_deg=None``: 5x the median edge residual at the L1RA solution; see
+against the data's (``sigma_deg=None``: 5x the noise-corrected median edge residual of a least-squares-like fit; see
 :mod:`poseonly.sfm.rotation_averaging`, step 4).
 
 Synthetic: per seed a 30-view ring of :func:`poseonly.sfm.synthetic.make_scene` at 1 px whose edges
@@ -67,7 +67,7 @@ def synthetic(seeds: int) -> None:
 def sparse(seeds: int) -> None:
     """Sparse rings (each view linked to its 1 or 2 neighbours on each side: E / N = 2 or 4) of
     :func:`poseonly.sfm.synthetic.make_scene` with isotropic 0.3 deg relative-rotation noise, clean and
-    with 5 % of the edges 0.6 deg off; 40 views."""
+    with 5 % of the edges 3 deg off; 40 views."""
     from poseonly.sfm.align import evaluate_poses
     from poseonly.sfm.rotation_averaging import average_rotations
     from poseonly.sfm.so3 import exp_so3

@@ -218,15 +218,18 @@ def test_the_remainder_search_finds_the_scene_behind_a_compact_second_motion(see
 
 
 def test_the_remainder_search_skips_a_search_its_inliers_certify():
-    # half the matches on the returned pose: the classical rule would have ended the search in ~300
-    # draws, so a search that ended there did not stop on trust in its order, and nothing follows
+    # 35-50 % outliers: the consistency-order search ends by the classical rule on its inlier share
+    # (before consistency_min_draws, below which the progressive rule cannot end it), and nothing follows
     from poseonly.options import PoseonlyOptions
-    from poseonly.robust.default import _with_remainder, classical_draws
+    from poseonly.robust.default import _search, _with_remainder
 
-    s = sim.make_scene(400, camera="pinhole", noise_px=0.5, outlier_fraction=0.5, seed=2)
-    o = PoseonlyOptions(consistency_remainder=True)
-    tau = o.threshold_px / s.K[0, 0]
-    first = _first_search_on(s.R, s.t / np.linalg.norm(s.t), s.f1, s.f2, tau, o, iterations=400)
-    assert classical_draws(int(first.inliers.sum()), 400, 5, o.confidence) < 400
-    assert _with_remainder(first, o.max_iterations, s.f1, s.f2, tau, o, None) is first
-    assert classical_draws(4, 400, 5, 0.99) == np.inf and classical_draws(400, 400, 5, 0.99) == 1.0
+    for seed, rate in ((2, 0.5), (3, 0.35)):
+        s = sim.make_scene(400, camera="pinhole", noise_px=0.5, outlier_fraction=rate, seed=seed)
+        o = PoseonlyOptions(consistency_remainder=True, consistency_rule="expected", seed=seed)
+        tau = o.threshold_px / s.K[0, 0]
+        r = _search(s.f1, s.f2, tau, o, consistency_order_scores(s.f1, s.f2, None, o.consistency_k), True)
+        assert r.num_iterations < o.consistency_min_draws and r.num_iterations >= r.stats["classical_needed"]
+        assert _with_remainder(r, o.max_iterations, s.f1, s.f2, tau, o, None) is r
+        e = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, seed=seed, consistency="always", consistency_rule="expected")
+        f = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, seed=seed, consistency="always", consistency_rule="expected", consistency_remainder=True)
+        assert _same(e, f)

@@ -156,7 +156,7 @@ def test_rotation_averaging_outliers_removed_and_within_1p2x_of_clean():
 
 def test_rotation_averaging_gm_scale_from_the_data_downweights_moderately_bad_edges():
     """5 % of the edges 0.6 deg off among edges with 0.05 deg noise: the fixed 5 deg scale weighs them
-    fully, the data's (5x the median L1RA residual) does not."""
+    fully, the data's (5x the noise-corrected median residual, rotation_averaging.gm_scale_deg) does not."""
     from poseonly.sfm.rotation_averaging import GM_SCALE_FACTOR, SIGMA_DEG
     from poseonly.sfm.so3 import exp_so3
 
@@ -175,6 +175,27 @@ def test_rotation_averaging_gm_scale_from_the_data_downweights_moderately_bad_ed
     assert e_data < 0.9 * e_fixed
     with pytest.raises(InputError, match="sigma_deg"):
         average_rotations(40, s.pairs, R_rel, s.weights, sigma_deg=0.0)
+
+
+def test_rotation_averaging_gm_scale_needs_redundancy_and_valid_options():
+    from poseonly.sfm.pipeline import GlobalOptions
+    from poseonly.sfm.rotation_averaging import SIGMA_DEG, checked_sigma_deg, gm_scale_deg
+
+    # a ring whose views see only their neighbours (E / N = 2 < 3 (N - 1) / N): the fixed scale
+    s = make_scene(40, 2400, window=1, seed=3, rotation_noise_deg=0.3)
+    assert len(s.pairs) < 3 * 39
+    assert average_rotations(40, s.pairs, s.R_rel, s.weights).info["sigma_deg"] == SIGMA_DEG
+    # the scale's arithmetic: median / sqrt(1 - (N - 1) / E), times 5; NaN and empty -> the fixed scale
+    r = np.full(30, 0.01)
+    assert gm_scale_deg(r, 11) == pytest.approx(5 * 0.01 / np.sqrt(1 - 10 / 30))
+    assert gm_scale_deg(r, 12) == SIGMA_DEG and gm_scale_deg(np.zeros(0), 2) == SIGMA_DEG
+    assert gm_scale_deg(np.full(30, np.nan), 5) == SIGMA_DEG and gm_scale_deg(np.zeros(30), 5) == pytest.approx(1e-4)
+    assert checked_sigma_deg(np.float32(2.0)) == 2.0 and checked_sigma_deg(np.int64(3)) == 3.0 and checked_sigma_deg(None) is None
+    for bad in (True, "5", [5.0], 0.0, -1.0, float("inf"), float("nan"), 10**400):
+        with pytest.raises(InputError, match="sigma_deg"):
+            checked_sigma_deg(bad)
+        with pytest.raises(InputError, match="rotation_sigma_deg"):
+            GlobalOptions(rotation_sigma_deg=bad)  # type: ignore[arg-type]
 
 
 def test_rotation_averaging_disconnected_view_not_estimated():

@@ -66,6 +66,12 @@ def test_sfm_colmap_model_reads_back_and_matches_ground_truth(sfm_run):
 def test_sfm_command_bad_input(tmp_path, capsys):
     assert main(["sfm", str(tmp_path / "nope"), "--K", "K.txt", "--out", str(tmp_path / "o")]) == 2
     assert "image folder not found" in capsys.readouterr().err
+    # a bad --rotation-sigma is an argument error, before any image is read
+    for bad in ("-1", "0", "nan", "x"):
+        with pytest.raises(SystemExit) as e:
+            main(["sfm", str(tmp_path / "nope"), "--K", "K.txt", "--rotation-sigma", bad])
+        assert e.value.code == 2
+        assert "--rotation-sigma" in capsys.readouterr().err
 
 
 def test_sfm_command_from_colmap_database(tmp_path):

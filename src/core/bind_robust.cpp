@@ -104,6 +104,7 @@ nb::dict stats_dict(const RansacStats& st) {
   d["num_challenger_lo"] = st.num_challenger_lo;
   d["challenger_won"] = st.challenger_won;
   d["needed"] = st.needed;
+  d["classical_needed"] = st.classical_needed;
   return d;
 }
 

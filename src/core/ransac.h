@@ -94,6 +94,9 @@ struct RansacStats {
   // the draws the stopping rule asked for at the end of the loop (inf: no model; above max_iterations:
   // the search stopped at its cap, not converged)
   double needed = std::numeric_limits<double>::infinity();
+  // the classical rule's draws alone (the inlier share of all the data) for the best model when it was
+  // last updated: a search that ended below it was ended by the progressive rule (or its cap)
+  double classical_needed = std::numeric_limits<double>::infinity();
 };
 
 // log P(Bin(k, p) < hits): the chance that k samples, each good with probability p, hold fewer
@@ -587,8 +590,10 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       }
       inliers_of(est, *best, scorer, &inl);
       st.num_inliers = static_cast<int>(inl.size());
-      if (opt.adaptive)
+      if (opt.adaptive) {
         needed = samples_needed(est.success_probability(std::max(static_cast<double>(inl.size()) / n, opt.min_inlier_ratio)), opt.confidence, opt.min_hits);
+        st.classical_needed = needed;
+      }
       if constexpr (HasProgressiveOrder<Sampler>::value) {
         if (opt.adaptive && opt.progressive_stop)
           needed = std::min(needed, std::max(static_cast<double>(opt.progressive_min_draws),

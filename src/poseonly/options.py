@@ -258,7 +258,8 @@ class PoseonlyOptions(CommonOptions):
     consistency_remainder: bool = _opt(
         False,
         "bool",
-        "a search in the consistency order that ends before its budget is followed by one more in the consistency order of the"
+        "a search in the consistency order that its progressive rule ends (before its budget and before the classical rule on its"
+        " inlier share would have; with chiral_scoring) is followed by one more in the consistency order of the"
         " matches outside its model's band, for as many samples (at least consistency_min_draws); the remainder's model replaces"
         " the result if it costs less on all the matches, and is the uniqueness test's rival if it is close: a compact second"
         " motion tops the consistency order, and the rule that trusts the order would otherwise end on it. With"

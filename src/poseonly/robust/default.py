@@ -221,28 +221,10 @@ def _combined(a: RansacResult, b: RansacResult, rival_distance: float) -> Ransac
     return dataclasses.replace(r, num_iterations=a.num_iterations + b.num_iterations, num_lo=a.num_lo + b.num_lo, num_scored=a.num_scored + b.num_scored, stats=stats)
 
 
-SAMPLE_SIZES = {"5pt": 5, "lirp": 6}  # the minimal solvers' sample sizes (poseonly.robust.ransac._MINIMAL)
-
-
-def classical_draws(inliers: int, n: int, sample_size: int, confidence: float, min_hits: int = 1) -> float:
-    """The draws after which the classical stopping rule (the inlier share of all the matches, samples
-    drawn without replacement) is satisfied: ``min_hits * log(1 - confidence) / log(1 - p)``, ``p`` the
-    chance that a sample is all inliers (``inf`` where it is 0). The remainder search uses it to tell a
-    search that stopped by the progressive rule's trust in its order from one its inliers certify."""
-    p = 1.0
-    for i in range(sample_size):
-        p *= max(inliers - i, 0) / max(n - i, 1)
-    if not p > 0.0:
-        return np.inf
-    if p >= 1.0:
-        return float(min_hits)
-    return float(min_hits * np.log1p(-confidence) / np.log1p(-p))
-
-
 def _with_remainder(r: RansacResult, budget: int, f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scores: np.ndarray | None) -> RansacResult:
     """``o.consistency_remainder``: a search ``r`` in the consistency order that its progressive rule
-    ended (before its ``budget``, and before the classical rule on its inlier share would have:
-    :func:`classical_draws`) is followed by a second one in the consistency order of the matches
+    ended (before its ``budget``, and before the classical rule on its inlier share would have: the
+    core's ``stats["classical_needed"]``) is followed by a second one in the consistency order of the matches
     outside ``r``'s band (Sampson error at least ``tau``), for as many draws as ``r`` took (at least
     ``consistency_min_draws``, at most what is left of ``budget``). Its model, scored on all the matches
     by the search's objective (:func:`search_cost`, cheirality-aware: with ``chiral_scoring`` off the
@@ -253,8 +235,7 @@ def _with_remainder(r: RansacResult, budget: int, f1: np.ndarray, f2: np.ndarray
     left = budget - r.num_iterations
     if not (o.consistency_remainder and o.chiral_scoring and left > 0):
         return r
-    n = len(f1)
-    if r.num_iterations >= classical_draws(int(np.count_nonzero(r.inliers)), n, SAMPLE_SIZES[o.solver], o.confidence, o.min_hits):
+    if r.num_iterations >= float(r.stats.get("classical_needed", np.inf)):
         return r
     rest = np.flatnonzero(~r.inliers)
     if len(rest) < o.consistency_min_matches * o.consistency_k:

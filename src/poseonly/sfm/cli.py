@@ -212,7 +212,7 @@ def add_parsers(sub: Any, esub: Any) -> None:
         type=positive_degrees,
         default=None,
         metavar="DEG",
-        help="rotation averaging's Geman-McClure scale in degrees (default: from the data, 5x the median edge residual after L1RA, at most 5)",
+        help="rotation averaging's Geman-McClure scale in degrees (default: from the data, 5x the noise-corrected median edge residual, at most 5; 5 on sparse graphs)",
     )
     s.add_argument(
         "--rotation-weights",

@@ -58,7 +58,8 @@ class GlobalOptions:
     # it cuts the error by a quarter (30 views) to 60 % (12 views), at 30-50 deg it changes nothing
     rotation_weights: str = "inliers"
     # the Geman-McClure scale of rotation averaging's IRLS (deg); None: from the data, 5x the median
-    # edge residual at the L1RA solution, at most 5 deg (poseonly.sfm.rotation_averaging, step 4)
+    # edge residual of a least-squares-like fit over sqrt(1 - (N - 1) / E), at most 5 deg; 5 deg on graphs
+    # with E < 3 (N - 1) (poseonly.sfm.rotation_averaging, step 4)
     rotation_sigma_deg: float | None = None
 
     def __post_init__(self) -> None:

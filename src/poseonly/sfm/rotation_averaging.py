@@ -60,7 +60,7 @@ from .viewgraph import largest_component, view_components
 __all__ = ["RotationAveragingResult", "average_rotations", "checked_sigma_deg", "gm_scale_deg", "rotation_residuals_deg", "spanning_tree_rotations"]
 
 SIGMA_DEG = 5.0  # Geman-McClure scale of Chatterjee-Govindu, openMVG, COLMAP: here its upper bound
-GM_SCALE_FACTOR = 5.0  # the data's GM scale: this times the median edge residual at the L1RA solution
+GM_SCALE_FACTOR = 5.0  # the data's GM scale: this times the noise-corrected median edge residual (gm_scale_deg)
 SIGMA_MIN_DEG = 1e-4  # its lower bound (a noise-free graph's residuals are ~0)
 # the data's scale needs redundancy: where the fit absorbs more than a third of the errors' variance (mean
 # leverage (N - 1) / E above 1/3, e.g. a ring whose views see only their nearest neighbours, E / N = 2) a
@@ -278,9 +278,16 @@ def checked_sigma_deg(value: object, name: str = "sigma_deg") -> float | None:
     bool); anything else is an :class:`InputError` naming ``name``."""
     if value is None:
         return None
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not (np.isfinite(float(value)) and float(value) > 0):
-        raise InputError(f"{name} must be a finite number > 0 (degrees) or None (from the data), got {value!r}")
-    return float(value)
+    bad = InputError(f"{name} must be a finite number of degrees > 0, got {value!r} (the default, None, takes the scale from the data)")
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise bad
+    try:
+        v = float(value)
+    except (OverflowError, ValueError):
+        raise bad from None
+    if not (np.isfinite(v) and v > 0):
+        raise bad
+    return v
 
 
 def gm_scale_deg(residuals_deg: np.ndarray, num_views: int) -> float:
