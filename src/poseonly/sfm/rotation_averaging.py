@@ -4,7 +4,9 @@ Input: relative rotations ``R_ij = R_j R_i^T`` (world -> camera globals) of ``E`
 with weights. Steps (global_sfm notes, section 3; as openMVG / COLMAP build them):
 
 1. Initialisation from a maximum-weight spanning tree: ``R_j = R_ij R_i`` from the root (the view
-   of largest weighted degree, ``R_root = I``, which also fixes the gauge).
+   of largest weighted degree, ``R_root = I``, which also fixes the gauge). Edges that lie in triangles
+   of the graph none of which close within ``TRIANGLE_MAX_DEG`` (:func:`triangle_support`, openMVG's
+   triplet check) enter the tree only where it needs them to stay connected.
 2. Linearisation with the right perturbation ``R_k <- R_k exp([x_k]x)``: per edge
    ``b_ij = log(R_j^T R_ij R_i)`` and the linear model ``x_j - x_i = b_ij``; ``D`` is the
    ``E x N`` signed incidence matrix, so ``A = D (x) I_3`` and ``A^T W A = (D^T W D) (x) I_3``:
