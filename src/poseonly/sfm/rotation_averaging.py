@@ -64,6 +64,9 @@ __all__ = ["RotationAveragingResult", "average_rotations", "checked_sigma_deg", 
 SIGMA_DEG = 5.0  # Geman-McClure scale of Chatterjee-Govindu, openMVG, COLMAP: here its upper bound
 GM_SCALE_FACTOR = 5.0  # the data's GM scale: this times the noise-corrected median edge residual (gm_scale_deg)
 TRIANGLE_MAX_DEG = 5.0  # a triangle of relative rotations closes within this (the spanning tree's edge check)
+# the triangles checked per edge (u, v) at most (third views w > v): time and memory linear in the edges
+# on dense graphs (a complete graph of N views has N^3 / 6 triangles)
+TRIANGLES_PER_EDGE = 10
 SIGMA_MIN_DEG = 1e-4  # its lower bound (a noise-free graph's residuals are ~0)
 # the data's scale needs redundancy: where the fit absorbs more than a third of the errors' variance (mean
 # leverage (N - 1) / E above 1/3, e.g. a ring whose views see only their nearest neighbours, E / N = 2) a
@@ -125,7 +128,8 @@ def rotation_residuals_deg(rotations: np.ndarray, pairs: np.ndarray, R_rel: np.n
 
 def triangle_support(n: int, pairs: np.ndarray, R_rel: np.ndarray, max_error_deg: float = TRIANGLE_MAX_DEG) -> tuple[np.ndarray, np.ndarray]:
     """Per edge of ``pairs (E, 2)`` (``R_rel``: ``R_j R_i^T``), the triangles ``(i, j, k)`` of the view graph it
-    lies in and how many of them close: ``R_ki R_jk R_ij`` within ``max_error_deg`` of the identity.
+    lies in and how many of them close: ``R_ki R_jk R_ij`` within ``max_error_deg`` of the identity
+    (triangles ``u < v < w`` listed from their edge ``(u, v)``, at most ``TRIANGLES_PER_EDGE`` of them each).
     Returns ``(triangles (E,), consistent (E,))``. openMVG's triplet rotation check before averaging; an
     edge in triangles none of which close is an outlier with near certainty (the other two edges of
     each would have to be wrong too)."""
@@ -149,6 +153,8 @@ def triangle_support(n: int, pairs: np.ndarray, R_rel: np.ndarray, max_error_deg
         nu = adj.indices[adj.indptr[u] : adj.indptr[u + 1]]
         nv = adj.indices[adj.indptr[v] : adj.indptr[v + 1]]
         c = np.intersect1d(nu[nu > v], nv[nv > v], assume_unique=True)
+        if c.size > TRIANGLES_PER_EDGE:  # dense graphs: an even spread of the third views
+            c = c[np.linspace(0, c.size - 1, TRIANGLES_PER_EDGE).astype(np.int64)]
         if c.size:
             ii.append(np.full(c.size, u))
             jj.append(np.full(c.size, v))
