@@ -54,7 +54,7 @@ def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int) ->
         extra.update(sigma_deg=ra.info["sigma_deg"], irls_iterations=ra.info["irls_iterations"])
     else:
         lg = ligt_positions(s.rotations, s.tracks, s.bearings)
-        extra = {"times_s": lg.times_s, "rows": lg.info["rows"], "nnz_H": lg.info["nnz_H"]}
+        extra = {"times_s": lg.times_s, "rows": lg.info["rows"], "nnz_H": lg.info["nnz_H"], "eig_ratio": lg.info["eig_ratio"]}
     dt = time.perf_counter() - t0
     if stage == "rotation_averaging":
         from poseonly.sfm.align import evaluate_poses
@@ -62,6 +62,13 @@ def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int) ->
         # the accuracy too: the mean rotation error after the rotation-only alignment (a wrong start
         # once left this graph's 10000-view ring 89 deg off in the mean, in the same time and memory)
         extra["rot_mean_deg_rotalign"] = float(evaluate_poses(ra.rotations, s.centres, s.rotations, s.centres)["rot_mean_deg_rotalign"])
+    else:
+        from poseonly.sfm.align import evaluate_poses
+
+        # LiGT from the true rotations: the mean position error after the similarity alignment, over the
+        # largest distance of a true centre from their mean
+        extent = float(np.max(np.linalg.norm(s.centres - s.centres.mean(axis=0), axis=1)))
+        extra["pos_mean_frac"] = float(evaluate_poses(s.rotations, lg.centres, s.rotations, s.centres)["pos_mean"]) / extent
     return {
         "stage": stage,
         "views": n,
@@ -107,7 +114,11 @@ def main(argv: list[str] | None = None) -> int:
             print(
                 f"{st:20s} views {n:6d} obs {row['observations']:8d} edges {row['edges']:7d}: "
                 f"{row['time_s']:8.2f} s, peak RSS {row['peak_rss_mib']:8.1f} MiB (scene {row['rss_before_mib']:.0f} MiB)"
-                + (f", rotation error {row['rot_mean_deg_rotalign']:.3f} deg, outliers {row['outliers_found']} / {row['outliers_true']}" if st == "rotation_averaging" else ""),
+                + (
+                    f", rotation error {row['rot_mean_deg_rotalign']:.3f} deg, outliers {row['outliers_found']} / {row['outliers_true']}"
+                    if st == "rotation_averaging"
+                    else f", position error {100 * row['pos_mean_frac']:.2f} % of the extent, smallest / second eigenvalue {row['eig_ratio']:.3f}"
+                ),
                 flush=True,
             )
     growth = {}
