@@ -1,7 +1,7 @@
 """Global SfM on Strecha scenes (issue 15): the paper's pipeline without bundle adjustment.
 
 ``poseonly experiment global PATH [--scenes NAME ...] [--cache DIR] [--max-features N]
-[--threshold-px T] [--reweight K] [--no-anchor] [--ba]``
+[--threshold-px T] [--reweight K] [--ligt-normalization noise|unit] [--no-anchor] [--ba]``
 
 For every scene folder at or below ``PATH`` (:func:`poseonly.io.strecha.find_scenes`): SIFT
 features (strongest ``--max-features``), mutual ratio-test matches of all pairs, the two-view
@@ -36,6 +36,7 @@ import numpy as np
 from ..io.strecha import find_scenes, load_scene
 from ..sfm.align import evaluate_poses, pose_auc, relative_pose_errors
 from ..sfm.cli import positive_degrees
+from ..sfm.ligt_global import LIGT_NORMALIZATIONS
 from ..sfm.pairwise import ImageGraph, PairwiseOptions, image_view_graph, parse_estimator_options
 from ..sfm.pipeline import ROTATION_WEIGHTS, GlobalOptions, GlobalResult, run_global
 from ..sfm.so3 import angle_deg
@@ -56,6 +57,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
     p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
     p.add_argument("--reweight", type=int, default=0, help="LiGT reweighting iterations (default 0 = openMVG's LiGT)")
+    p.add_argument(
+        "--ligt-normalization",
+        choices=LIGT_NORMALIZATIONS,
+        default=GlobalOptions.ligt_normalization,
+        help="LiGT's scale: the expected noise of its rows (default) or the paper's unit norm of the centres",
+    )
     p.add_argument(
         "--rotation-sigma",
         type=positive_degrees,
@@ -104,7 +111,7 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
         use_noise_scales=not args.no_noise_scales,
         estimator_options=parse_estimator_options(args.two_view_option),
     )
-    gopt = GlobalOptions(ligt_reweight=args.reweight, rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma)
+    gopt = GlobalOptions(ligt_reweight=args.reweight, ligt_normalization=args.ligt_normalization, rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma)
     t0 = time.perf_counter()
     ig = image_view_graph(sc.image_paths, sc.K, options=opt, cache_dir=args.cache, progress=lambda it, **kw: progress(it, **kw), jobs=args.jobs)
     t_pairs = time.perf_counter() - t0
