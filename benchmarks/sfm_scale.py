@@ -2,7 +2,11 @@
 graph grows (issue 15, "10k cameras and 1M observations").
 
     PYTHONPATH=src python benchmarks/sfm_scale.py [--views 1000 2000 5000 10000] [--obs-per-view 100]
-        [--outliers 0.1] [--out docs/results/sfm_scale.json]
+        [--outliers 0.1] [--stages rotation_averaging ligt ligt_averaged] [--normalization noise|unit]
+        [--seed 0] [--out docs/results/sfm_scale.json]
+
+``ligt`` runs LiGT from the true rotations (its own error), ``ligt_averaged`` from rotation averaging's
+(run before the timer: the pipeline's error).
 
 Each (size, stage) runs in a fresh subprocess: the synthetic scene (:func:`poseonly.sfm.synthetic.make_scene`,
 ring of cameras, window 5, 0.5 px bearing noise, 0.3 deg relative-rotation noise, 10 % outlier
@@ -36,11 +40,13 @@ def _vm(key: str) -> float:
     return float("nan")
 
 
-def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int) -> dict:
+def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int, normalization: str) -> dict:
     from poseonly.sfm import average_rotations, ligt_positions
     from poseonly.sfm.synthetic import make_scene
 
     s = make_scene(n, int(n * obs_per_view / TRACK_LENGTH_MEAN), noise_px=0.5, rotation_noise_deg=0.3, outlier_fraction=outliers, seed=seed)
+    # "ligt" runs from the true rotations, "ligt_averaged" from rotation averaging's (untimed)
+    R_ligt = average_rotations(n, s.pairs, s.R_rel, s.weights).rotations if stage == "ligt_averaged" else s.rotations
     rss_before = _vm("VmRSS")
     try:
         with open("/proc/self/clear_refs", "w") as fh:
@@ -53,8 +59,8 @@ def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int) ->
         extra = {"outliers_found": len(ra.outlier_edges), "outliers_true": int(s.outlier.sum()), "times_s": ra.times_s}
         extra.update(sigma_deg=ra.info["sigma_deg"], irls_iterations=ra.info["irls_iterations"])
     else:
-        lg = ligt_positions(s.rotations, s.tracks, s.bearings)
-        extra = {"times_s": lg.times_s, "rows": lg.info["rows"], "nnz_H": lg.info["nnz_H"], "eig_ratio": lg.info["eig_ratio"]}
+        lg = ligt_positions(R_ligt, s.tracks, s.bearings, normalization=normalization)
+        extra = {"normalization": normalization, "times_s": lg.times_s, "rows": lg.info["rows"], "nnz_H": lg.info["nnz_H"], "eig_ratio": lg.info["eig_ratio"]}
     dt = time.perf_counter() - t0
     if stage == "rotation_averaging":
         from poseonly.sfm.align import evaluate_poses
@@ -68,7 +74,7 @@ def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int) ->
         # LiGT from the true rotations: the mean position error after the similarity alignment, over the
         # largest distance of a true centre from their mean
         extent = float(np.max(np.linalg.norm(s.centres - s.centres.mean(axis=0), axis=1)))
-        extra["pos_mean_frac"] = float(evaluate_poses(s.rotations, lg.centres, s.rotations, s.centres)["pos_mean"]) / extent
+        extra["pos_mean_frac"] = float(evaluate_poses(R_ligt, lg.centres, s.rotations, s.centres)["pos_mean"]) / extent
     return {
         "stage": stage,
         "views": n,
@@ -88,19 +94,21 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--obs-per-view", type=int, default=100)
     p.add_argument("--outliers", type=float, default=0.1)
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--stages", nargs="+", default=["rotation_averaging", "ligt"])
+    p.add_argument("--stages", nargs="+", default=["rotation_averaging", "ligt"], choices=("rotation_averaging", "ligt", "ligt_averaged"))
+    p.add_argument("--normalization", default="noise", choices=("noise", "unit"), help="LiGT's scale normalisation (ligt_positions)")
     p.add_argument("--out", default="docs/results/sfm_scale.json")
     p.add_argument("--child", nargs=2, metavar=("STAGE", "VIEWS"), help=argparse.SUPPRESS)
     a = p.parse_args(argv)
     if a.child:
-        print(json.dumps(_child(a.child[0], int(a.child[1]), a.obs_per_view, a.outliers, a.seed)))
+        print(json.dumps(_child(a.child[0], int(a.child[1]), a.obs_per_view, a.outliers, a.seed, a.normalization)))
         return 0
     rows = []
     env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
     for n in a.views:
         for st in a.stages:
             r = subprocess.run(
-                [sys.executable, __file__, "--child", st, str(n), "--obs-per-view", str(a.obs_per_view), "--outliers", str(a.outliers), "--seed", str(a.seed)],
+                [sys.executable, __file__, "--child", st, str(n), "--obs-per-view", str(a.obs_per_view), "--outliers", str(a.outliers)]
+                + ["--seed", str(a.seed), "--normalization", a.normalization],
                 capture_output=True,
                 text=True,
                 env=env,
