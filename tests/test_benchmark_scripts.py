@@ -133,3 +133,21 @@ def test_hard_pair_augmentation():
     assert np.count_nonzero(sampson(a1, a2) < 1.0) == 60
     kept = {tuple(x) for x in np.hstack([a1, a2]).round(9)}
     assert all(tuple(x) in kept for x in np.hstack([u1, u2]).round(9))
+
+
+def test_sfm_scale_runs(tmp_path: Path):
+    """benchmarks/sfm_scale.py end to end on a 60-view graph, every stage (each in its own subprocess)."""
+    import json
+
+    out = tmp_path / "scale.json"
+    script = SCRIPTS[0].parent / "sfm_scale.py"
+    cmd = [sys.executable, str(script), "--views", "60", "80", "--stages", "rotation_averaging", "ligt", "ligt_averaged", "--out", str(out)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
+    assert r.returncode == 0, r.stderr[-2000:]
+    rows = json.loads(out.read_text())["rows"]
+    assert [(x["stage"], x["views"]) for x in rows] == [(st, n) for n in (60, 80) for st in ("rotation_averaging", "ligt", "ligt_averaged")]
+    for x in rows:
+        if x["stage"] == "rotation_averaging":
+            assert x["outliers_found"] == x["outliers_true"] and x["rot_mean_deg_rotalign"] < 1.0
+        else:
+            assert x["normalization"] == "noise" and x["pos_mean_frac"] < 0.01
