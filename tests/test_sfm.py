@@ -197,8 +197,9 @@ def test_rotation_averaging_gm_scale_from_the_data_downweights_moderately_bad_ed
 
 
 def test_rotation_averaging_gm_scale_needs_redundancy_and_valid_options():
+    from poseonly.sfm.choices import checked_sigma_deg
     from poseonly.sfm.pipeline import GlobalOptions
-    from poseonly.sfm.rotation_averaging import SIGMA_DEG, checked_sigma_deg, gm_scale_deg
+    from poseonly.sfm.rotation_averaging import SIGMA_DEG, gm_scale_deg
 
     # a ring whose views see only their neighbours (E / N = 2 < 3 (N - 1) / N): the fixed scale
     s = make_scene(40, 2400, window=1, seed=3, rotation_noise_deg=0.3)

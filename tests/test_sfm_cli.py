@@ -159,3 +159,24 @@ def test_map_ordered_raises_at_the_failing_item_and_cancels_the_queue():
     assert next(gen) == 2
     gen.close()  # the caller stops early: the queued items are cancelled
     assert len(ran) < 20
+
+
+def test_command_line_start_does_not_load_the_pipeline():
+    """Building the parsers (every `poseonly` command) imports no scipy and no pipeline module: the sfm
+    hook and `experiment global` take their choices from poseonly.sfm.choices, and poseonly.sfm loads
+    its stages on first use; the options' defaults are the first choices."""
+    import json
+    import subprocess
+    import sys
+
+    code = "import json, sys; from poseonly.cli import build_parser; build_parser(); print(json.dumps(sorted(m for m in sys.modules if m.startswith(('scipy', 'poseonly.sfm.')))))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert json.loads(out) == ["poseonly.sfm.choices", "poseonly.sfm.cli"]
+
+    from poseonly.sfm import ligt_positions
+    from poseonly.sfm.choices import LIGT_NORMALIZATIONS, ROTATION_WEIGHTS
+    from poseonly.sfm.ligt_global import ligt_positions as direct
+    from poseonly.sfm.pipeline import GlobalOptions
+
+    assert ligt_positions is direct
+    assert GlobalOptions().rotation_weights == ROTATION_WEIGHTS[0] and GlobalOptions().ligt_normalization == LIGT_NORMALIZATIONS[0]

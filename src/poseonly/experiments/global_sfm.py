@@ -29,18 +29,18 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..io.strecha import find_scenes, load_scene
-from ..sfm.align import evaluate_poses, pose_auc, relative_pose_errors
+from ..sfm.choices import LIGT_NORMALIZATIONS, ROTATION_WEIGHTS
 from ..sfm.cli import positive_degrees
-from ..sfm.ligt_global import LIGT_NORMALIZATIONS
-from ..sfm.pairwise import ImageGraph, PairwiseOptions, image_view_graph, parse_estimator_options
-from ..sfm.pipeline import ROTATION_WEIGHTS, GlobalOptions, GlobalResult, run_global
-from ..sfm.so3 import angle_deg
 from ._common import code_version, machine, markdown_table, progress, write_outputs
+
+if TYPE_CHECKING:  # the pipeline's modules (scipy) load when a scene runs, not when the CLI starts
+    from ..sfm.pairwise import ImageGraph
+    from ..sfm.pipeline import GlobalResult
 
 # openMVG GlobalSfM (bundle adjustment included), mean rotation error in degrees, as published by
 # the LiGT authors (PoSDK benchmark data; docs/SFM.md)
@@ -60,7 +60,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--ligt-normalization",
         choices=LIGT_NORMALIZATIONS,
-        default=GlobalOptions.ligt_normalization,
+        default=LIGT_NORMALIZATIONS[0],
         help="LiGT's scale: the expected noise of its rows (default) or the paper's unit norm of the centres",
     )
     p.add_argument(
@@ -73,7 +73,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--rotation-weights",
         choices=ROTATION_WEIGHTS,
-        default=GlobalOptions.rotation_weights,
+        default=ROTATION_WEIGHTS[0],
         help="rotation averaging's edge weights: the two-view inlier counts (default) or each relative rotation's information",
     )
     p.add_argument("--jobs", type=int, default=1, help="threads for the features, matching and two-view stages (default 1; the same result for any number)")
@@ -88,12 +88,16 @@ def _gt(scene) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _input_rotation_error(graph, R_gt: np.ndarray) -> float:
+    from ..sfm.so3 import angle_deg
+
     p = graph.pairs()
     Rg = R_gt[p[:, 1]] @ np.transpose(R_gt[p[:, 0]], (0, 2, 1))
     return float(angle_deg(np.einsum("eji,ejk->eik", Rg, graph.rotations())).mean())
 
 
 def _scores(R: np.ndarray, C: np.ndarray, R_gt: np.ndarray, C_gt: np.ndarray) -> dict[str, Any]:
+    from ..sfm.align import evaluate_poses, pose_auc, relative_pose_errors
+
     ev = evaluate_poses(R, C, R_gt, C_gt)
     dR, dt = relative_pose_errors(R, C, R_gt, C_gt)
     ev.update(pose_auc(np.maximum(dR, dt)))
@@ -102,6 +106,9 @@ def _scores(R: np.ndarray, C: np.ndarray, R_gt: np.ndarray, C_gt: np.ndarray) ->
 
 
 def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
+    from ..sfm.pairwise import PairwiseOptions, image_view_graph, parse_estimator_options
+    from ..sfm.pipeline import GlobalOptions, run_global
+
     sc = load_scene(path)
     R_gt, C_gt = _gt(sc)
     opt = PairwiseOptions(

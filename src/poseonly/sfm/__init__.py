@@ -12,12 +12,35 @@ centre, ``X_k = R_k (X - c_k)``. A pair ``(i, j)`` in poseonly's two-view conven
 
 from __future__ import annotations
 
-from .align import Similarity, align_similarity, evaluate_poses
-from .ligt_global import LiGTResult, ligt_positions
-from .reconstruct import Reconstruction, reconstruct_points
-from .rotation_averaging import RotationAveragingResult, average_rotations
-from .tracks import Tracks, build_tracks
-from .viewgraph import Edge, ViewGraph, edge_from_result
+import importlib
+from typing import TYPE_CHECKING, Any
+
+# names -> submodule, loaded on first use: importing poseonly.sfm (the command line's parsers do) must
+# not pull in scipy (PEP 562)
+_EXPORTS = {
+    "Similarity": "align",
+    "align_similarity": "align",
+    "evaluate_poses": "align",
+    "LiGTResult": "ligt_global",
+    "ligt_positions": "ligt_global",
+    "Reconstruction": "reconstruct",
+    "reconstruct_points": "reconstruct",
+    "RotationAveragingResult": "rotation_averaging",
+    "average_rotations": "rotation_averaging",
+    "Tracks": "tracks",
+    "build_tracks": "tracks",
+    "Edge": "viewgraph",
+    "ViewGraph": "viewgraph",
+    "edge_from_result": "viewgraph",
+}
+
+if TYPE_CHECKING:
+    from .align import Similarity, align_similarity, evaluate_poses
+    from .ligt_global import LiGTResult, ligt_positions
+    from .reconstruct import Reconstruction, reconstruct_points
+    from .rotation_averaging import RotationAveragingResult, average_rotations
+    from .tracks import Tracks, build_tracks
+    from .viewgraph import Edge, ViewGraph, edge_from_result
 
 __all__ = [
     "Edge",
@@ -35,3 +58,16 @@ __all__ = [
     "ligt_positions",
     "reconstruct_points",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    mod = _EXPORTS.get(name)
+    if mod is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{mod}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

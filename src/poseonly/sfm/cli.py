@@ -21,11 +21,7 @@ from typing import Any
 import numpy as np
 
 from ..geometry import InputError, check_intrinsics
-from .rotation_averaging import checked_sigma_deg
-
-# pipeline.ROTATION_WEIGHTS, default first, written out so that the CLI's start does not import scipy
-# (tests/test_sfm_information.py checks that they agree)
-CLI_ROTATION_WEIGHTS = ("inliers", "information")
+from .choices import LIGT_NORMALIZATIONS, ROTATION_WEIGHTS, checked_sigma_deg
 
 __all__ = ["IMAGE_EXTS", "add_parsers", "cmd_sfm"]
 
@@ -139,7 +135,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
         f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
     )
-    gopt = GlobalOptions(rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma)
+    gopt = GlobalOptions(rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma, ligt_normalization=args.ligt_normalization)
     bar = None if args.no_progress else _stage_bar(num_stages(gopt))
     try:
         res = run_global(ig.graph, ig.bearings, float(0.5 * (K[0, 0] + K[1, 1])), gopt, on_stage=None if bar is None else bar.stage)
@@ -216,9 +212,15 @@ def add_parsers(sub: Any, esub: Any) -> None:
     )
     s.add_argument(
         "--rotation-weights",
-        choices=CLI_ROTATION_WEIGHTS,
-        default=CLI_ROTATION_WEIGHTS[0],
+        choices=ROTATION_WEIGHTS,
+        default=ROTATION_WEIGHTS[0],
         help="rotation averaging's edge weights: the two-view inlier counts (default) or each relative rotation's information (narrow fields of view)",
+    )
+    s.add_argument(
+        "--ligt-normalization",
+        choices=LIGT_NORMALIZATIONS,
+        default=LIGT_NORMALIZATIONS[0],
+        help="LiGT's scale: the expected noise of its rows (default) or the paper's unit norm of the centres",
     )
     s.set_defaults(func=cmd_sfm)
 

@@ -35,13 +35,13 @@ from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import eigsh
 
 from ..geometry import InputError
+from .choices import LIGT_NORMALIZATIONS
 from .posegeom import base_views, g_vectors, world_bearings
 from .tracks import Tracks
 
 __all__ = ["LIGT_NORMALIZATIONS", "MIN_PARALLAX_DEG", "LiGTResult", "build_ligt_matrix", "build_noise_matrix", "ligt_positions"]
 
 MIN_PARALLAX_DEG = 1.0
-LIGT_NORMALIZATIONS = ("noise", "unit")  # see ligt_positions
 SHIFT_REL = 1e-10  # shift-invert shift, relative to the mean diagonal of H
 
 

@@ -17,10 +17,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..geometry import InputError
+from .choices import LIGT_NORMALIZATIONS, ROTATION_WEIGHTS, checked_sigma_deg
 from .edge_information import edge_informations
-from .ligt_global import LIGT_NORMALIZATIONS, MIN_PARALLAX_DEG, LiGTResult, ligt_positions
+from .ligt_global import MIN_PARALLAX_DEG, LiGTResult, ligt_positions
 from .reconstruct import MAX_ERROR_PX, Reconstruction, reconstruct_points
-from .rotation_averaging import RotationAveragingResult, average_rotations, checked_sigma_deg
+from .rotation_averaging import RotationAveragingResult, average_rotations
 from .tracks import Tracks, build_tracks
 from .viewgraph import ViewGraph
 
@@ -28,8 +29,6 @@ BearingsFn = Callable[[Tracks], np.ndarray]
 
 __all__ = ["ROTATION_WEIGHTS", "STAGES", "BearingsFn", "GlobalOptions", "GlobalResult", "filter_observations", "num_stages", "run_global"]
 
-# rotation averaging's edge weights (GlobalOptions.rotation_weights)
-ROTATION_WEIGHTS = ("inliers", "information")
 # the stages of run_global in order; each filter round runs "filter", "LiGT" and "points" again
 STAGES = ("rotation averaging", "tracks", "LiGT", "points", "filter")
 
@@ -54,13 +53,13 @@ class GlobalOptions:
     ligt_reweight: int = 0
     # "noise" (Taubin's: the expected noise part of L^T L) or "unit" (the paper's / openMVG's unit
     # norm, which bends long graphs: 4.8 % of the extent on a 5000-view ring against 0.16 %)
-    ligt_normalization: str = "noise"
+    ligt_normalization: str = LIGT_NORMALIZATIONS[0]
     # the inlier counts (measured with the fixed 5 deg Geman-McClure scale; with the data's the 20 deg
     # synthetic gain stands, 0.732x: `python benchmarks/ra_information.py --seeds 10 --half-fov 20`): on
     # the Strecha scenes the information weighed no better (mean rotation error after rotation-only alignment 0.0163 / 0.0234 / 0.0274 deg against 0.0143 / 0.0237 / 0.0261,
     # P8 / P10 / P11; docs/SFM.md); on synthetic graphs of cameras with a 20 deg half field of view
     # it cuts the error by a quarter (30 views) to 60 % (12 views), at 30-50 deg it changes nothing
-    rotation_weights: str = "inliers"
+    rotation_weights: str = ROTATION_WEIGHTS[0]
     # the Geman-McClure scale of rotation averaging's IRLS (deg); None: from the data, 5x the median
     # edge residual of a least-squares-like fit over sqrt(1 - (N - 1) / E), at most 5 deg; 5 deg on graphs
     # with E < 3 (N - 1) (poseonly.sfm.rotation_averaging, step 4)

@@ -45,7 +45,6 @@ outlier rule keep the scalar weights.
 
 from __future__ import annotations
 
-import numbers
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -56,10 +55,11 @@ from scipy.sparse.csgraph import breadth_first_order, minimum_spanning_tree
 from scipy.sparse.linalg import splu
 
 from ..geometry import InputError
+from .choices import checked_sigma_deg
 from .so3 import exp_so3, log_so3
 from .viewgraph import largest_component, view_components
 
-__all__ = ["RotationAveragingResult", "average_rotations", "checked_sigma_deg", "gm_scale_deg", "rotation_residuals_deg", "spanning_tree_rotations", "triangle_support"]
+__all__ = ["RotationAveragingResult", "average_rotations", "gm_scale_deg", "rotation_residuals_deg", "spanning_tree_rotations", "triangle_support"]
 
 SIGMA_DEG = 5.0  # Geman-McClure scale of Chatterjee-Govindu, openMVG, COLMAP: here its upper bound
 GM_SCALE_FACTOR = 5.0  # the data's GM scale: this times the noise-corrected median edge residual (gm_scale_deg)
@@ -344,23 +344,6 @@ def _normalised_information(info: np.ndarray) -> np.ndarray:
     med = float(np.median(tr))
     scale = np.minimum(1.0, MAX_INFORMATION_RATIO * med / tr) / med
     return info * scale[:, None, None]
-
-
-def checked_sigma_deg(value: object, name: str = "sigma_deg") -> float | None:
-    """A Geman-McClure scale option: None (from the data) or a finite real number > 0 (degrees; not a
-    bool); anything else is an :class:`InputError` naming ``name``."""
-    if value is None:
-        return None
-    bad = InputError(f"{name} must be a finite number of degrees > 0, got {value!r} (the default, None, takes the scale from the data)")
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise bad
-    try:
-        v = float(value)
-    except (OverflowError, ValueError):
-        raise bad from None
-    if not (np.isfinite(v) and v > 0):
-        raise bad
-    return v
 
 
 def gm_scale_deg(residuals_deg: np.ndarray, num_views: int) -> float:
