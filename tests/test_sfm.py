@@ -254,6 +254,88 @@ def test_rotation_averaging_bad_input():
         average_rotations(3, [[1, 1]], np.eye(3)[None])
 
 
+def _bad_stage_inputs():
+    """(stage, argument, bad value, message) for every stage's array arguments."""
+    s = make_scene(8, 300, seed=1, noise_px=0.5)
+    R0 = s.rotations.copy()
+    R0[2] = 0.0
+    Rbig = s.rotations * 1e300
+    Rpart = s.rotations.copy()
+    Rpart[3, 0, 0] = np.nan
+    Rflip = s.rotations.copy()
+    Rflip[1] = -Rflip[1]  # det -1
+    f0 = s.bearings.copy()
+    f0[5] = 0.0
+    fnan = s.bearings.copy()
+    fnan[7, 1] = np.inf
+    C = s.centres.copy()
+    Cpart = C.copy()
+    Cpart[2, 1] = np.nan
+    pairs_f = s.pairs.astype(float)
+    pairs_f[0, 0] = 0.5
+    return s, [
+        ("ligt", "rotations", R0, r"rotations\[2\] is not a rotation"),
+        ("ligt", "rotations", Rbig, "is not a rotation"),
+        ("ligt", "rotations", Rpart, r"rotations\[3\] has NaN or inf entries"),
+        ("ligt", "rotations", Rflip, r"rotations\[1\] is not a rotation.*det -1"),
+        ("ligt", "rotations", s.rotations[:-1], "only 7 rotations"),
+        ("ligt", "bearings", f0, "zero-length"),
+        ("ligt", "bearings", fnan, "NaN or inf"),
+        ("ligt", "bearings", s.bearings.astype(complex), "real"),
+        ("ligt", "reweight_iterations", -1, "reweight_iterations"),
+        ("ligt", "min_parallax_deg", float("nan"), "min_parallax_deg"),
+        ("ligt", "reference", 2.5, "reference"),
+        ("ra", "R_rel", np.zeros_like(s.R_rel), "not a rotation"),
+        ("ra", "R_rel", s.R_rel * 1e300, "not a rotation"),
+        ("ra", "pairs", pairs_f, "whole view indices"),
+        ("ra", "pairs", np.where(np.arange(len(s.pairs))[:, None] == 0, np.nan, s.pairs), "whole view indices"),
+        ("ra", "num_views", 2.5, "num_views"),
+        ("points", "rotations", R0, "not a rotation"),
+        ("points", "centres", Cpart, "centres has rows with NaN"),
+        ("points", "centres", C * 1e200, "beyond"),
+        ("points", "centres", C[:-1], r"shape \(8, 3\)"),
+        ("points", "rotations", s.rotations[:-1], r"shape \(7, 3\)"),
+        ("points", "bearings", f0, "zero-length"),
+        ("points", "focal", float("inf"), "focal"),
+        ("points", "focal", True, "focal"),
+    ]
+
+
+def test_stages_reject_bad_arrays_with_input_errors():
+    """Every stage's array arguments are checked: rotations that are not rotations (zero, 1e300-scaled,
+    reflections, partly NaN), zero / non-finite / complex bearings, fractional or NaN view indices,
+    centres with partial NaN rows or beyond 1e100, shapes that do not match the tracks: an InputError
+    naming the problem, never a RuntimeWarning, IndexError or scipy error."""
+    import warnings
+
+    s, cases = _bad_stage_inputs()
+    for stage, arg, value, msg in cases:
+        kw = {"rotations": s.rotations, "tracks": s.tracks, "bearings": s.bearings}
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with pytest.raises(InputError, match=msg):
+                if stage == "ligt":
+                    ligt_positions(**(kw | {arg: value}))
+                elif stage == "ra":
+                    args = {"num_views": 8, "pairs": s.pairs, "R_rel": s.R_rel} | {arg: value}
+                    average_rotations(args["num_views"], args["pairs"], args["R_rel"], s.weights)
+                else:
+                    kw |= {"centres": s.centres, "focal": 800.0}
+                    reconstruct_points(**(kw | {arg: value}))
+
+
+def test_stages_accept_nearly_orthonormal_rotations_and_project_them():
+    """Rotations printed with six digits (~1e-6 off SO(3)) are accepted and projected: the same
+    centres as from the exact rotations within the rounding's effect."""
+    s = make_scene(8, 300, seed=1)
+    R6 = np.round(s.rotations, 6)
+    lg = ligt_positions(R6, s.tracks, s.bearings)
+    assert _pos_rel_err(lg.centres, s.centres) < 1e-4
+    R_missing = s.rotations.copy()
+    R_missing[4] = np.nan  # a view without a rotation: all NaN
+    assert not ligt_positions(R_missing, s.tracks, s.bearings).estimated[4]
+
+
 # ---------------------------------------------------------------------------------------------
 # LiGT and reconstruction
 

@@ -36,13 +36,16 @@ from scipy.sparse.linalg import eigsh
 
 from ..geometry import InputError
 from .choices import LIGT_NORMALIZATIONS
+from .inputs import checked_bearings, checked_rotations
 from .posegeom import base_views, g_vectors, world_bearings
 from .tracks import Tracks
 
 __all__ = ["LIGT_NORMALIZATIONS", "MIN_PARALLAX_DEG", "LiGTResult", "build_ligt_matrix", "build_noise_matrix", "ligt_positions"]
 
 MIN_PARALLAX_DEG = 1.0
-SHIFT_REL = 1e-10  # shift-invert shift, relative to the mean diagonal of H
+SHIFT_REL = 1e-10
+# bearing_scale="z": a bearing's z below this share of its length is taken for one not in front
+MIN_Z_BEARING = 1e-6  # shift-invert shift, relative to the mean diagonal of H
 
 
 @dataclass
@@ -72,7 +75,12 @@ def _smallest_eigvec(H: sp.csc_matrix, m: int, N: sp.csc_matrix | None = None) -
     if N is not None:
         shift /= float(N.diagonal().mean())
     k = min(3, m - 1)
-    vals, vecs = eigsh(H, k=k, M=N, sigma=-shift, which="LM", tol=0.0)
+    if not (np.isfinite(shift) and shift > 0):
+        raise InputError("LiGT: the linear system is zero (no track constrains the translations)")
+    try:
+        vals, vecs = eigsh(H, k=k, M=N, sigma=-shift, which="LM", tol=0.0)
+    except RuntimeError as exc:  # ArpackError too  # a singular factor: unknowns no row constrains
+        raise InputError(f"LiGT: the linear system is singular or its eigenproblem failed ({exc})") from None
     o = np.argsort(vals)
     return vecs[:, o[0]], vals[o]
 
@@ -173,25 +181,21 @@ def ligt_positions(
         raise InputError(f"normalization must be 'noise' or 'unit', got {normalization!r}")
     times: dict[str, float] = {}
     t0 = time.perf_counter()
-    Rg = np.asarray(rotations, dtype=np.float64)
-    if Rg.ndim != 3 or Rg.shape[1:] != (3, 3):
-        raise InputError(f"rotations must have shape (N, 3, 3), got {Rg.shape}")
+    Rg = checked_rotations(rotations, "rotations", missing=True)
     n = len(Rg)
-    f = np.asarray(bearings, dtype=np.float64)
-    if f.shape != (tracks.num_observations, 3):
-        raise InputError(f"bearings must have shape ({tracks.num_observations}, 3), got {f.shape}")
-    if not np.all(np.isfinite(f)):
-        raise InputError("bearings contain NaN or inf")
+    f = checked_bearings(bearings, "bearings", tracks.num_observations)
     if len(tracks) and tracks.views.max() >= n:
         raise InputError(f"tracks reference view {tracks.views.max()} but only {n} rotations are given")
-    if bearing_scale == "unit":
-        f = f / np.linalg.norm(f, axis=1, keepdims=True)
-    elif bearing_scale == "z":  # normalized image coordinates (x, y, 1), openMVG's input
-        if np.any(f[:, 2] <= 0):
-            raise InputError("bearing_scale='z' needs every bearing in front of its camera (z > 0)")
+    if bearing_scale == "z":  # normalized image coordinates (x, y, 1), openMVG's input
+        if np.any(f[:, 2] < MIN_Z_BEARING):
+            raise InputError(f"bearing_scale='z' needs every bearing in front of its camera (z >= {MIN_Z_BEARING:g} of its length)")
         f = f / f[:, 2:3]
-    else:
+    elif bearing_scale != "unit":
         raise InputError(f"bearing_scale must be 'unit' or 'z', got {bearing_scale!r}")
+    if isinstance(reweight_iterations, bool) or not isinstance(reweight_iterations, (int, np.integer)) or reweight_iterations < 0:
+        raise InputError(f"reweight_iterations must be a whole number >= 0, got {reweight_iterations!r}")
+    if isinstance(min_parallax_deg, bool) or not (isinstance(min_parallax_deg, (int, float, np.integer, np.floating)) and 0 <= float(min_parallax_deg) < 90):
+        raise InputError(f"min_parallax_deg must be a number of degrees in [0, 90), got {min_parallax_deg!r}")
     info: dict[str, object] = {}
     has_R = np.all(np.isfinite(Rg), axis=(1, 2))
     obs_ok = has_R[tracks.views]
@@ -228,7 +232,7 @@ def ligt_positions(
     nobs = np.bincount(sub3.views, minlength=n)
     if reference is None:
         reference = int(np.argmax(nobs))
-    elif not (0 <= reference < n and nobs[reference] > 0):
+    elif isinstance(reference, bool) or not isinstance(reference, (int, np.integer)) or not (0 <= reference < n and nobs[reference] > 0):
         raise InputError(f"reference view {reference} is not observed by any usable track")
     comp = lab[reference]
     view_in = (lab[:n] == comp) & (nobs > 0)

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry import InputError
+from .inputs import checked_bearings, checked_centres, checked_rotations
 from .posegeom import base_depths, base_views, world_bearings
 from .tracks import Tracks
 
@@ -55,16 +56,16 @@ def reconstruct_points(
     """Points of all ``T`` tracks from ``rotations (N, 3, 3)`` (world -> camera), ``centres (N, 3)``
     (NaN rows: view not posed; its observations are ignored), camera-frame unit ``bearings (M, 3)``
     and ``focal`` (pixels, converts angles to reprojection pixels)."""
-    Rg = np.asarray(rotations, dtype=np.float64)
-    C = np.asarray(centres, dtype=np.float64)
-    f = np.asarray(bearings, dtype=np.float64)
-    if f.shape != (tracks.num_observations, 3):
-        raise InputError(f"bearings must have shape ({tracks.num_observations}, 3), got {f.shape}")
-    if C.shape != (len(Rg), 3):
-        raise InputError(f"centres must have shape ({len(Rg)}, 3), got {C.shape}")
-    if not focal > 0:
-        raise InputError(f"focal must be positive, got {focal}")
-    f = f / np.linalg.norm(f, axis=1, keepdims=True)
+    Rg = checked_rotations(rotations, "rotations", missing=True)
+    C = checked_centres(centres, "centres", len(Rg))
+    f = checked_bearings(bearings, "bearings", tracks.num_observations)
+    if len(tracks) and tracks.views.max() >= len(Rg):
+        raise InputError(f"tracks reference view {tracks.views.max()} but only {len(Rg)} rotations are given")
+    if isinstance(focal, bool) or not isinstance(focal, (int, float, np.integer, np.floating)) or not (np.isfinite(focal) and focal > 0):
+        raise InputError(f"focal must be a finite number of pixels > 0, got {focal!r}")
+    for name, v in (("max_error_px", max_error_px), ("min_views", min_views)):
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not v > 0:
+            raise InputError(f"{name} must be a number > 0, got {v!r}")
     posed = np.all(np.isfinite(Rg), axis=(1, 2)) & np.all(np.isfinite(C), axis=1)
     obs_posed = posed[tracks.views]
     cnt = np.bincount(tracks.track_of_observation[obs_posed], minlength=len(tracks))

@@ -54,8 +54,9 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, minimum_spanning_tree
 from scipy.sparse.linalg import splu
 
-from ..geometry import InputError
+from ..geometry import InputError, as_real_array
 from .choices import checked_sigma_deg
+from .inputs import checked_pairs, checked_rotations
 from .so3 import exp_so3, log_so3
 from .viewgraph import largest_component, view_components
 
@@ -100,20 +101,12 @@ class RotationAveragingResult:
     info: dict[str, object] = field(default_factory=dict)
 
 
-def _check_inputs(num_views: int, pairs: np.ndarray, R_rel: np.ndarray, weights: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    p = np.asarray(pairs, dtype=np.int64)
-    if p.ndim != 2 or p.shape[1] != 2:
-        raise InputError(f"pairs must have shape (E, 2), got {p.shape}")
-    R = np.asarray(R_rel, dtype=np.float64)
-    if R.shape != (len(p), 3, 3):
-        raise InputError(f"relative rotations must have shape ({len(p)}, 3, 3), got {R.shape}")
-    if not np.all(np.isfinite(R)):
-        raise InputError("relative rotations contain NaN or inf")
-    if len(p) and (p.min() < 0 or p.max() >= num_views):
-        raise InputError(f"edge view indices must be in [0, {num_views})")
-    if np.any(p[:, 0] == p[:, 1]):
-        raise InputError("an edge joins a view to itself")
-    w = np.ones(len(p)) if weights is None else np.asarray(weights, dtype=np.float64).ravel()
+def _check_inputs(num_views: object, pairs: np.ndarray, R_rel: np.ndarray, weights: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    if isinstance(num_views, bool) or not isinstance(num_views, (int, np.integer)) or num_views < 1:
+        raise InputError(f"num_views must be a whole number >= 1, got {num_views!r}")
+    p = checked_pairs(pairs, int(num_views))
+    R = checked_rotations(R_rel, "relative rotations", len(p))
+    w = np.ones(len(p)) if weights is None else as_real_array(weights, "weights").ravel()
     if w.shape != (len(p),) or not np.all(np.isfinite(w)) or np.any(w <= 0):
         raise InputError(f"weights must be ({len(p)},) positive finite values")
     return p, R, w
@@ -399,8 +392,8 @@ def average_rotations(
     docstring, step 4; ``info["sigma_deg"]`` holds the scale used).
     """
     times: dict[str, float] = {}
+    p, R, w = _check_inputs(num_views, pairs, R_rel, weights)
     n = int(num_views)
-    p, R, w = _check_inputs(n, pairs, R_rel, weights)
     sigma_deg = checked_sigma_deg(sigma_deg)
     if len(p) == 0:
         raise InputError("rotation averaging needs at least one edge")
@@ -435,9 +428,9 @@ def average_rotations(
     deg = np.bincount(pe.ravel(), weights=np.repeat(w[emask], 2), minlength=len(views))
     root = int(np.argmax(deg))
     if init is not None:
-        Ri = np.asarray(init, dtype=np.float64)
-        if Ri.shape != (n, 3, 3) or not np.all(np.isfinite(Ri[views])):
-            raise InputError(f"init must be a finite ({n}, 3, 3) array of rotations")
+        Ri = checked_rotations(init, "init", n, missing=True)
+        if not np.all(np.isfinite(Ri[views])):
+            raise InputError("init must hold a rotation for every view of the graph's largest component")
         Rg = Ri[views] @ Ri[views][root].T
     else:
         Rg = spanning_tree_rotations(len(views), pe, R[emask], w[emask], root)
