@@ -66,6 +66,15 @@ def test_tracks_bad_input():
         tracks_from_arrays([0], [1], [1], [2], min_length=1)
     with pytest.raises(InputError, match="conflicts"):
         tracks_from_arrays([0], [1], [1], [2], conflicts="merge")
+    # indices are not truncated or cast from NaN
+    with pytest.raises(InputError, match="kp_a must hold whole indices"):
+        tracks_from_arrays([0], [1.5], [1], [2])
+    with pytest.raises(InputError, match="view_b must hold whole indices"):
+        tracks_from_arrays([0], [1], [np.nan], [2])
+    with pytest.raises(InputError, match="view_a must be non-negative"):
+        tracks_from_arrays([-1], [1], [1], [2])
+    with pytest.raises(InputError, match="priority"):
+        tracks_from_arrays([0], [1], [1], [2], priority=[np.nan])
 
 
 def test_build_tracks_recovers_synthetic_tracks_from_pairwise_matches():
@@ -118,6 +127,11 @@ def test_view_graph_rejects_untrusted_status_and_duplicates():
         g.add_result(1, 0, _Res(np.eye(3), np.array([1.0, 0, 0]), [1, 1, 1, 1]), m)
     with pytest.raises(InputError, match="not a rotation"):
         g.add_result(1, 2, _Res(2 * np.eye(3), np.array([1.0, 0, 0]), [1, 1, 1, 1]), m)
+    with pytest.raises(InputError, match="t of pair"):
+        g.add_result(1, 2, _Res(np.eye(3), np.array([np.nan, 0, 0]), [1, 1, 1, 1]), m)
+    with pytest.raises(InputError, match="whole indices"):
+        g.add_result(1, 2, _Res(np.eye(3), np.array([1.0, 0, 0]), [1, 1, 1, 1]), m + 0.5)
+    assert len(g) == 1
 
 
 # ---------------------------------------------------------------------------------------------

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..geometry import InputError, as_bearings, as_real_array, project_to_so3
 
-__all__ = ["MAX_COORDINATE", "ROTATION_ATOL", "checked_bearings", "checked_centres", "checked_pairs", "checked_rotations"]
+__all__ = ["MAX_COORDINATE", "ROTATION_ATOL", "checked_bearings", "checked_centres", "checked_indices", "checked_pairs", "checked_rotations"]
 
 # a given rotation may be off SO(3) by this much (largest entry of R^T R - I, and |det R - 1|): a
 # rotation printed with six digits is ~1e-6 off; it is then projected onto SO(3)
@@ -67,6 +67,19 @@ def checked_bearings(bearings: object, name: str, count: int) -> np.ndarray:
     if f.shape != (count, 3):
         raise InputError(f"{name} must have shape ({count}, 3), got {f.shape}")
     return as_bearings(f, None, name)
+
+
+def checked_indices(values: object, name: str) -> np.ndarray:
+    """Whole non-negative indices (any shape) as int64: fractions, NaN, inf and negatives are errors,
+    not truncated."""
+    a = as_real_array(values, name)
+    if not np.all(np.isfinite(a)) or np.any(a != np.round(a)):
+        raise InputError(f"{name} must hold whole indices")
+    if a.size and a.min() < 0:
+        raise InputError(f"{name} must be non-negative")
+    if a.size and a.max() >= 2**53:
+        raise InputError(f"{name} must be below 2**53")
+    return a.astype(np.int64)
 
 
 def checked_pairs(pairs: object, num_views: int) -> np.ndarray:

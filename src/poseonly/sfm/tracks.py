@@ -18,7 +18,8 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ..geometry import InputError
+from ..geometry import InputError, as_real_array
+from .inputs import checked_indices
 from .viewgraph import ViewGraph
 
 __all__ = ["Tracks", "build_tracks", "tracks_from_arrays"]
@@ -110,7 +111,7 @@ def tracks_from_arrays(
         raise InputError(f"conflicts must be one of {CONFLICT_POLICIES}, got {conflicts!r}")
     if int(min_length) < 2:
         raise InputError(f"min_length must be >= 2, got {min_length}")
-    arrs = [np.asarray(a, dtype=np.int64).ravel() for a in (view_a, kp_a, view_b, kp_b)]
+    arrs = [checked_indices(a, name).ravel() for a, name in ((view_a, "view_a"), (kp_a, "kp_a"), (view_b, "view_b"), (kp_b, "kp_b"))]
     k = len(arrs[0])
     if any(len(a) != k for a in arrs):
         raise InputError("view_a, kp_a, view_b, kp_b must have the same length")
@@ -119,9 +120,9 @@ def tracks_from_arrays(
     va, ka, vb, kb = arrs
     if np.any(va == vb):
         raise InputError("a match joins two keypoints of the same view")
-    pr = np.zeros(k) if priority is None else np.asarray(priority, dtype=np.float64).ravel()
-    if len(pr) != k:
-        raise InputError(f"priority must have {k} entries, got {len(pr)}")
+    pr = np.zeros(k) if priority is None else as_real_array(priority, "priority").ravel()
+    if len(pr) != k or not np.all(np.isfinite(pr)):
+        raise InputError(f"priority must have {k} finite entries, got {len(pr)}")
     empty = Tracks(np.zeros(1, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64))
     if k == 0:
         return empty

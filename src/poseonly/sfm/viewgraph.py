@@ -23,13 +23,13 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from ..geometry import InputError
+from ..geometry import InputError, as_real_array
+from .inputs import checked_indices, checked_rotations
 
 __all__ = ["ROTATION_STATUSES", "TRANSLATION_STATUSES", "Edge", "ViewGraph", "edge_from_result"]
 
 ROTATION_STATUSES = ("ok", "pure_rotation")
 TRANSLATION_STATUSES = ("ok",)
-_ROT_TOL = 1e-6
 
 
 @dataclass
@@ -51,27 +51,28 @@ class Edge:
 
 
 def _check_rotation(R: Any, name: str) -> np.ndarray:
-    R = np.asarray(R, dtype=np.float64)
-    if R.shape != (3, 3) or not np.all(np.isfinite(R)):
-        raise InputError(f"{name} must be a finite 3x3 rotation matrix, got shape {R.shape}")
-    if np.abs(R @ R.T - np.eye(3)).max() > _ROT_TOL or np.linalg.det(R) < 0:
-        raise InputError(f"{name} is not a rotation matrix (R R^T != I or det < 0)")
-    return R
+    R = as_real_array(R, name)
+    if R.shape != (3, 3):
+        raise InputError(f"{name} must be a 3x3 rotation matrix, got shape {R.shape}")
+    return checked_rotations(R[None], name)[0]
 
 
 def edge_from_result(i: int, j: int, result: Any, matches: np.ndarray, weight: float | None = None) -> Edge:
     """Edge from a :class:`poseonly.RelativePoseResult` of views ``i -> j`` and the ``(n, 2)``
     keypoint indices of the ``n`` putative matches it was estimated from (only its ``inliers`` are
     kept). ``i > j`` is accepted and inverted. Weight: ``num_inliers`` unless given."""
-    m = np.asarray(matches)
+    m = checked_indices(matches, f"matches of pair ({i}, {j})")
     if m.ndim != 2 or m.shape[1] != 2:
         raise InputError(f"matches of pair ({i}, {j}) must have shape (n, 2), got {m.shape}")
     inl = np.asarray(result.inliers, dtype=bool)
     if inl.shape != (len(m),):
         raise InputError(f"pair ({i}, {j}): {len(inl)} inlier flags for {len(m)} matches")
     R = _check_rotation(result.R, f"R of pair ({i}, {j})")
-    t = np.asarray(result.t, dtype=np.float64).reshape(3)
-    mm = m[inl].astype(np.int64)
+    t = as_real_array(result.t, f"t of pair ({i}, {j})")
+    if t.size != 3 or not np.all(np.isfinite(t)):
+        raise InputError(f"t of pair ({i}, {j}) must be 3 finite numbers, got {result.t!r}")
+    t = t.reshape(3)
+    mm = m[inl]
     w = float(result.num_inliers if weight is None else weight)
     if i > j:  # X_i = R^T X_j - R^T t
         i, j, R, t, mm = j, i, R.T, -R.T @ t, mm[:, ::-1]
