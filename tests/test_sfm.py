@@ -372,30 +372,61 @@ def test_ligt_noise_free_exact(reweight, scale, norm):
 
 
 def test_ligt_noise_matrix_is_the_expected_noise_of_the_rows():
-    """x^T N x predicts E ||L(w + dw) x||^2 / s^2 at the true centres for a tangent error of the
-    non-base bearings (first order; Monte Carlo over 20 draws of ~10^4 row triples)."""
+    """x^T N x is E ||(L(w + dw) - L(w)) x||^2 / s^2 for a tangent error dw of the non-base bearings (the
+    rows are linear in their own bearing), at the true centres (where L x = 0 and v_k || w_i) and at a
+    random x (where S = sqrt(2) I would be wrong); Monte Carlo over 20 draws of ~10^4 row triples."""
     s = make_scene(25, 2000, seed=5)
     wb = world_bearings(s.rotations, s.tracks.views, s.bearings)
     l_obs, r_obs, _ = base_views(s.tracks, wb)
-    x = s.centres.ravel()
     N = build_noise_matrix(25, s.tracks, wb, l_obs, r_obs)
     L0, _, _ = build_ligt_matrix(25, s.tracks, wb, l_obs, r_obs)
-    assert np.linalg.norm(L0 @ x) < 1e-9 * np.linalg.norm(N @ x)
+    assert np.linalg.norm(L0 @ s.centres.ravel()) < 1e-9 * np.linalg.norm(N @ s.centres.ravel())
     perturbed = np.ones(s.tracks.num_observations, dtype=bool)
     perturbed[np.concatenate([l_obs, r_obs])] = False  # the base bearings' errors are not modelled
     rows = np.repeat(perturbed[np.flatnonzero(~np.isin(np.arange(len(perturbed)), l_obs))], 3)
-    predicted = np.sum((N @ x)[rows] ** 2)
     rng = np.random.default_rng(0)
-    sigma = 1e-5
-    got = []
-    for _ in range(20):
-        d = rng.normal(size=wb.shape) * sigma
-        d -= np.sum(d * wb, axis=1, keepdims=True) * wb  # tangent
-        w = wb + np.where(perturbed[:, None], d, 0.0)
-        w /= np.linalg.norm(w, axis=1, keepdims=True)
-        L, _, _ = build_ligt_matrix(25, s.tracks, w, l_obs, r_obs)
-        got.append(np.sum((L @ x) ** 2) / sigma**2)
-    assert np.mean(got) == pytest.approx(predicted, rel=0.05)
+    for x in (s.centres.ravel(), rng.normal(size=75)):
+        predicted = np.sum((N @ x)[rows] ** 2)
+        sigma = 1e-5
+        got = []
+        for _ in range(20):
+            d = rng.normal(size=wb.shape) * sigma
+            d -= np.sum(d * wb, axis=1, keepdims=True) * wb  # tangent
+            L, _, _ = build_ligt_matrix(25, s.tracks, wb + np.where(perturbed[:, None], d, 0.0), l_obs, r_obs)
+            got.append(np.sum(((L - L0) @ x) ** 2) / sigma**2)
+        assert np.mean(got) == pytest.approx(predicted, rel=0.05)
+
+
+def test_ligt_removes_views_its_rows_do_not_determine():
+    """A view left in a single two-view track slides along a direction no row sees (its block of L^T L
+    is singular, and so is the noise matrix's): it is removed and reported, and the other centres are
+    those of the full solution (exact without noise) in both normalisations; two views joined by one
+    two-view track are an InputError."""
+    s = make_scene(30, 3000, seed=0)
+    tr = s.tracks
+    keep_t, obs = [], []
+    first = True
+    for t in range(len(tr)):
+        o = np.arange(tr.ptr[t], tr.ptr[t + 1])
+        if 7 in tr.views[o]:
+            if first:  # view 7 and one other view of this track
+                o = np.sort(np.concatenate([o[tr.views[o] == 7], o[tr.views[o] != 7][:1]]))
+                first = False
+            else:
+                o = o[tr.views[o] != 7]
+        if len(o) >= 2:
+            keep_t.append(len(o))
+            obs.append(o)
+    idx = np.concatenate(obs)
+    T = Tracks(np.concatenate([[0], np.cumsum(keep_t)]).astype(np.int64), tr.views[idx], tr.keypoints[idx])
+    for norm in ("noise", "unit"):
+        lg = ligt_positions(s.rotations, T, s.bearings[idx], normalization=norm)
+        assert not lg.estimated[7] and lg.info["views_weak"] == 1
+        assert lg.estimated.sum() == 29 and _pos_rel_err(lg.centres, s.centres) < EXACT
+    two = Tracks(np.array([0, 2]), np.array([0, 1]), np.array([0, 0]))
+    f2 = np.einsum("nij,nj->ni", s.rotations[:2], s.points[0] - s.centres[:2])
+    with pytest.raises(InputError, match="LiGT"):
+        ligt_positions(s.rotations[:2], two, f2)
 
 
 def test_ligt_noise_normalization_does_not_bend_long_rings():

@@ -40,10 +40,17 @@ from .inputs import checked_bearings, checked_rotations
 from .posegeom import base_views, g_vectors, world_bearings
 from .tracks import Tracks
 
-__all__ = ["LIGT_NORMALIZATIONS", "MIN_PARALLAX_DEG", "LiGTResult", "build_ligt_matrix", "build_noise_matrix", "ligt_positions"]
+__all__ = ["LIGT_NORMALIZATIONS", "MIN_PARALLAX_DEG", "LiGTResult", "build_ligt_matrix", "build_noise_matrix", "ligt_blocks", "ligt_positions", "noise_blocks"]
 
 MIN_PARALLAX_DEG = 1.0
 SHIFT_REL = 1e-10
+# row triples assembled at a time when accumulating L^T L (bounds the peak memory of the build)
+GRAM_CHUNK = 65536
+# a view whose own block of L^T L has a smallest eigenvalue below this share of its largest is not
+# determined by its rows (exactly singular in exact arithmetic: ~1e-16 when it happens); such views
+# are removed and the system rebuilt, at most MAX_WEAK_ROUNDS times
+WEAK_VIEW_RTOL = 1e-10
+MAX_WEAK_ROUNDS = 5
 # bearing_scale="z": a bearing's z below this share of its length is taken for one not in front
 MIN_Z_BEARING = 1e-6  # shift-invert shift, relative to the mean diagonal of H
 
@@ -98,10 +105,13 @@ def _non_base(tracks: Tracks, l_obs: np.ndarray) -> np.ndarray:
     return np.flatnonzero(other)
 
 
-def build_ligt_matrix(num_views: int, tracks: Tracks, wb: np.ndarray, l_obs: np.ndarray, r_obs: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
-    """The sparse LiGT matrix ``L (3 (M - T), 3 N)`` and the depth rows: ``g (T, 3)`` with the
-    ``(l, r)`` views ``(T, 2)`` (depth of track t: ``g_t^T (c_l - c_r)``). ``wb (M, 3)`` world
-    bearings, ``l_obs, r_obs (T,)`` base observation indices."""
+Blocks = tuple[tuple[np.ndarray, np.ndarray], ...]  # ((M (K, 3, 3), views (K,)), ...): see _assemble
+
+
+def ligt_blocks(tracks: Tracks, wb: np.ndarray, l_obs: np.ndarray, r_obs: np.ndarray) -> tuple[Blocks, np.ndarray, np.ndarray]:
+    """The row blocks of the LiGT matrix (for :func:`_assemble`), ``g (T, 3)`` and the ``(l, r)``
+    views ``(T, 2)`` (depth of track t: ``g_t^T (c_l - c_r)``). ``wb (M, 3)`` world bearings,
+    ``l_obs, r_obs (T,)`` base observation indices."""
     views = tracks.views
     tr = tracks.track_of_observation
     oi = _non_base(tracks, l_obs)  # observations i != l
@@ -113,8 +123,14 @@ def build_ligt_matrix(num_views: int, tracks: Tracks, wb: np.ndarray, l_obs: np.
     M1 = np.cross(wi, wl[t_i])[:, :, None] * g[t_i][:, None, :]  # (K, 3, 3)
     M2 = th2[t_i][:, None, None] * _skew_batch(wi)
     vl, vr, vi = views[l_obs][t_i], views[r_obs][t_i], views[oi]
-    L = _assemble(((M1, vr), (M2, vi), (-(M1 + M2), vl)), num_views)
-    return L, g, np.stack([views[l_obs], views[r_obs]], axis=1)
+    return ((M1, vr), (M2, vi), (-(M1 + M2), vl)), g, np.stack([views[l_obs], views[r_obs]], axis=1)
+
+
+def build_ligt_matrix(num_views: int, tracks: Tracks, wb: np.ndarray, l_obs: np.ndarray, r_obs: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray, np.ndarray]:
+    """The sparse LiGT matrix ``L (3 (M - T), 3 N)``, ``g`` and the ``(l, r)`` views of
+    :func:`ligt_blocks` (the solver accumulates ``L^T L`` in chunks instead, :func:`_gram`)."""
+    blocks, g, lr = ligt_blocks(tracks, wb, l_obs, r_obs)
+    return _assemble(blocks, num_views), g, lr
 
 
 def _assemble(blocks: tuple[tuple[np.ndarray, np.ndarray], ...], num_views: int) -> sp.csr_matrix:
@@ -130,6 +146,38 @@ def _assemble(blocks: tuple[tuple[np.ndarray, np.ndarray], ...], num_views: int)
     return sp.csr_matrix((np.concatenate(V), (np.concatenate(R_idx), np.concatenate(C_idx))), shape=(3 * K, 3 * num_views))
 
 
+def _gram(blocks: Blocks, num_views: int, row_weights: np.ndarray | None = None) -> sp.csr_matrix:
+    """``C^T C (3 N, 3 N)`` for ``C = diag(row_weights) _assemble(blocks)`` (each weight on its row
+    triple), accumulated over chunks of :data:`GRAM_CHUNK` row triples so that ``C`` is never held
+    whole (its COO indices were most of LiGT's peak memory: 2.5 -> 1.0 GiB at 1.08M observations)."""
+    K = len(blocks[0][1])
+    G = sp.csr_matrix((3 * num_views, 3 * num_views))
+    for a in range(0, K, GRAM_CHUNK):
+        sl = slice(a, min(a + GRAM_CHUNK, K))
+        C = _assemble(tuple((M[sl], v[sl]) for M, v in blocks), num_views)
+        if row_weights is not None:
+            C = sp.diags(np.repeat(row_weights[sl], 3)) @ C
+        G = G + (C.T @ C).tocsr()
+    return G
+
+
+def _weak_views(G: sp.csr_matrix, view_in: np.ndarray, reference: int) -> np.ndarray:
+    """Views ``(N,)`` whose own ``3 x 3`` block of ``G = L^T L`` is singular (smallest eigenvalue below
+    :data:`WEAK_VIEW_RTOL` of the largest): the centre slides along a direction no row sees while
+    every other centre stays, so the solution is not unique (a view in a single two-view track: its
+    rows see ``c_r - c_l`` only through a rank-2 map). The reference is fixed and never weak."""
+    n = len(view_in)
+    coo = G.tocoo()
+    same = (coo.row // 3) == (coo.col // 3)
+    D = np.zeros((n, 3, 3))
+    np.add.at(D, (coo.row[same] // 3, coo.row[same] % 3, coo.col[same] % 3), coo.data[same])
+    ev = np.linalg.eigvalsh(D[view_in])
+    weak = np.zeros(n, dtype=bool)
+    weak[np.flatnonzero(view_in)[ev[:, 0] <= WEAK_VIEW_RTOL * ev[:, 2]]] = True
+    weak[reference] = False
+    return weak
+
+
 def build_noise_matrix(num_views: int, tracks: Tracks, wb: np.ndarray, l_obs: np.ndarray, r_obs: np.ndarray) -> sp.csr_matrix:
     """The first-order noise map ``S V (3 (M - T), 3 N)`` of the LiGT rows, in the row order of
     :func:`build_ligt_matrix`: row triple ``k`` (observation ``i`` of track ``t``) is
@@ -138,6 +186,11 @@ def build_noise_matrix(num_views: int, tracks: Tracks, wb: np.ndarray, l_obs: np
     gives it ``E ||v x dw||^2 = s^2 v^T (I + w_i w_i^T) v``; ``S = I + (sqrt 2 - 1) w_i w_i^T`` is
     that form's square root. ``N = (S V)^T (S V)`` is the expected noise part of ``L^T L``
     (Taubin's normalisation; the base bearings' errors are left out)."""
+    return _assemble(noise_blocks(tracks, wb, l_obs, r_obs), num_views)
+
+
+def noise_blocks(tracks: Tracks, wb: np.ndarray, l_obs: np.ndarray, r_obs: np.ndarray) -> Blocks:
+    """The row blocks of :func:`build_noise_matrix`'s ``S V`` (for :func:`_assemble`)."""
     views = tracks.views
     tr = tracks.track_of_observation
     oi = _non_base(tracks, l_obs)
@@ -149,7 +202,67 @@ def build_noise_matrix(num_views: int, tracks: Tracks, wb: np.ndarray, l_obs: np
     A = S @ (wl[t_i][:, :, None] * g[t_i][:, None, :])  # (K, 3, 3): S w_l g^T
     B = th2[t_i][:, None, None] * S
     vl, vr, vi = views[l_obs][t_i], views[r_obs][t_i], views[oi]
-    return _assemble(((A, vr), (B, vi), (-(A + B), vl)), num_views)
+    return ((A, vr), (B, vi), (-(A + B), vl))
+
+
+@dataclass
+class _System:
+    """The observations LiGT uses (:func:`_usable_system`)."""
+
+    tracks: Tracks
+    wb: np.ndarray
+    l_obs: np.ndarray
+    r_obs: np.ndarray
+    view_in: np.ndarray
+    track_used: np.ndarray
+    reference: int
+    counts: dict[str, int]
+
+
+def _usable_system(n: int, tracks: Tracks, wb_all: np.ndarray, view_ok: np.ndarray, min_parallax_deg: float, reference: int | None) -> _System:
+    """Drop the observations of views not in ``view_ok``, then tracks with < 2 views, tracks whose
+    base parallax is below ``min_parallax_deg``, and everything not joined to the reference view (the
+    given one, or the view of most observations) by the remaining tracks; counts of each."""
+    counts: dict[str, int] = {}
+    obs_ok = view_ok[tracks.views]
+    tr_all = tracks.track_of_observation
+    cnt = np.bincount(tr_all[obs_ok], minlength=len(tracks))
+    long_enough = cnt >= 2
+    counts["tracks_too_short"] = int(np.sum(~long_enough))
+    track_used = long_enough.copy()
+    keep_obs = obs_ok & long_enough[tr_all]
+    sub2 = Tracks(np.concatenate([[0], np.cumsum(cnt[long_enough])]).astype(np.int64), tracks.views[keep_obs], tracks.keypoints[keep_obs])
+    wb2 = wb_all[keep_obs]
+    _l_obs, _r_obs, theta = base_views(sub2, wb2)
+    par_ok = theta > np.sin(np.radians(min_parallax_deg))
+    counts["tracks_low_parallax"] = int(np.sum(~par_ok))
+    ids = np.flatnonzero(long_enough)
+    track_used[ids[~par_ok]] = False
+    sub3 = sub2.subset(par_ok)
+    wb3 = wb2[np.repeat(par_ok, sub2.lengths)]
+    # views joined by the remaining tracks: connected components of the track-view incidence
+    tr3 = sub3.track_of_observation
+    T3 = len(sub3)
+    if T3 == 0:
+        raise InputError("LiGT: no track constrains the translations (all too short or without parallax)")
+    inc = sp.coo_matrix((np.ones(len(tr3)), (sub3.views, n + tr3)), shape=(n + T3, n + T3))
+    _, lab = connected_components(inc, directed=False)
+    nobs = np.bincount(sub3.views, minlength=n)
+    if reference is None:
+        reference = int(np.argmax(nobs))
+    elif isinstance(reference, bool) or not isinstance(reference, (int, np.integer)) or not (0 <= reference < n and nobs[reference] > 0):
+        raise InputError(f"reference view {reference} is not observed by any usable track")
+    comp = lab[reference]
+    view_in = (lab[:n] == comp) & (nobs > 0)
+    tr_in = lab[n + np.arange(T3)] == comp
+    counts["views_disconnected"] = int(np.sum((nobs > 0) & ~view_in))
+    counts["tracks_disconnected"] = int(np.sum(~tr_in))
+    used_ids = np.flatnonzero(track_used)
+    track_used[used_ids[~tr_in]] = False
+    sub4 = sub3.subset(tr_in)
+    wb4 = wb3[np.repeat(tr_in, sub3.lengths)]
+    l4, r4, _ = base_views(sub4, wb4)
+    return _System(sub4, wb4, l4, r4, view_in, track_used, int(reference), counts)
 
 
 def ligt_positions(
@@ -180,7 +293,7 @@ def ligt_positions(
     if normalization not in LIGT_NORMALIZATIONS:
         raise InputError(f"normalization must be 'noise' or 'unit', got {normalization!r}")
     times: dict[str, float] = {}
-    t0 = time.perf_counter()
+    t_start = time.perf_counter()
     Rg = checked_rotations(rotations, "rotations", missing=True)
     n = len(Rg)
     f = checked_bearings(bearings, "bearings", tracks.num_observations)
@@ -198,69 +311,37 @@ def ligt_positions(
         raise InputError(f"min_parallax_deg must be a number of degrees in [0, 90), got {min_parallax_deg!r}")
     info: dict[str, object] = {}
     has_R = np.all(np.isfinite(Rg), axis=(1, 2))
-    obs_ok = has_R[tracks.views]
-    info["observations_without_rotation"] = int(np.sum(~obs_ok))
-    # drop observations of views without a rotation, then tracks with < 2 views
-    tr_all = tracks.track_of_observation
-    cnt = np.bincount(tr_all[obs_ok], minlength=len(tracks))
-    ptr = np.concatenate([[0], np.cumsum(cnt)]).astype(np.int64)
-    sub = Tracks(ptr, tracks.views[obs_ok], tracks.keypoints[obs_ok])
-    fsub = f[obs_ok]
-    long_enough = cnt >= 2
-    info["tracks_too_short"] = int(np.sum(~long_enough))
+    info["observations_without_rotation"] = int(np.sum(~has_R[tracks.views]))
     Rsafe = np.where(has_R[:, None, None], Rg, np.eye(3))
-    wb = world_bearings(Rsafe, sub.views, fsub)
-    track_used = long_enough.copy()
-    keep_obs = np.repeat(long_enough, cnt)
-    sub2 = Tracks(np.concatenate([[0], np.cumsum(cnt[long_enough])]).astype(np.int64), sub.views[keep_obs], sub.keypoints[keep_obs])
-    wb2 = wb[keep_obs]
-    _l_obs, _r_obs, theta = base_views(sub2, wb2)
-    par_ok = theta > np.sin(np.radians(min_parallax_deg))
-    info["tracks_low_parallax"] = int(np.sum(~par_ok))
-    ids = np.flatnonzero(long_enough)
-    track_used[ids[~par_ok]] = False
-    keep2 = np.repeat(par_ok, sub2.lengths)
-    sub3 = sub2.subset(par_ok)
-    wb3 = wb2[keep2]
-    # views joined by the remaining tracks: connected components of the track-view incidence
-    tr3 = sub3.track_of_observation
-    T3 = len(sub3)
-    if T3 == 0:
-        raise InputError("LiGT: no track constrains the translations (all too short or without parallax)")
-    inc = sp.coo_matrix((np.ones(len(tr3)), (sub3.views, n + tr3)), shape=(n + T3, n + T3))
-    _, lab = connected_components(inc, directed=False)
-    nobs = np.bincount(sub3.views, minlength=n)
-    if reference is None:
-        reference = int(np.argmax(nobs))
-    elif isinstance(reference, bool) or not isinstance(reference, (int, np.integer)) or not (0 <= reference < n and nobs[reference] > 0):
-        raise InputError(f"reference view {reference} is not observed by any usable track")
-    comp = lab[reference]
-    view_in = (lab[:n] == comp) & (nobs > 0)
-    tr_in = lab[n + np.arange(T3)] == comp
-    info["views_disconnected"] = int(np.sum((nobs > 0) & ~view_in))
-    info["tracks_disconnected"] = int(np.sum(~tr_in))
-    used_ids = np.flatnonzero(track_used)
-    track_used[used_ids[~tr_in]] = False
-    keep3 = np.repeat(tr_in, sub3.lengths)
-    sub4 = sub3.subset(tr_in)
-    wb4 = wb3[keep3]
-    l4, r4, _ = base_views(sub4, wb4)
-    times["setup"] = time.perf_counter() - t0
+    wb_all = world_bearings(Rsafe, tracks.views, f)
+    weak = np.zeros(n, dtype=bool)
+    for _ in range(MAX_WEAK_ROUNDS):
+        sysm = _usable_system(n, tracks, wb_all, has_R & ~weak, min_parallax_deg, reference)
+        t0 = time.perf_counter()
+        blocks, g, lr = ligt_blocks(sysm.tracks, sysm.wb, sysm.l_obs, sysm.r_obs)
+        G = _gram(blocks, n)
+        new_weak = _weak_views(G, sysm.view_in, sysm.reference)
+        times["build"] = times.get("build", 0.0) + time.perf_counter() - t0
+        if not new_weak.any():
+            break
+        weak |= new_weak
+    info.update(sysm.counts)
+    info["views_weak"] = int(np.sum(weak))
+    sub4, wb4, l4, r4, view_in, track_used, reference = sysm.tracks, sysm.wb, sysm.l_obs, sysm.r_obs, sysm.view_in, sysm.track_used, sysm.reference
+    times["setup"] = time.perf_counter() - t_start - times["build"]
 
     t0 = time.perf_counter()
-    L, g, lr = build_ligt_matrix(n, sub4, wb4, l4, r4)
     cols = np.flatnonzero(np.repeat(view_in, 3))
     ref_cols = np.arange(3 * reference, 3 * reference + 3)
     cols = cols[~np.isin(cols, ref_cols)]
-    Lr = L[:, cols].tocsc()
-    H = (Lr.T @ Lr).tocsc()
-    Nr = build_noise_matrix(n, sub4, wb4, l4, r4)[:, cols].tocsc() if normalization == "noise" else None
-    Nm = (Nr.T @ Nr).tocsc() if Nr is not None else None
+    H = G[cols][:, cols].tocsc()
+    nblocks = noise_blocks(sub4, wb4, l4, r4) if normalization == "noise" else None
+    Nm = _gram(nblocks, n)[cols][:, cols].tocsc() if nblocks is not None else None
     info["normalization"] = normalization
-    info["rows"] = int(L.shape[0])
+    info["rows"] = 3 * len(blocks[0][1])
     info["unknowns"] = len(cols)
     info["nnz_H"] = int(H.nnz)
-    times["build"] = time.perf_counter() - t0
+    times["build"] += time.perf_counter() - t0
 
     t0 = time.perf_counter()
     if len(cols) < 3:
@@ -283,12 +364,9 @@ def ligt_positions(
         dist = np.where(good, np.maximum(dist, 1e-3 * med), med)
         w = 1.0 / (th2[tr_oi] * dist)
         w /= np.median(w)
-        Dw = sp.diags(np.repeat(w, 3))
-        Lw = Dw @ Lr
-        H = (Lw.T @ Lw).tocsc()
-        if Nr is not None:
-            Nw = Dw @ Nr
-            Nm = (Nw.T @ Nw).tocsc()
+        H = _gram(blocks, n, w)[cols][:, cols].tocsc()
+        if nblocks is not None:
+            Nm = _gram(nblocks, n, w)[cols][:, cols].tocsc()
         x, vals = _smallest_eigvec(H, len(cols), Nm)
     info["reweight_iterations"] = int(reweight_iterations)
     info["eigenvalues"] = [float(v) for v in vals]
