@@ -18,8 +18,9 @@ depth rows ``g^T (c_l - c_r) = d_l theta^2`` must be positive (openMVG's vote).
 
 What cannot constrain the solution is removed explicitly and reported: observations in views
 without a rotation, tracks left with fewer than two views, tracks whose base parallax is below
-``min_parallax_deg`` (pure rotation / far points carry no translation), and views not joined to the
-reference's component by the remaining tracks. ``info["eig_ratio"] = lambda_2 / lambda_3`` near 1
+``min_parallax_deg`` (pure rotation / far points carry no translation), views not joined to the
+reference's component by the remaining tracks, and views whose own block of ``L^T L`` is singular
+(:func:`_weak_views`; the system is then rebuilt without them). ``info["eig_ratio"] = lambda_2 / lambda_3`` near 1
 (or ``lambda_2`` at noise level) flags a solution that is not unique (e.g. two groups of views
 sharing a single camera).
 """
