@@ -72,6 +72,23 @@ def test_sfm_command_bad_input(tmp_path, capsys):
             main(["sfm", str(tmp_path / "nope"), "--K", "K.txt", "--rotation-sigma", bad])
         assert e.value.code == 2
         assert "--rotation-sigma" in capsys.readouterr().err
+    # counts and seeds are checked by argparse too (--max-images -1 dropped the last image)
+    for opt, bad in (("--max-images", "-1"), ("--max-images", "0"), ("--seed", "-3"), ("--max-features", "x"), ("--ligt-normalization", "gauge")):
+        with pytest.raises(SystemExit) as e:
+            main(["sfm", str(tmp_path / "nope"), "--K", "K.txt", "--out", str(tmp_path / "o"), opt, bad])
+        assert e.value.code == 2
+        assert opt in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["experiment", "global", str(tmp_path), "--reweight", "-1"])
+    assert "--reweight" in capsys.readouterr().err
+    # too few images says how many the folder holds and how many were used
+    img = tmp_path / "imgs"
+    img.mkdir()
+    for k in range(4):
+        (img / f"{k}.png").write_bytes(b"")
+    (tmp_path / "K.txt").write_text("800 0 320\n0 800 240\n0 0 1\n")
+    assert main(["sfm", str(img), "--K", str(tmp_path / "K.txt"), "--out", str(tmp_path / "o"), "--max-images", "2"]) == 2
+    assert "gives 2 images (--max-images 2 of 4)" in capsys.readouterr().err
 
 
 def test_sfm_command_from_colmap_database(tmp_path):

@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..argtypes import non_negative_int
 from ..io.strecha import find_scenes, load_scene
 from ..sfm.choices import LIGT_NORMALIZATIONS, ROTATION_WEIGHTS
 from ..sfm.cli import positive_degrees
@@ -52,11 +53,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("path", help="a Strecha scene folder, or a folder holding scene folders")
     p.add_argument("--scenes", nargs="+", help="only these scene names")
     p.add_argument("--cache", default=DEFAULT_CACHE, help=f"feature / match / two-view cache (default {DEFAULT_CACHE})")
-    p.add_argument("--max-features", type=int, default=8000, help="strongest SIFT features per image (default 8000)")
+    p.add_argument("--max-features", type=non_negative_int, default=8000, help="strongest SIFT features per image (default 8000)")
     p.add_argument("--threshold-px", type=float, default=None, help="two-view RANSAC threshold in pixels (default: the method's, 1 px)")
     p.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
     p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
-    p.add_argument("--reweight", type=int, default=0, help="LiGT reweighting iterations (default 0 = openMVG's LiGT)")
+    p.add_argument("--reweight", type=non_negative_int, default=0, help="LiGT reweighting iterations (default 0 = openMVG's LiGT)")
     p.add_argument(
         "--ligt-normalization",
         choices=LIGT_NORMALIZATIONS,

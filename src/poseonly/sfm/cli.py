@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ..argtypes import non_negative_int, positive_int
 from ..geometry import InputError, check_intrinsics
 from .choices import LIGT_NORMALIZATIONS, ROTATION_WEIGHTS, checked_sigma_deg
 
@@ -125,10 +126,12 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         if not args.K:
             raise InputError("give --K K.txt (or --database colmap.db, which holds the cameras)")
         images = sorted(p for p in d.iterdir() if p.is_file() and p.suffix in IMAGE_EXTS)
+        held = len(images)
         if args.max_images:
             images = images[: args.max_images]
         if len(images) < 3:
-            raise InputError(f"{d} holds {len(images)} images; global SfM needs at least 3")
+            used = f" (--max-images {args.max_images} of {held})" if len(images) < held else ""
+            raise InputError(f"{d} gives {len(images)} images{used}; global SfM needs at least 3")
         K = _read_K(args.K)
         ig = image_view_graph(images, K, options=opt, cache_dir=cache, progress=prog, jobs=args.jobs)
     print(
@@ -187,13 +190,13 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--K", help="text file with the 3x3 calibration matrix (not needed with --database)")
     s.add_argument("--database", help="COLMAP database with cameras, keypoints and matches (replaces our features and matching)")
     s.add_argument("--out", required=True, help="output folder")
-    s.add_argument("--max-features", type=int, default=8000, help="strongest SIFT features per image (default 8000)")
-    s.add_argument("--max-images", type=int, help="use only the first N images (sorted by name)")
+    s.add_argument("--max-features", type=non_negative_int, default=8000, help="strongest SIFT features per image (default 8000)")
+    s.add_argument("--max-images", type=positive_int, help="use only the first N images (sorted by name)")
     s.add_argument("--threshold-px", type=float, default=None, help="two-view inlier threshold (px; default: the method's, 1 px)")
     s.add_argument("--cache", help="feature / match cache (default OUT/cache)")
     s.add_argument("--text", action="store_true", help="write the COLMAP model as text")
     s.add_argument("--no-progress", action="store_true", help="no progress bars")
-    s.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
+    s.add_argument("--seed", type=non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     s.add_argument(
         "--jobs",
         type=int,
@@ -230,6 +233,6 @@ def add_parsers(sub: Any, esub: Any) -> None:
     e.add_argument("--trials", type=int, default=None, help=argparse.SUPPRESS)
     e.add_argument("--quick", action="store_true", help=argparse.SUPPRESS)
     e.add_argument("--out", default=None, help="output folder (default: a new folder poseonly-global-<date>-<time> under the working directory)")
-    e.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
+    e.add_argument("--seed", type=non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     global_sfm.add_arguments(e)
     e.set_defaults(func=_cmd_global)
