@@ -576,6 +576,22 @@ def test_run_global_on_synthetic_view_graph_exact():
     assert stages == list(STAGES[:4]) and len(stages) <= num_stages(GlobalOptions())
 
 
+def test_run_global_pure_rotation_gives_rotations_and_no_centres():
+    """Every track seen without parallax (a pure rotation): the rotations are averaged exactly, no centre
+    is estimated, no point is valid, and the result says why (not an exception)."""
+    from poseonly.sfm.ligt_global import TranslationUndetermined
+
+    s = make_scene(10, 800, seed=3)
+    d = s.points / np.linalg.norm(s.points, axis=1, keepdims=True)
+    f = np.einsum("mij,mj->mi", s.rotations[s.tracks.views], d[s.tracks.track_of_observation])
+    res = run_global(_graph_of_scene(s), lambda tr: f[tr.keypoints], s.focal)
+    assert "no track constrains" in res.info["translation_undetermined"]
+    assert np.isnan(res.centres).all() and not res.ligt.estimated.any() and res.reconstruction.num_valid == 0
+    assert _aligned_rot_err(res.rotations, s.rotations).max() < 1e-6
+    with pytest.raises(TranslationUndetermined):  # called directly, LiGT raises (an InputError)
+        ligt_positions(s.rotations, s.tracks, f)
+
+
 def test_run_global_reports_filter_rounds_as_stages():
     """With wrong observations the filter rounds run: each reports filter, LiGT, points, within num_stages."""
     s = make_scene(12, 800, seed=21, noise_px=0.5)

@@ -197,3 +197,29 @@ def test_command_line_start_does_not_load_the_pipeline():
 
     assert ligt_positions is direct
     assert GlobalOptions().rotation_weights == ROTATION_WEIGHTS[0] and GlobalOptions().ligt_normalization == LIGT_NORMALIZATIONS[0]
+
+
+def test_sfm_command_when_the_centres_are_undetermined(tmp_path, capsys, monkeypatch):
+    """Valid images whose tracks fix no centre (LiGT's TranslationUndetermined, forced here): exit 0,
+    poses.json with status "translation_undetermined", the rotations and the reason; no model, point
+    cloud or figure."""
+    import json
+
+    import poseonly.sfm.pipeline as pipeline
+    from poseonly.sfm.ligt_global import TranslationUndetermined
+
+    if not (SCENE / "images" / "K.txt").is_file():
+        pytest.skip("shared Strecha data not available")
+
+    def undetermined(*a, **k):
+        raise TranslationUndetermined("LiGT: no track constrains the translations (forced by the test)")
+
+    monkeypatch.setattr(pipeline, "ligt_positions", undetermined)
+    out = tmp_path / "o"
+    rc = main(["sfm", str(SCENE / "images"), "--K", str(SCENE / "images" / "K.txt"), "--out", str(out), "--max-images", "3", "--max-features", "1000", "--no-progress"])
+    assert rc == 0
+    assert "camera centres are not determined" in capsys.readouterr().out
+    poses = json.loads((out / "poses.json").read_text())
+    assert poses["status"] == "translation_undetermined" and "forced by the test" in poses["reason"]
+    assert all(im["R"] is not None and im["c"] is None for im in poses["images"])
+    assert not (out / "points.ply").exists() and not (out / "sparse").exists() and not (out / "reconstruction.png").exists()

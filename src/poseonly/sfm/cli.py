@@ -89,6 +89,7 @@ def _read_K(path: str) -> np.ndarray:
 
 
 def cmd_sfm(args: argparse.Namespace) -> int:
+    from .._fileutil import atomic_write_text
     from .export import (
         colmap_model_of,
         plot_reconstruction,
@@ -146,22 +147,30 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         if bar is not None:
             bar.close()
     est = np.all(np.isfinite(res.centres), axis=1)
+    has_R = np.all(np.isfinite(res.rotations), axis=(1, 2))
     rec = res.reconstruction
+    undetermined = res.info.get("translation_undetermined")
     print(f"cameras: {int(est.sum())}/{len(images)} posed; outlier edges: {len(res.rotation.outlier_edges)}; points: {rec.num_valid}/{len(res.tracks)} valid")
     print("stages: " + ", ".join(f"{k} {v:.2f} s" for k, v in res.times_s.items()))
-    colors = point_colors(images, [f.keypoints for f in ig.features], res.tracks, rec.base[:, 0])
+    poses: dict[str, Any] = {"convention": "X_cam = R (X_world - c)", "status": "translation_undetermined" if undetermined else "ok", "images": []}
+    for k, p in enumerate(images):
+        poses["images"].append({"name": p.name, "R": res.rotations[k].tolist() if has_R[k] else None, "c": res.centres[k].tolist() if est[k] else None})
+    poses["outlier_edges"] = res.rotation.outlier_edges
+    poses["times_s"] = {**ig.times_s, **res.times_s}
     out.mkdir(parents=True, exist_ok=True)
+    if undetermined:
+        poses["reason"] = undetermined
+        atomic_write_text(out / "poses.json", json.dumps(poses, indent=1))
+        print(f"the camera centres are not determined: {undetermined} (a pure rotation or a panorama?)")
+        print(f"poses.json holds the {int(has_R.sum())} averaged rotations; no model, point cloud or figure written")
+        print(f"total {time.perf_counter() - t0:.1f} s; outputs in {out}")
+        return 0
+    colors = point_colors(images, [f.keypoints for f in ig.features], res.tracks, rec.base[:, 0])
     write_ply(out / "points.ply", rec.points[rec.valid], colors[rec.valid], res.centres)
     fig = plot_reconstruction(out / "reconstruction.png", rec.points[rec.valid], res.centres, res.rotations, colors[rec.valid])
     if fig is not None:
         print(f"figure: {fig}")
-    poses: dict[str, Any] = {"convention": "X_cam = R (X_world - c)", "images": []}
-    for k, p in enumerate(images):
-        poses["images"].append({"name": p.name, "R": None if not est[k] else res.rotations[k].tolist(), "c": None if not est[k] else res.centres[k].tolist()})
-    poses["outlier_edges"] = res.rotation.outlier_edges
-    poses["times_s"] = {**ig.times_s, **res.times_s}
-    (out / "poses.json.tmp").write_text(json.dumps(poses, indent=1))
-    (out / "poses.json.tmp").replace(out / "poses.json")
+    atomic_write_text(out / "poses.json", json.dumps(poses, indent=1))
     try:
         import pycolmap  # noqa: F401
     except ImportError:

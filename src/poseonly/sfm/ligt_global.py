@@ -41,7 +41,17 @@ from .inputs import checked_bearings, checked_rotations
 from .posegeom import base_views, g_vectors, world_bearings
 from .tracks import Tracks
 
-__all__ = ["LIGT_NORMALIZATIONS", "MIN_PARALLAX_DEG", "LiGTResult", "build_ligt_matrix", "build_noise_matrix", "ligt_blocks", "ligt_positions", "noise_blocks"]
+__all__ = [
+    "LIGT_NORMALIZATIONS",
+    "MIN_PARALLAX_DEG",
+    "LiGTResult",
+    "TranslationUndetermined",
+    "build_ligt_matrix",
+    "build_noise_matrix",
+    "ligt_blocks",
+    "ligt_positions",
+    "noise_blocks",
+]
 
 MIN_PARALLAX_DEG = 1.0
 SHIFT_REL = 1e-10
@@ -54,6 +64,13 @@ WEAK_VIEW_RTOL = 1e-10
 MAX_WEAK_ROUNDS = 5
 # bearing_scale="z": a bearing's z below this share of its length is taken for one not in front
 MIN_Z_BEARING = 1e-6  # shift-invert shift, relative to the mean diagonal of H
+
+
+class TranslationUndetermined(InputError):
+    """Valid input whose tracks do not determine the camera centres: every track too short or without
+    parallax (a pure rotation, a panorama), fewer than two views joined by usable ones, or a singular
+    system. :func:`poseonly.sfm.pipeline.run_global` turns it into a result with rotations and no
+    centres; called directly, :func:`ligt_positions` raises it (an :class:`InputError`)."""
 
 
 @dataclass
@@ -84,11 +101,11 @@ def _smallest_eigvec(H: sp.csc_matrix, m: int, N: sp.csc_matrix | None = None) -
         shift /= float(N.diagonal().mean())
     k = min(3, m - 1)
     if not (np.isfinite(shift) and shift > 0):
-        raise InputError("LiGT: the linear system is zero (no track constrains the translations)")
+        raise TranslationUndetermined("LiGT: the linear system is zero (no track constrains the translations)")
     try:
         vals, vecs = eigsh(H, k=k, M=N, sigma=-shift, which="LM", tol=0.0)
     except RuntimeError as exc:  # ArpackError too  # a singular factor: unknowns no row constrains
-        raise InputError(f"LiGT: the linear system is singular or its eigenproblem failed ({exc})") from None
+        raise TranslationUndetermined(f"LiGT: the linear system is singular or its eigenproblem failed ({exc})") from None
     o = np.argsort(vals)
     return vecs[:, o[0]], vals[o]
 
@@ -245,7 +262,7 @@ def _usable_system(n: int, tracks: Tracks, wb_all: np.ndarray, view_ok: np.ndarr
     tr3 = sub3.track_of_observation
     T3 = len(sub3)
     if T3 == 0:
-        raise InputError("LiGT: no track constrains the translations (all too short or without parallax)")
+        raise TranslationUndetermined("LiGT: no track constrains the translations (all too short or without parallax)")
     inc = sp.coo_matrix((np.ones(len(tr3)), (sub3.views, n + tr3)), shape=(n + T3, n + T3))
     _, lab = connected_components(inc, directed=False)
     nobs = np.bincount(sub3.views, minlength=n)
@@ -346,7 +363,7 @@ def ligt_positions(
 
     t0 = time.perf_counter()
     if len(cols) < 3:
-        raise InputError("LiGT needs at least two views joined by usable tracks")
+        raise TranslationUndetermined("LiGT needs at least two views joined by usable tracks")
     x, vals = _smallest_eigvec(H, len(cols), Nm)
     # optional reweighting: row triple i of track t scaled by 1 / (theta_t^2 ||X_t - c_i||) so its
     # residual becomes the sine of the angular error of observation i (IRLS on the same system)

@@ -19,7 +19,7 @@ import numpy as np
 from ..geometry import InputError
 from .choices import LIGT_NORMALIZATIONS, ROTATION_WEIGHTS, checked_sigma_deg
 from .edge_information import edge_informations
-from .ligt_global import MIN_PARALLAX_DEG, LiGTResult, ligt_positions
+from .ligt_global import MIN_PARALLAX_DEG, LiGTResult, TranslationUndetermined, ligt_positions
 from .reconstruct import MAX_ERROR_PX, Reconstruction, reconstruct_points
 from .rotation_averaging import RotationAveragingResult, average_rotations
 from .tracks import Tracks, build_tracks
@@ -106,6 +106,11 @@ def filter_observations(tracks: Tracks, bearings: np.ndarray, keep_obs: np.ndarr
     return Tracks(ptr, tracks.views[obs], tracks.keypoints[obs]), bearings[obs], np.flatnonzero(ok)
 
 
+def _no_centres(num_views: int, num_tracks: int, reason: str) -> LiGTResult:
+    """LiGT's result where the tracks determine no centre: every centre NaN, nothing estimated."""
+    return LiGTResult(np.full((num_views, 3), np.nan), np.zeros(num_views, dtype=bool), np.zeros(num_tracks, dtype=bool), -1, {}, {"undetermined": reason})
+
+
 def run_global(
     graph: ViewGraph,
     bearings_of: BearingsFn,
@@ -116,7 +121,11 @@ def run_global(
     """Global poses and points of ``graph``. ``bearings_of(tracks) -> (M, 3)`` gives the unit
     camera-frame bearings of the tracks' observations; ``focal`` (px) scales reprojection errors.
     ``on_stage(name)``, if given, is called as each stage starts (one of :data:`STAGES`; the
-    filter rounds repeat the last three), e.g. to drive a progress bar."""
+    filter rounds repeat the last three), e.g. to drive a progress bar.
+
+    Where the tracks determine no camera centre (every track without parallax: a pure rotation or a
+    panorama; :class:`~poseonly.sfm.ligt_global.TranslationUndetermined`) the result holds the averaged
+    rotations, NaN centres, no valid point and ``info["translation_undetermined"]`` saying why."""
     opt = options or GlobalOptions()
     if len(graph) == 0:
         raise InputError("the view graph has no edges")
@@ -151,7 +160,16 @@ def run_global(
     }
     stage("LiGT")
     t0 = time.perf_counter()
-    lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg, reweight_iterations=opt.ligt_reweight, normalization=opt.ligt_normalization)
+    try:
+        lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg, reweight_iterations=opt.ligt_reweight, normalization=opt.ligt_normalization)
+    except TranslationUndetermined as exc:
+        # valid input whose tracks fix no centre (a pure rotation, a panorama): the rotations, no centres
+        info["translation_undetermined"] = str(exc)
+        times["ligt"] = time.perf_counter() - t0
+        lg = _no_centres(graph.num_views, len(tracks), str(exc))
+        rec = reconstruct_points(ra.rotations, lg.centres, tracks, f, focal=focal, max_error_px=opt.max_error_px)
+        info["points_valid"] = rec.num_valid
+        return GlobalResult(ra.rotations.copy(), lg.centres, tracks, f, rec, ra, lg, times, info)
     times["ligt"] = time.perf_counter() - t0
     stage("points")
     t0 = time.perf_counter()
@@ -163,9 +181,15 @@ def run_global(
             break
         stage("filter")
         t0 = time.perf_counter()
+        prev_tracks, prev_f = tracks, f
         tracks, f, _ = filter_observations(tracks, f, keep, opt.min_track_length)
         stage("LiGT")
-        lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg, reweight_iterations=opt.ligt_reweight, normalization=opt.ligt_normalization)
+        try:
+            lg = ligt_positions(ra.rotations, tracks, f, min_parallax_deg=opt.min_parallax_deg, reweight_iterations=opt.ligt_reweight, normalization=opt.ligt_normalization)
+        except TranslationUndetermined as exc:  # the filter left too little: keep the previous round's result
+            info[f"filter_round_{rnd + 1}_undetermined"] = str(exc)
+            tracks, f = prev_tracks, prev_f
+            break
         times["ligt"] += time.perf_counter() - t0
         stage("points")
         t0 = time.perf_counter()
