@@ -8,11 +8,23 @@ import numpy as np
 
 from ..geometry import InputError, as_bearings, as_real_array, project_to_so3
 
-__all__ = ["MAX_COORDINATE", "ROTATION_ATOL", "checked_bearings", "checked_centres", "checked_indices", "checked_pairs", "checked_rotations"]
+__all__ = [
+    "MAX_COORDINATE",
+    "ROTATION_ATOL",
+    "checked_bearings",
+    "checked_centres",
+    "checked_count",
+    "checked_indices",
+    "checked_pairs",
+    "checked_positive",
+    "checked_rotation",
+    "checked_rotations",
+]
 
 # a given rotation may be off SO(3) by this much (largest entry of R^T R - I, and |det R - 1|): a
-# rotation printed with six digits is ~1e-6 off; it is then projected onto SO(3)
-ROTATION_ATOL = 1e-4
+# rotation printed with three decimals is up to ~3e-3 off (six digits: ~1e-6); it is then projected
+# onto SO(3). Matrices that are not rotations (scaled, reflected, zero) are far beyond it.
+ROTATION_ATOL = 5e-3
 # centres beyond this magnitude (any unit) overflow the stages' squared distances
 MAX_COORDINATE = 1e100
 
@@ -45,6 +57,43 @@ def checked_rotations(rotations: object, name: str, count: int | None = None, *,
     if len(Rg) and dev.max() > 1e-12:
         out[given] = project_to_so3(Rg)
     return out
+
+
+def checked_rotation(rotation: object, name: str) -> np.ndarray:
+    """One finite ``3 x 3`` rotation (see :func:`checked_rotations`)."""
+    R = as_real_array(rotation, name)
+    if R.shape != (3, 3):
+        raise InputError(f"{name} must be a 3x3 rotation matrix, got shape {R.shape}")
+    try:
+        return checked_rotations(R[None], name)[0]
+    except InputError as exc:
+        raise InputError(str(exc).replace(f"{name}[0]", name, 1)) from None
+
+
+def checked_count(value: object, name: str, minimum: int = 0) -> int:
+    """A whole number ``>= minimum`` (an integral float or a 0-d array is accepted; a bool is not)."""
+    if isinstance(value, (bool, np.bool_)):
+        raise InputError(f"{name} must be a whole number >= {minimum}, got {value!r}")
+    try:
+        v = float(np.asarray(value, dtype=np.float64))
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a whole number >= {minimum}, got {value!r}") from None
+    if not (np.isfinite(v) and v == np.round(v) and v >= minimum):
+        raise InputError(f"{name} must be a whole number >= {minimum}, got {value!r}")
+    return int(v)
+
+
+def checked_positive(value: object, name: str) -> float:
+    """A finite real number ``> 0`` (a 0-d array is accepted; a bool is not)."""
+    if isinstance(value, (bool, np.bool_)):
+        raise InputError(f"{name} must be a finite number > 0, got {value!r}")
+    try:
+        v = float(np.asarray(value, dtype=np.float64))
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be a finite number > 0, got {value!r}") from None
+    if not (np.isfinite(v) and v > 0):
+        raise InputError(f"{name} must be a finite number > 0, got {value!r}")
+    return v
 
 
 def checked_centres(centres: object, name: str, count: int) -> np.ndarray:

@@ -31,13 +31,14 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import eigsh
 
 from ..geometry import InputError
 from .choices import LIGT_NORMALIZATIONS
-from .inputs import checked_bearings, checked_rotations
+from .inputs import checked_bearings, checked_count, checked_positive, checked_rotations
 from .posegeom import base_views, g_vectors, world_bearings
 from .tracks import Tracks
 
@@ -54,16 +55,19 @@ __all__ = [
 ]
 
 MIN_PARALLAX_DEG = 1.0
-SHIFT_REL = 1e-10
+SHIFT_REL = 1e-10  # shift-invert shift, relative to the mean diagonal of H
+DENSE_MAX = 600  # unknowns (200 views) up to which the eigenproblem is solved densely
 # row triples assembled at a time when accumulating L^T L (bounds the peak memory of the build)
 GRAM_CHUNK = 65536
 # a view whose own block of L^T L has a smallest eigenvalue below this share of its largest is not
 # determined by its rows (exactly singular in exact arithmetic: ~1e-16 when it happens); such views
-# are removed and the system rebuilt, at most MAX_WEAK_ROUNDS times
+# are removed and the system rebuilt until none is left (each round removes one view at least)
 WEAK_VIEW_RTOL = 1e-10
-MAX_WEAK_ROUNDS = 5
+# a second eigenvalue of (L^T L, N) below this share of their mean: the centres are not unique (exactly
+# degenerate tracks give ~1e-16; a noise-free 10000-view ring's bending mode 5e-7, ~1 / N^2)
+NONUNIQUE_RTOL = 1e-10
 # bearing_scale="z": a bearing's z below this share of its length is taken for one not in front
-MIN_Z_BEARING = 1e-6  # shift-invert shift, relative to the mean diagonal of H
+MIN_Z_BEARING = 1e-6
 
 
 class TranslationUndetermined(InputError):
@@ -94,8 +98,10 @@ def _skew_batch(v: np.ndarray) -> np.ndarray:
 
 def _smallest_eigvec(H: sp.csc_matrix, m: int, N: sp.csc_matrix | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvector of the smallest eigenvalue of the PSD ``H`` (of the pencil ``H x = lambda N x``
-    when the positive definite ``N`` is given) and up to 3 smallest eigenvalues (shift-invert
-    Lanczos around ``-SHIFT_REL * mean(diag H) / mean(diag N)``)."""
+    when the positive definite ``N`` is given) and up to 3 smallest eigenvalues: dense (LAPACK) up to
+    :data:`DENSE_MAX` unknowns, else shift-invert Lanczos around ``-SHIFT_REL * mean(diag H) /
+    mean(diag N)`` from a fixed start vector (ARPACK's own is random: a degenerate system then gave
+    a different answer on every call)."""
     shift = SHIFT_REL * float(H.diagonal().mean())
     if N is not None:
         shift /= float(N.diagonal().mean())
@@ -103,8 +109,12 @@ def _smallest_eigvec(H: sp.csc_matrix, m: int, N: sp.csc_matrix | None = None) -
     if not (np.isfinite(shift) and shift > 0):
         raise TranslationUndetermined("LiGT: the linear system is zero (no track constrains the translations)")
     try:
-        vals, vecs = eigsh(H, k=k, M=N, sigma=-shift, which="LM", tol=0.0)
-    except RuntimeError as exc:  # ArpackError too  # a singular factor: unknowns no row constrains
+        if m <= DENSE_MAX:
+            vals, vecs = scipy.linalg.eigh(H.toarray(), None if N is None else N.toarray(), subset_by_index=[0, k - 1])
+        else:
+            v0 = np.random.default_rng(0).standard_normal(m)
+            vals, vecs = eigsh(H, k=k, M=N, sigma=-shift, which="LM", tol=0.0, v0=v0)
+    except (RuntimeError, np.linalg.LinAlgError) as exc:  # ArpackError too: a singular factor, or N not definite
         raise TranslationUndetermined(f"LiGT: the linear system is singular or its eigenproblem failed ({exc})") from None
     o = np.argsort(vals)
     return vecs[:, o[0]], vals[o]
@@ -179,12 +189,16 @@ def _gram(blocks: Blocks, num_views: int, row_weights: np.ndarray | None = None)
     return G
 
 
-def _weak_views(G: sp.csr_matrix, view_in: np.ndarray, reference: int) -> np.ndarray:
+def _weak_views(G: sp.csr_matrix, view_in: np.ndarray, reference: int, keep_reference: bool) -> np.ndarray:
     """Views ``(N,)`` whose own ``3 x 3`` block of ``G = L^T L`` is singular (smallest eigenvalue below
     :data:`WEAK_VIEW_RTOL` of the largest): the centre slides along a direction no row sees while
     every other centre stays, so the solution is not unique (a view in a single two-view track: its
-    rows see ``c_r - c_l`` only through a rank-2 map). The reference is fixed and never weak."""
+    rows see ``c_r - c_l`` only through a rank-2 map). A caller's reference (``keep_reference``) is
+    never weak; in a component of two views the other view's slide along the baseline is the scale,
+    not a freedom."""
     n = len(view_in)
+    if int(np.sum(view_in)) <= 2:
+        return np.zeros(n, dtype=bool)
     coo = G.tocoo()
     same = (coo.row // 3) == (coo.col // 3)
     D = np.zeros((n, 3, 3))
@@ -192,7 +206,8 @@ def _weak_views(G: sp.csr_matrix, view_in: np.ndarray, reference: int) -> np.nda
     ev = np.linalg.eigvalsh(D[view_in])
     weak = np.zeros(n, dtype=bool)
     weak[np.flatnonzero(view_in)[ev[:, 0] <= WEAK_VIEW_RTOL * ev[:, 2]]] = True
-    weak[reference] = False
+    if keep_reference:
+        weak[reference] = False
     return weak
 
 
@@ -237,10 +252,12 @@ class _System:
     counts: dict[str, int]
 
 
-def _usable_system(n: int, tracks: Tracks, wb_all: np.ndarray, view_ok: np.ndarray, min_parallax_deg: float, reference: int | None) -> _System:
+def _usable_system(n: int, tracks: Tracks, wb_all: np.ndarray, view_ok: np.ndarray, min_parallax_deg: float, reference: int | None, chosen: bool) -> _System:
     """Drop the observations of views not in ``view_ok``, then tracks with < 2 views, tracks whose
     base parallax is below ``min_parallax_deg``, and everything not joined to the reference view (the
-    given one, or the view of most observations) by the remaining tracks; counts of each."""
+    given one, or the view of most observations) by the remaining tracks; counts of each. A given
+    reference left without usable tracks is the caller's error, unless it was ``chosen`` here before
+    (then the views removed since left it alone: :class:`TranslationUndetermined`)."""
     counts: dict[str, int] = {}
     obs_ok = view_ok[tracks.views]
     tr_all = tracks.track_of_observation
@@ -268,8 +285,9 @@ def _usable_system(n: int, tracks: Tracks, wb_all: np.ndarray, view_ok: np.ndarr
     nobs = np.bincount(sub3.views, minlength=n)
     if reference is None:
         reference = int(np.argmax(nobs))
-    elif isinstance(reference, bool) or not isinstance(reference, (int, np.integer)) or not (0 <= reference < n and nobs[reference] > 0):
-        raise InputError(f"reference view {reference} is not observed by any usable track")
+    elif not (0 <= reference < n and nobs[reference] > 0):
+        err = TranslationUndetermined if chosen else InputError
+        raise err(f"reference view {reference} is not observed by any usable track")
     comp = lab[reference]
     view_in = (lab[:n] == comp) & (nobs > 0)
     tr_in = lab[n + np.arange(T3)] == comp
@@ -323,28 +341,46 @@ def ligt_positions(
         f = f / f[:, 2:3]
     elif bearing_scale != "unit":
         raise InputError(f"bearing_scale must be 'unit' or 'z', got {bearing_scale!r}")
-    if isinstance(reweight_iterations, bool) or not isinstance(reweight_iterations, (int, np.integer)) or reweight_iterations < 0:
-        raise InputError(f"reweight_iterations must be a whole number >= 0, got {reweight_iterations!r}")
-    if isinstance(min_parallax_deg, bool) or not (isinstance(min_parallax_deg, (int, float, np.integer, np.floating)) and 0 <= float(min_parallax_deg) < 90):
+    reweight_iterations = checked_count(reweight_iterations, "reweight_iterations")
+    if not min_parallax_deg == 0:
+        min_parallax_deg = checked_positive(min_parallax_deg, "min_parallax_deg")
+    if not 0 <= float(min_parallax_deg) < 90:
         raise InputError(f"min_parallax_deg must be a number of degrees in [0, 90), got {min_parallax_deg!r}")
+    if reference is not None:
+        reference = checked_count(reference, "reference")
     info: dict[str, object] = {}
     has_R = np.all(np.isfinite(Rg), axis=(1, 2))
     info["observations_without_rotation"] = int(np.sum(~has_R[tracks.views]))
     Rsafe = np.where(has_R[:, None, None], Rg, np.eye(3))
     wb_all = world_bearings(Rsafe, tracks.views, f)
     weak = np.zeros(n, dtype=bool)
-    for _ in range(MAX_WEAK_ROUNDS):
-        sysm = _usable_system(n, tracks, wb_all, has_R & ~weak, min_parallax_deg, reference)
+    chosen = reference is None
+    allowed = has_R.copy()
+    while True:  # ends: every round that does not break removes a view
+        sysm = _usable_system(n, tracks, wb_all, allowed & ~weak, min_parallax_deg, reference, chosen)
         t0 = time.perf_counter()
         blocks, g, lr = ligt_blocks(sysm.tracks, sysm.wb, sysm.l_obs, sysm.r_obs)
         G = _gram(blocks, n)
-        new_weak = _weak_views(G, sysm.view_in, sysm.reference)
+        new_weak = _weak_views(G, sysm.view_in, sysm.reference, keep_reference=not chosen)
         times["build"] = times.get("build", 0.0) + time.perf_counter() - t0
         if not new_weak.any():
             break
         weak |= new_weak
+        if new_weak[sysm.reference]:  # a chosen reference its rows do not fix: choose again in its component
+            allowed &= sysm.view_in
+            reference = None
+        else:  # the choice stays: its component is the one solved
+            reference = sysm.reference
+    reference = sysm.reference
     info.update(sysm.counts)
     info["views_weak"] = int(np.sum(weak))
+    # views with a rotation and observations left out of the solved component (a re-chosen reference
+    # restricts the later rounds to its component, whose outside then counts here)
+    observed = np.bincount(tracks.views, minlength=n) > 0
+    info["views_disconnected"] = int(np.sum(observed & has_R & ~sysm.view_in & ~weak))
+    if int(np.sum(sysm.view_in)) == 2 and len(sysm.tracks) < 2:
+        # one point fixes only a plane of baseline directions; LiGT's rank-2 rows pick one of them
+        raise TranslationUndetermined("LiGT: two views joined by a single track (one point does not fix the baseline's direction)")
     sub4, wb4, l4, r4, view_in, track_used, reference = sysm.tracks, sysm.wb, sysm.l_obs, sysm.r_obs, sysm.view_in, sysm.track_used, sysm.reference
     times["setup"] = time.perf_counter() - t_start - times["build"]
 
@@ -365,6 +401,12 @@ def ligt_positions(
     if len(cols) < 3:
         raise TranslationUndetermined("LiGT needs at least two views joined by usable tracks")
     x, vals = _smallest_eigvec(H, len(cols), Nm)
+    # the mean eigenvalue of the pencil: the scale against which a second zero eigenvalue is judged
+    mean_eig = float(H.diagonal().sum() / (Nm.diagonal().sum() if Nm is not None else len(cols)))
+    if len(vals) >= 2 and vals[1] < NONUNIQUE_RTOL * mean_eig:
+        raise TranslationUndetermined(
+            f"LiGT: the tracks do not fix the centres uniquely (a second eigenvalue {vals[1] / mean_eig:.2g} of the mean: e.g. groups of views joined through a single camera)"
+        )
     # optional reweighting: row triple i of track t scaled by 1 / (theta_t^2 ||X_t - c_i||) so its
     # residual becomes the sine of the angular error of observation i (IRLS on the same system)
     oi = _non_base(sub4, l4)
@@ -373,8 +415,8 @@ def ligt_positions(
     for _ in range(int(reweight_iterations)):
         C_cur = _centres(x, cols, n)
         d = np.sum(g * (C_cur[lr[:, 0]] - C_cur[lr[:, 1]]), axis=1) / th2
-        if np.sum(d > 0) < np.sum(d <= 0):
-            d = -d
+        if np.sum(d > 0) < np.sum(d <= 0):  # the eigenvector's sign is the solver's: fix it first
+            x, C_cur, d = -x, -C_cur, -d
         X = C_cur[lr[:, 0]] + d[:, None] * wb4[l4]
         dist = np.linalg.norm(X[tr_oi] - C_cur[sub4.views[oi]], axis=1)
         good = np.isfinite(dist) & (dist > 0)

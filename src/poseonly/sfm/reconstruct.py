@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry import InputError
-from .inputs import checked_bearings, checked_centres, checked_rotations
+from .inputs import checked_bearings, checked_centres, checked_count, checked_positive, checked_rotations
 from .posegeom import base_depths, base_views, world_bearings
 from .tracks import Tracks
 
@@ -61,11 +61,9 @@ def reconstruct_points(
     f = checked_bearings(bearings, "bearings", tracks.num_observations)
     if len(tracks) and tracks.views.max() >= len(Rg):
         raise InputError(f"tracks reference view {tracks.views.max()} but only {len(Rg)} rotations are given")
-    if isinstance(focal, bool) or not isinstance(focal, (int, float, np.integer, np.floating)) or not (np.isfinite(focal) and focal > 0):
-        raise InputError(f"focal must be a finite number of pixels > 0, got {focal!r}")
-    for name, v in (("max_error_px", max_error_px), ("min_views", min_views)):
-        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) or not v > 0:
-            raise InputError(f"{name} must be a number > 0, got {v!r}")
+    focal = checked_positive(focal, "focal")
+    max_error_px = checked_positive(max_error_px, "max_error_px")
+    min_views = checked_count(min_views, "min_views", 2)
     posed = np.all(np.isfinite(Rg), axis=(1, 2)) & np.all(np.isfinite(C), axis=1)
     obs_posed = posed[tracks.views]
     cnt = np.bincount(tracks.track_of_observation[obs_posed], minlength=len(tracks))

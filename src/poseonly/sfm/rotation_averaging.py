@@ -57,7 +57,7 @@ from scipy.sparse.linalg import splu
 
 from ..geometry import InputError, as_real_array
 from .choices import checked_sigma_deg
-from .inputs import checked_pairs, checked_rotations
+from .inputs import checked_count, checked_pairs, checked_rotations
 from .so3 import exp_so3, log_so3
 from .viewgraph import largest_component, view_components
 
@@ -106,9 +106,8 @@ class RotationAveragingResult:
 
 
 def _check_inputs(num_views: object, pairs: np.ndarray, R_rel: np.ndarray, weights: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    if isinstance(num_views, bool) or not isinstance(num_views, (int, np.integer)) or num_views < 1:
-        raise InputError(f"num_views must be a whole number >= 1, got {num_views!r}")
-    p = checked_pairs(pairs, int(num_views))
+    n = checked_count(num_views, "num_views", 1)
+    p = checked_pairs(pairs, n)
     R = checked_rotations(R_rel, "relative rotations", len(p))
     w = np.ones(len(p)) if weights is None else as_real_array(weights, "weights").ravel()
     if w.shape != (len(p),) or not np.all(np.isfinite(w)) or np.any(w <= 0):
@@ -400,7 +399,7 @@ def average_rotations(
     """
     times: dict[str, float] = {}
     p, R, w = _check_inputs(num_views, pairs, R_rel, weights)
-    n = int(num_views)
+    n = checked_count(num_views, "num_views", 1)
     sigma_deg = checked_sigma_deg(sigma_deg)
     if len(p) == 0:
         raise InputError("rotation averaging needs at least one edge")

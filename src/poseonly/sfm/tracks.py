@@ -19,7 +19,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..geometry import InputError, as_real_array
-from .inputs import checked_indices
+from .inputs import checked_count, checked_indices
 from .viewgraph import ViewGraph
 
 __all__ = ["Tracks", "build_tracks", "tracks_from_arrays"]
@@ -109,8 +109,7 @@ def tracks_from_arrays(
     int arrays); ``priority (K,)`` (higher first) orders the unions when splitting conflicts."""
     if conflicts not in CONFLICT_POLICIES:
         raise InputError(f"conflicts must be one of {CONFLICT_POLICIES}, got {conflicts!r}")
-    if int(min_length) < 2:
-        raise InputError(f"min_length must be >= 2, got {min_length}")
+    min_length = checked_count(min_length, "min_length", 2)
     arrs = [checked_indices(a, name).ravel() for a, name in ((view_a, "view_a"), (kp_a, "kp_a"), (view_b, "view_b"), (kp_b, "kp_b"))]
     k = len(arrs[0])
     if any(len(a) != k for a in arrs):

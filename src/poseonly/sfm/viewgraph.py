@@ -24,7 +24,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..geometry import InputError, as_real_array
-from .inputs import checked_indices, checked_rotations
+from .inputs import checked_count, checked_indices, checked_positive, checked_rotation
 
 __all__ = ["ROTATION_STATUSES", "TRANSLATION_STATUSES", "Edge", "ViewGraph", "edge_from_result"]
 
@@ -50,33 +50,38 @@ class Edge:
         return self.status in TRANSLATION_STATUSES
 
 
-def _check_rotation(R: Any, name: str) -> np.ndarray:
-    R = as_real_array(R, name)
-    if R.shape != (3, 3):
-        raise InputError(f"{name} must be a 3x3 rotation matrix, got shape {R.shape}")
-    return checked_rotations(R[None], name)[0]
-
-
 def edge_from_result(i: int, j: int, result: Any, matches: np.ndarray, weight: float | None = None) -> Edge:
     """Edge from a :class:`poseonly.RelativePoseResult` of views ``i -> j`` and the ``(n, 2)``
     keypoint indices of the ``n`` putative matches it was estimated from (only its ``inliers`` are
     kept). ``i > j`` is accepted and inverted. Weight: ``num_inliers`` unless given."""
-    m = checked_indices(matches, f"matches of pair ({i}, {j})")
-    if m.ndim != 2 or m.shape[1] != 2:
-        raise InputError(f"matches of pair ({i}, {j}) must have shape (n, 2), got {m.shape}")
-    inl = np.asarray(result.inliers, dtype=bool)
-    if inl.shape != (len(m),):
-        raise InputError(f"pair ({i}, {j}): {len(inl)} inlier flags for {len(m)} matches")
-    R = _check_rotation(result.R, f"R of pair ({i}, {j})")
-    t = as_real_array(result.t, f"t of pair ({i}, {j})")
-    if t.size != 3 or not np.all(np.isfinite(t)):
-        raise InputError(f"t of pair ({i}, {j}) must be 3 finite numbers, got {result.t!r}")
-    t = t.reshape(3)
-    mm = m[inl]
-    w = float(result.num_inliers if weight is None else weight)
+    i, j = checked_count(i, "view index i"), checked_count(j, "view index j")
+    m = _checked_matches(matches, f"matches of pair ({i}, {j})")
+    if result.inliers is None:
+        raise InputError(f"pair ({i}, {j}): the result has no inlier flags")
+    inl = as_real_array(result.inliers, f"inliers of pair ({i}, {j})")
+    if inl.shape != (len(m),) or not np.all((inl == 0) | (inl == 1)):
+        raise InputError(f"pair ({i}, {j}): the inlier flags must be {len(m)} booleans, one per match, got shape {inl.shape}")
+    R = checked_rotation(result.R, f"R of pair ({i}, {j})")
+    t = _checked_t(result.t, f"t of pair ({i}, {j})")
+    mm = m[inl.astype(bool)]
+    w = checked_positive(result.num_inliers if weight is None else weight, f"weight of pair ({i}, {j})")
     if i > j:  # X_i = R^T X_j - R^T t
         i, j, R, t, mm = j, i, R.T, -R.T @ t, mm[:, ::-1]
-    return Edge(int(i), int(j), R, t, np.ascontiguousarray(mm), str(result.status), w)
+    return Edge(i, j, R, t, np.ascontiguousarray(mm), str(result.status), w)
+
+
+def _checked_matches(matches: object, name: str) -> np.ndarray:
+    m = checked_indices(matches, name)
+    if m.ndim != 2 or m.shape[1] != 2:
+        raise InputError(f"{name} must have shape (n, 2), got {m.shape}")
+    return m
+
+
+def _checked_t(t: object, name: str) -> np.ndarray:
+    a = as_real_array(t, name)
+    if a.size != 3 or not np.all(np.isfinite(a)):
+        raise InputError(f"{name} must be 3 finite numbers, got {t!r}")
+    return a.reshape(3)
 
 
 @dataclass
@@ -93,25 +98,29 @@ class ViewGraph:
     _index: dict[tuple[int, int], int] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
-        if int(self.num_views) < 1:
-            raise InputError(f"a view graph needs at least one view, got num_views={self.num_views}")
-        self.num_views = int(self.num_views)
-        for k, e in enumerate(self.edges):
-            self._index[(e.i, e.j)] = k
+        self.num_views = checked_count(self.num_views, "num_views", 1)
+        given, self.edges = list(self.edges), []
+        for e in given:
+            self.add_edge(e)
 
     def add_edge(self, e: Edge) -> None:
-        """Add an edge (``ValueError`` on bad indices, a self loop, a duplicate or a bad weight)."""
-        if not (0 <= e.i < self.num_views and 0 <= e.j < self.num_views):
-            raise InputError(f"edge ({e.i}, {e.j}) outside the {self.num_views} views")
-        if e.i >= e.j:
-            raise InputError(f"edge ({e.i}, {e.j}) must have i < j (use edge_from_result to invert)")
-        if (e.i, e.j) in self._index:
-            raise InputError(f"duplicate edge ({e.i}, {e.j})")
-        if not (np.isfinite(e.weight) and e.weight > 0):
-            raise InputError(f"edge ({e.i}, {e.j}) weight must be positive and finite, got {e.weight}")
-        _check_rotation(e.R, f"R of edge ({e.i}, {e.j})")
-        self._index[(e.i, e.j)] = len(self.edges)
-        self.edges.append(e)
+        """Add an edge, its fields checked and converted (an :class:`InputError` on indices that are not
+        whole numbers or outside the views, a self loop, a duplicate, a weight that is not a positive
+        number, a matrix that is not a rotation, a translation that is not 3 finite numbers, matches that
+        are not ``(k, 2)`` whole indices)."""
+        i, j = checked_count(e.i, "edge index i"), checked_count(e.j, "edge index j")
+        if not (i < self.num_views and j < self.num_views):
+            raise InputError(f"edge ({i}, {j}) outside the {self.num_views} views")
+        if i >= j:
+            raise InputError(f"edge ({i}, {j}) must have i < j (use edge_from_result to invert)")
+        if (i, j) in self._index:
+            raise InputError(f"duplicate edge ({i}, {j})")
+        w = checked_positive(e.weight, f"weight of edge ({i}, {j})")
+        R = checked_rotation(e.R, f"R of edge ({i}, {j})")
+        t = _checked_t(e.t, f"t of edge ({i}, {j})")
+        m = _checked_matches(e.matches, f"matches of edge ({i}, {j})")
+        self._index[(i, j)] = len(self.edges)
+        self.edges.append(Edge(i, j, R, t, m, str(e.status), w))
 
     def add_result(self, i: int, j: int, result: Any, matches: np.ndarray, weight: float | None = None) -> bool:
         """Add the two-view ``result`` of pair ``(i, j)`` if its status allows; False (and recorded in
