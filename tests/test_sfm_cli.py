@@ -223,3 +223,45 @@ def test_sfm_command_when_the_centres_are_undetermined(tmp_path, capsys, monkeyp
     assert poses["status"] == "translation_undetermined" and "forced by the test" in poses["reason"]
     assert all(im["R"] is not None and im["c"] is None for im in poses["images"])
     assert not (out / "points.ply").exists() and not (out / "sparse").exists() and not (out / "reconstruction.png").exists()
+
+
+def test_pair_lists_sequential_and_from_a_file(tmp_path):
+    """--sequential N and --pairs FILE (COLMAP / hloc pair lists: names, comments, duplicates and
+    reversed pairs once each, pairs cut by --max-images left out); bad lists are InputErrors; the
+    library's pairs are checked before any image is read, and a pair's seed does not depend on the
+    other pairs matched."""
+    import argparse
+
+    from poseonly import InputError
+    from poseonly.sfm.cli import _pair_list
+    from poseonly.sfm.pairwise import image_view_graph, pair_seed
+
+    d = tmp_path / "imgs"
+    d.mkdir()
+    for k in range(5):
+        (d / f"{k}.jpg").write_bytes(b"")
+    images = sorted(d.iterdir())
+
+    def ns(**kw):
+        return argparse.Namespace(**({"images": str(d), "pairs": None, "sequential": None} | kw))
+
+    assert _pair_list(ns(), images) is None
+    assert _pair_list(ns(sequential=2), images) == [(0, 1), (0, 2), (1, 2), (1, 3), (2, 3), (2, 4), (3, 4)]
+    f = tmp_path / "pairs.txt"
+    f.write_text("# a pair list\n0.jpg 1.jpg\n\n1.jpg 0.jpg  # reversed\n4.jpg 2.jpg\n0.jpg 1.jpg\n")
+    assert _pair_list(ns(pairs=str(f)), images) == [(0, 1), (2, 4)]
+    assert _pair_list(ns(pairs=str(f)), images[:3]) == [(0, 1)]  # 4.jpg cut by --max-images
+    for text, msg in (("0.jpg 9.jpg\n", "not in"), ("0.jpg 0.jpg\n", "itself"), ("0.jpg\n", "two image names"), ("# nothing\n", "no pair")):
+        f.write_text(text)
+        with pytest.raises(InputError, match=msg):
+            _pair_list(ns(pairs=str(f)), images)
+    with pytest.raises(InputError, match="not both"):
+        _pair_list(ns(pairs=str(f), sequential=1), images)
+    with pytest.raises(InputError, match="not found"):
+        _pair_list(ns(pairs=str(tmp_path / "nope.txt")), images)
+    K = np.array([[800.0, 0, 320], [0, 800, 240], [0, 0, 1]])
+    for bad in ([(0, 0)], [(0, 7)], [(0.5, 1)], [], [("a", "b")]):
+        with pytest.raises(InputError):
+            image_view_graph(images, K, pairs=bad)  # before the (empty) images are read
+    n = 6
+    assert [pair_seed(3, i, j, n) for i in range(n) for j in range(i + 1, n)] == list(range(3, 3 + n * (n - 1) // 2))

@@ -134,7 +134,8 @@ def cmd_sfm(args: argparse.Namespace) -> int:
             used = f" (--max-images {args.max_images} of {held})" if len(images) < held else ""
             raise InputError(f"{d} gives {len(images)} images{used}; global SfM needs at least 3")
         K = _read_K(args.K)
-        ig = image_view_graph(images, K, options=opt, cache_dir=cache, progress=prog, jobs=args.jobs)
+        pairs = _pair_list(args, images)
+        ig = image_view_graph(images, K, options=opt, cache_dir=cache, pairs=pairs, progress=prog, jobs=args.jobs)
     print(
         f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
         f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
@@ -183,6 +184,42 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     return 0
 
 
+def _pair_list(args: argparse.Namespace, images: list[Path]) -> list[tuple[int, int]] | None:
+    """The image pairs to match: ``--sequential N`` (each image with its next N in name order),
+    ``--pairs FILE`` (one pair of image names per line, as COLMAP's and hloc's pair lists; blank
+    lines and ``#`` comments skipped, pairs of images not used are left out), or None (all pairs)."""
+    if args.sequential is not None and args.pairs is not None:
+        raise InputError("give --pairs or --sequential, not both")
+    n = len(images)
+    if args.sequential is not None:
+        return [(i, j) for i in range(n) for j in range(i + 1, min(n, i + 1 + args.sequential))]
+    if args.pairs is None:
+        return None
+    path = Path(args.pairs)
+    if not path.is_file():
+        raise InputError(f"pair list not found: {path}")
+    index = {p.name: k for k, p in enumerate(images)}
+    known = {p.name for p in Path(args.images).iterdir()} if Path(args.images).is_dir() else set()
+    out: set[tuple[int, int]] = set()
+    for ln, line in enumerate(path.read_text(encoding="utf-8", errors="replace").splitlines(), 1):
+        words = line.split("#", 1)[0].split()
+        if not words:
+            continue
+        if len(words) < 2:
+            raise InputError(f"{path}:{ln}: expected two image names, got {line.strip()!r}")
+        a, b = (Path(w).name for w in words[:2])
+        for nm in (a, b):
+            if nm not in known:
+                raise InputError(f"{path}:{ln}: image {nm!r} is not in {args.images}")
+        if a == b:
+            raise InputError(f"{path}:{ln}: an image paired with itself ({a!r})")
+        if a in index and b in index:  # both used (not cut by --max-images)
+            out.add((min(index[a], index[b]), max(index[a], index[b])))
+    if not out:
+        raise InputError(f"{path}: no pair of the images used")
+    return sorted(out)
+
+
 def _cmd_global(args: argparse.Namespace) -> int:
     from .._fileutil import new_results_dir
     from ..experiments import global_sfm
@@ -228,6 +265,8 @@ def add_parsers(sub: Any, esub: Any) -> None:
         default=ROTATION_WEIGHTS[0],
         help="rotation averaging's edge weights: the two-view inlier counts (default) or each relative rotation's information (narrow fields of view)",
     )
+    s.add_argument("--pairs", metavar="FILE", help="match only these pairs: one pair of image names per line (COLMAP's / hloc's pair lists); default all pairs")
+    s.add_argument("--sequential", type=positive_int, metavar="N", help="match each image with its next N (in name order; video); default all pairs")
     s.add_argument(
         "--ligt-normalization",
         choices=LIGT_NORMALIZATIONS,

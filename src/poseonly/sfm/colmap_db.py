@@ -19,7 +19,7 @@ import numpy as np
 from ..features import Features, match_noise_scales
 from ..geometry import InputError
 from ..io.colmap_db import keypoint_scales
-from .pairwise import ImageGraph, PairwiseOptions, TwoView, map_ordered, two_view
+from .pairwise import ImageGraph, PairwiseOptions, TwoView, map_ordered, pair_seed, two_view
 from .viewgraph import ViewGraph
 
 __all__ = ["database_view_graph"]
@@ -84,7 +84,8 @@ def database_view_graph(
         if len(m) < opt.min_matches:
             return None
         ns = match_noise_scales(feats[i], feats[j], m)
-        return two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, opt.seed + k, cache, focal_px=0.5 * (focal[i] + focal[j]), noise_scales=ns)
+        seed = pair_seed(opt.seed, i, j, len(images))
+        return two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, seed, cache, focal_px=0.5 * (focal[i] + focal[j]), noise_scales=ns)
 
     for (i, j, pm), r in zip(pairs, wrap(map_ordered(pair_job, enumerate(pairs), jobs), desc="pairs", total=len(pairs)), strict=True):
         putative[(i, j)] = pm

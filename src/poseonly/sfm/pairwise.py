@@ -3,8 +3,9 @@
 Only the public two-view API is used (:func:`poseonly.estimate_relative_pose`); features and
 matching are :mod:`poseonly.features`. Putative matches are cached per pair (``cache_dir/matches``,
 written atomically, keyed by the two feature caches' content and the matching parameters), so a
-repeated run only re-estimates. Pairs are estimated with a seed per pair (``seed + pair index``) and
-added to the graph in pair order, so the graph never depends on scheduling: ``jobs`` threads extract
+repeated run only re-estimates. Pairs are estimated with a seed per pair (:func:`pair_seed`: ``seed``
+plus the pair's index among all pairs of the images, so a pair's result does not depend on which
+other pairs are matched) and added to the graph in pair order, so the graph never depends on scheduling: ``jobs`` threads extract
 the features and match and estimate the pairs concurrently (OpenCV and the compiled core release the
 GIL) with the same result as one.
 """
@@ -27,10 +28,11 @@ from .._fileutil import publish
 from ..api import estimate_relative_pose
 from ..features import Features, extract_features, match_features, match_noise_scales
 from ..geometry import InputError, bearings_from_normalized, bearings_from_pixels
+from .inputs import checked_pairs
 from .tracks import Tracks
 from .viewgraph import ViewGraph
 
-__all__ = ["ImageGraph", "PairwiseOptions", "TwoView", "image_view_graph", "map_ordered", "observation_bearings", "parse_estimator_options", "two_view"]
+__all__ = ["ImageGraph", "PairwiseOptions", "TwoView", "image_view_graph", "map_ordered", "observation_bearings", "pair_seed", "parse_estimator_options", "two_view"]
 
 MIN_PUTATIVE = 30
 # part of the two-view cache key with the package version: bump when the default estimator's results
@@ -274,6 +276,12 @@ def _available_cores() -> int:
         return os.cpu_count() or 1
 
 
+def pair_seed(seed: int, i: int, j: int, n: int) -> int:
+    """The seed of pair ``i < j`` of ``n`` images: ``seed`` plus the pair's index in the
+    lexicographic list of all ``n (n - 1) / 2`` pairs (with all pairs matched, its position)."""
+    return int(seed) + i * n - i * (i + 1) // 2 + (j - i - 1)
+
+
 def image_view_graph(
     images: Sequence[str | os.PathLike],
     K: np.ndarray,
@@ -297,6 +305,13 @@ def image_view_graph(
     Ks = np.broadcast_to(Ks, (n, 3, 3)).copy() if Ks.shape == (3, 3) else Ks
     if Ks.shape != (n, 3, 3):
         raise InputError(f"K must be (3, 3) or ({n}, 3, 3), got {Ks.shape}")
+    if pairs is None:
+        plist = [(i, j) for i in range(n) for j in range(i + 1, n)]
+    else:  # whole indices in range, no self pair; each unordered pair once, in order
+        if len(pairs) == 0:
+            raise InputError("pairs is empty: give at least one pair, or None for all pairs")
+        pa = checked_pairs(pairs, n)
+        plist = sorted({(int(min(a, b)), int(max(a, b))) for a, b in pa.tolist()})
     wrap = progress or (lambda it, **_: it)
     cache = Path(cache_dir) if cache_dir is not None else None
     times: dict[str, float] = {}
@@ -305,7 +320,6 @@ def image_view_graph(
     feats = list(wrap(map_ordered(lambda p: extract_features(p, max_features=opt.max_features, cache_dir=fcache), list(images), jobs), desc="features", total=n))
     digests = [_digest(f) for f in feats]
     times["features"] = time.perf_counter() - t0
-    plist = [(i, j) for i in range(n) for j in range(i + 1, n)] if pairs is None else [(min(a, b), max(a, b)) for a, b in pairs]
 
     def pair_job(kij: tuple[int, tuple[int, int]]) -> tuple[np.ndarray, TwoView | None, float, float]:
         k, (i, j) = kij
@@ -315,7 +329,7 @@ def image_view_graph(
         if len(idx) < opt.min_matches:
             return idx, None, t2 - t1, 0.0
         ns = match_noise_scales(feats[i], feats[j], idx)
-        r = two_view(feats[i].keypoints[idx[:, 0]], feats[j].keypoints[idx[:, 1]], Ks[i], Ks[j], opt, opt.seed + k, cache, scores=scores, noise_scales=ns)
+        r = two_view(feats[i].keypoints[idx[:, 0]], feats[j].keypoints[idx[:, 1]], Ks[i], Ks[j], opt, pair_seed(opt.seed, i, j, n), cache, scores=scores, noise_scales=ns)
         return idx, r, t2 - t1, time.perf_counter() - t2
 
     graph = ViewGraph(n)
