@@ -89,6 +89,9 @@ def test_sfm_command_bad_input(tmp_path, capsys):
     (tmp_path / "K.txt").write_text("800 0 320\n0 800 240\n0 0 1\n")
     assert main(["sfm", str(img), "--K", str(tmp_path / "K.txt"), "--out", str(tmp_path / "o"), "--max-images", "2"]) == 2
     assert "gives 2 images (--max-images 2 of 4)" in capsys.readouterr().err
+    # the database's matches decide its pairs: --pairs / --sequential are refused there, not ignored
+    assert main(["sfm", str(img), "--database", str(tmp_path / "x.db"), "--out", str(tmp_path / "o"), "--sequential", "1"]) == 2
+    assert "with --database" in capsys.readouterr().err
 
 
 def test_sfm_command_from_colmap_database(tmp_path):
@@ -251,7 +254,18 @@ def test_pair_lists_sequential_and_from_a_file(tmp_path):
     f.write_text("# a pair list\n0.jpg 1.jpg\n\n1.jpg 0.jpg  # reversed\n4.jpg 2.jpg\n0.jpg 1.jpg\n")
     assert _pair_list(ns(pairs=str(f)), images) == [(0, 1), (2, 4)]
     assert _pair_list(ns(pairs=str(f)), images[:3]) == [(0, 1)]  # 4.jpg cut by --max-images
-    for text, msg in (("0.jpg 9.jpg\n", "not in"), ("0.jpg 0.jpg\n", "itself"), ("0.jpg\n", "two image names"), ("# nothing\n", "no pair")):
+    f.write_bytes("\ufeff0.jpg 2.jpg\r\n".encode())  # a byte-order mark and Windows line ends
+    assert _pair_list(ns(pairs=str(f)), images) == [(0, 2)]
+    (d / "notes.txt").write_text("")
+    (d / "sub").mkdir()
+    for text, msg in (
+        ("0.jpg 9.jpg\n", "not the name of an image"),
+        ("0.jpg notes.txt\n", "not the name of an image"),  # not an image
+        ("sub/0.jpg 1.jpg\n", "not the name of an image"),  # no directories: the folder's own images
+        ("0.jpg 0.jpg\n", "itself"),
+        ("0.jpg\n", "two image names"),
+        ("# nothing\n", "no pair"),
+    ):
         f.write_text(text)
         with pytest.raises(InputError, match=msg):
             _pair_list(ns(pairs=str(f)), images)

@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..argtypes import non_negative_int
+from ..geometry import InputError
 from ..io.strecha import find_scenes, load_scene
 from ..sfm.choices import LIGT_NORMALIZATIONS, ROTATION_WEIGHTS
 from ..sfm.cli import positive_degrees
@@ -124,6 +125,8 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
     ig = image_view_graph(sc.image_paths, sc.K, options=opt, cache_dir=args.cache, progress=lambda it, **kw: progress(it, **kw), jobs=args.jobs)
     t_pairs = time.perf_counter() - t0
     res = run_global(ig.graph, ig.bearings, float(sc.K[0, 0]), gopt)
+    if "translation_undetermined" in res.info:
+        raise InputError(f"{path.name}: the camera centres are not determined ({res.info['translation_undetermined']})")
     ev = _scores(res.rotations, res.centres, R_gt, C_gt)
     out: dict[str, Any] = {
         "scene": sc.name,

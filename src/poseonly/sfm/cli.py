@@ -117,6 +117,9 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     if args.database:
         from .colmap_db import database_view_graph
 
+        if args.pairs is not None or args.sequential is not None:
+            raise InputError("--pairs and --sequential choose the pairs to match; with --database the database's matches decide")
+
         ig, names = database_view_graph(args.database, options=opt, cache_dir=cache, progress=prog, jobs=args.jobs)
         images = [d / nm for nm in names]
         missing = [str(p) for p in images if not p.is_file()]
@@ -199,18 +202,19 @@ def _pair_list(args: argparse.Namespace, images: list[Path]) -> list[tuple[int, 
     if not path.is_file():
         raise InputError(f"pair list not found: {path}")
     index = {p.name: k for k, p in enumerate(images)}
-    known = {p.name for p in Path(args.images).iterdir()} if Path(args.images).is_dir() else set()
+    folder = Path(args.images)
+    known = {p.name for p in folder.iterdir() if p.is_file() and p.suffix in IMAGE_EXTS} if folder.is_dir() else set()
     out: set[tuple[int, int]] = set()
-    for ln, line in enumerate(path.read_text(encoding="utf-8", errors="replace").splitlines(), 1):
+    for ln, line in enumerate(path.read_text(encoding="utf-8-sig", errors="replace").splitlines(), 1):
         words = line.split("#", 1)[0].split()
         if not words:
             continue
         if len(words) < 2:
             raise InputError(f"{path}:{ln}: expected two image names, got {line.strip()!r}")
-        a, b = (Path(w).name for w in words[:2])
+        a, b = words[:2]
         for nm in (a, b):
-            if nm not in known:
-                raise InputError(f"{path}:{ln}: image {nm!r} is not in {args.images}")
+            if nm not in known:  # names of the folder's images, as they are: no directories
+                raise InputError(f"{path}:{ln}: {nm!r} is not the name of an image in {folder}")
         if a == b:
             raise InputError(f"{path}:{ln}: an image paired with itself ({a!r})")
         if a in index and b in index:  # both used (not cut by --max-images)

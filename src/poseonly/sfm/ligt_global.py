@@ -64,7 +64,9 @@ GRAM_CHUNK = 65536
 # are removed and the system rebuilt until none is left (each round removes one view at least)
 WEAK_VIEW_RTOL = 1e-10
 # a second eigenvalue of (L^T L, N) below this share of their mean: the centres are not unique (exactly
-# degenerate tracks give ~1e-16; a noise-free 10000-view ring's bending mode 5e-7, ~1 / N^2)
+# degenerate tracks give ~1e-16; a noise-free 10000-view ring's bending mode 5e-7, ~1 / N^2). Only with
+# the noise normalisation: under the unit norm a ring's bending mode falls as ~1 / N^4 (7e-12 at 10000
+# views), so "unit" keeps the paper's behaviour and eig_ratio is the only flag there
 NONUNIQUE_RTOL = 1e-10
 # bearing_scale="z": a bearing's z below this share of its length is taken for one not in front
 MIN_Z_BEARING = 1e-6
@@ -402,8 +404,8 @@ def ligt_positions(
         raise TranslationUndetermined("LiGT needs at least two views joined by usable tracks")
     x, vals = _smallest_eigvec(H, len(cols), Nm)
     # the mean eigenvalue of the pencil: the scale against which a second zero eigenvalue is judged
-    mean_eig = float(H.diagonal().sum() / (Nm.diagonal().sum() if Nm is not None else len(cols)))
-    if len(vals) >= 2 and vals[1] < NONUNIQUE_RTOL * mean_eig:
+    mean_eig = float(H.diagonal().sum() / Nm.diagonal().sum()) if Nm is not None else float("nan")
+    if Nm is not None and len(vals) >= 2 and vals[1] < NONUNIQUE_RTOL * mean_eig:
         raise TranslationUndetermined(
             f"LiGT: the tracks do not fix the centres uniquely (a second eigenvalue {vals[1] / mean_eig:.2g} of the mean: e.g. groups of views joined through a single camera)"
         )
