@@ -135,6 +135,19 @@ def test_pairs_file_and_errors(tmp_path):
         verify_database(tmp_path / "junk.db", progress=False)
 
 
+def test_parse_pair_names():
+    """The one pair-list parser (colmap verify --pairs, sfm --pairs): comments, blank lines, a byte-order
+    mark, Windows line ends; three names or a self pair are errors naming the line."""
+    from poseonly.io.pair_list import parse_pair_names
+
+    text = "\ufeff# pairs\r\na.jpg b.jpg\r\n\n  c.jpg a.jpg # why\r\na.jpg b.jpg\n"
+    assert parse_pair_names(text.splitlines(), "p") == [("a.jpg", "b.jpg"), ("c.jpg", "a.jpg"), ("a.jpg", "b.jpg")]
+    with pytest.raises(ValueError, match="p line 2: expected"):
+        parse_pair_names(["a b", "a b c"], "p")
+    with pytest.raises(ValueError, match="p line 1: an image paired with itself"):
+        parse_pair_names(["a a"], "p")
+
+
 def test_homography_dlt():
     rng = np.random.default_rng(0)
     H = np.array([[1.1, 0.02, 5.0], [-0.03, 0.95, -3.0], [1e-4, -2e-4, 1.0]])

@@ -263,7 +263,7 @@ def test_pair_lists_sequential_and_from_a_file(tmp_path):
         ("0.jpg notes.txt\n", "not the name of an image"),  # not an image
         ("sub/0.jpg 1.jpg\n", "not the name of an image"),  # no directories: the folder's own images
         ("0.jpg 0.jpg\n", "itself"),
-        ("0.jpg\n", "two image names"),
+        ("0.jpg\n", "IMAGE_NAME1 IMAGE_NAME2"),
         ("# nothing\n", "no pair"),
     ):
         f.write_text(text)

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..cameras import Camera, as_camera
 from ..geometry import InputError
+from .pair_list import parse_pair_names
 
 __all__ = ["KEYPOINT_CACHE_IMAGES", "ColmapDatabase", "GeometryRow", "keypoint_scales"]
 
@@ -127,17 +128,11 @@ class ColmapDatabase:
         """Pair ids of ``name1 name2`` lines (COLMAP's match-list format; ``#`` comments)."""
         by_name = {n: i for i, n in self.image_names.items()}
         out = set()
-        for k, line in enumerate(lines, 1):
-            s = line.split("#", 1)[0].strip()
-            if not s:
-                continue
-            parts = s.split()
-            if len(parts) != 2:
-                raise InputError(f"{source} line {k}: expected 'IMAGE_NAME1 IMAGE_NAME2', got {line.strip()!r}")
-            for nm in parts:
+        for a, b in parse_pair_names(lines, source):
+            for nm in (a, b):
                 if nm not in by_name:
-                    raise InputError(f"{source} line {k}: image {nm!r} is not in the database")
-            out.add(int(self._pc.image_pair_to_pair_id(by_name[parts[0]], by_name[parts[1]])))
+                    raise InputError(f"{source}: image {nm!r} is not in the database")
+            out.add(int(self._pc.image_pair_to_pair_id(by_name[a], by_name[b])))
         return out
 
     def has_geometry(self, image_id1: int, image_id2: int) -> bool:

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..argtypes import non_negative_int, positive_int
 from ..geometry import InputError, check_intrinsics
+from ..io.pair_list import parse_pair_names
 from .choices import LIGT_NORMALIZATIONS, ROTATION_WEIGHTS, checked_sigma_deg
 
 __all__ = ["IMAGE_EXTS", "add_parsers", "cmd_sfm"]
@@ -205,18 +206,10 @@ def _pair_list(args: argparse.Namespace, images: list[Path]) -> list[tuple[int, 
     folder = Path(args.images)
     known = {p.name for p in folder.iterdir() if p.is_file() and p.suffix in IMAGE_EXTS} if folder.is_dir() else set()
     out: set[tuple[int, int]] = set()
-    for ln, line in enumerate(path.read_text(encoding="utf-8-sig", errors="replace").splitlines(), 1):
-        words = line.split("#", 1)[0].split()
-        if not words:
-            continue
-        if len(words) < 2:
-            raise InputError(f"{path}:{ln}: expected two image names, got {line.strip()!r}")
-        a, b = words[:2]
+    for a, b in parse_pair_names(path.read_text(encoding="utf-8", errors="replace").splitlines(), str(path)):
         for nm in (a, b):
             if nm not in known:  # names of the folder's images, as they are: no directories
-                raise InputError(f"{path}:{ln}: {nm!r} is not the name of an image in {folder}")
-        if a == b:
-            raise InputError(f"{path}:{ln}: an image paired with itself ({a!r})")
+                raise InputError(f"{path}: {nm!r} is not the name of an image in {folder}")
         if a in index and b in index:  # both used (not cut by --max-images)
             out.add((min(index[a], index[b]), max(index[a], index[b])))
     if not out:
