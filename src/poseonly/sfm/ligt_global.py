@@ -8,21 +8,24 @@ unchanged)::
 
 (``w`` world bearings, ``g``, ``theta``, ``l``, ``r`` of :mod:`.posegeom`). ``L`` is assembled as a
 ``scipy.sparse`` matrix with at most 27 non-zeros per row triple, so memory and time are linear in
-the observations; ``H = L^T L`` is sparse with the co-visibility pattern. Gauge: the reference view
-(most observations) has ``c = 0`` (its columns dropped); scale: the eigenvector of the smallest
-eigenvalue of the pencil ``(H, N)`` with ``N`` the expected noise part of ``H`` (Taubin's
-normalisation, :func:`build_noise_matrix`; the paper's unit norm, ``N = I``, is
-``normalization="unit"``), found by ``eigsh`` in shift-invert mode around a small negative shift
-(``H - sigma N`` is then positive definite, factorised once by SuperLU). Sign: the majority of the
-depth rows ``g^T (c_l - c_r) = d_l theta^2`` must be positive (openMVG's vote).
+the observations; ``H = L^T L`` is sparse with the co-visibility pattern, accumulated in chunks
+(:func:`_gram`). Gauge: the reference view (most observations) has ``c = 0`` (its columns dropped);
+scale: the eigenvector of the smallest eigenvalue of the pencil ``(H, N)`` with ``N`` the expected
+noise part of ``H`` (Taubin's normalisation, :func:`build_noise_matrix`; the paper's unit norm,
+``N = I``, is ``normalization="unit"``), found densely up to :data:`DENSE_MAX` unknowns, else by
+``eigsh`` in shift-invert mode around a small negative shift from a fixed start vector (``H - sigma
+N`` is then positive definite, factorised once by SuperLU). Sign: the majority of the depth rows
+``g^T (c_l - c_r) = d_l theta^2`` must be positive (openMVG's vote).
 
 What cannot constrain the solution is removed explicitly and reported: observations in views
 without a rotation, tracks left with fewer than two views, tracks whose base parallax is below
 ``min_parallax_deg`` (pure rotation / far points carry no translation), views not joined to the
 reference's component by the remaining tracks, and views whose own block of ``L^T L`` is singular
-(:func:`_weak_views`; the system is then rebuilt without them). ``info["eig_ratio"] = lambda_2 / lambda_3`` near 1
-(or ``lambda_2`` at noise level) flags a solution that is not unique (e.g. two groups of views
-sharing a single camera).
+(:func:`_weak_views`; the system is then rebuilt without them). Tracks that fix no unique solution
+raise :class:`TranslationUndetermined`: none left, fewer than two views, two views joined by one
+track, or (noise normalisation) a second eigenvalue below ``NONUNIQUE_RTOL`` of the mean, e.g. two
+groups of views joined through one camera. ``info["eig_ratio"]`` (``lambda_1 / lambda_2``) near 1
+flags a solution that noise can mix with another mode (long rings of short tracks).
 """
 
 from __future__ import annotations
