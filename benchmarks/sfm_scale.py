@@ -2,11 +2,13 @@
 graph grows (issue 15, "10k cameras and 1M observations").
 
     PYTHONPATH=src python benchmarks/sfm_scale.py [--views 1000 2000 5000 10000] [--obs-per-view 100]
-        [--outliers 0.1] [--stages rotation_averaging ligt ligt_averaged] [--normalization noise|unit]
+        [--outliers 0.1] [--stages rotation_averaging ligt ligt_averaged pipeline] [--normalization noise|unit]
         [--seed 0] [--out docs/results/sfm_scale.json]
 
 ``ligt`` runs LiGT from the true rotations (its own error), ``ligt_averaged`` from rotation averaging's
-(run before the timer: the pipeline's error).
+(run before the timer: the pipeline's error); ``pipeline`` runs the whole of
+:func:`poseonly.sfm.pipeline.run_global` (rotation averaging, tracks, LiGT, points, the filter rounds) on
+the scene's view graph (:func:`poseonly.sfm.synthetic.scene_view_graph`, built before the timer).
 
 Each (size, stage) runs in a fresh subprocess: the synthetic scene (:func:`poseonly.sfm.synthetic.make_scene`,
 ring of cameras, window 5, 0.5 px bearing noise, 0.3 deg relative-rotation noise, 10 % outlier
@@ -42,11 +44,15 @@ def _vm(key: str) -> float:
 
 def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int, normalization: str) -> dict:
     from poseonly.sfm import average_rotations, ligt_positions
-    from poseonly.sfm.synthetic import make_scene
+    from poseonly.sfm.align import evaluate_poses
+    from poseonly.sfm.pipeline import run_global
+    from poseonly.sfm.synthetic import make_scene, scene_view_graph
 
     s = make_scene(n, int(n * obs_per_view / TRACK_LENGTH_MEAN), noise_px=0.5, rotation_noise_deg=0.3, outlier_fraction=outliers, seed=seed)
     # "ligt" runs from the true rotations, "ligt_averaged" from rotation averaging's (untimed)
     R_ligt = average_rotations(n, s.pairs, s.R_rel, s.weights).rotations if stage == "ligt_averaged" else s.rotations
+    # "pipeline": run_global on the scene's view graph (built before the timer) and its bearings
+    graph = scene_view_graph(s) if stage == "pipeline" else None
     rss_before = _vm("VmRSS")
     try:
         with open("/proc/self/clear_refs", "w") as fh:
@@ -58,19 +64,22 @@ def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int, no
         ra = average_rotations(n, s.pairs, s.R_rel, s.weights)
         extra = {"outliers_found": len(ra.outlier_edges), "outliers_true": int(s.outlier.sum()), "times_s": ra.times_s}
         extra.update(sigma_deg=ra.info["sigma_deg"], irls_iterations=ra.info["irls_iterations"])
+    elif stage == "pipeline":
+        assert graph is not None
+        res = run_global(graph, lambda tr: s.bearings[tr.keypoints], s.focal)
+        extra = {"times_s": res.times_s, "points_valid": res.reconstruction.num_valid, "outliers_found": len(res.rotation.outlier_edges), "outliers_true": int(s.outlier.sum())}
     else:
         lg = ligt_positions(R_ligt, s.tracks, s.bearings, normalization=normalization)
         extra = {"normalization": normalization, "times_s": lg.times_s, "rows": lg.info["rows"], "nnz_H": lg.info["nnz_H"], "eig_ratio": lg.info["eig_ratio"]}
     dt = time.perf_counter() - t0
     if stage == "rotation_averaging":
-        from poseonly.sfm.align import evaluate_poses
-
         # the accuracy too: the mean rotation error after the rotation-only alignment (a wrong start
         # once left this graph's 10000-view ring 89 deg off in the mean, in the same time and memory)
         extra["rot_mean_deg_rotalign"] = float(evaluate_poses(ra.rotations, s.centres, s.rotations, s.centres)["rot_mean_deg_rotalign"])
+    elif stage == "pipeline":
+        ev = evaluate_poses(res.rotations, res.centres, s.rotations, s.centres)
+        extra.update(rot_mean_deg_rotalign=float(ev["rot_mean_deg_rotalign"]), pos_mean_frac=float(ev["pos_mean_frac"]), views_posed=int(ev["num_estimated"]))
     else:
-        from poseonly.sfm.align import evaluate_poses
-
         # LiGT from the true rotations: the mean position error after the similarity alignment, over the
         # largest distance of a true centre from their mean
         extent = float(np.max(np.linalg.norm(s.centres - s.centres.mean(axis=0), axis=1)))
@@ -94,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--obs-per-view", type=int, default=100)
     p.add_argument("--outliers", type=float, default=0.1)
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--stages", nargs="+", default=["rotation_averaging", "ligt"], choices=("rotation_averaging", "ligt", "ligt_averaged"))
+    p.add_argument("--stages", nargs="+", default=["rotation_averaging", "ligt"], choices=("rotation_averaging", "ligt", "ligt_averaged", "pipeline"))
     p.add_argument("--normalization", default="noise", choices=("noise", "unit"), help="LiGT's scale normalisation (ligt_positions)")
     p.add_argument("--out", default="docs/results/sfm_scale.json")
     p.add_argument("--child", nargs=2, metavar=("STAGE", "VIEWS"), help=argparse.SUPPRESS)
@@ -125,6 +134,9 @@ def main(argv: list[str] | None = None) -> int:
                 + (
                     f", rotation error {row['rot_mean_deg_rotalign']:.3f} deg, outliers {row['outliers_found']} / {row['outliers_true']}"
                     if st == "rotation_averaging"
+                    else f", {row['views_posed']} views posed, rotation error {row['rot_mean_deg_rotalign']:.3f} deg, position error "
+                    f"{100 * row['pos_mean_frac']:.2f} % of the extent, {row['points_valid']} points; stages " + ", ".join(f"{k} {v:.1f} s" for k, v in row["times_s"].items())
+                    if st == "pipeline"
                     else f", position error {100 * row['pos_mean_frac']:.2f} % of the extent, smallest / second eigenvalue {row['eig_ratio']:.3f}"
                 ),
                 flush=True,

@@ -141,13 +141,15 @@ def test_sfm_scale_runs(tmp_path: Path):
 
     out = tmp_path / "scale.json"
     script = SCRIPTS[0].parent / "sfm_scale.py"
-    cmd = [sys.executable, str(script), "--views", "60", "80", "--stages", "rotation_averaging", "ligt", "ligt_averaged", "--out", str(out)]
+    cmd = [sys.executable, str(script), "--views", "60", "80", "--stages", "rotation_averaging", "ligt", "ligt_averaged", "pipeline", "--out", str(out)]
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=False)
     assert r.returncode == 0, r.stderr[-2000:]
     rows = json.loads(out.read_text())["rows"]
-    assert [(x["stage"], x["views"]) for x in rows] == [(st, n) for n in (60, 80) for st in ("rotation_averaging", "ligt", "ligt_averaged")]
+    assert [(x["stage"], x["views"]) for x in rows] == [(st, n) for n in (60, 80) for st in ("rotation_averaging", "ligt", "ligt_averaged", "pipeline")]
     for x in rows:
         if x["stage"] == "rotation_averaging":
             assert x["outliers_found"] == x["outliers_true"] and x["rot_mean_deg_rotalign"] < 1.0
+        elif x["stage"] == "pipeline":
+            assert x["views_posed"] == x["views"] and x["pos_mean_frac"] < 0.01 and x["points_valid"] > 0
         else:
             assert x["normalization"] == "noise" and x["pos_mean_frac"] < 0.01

@@ -22,7 +22,7 @@ from poseonly.sfm.ligt_global import build_ligt_matrix, build_noise_matrix
 from poseonly.sfm.pipeline import STAGES, GlobalOptions, num_stages, run_global
 from poseonly.sfm.posegeom import base_views, world_bearings
 from poseonly.sfm.so3 import angle_deg, exp_so3
-from poseonly.sfm.synthetic import make_scene
+from poseonly.sfm.synthetic import make_scene, scene_view_graph
 from poseonly.sfm.tracks import tracks_from_arrays
 
 EXACT = 1e-8
@@ -584,21 +584,29 @@ def test_synthetic_generator_deterministic_and_consistent():
 
 
 def _graph_of_scene(s) -> ViewGraph:
-    """The view graph of a synthetic scene: one edge per co-visible pair, its relative pose and the
-    tracks' keypoint pairs as matches, weighted by their number."""
-    tr = s.tracks
-    g = ViewGraph(len(s.rotations))
-    per_pair: dict[tuple[int, int], list] = {}
-    for t in range(len(tr)):
-        v, k = tr.track(t)
-        for a in range(len(v)):
-            for b in range(a + 1, len(v)):
-                per_pair.setdefault((int(v[a]), int(v[b])), []).append((k[a], k[b]))
-    lookup = {tuple(p): k for k, p in enumerate(s.pairs.tolist())}
-    for (i, j), m in sorted(per_pair.items()):
-        k = lookup[(i, j)]
-        g.add_edge(Edge(i, j, s.R_rel[k], s.t_rel[k], np.array(m, dtype=np.int64), "ok", float(len(m))))
-    return g
+    """The view graph of a synthetic scene (poseonly.sfm.synthetic.scene_view_graph)."""
+    return scene_view_graph(s)
+
+
+def test_scene_view_graph_is_the_tracks_pairs():
+    """scene_view_graph (vectorised) against the plain loop over every track's view pairs: the same
+    edges, poses, matches in track order and weights, outlier edges included."""
+    for n, pts, seed, outliers in ((15, 1200, 12, 0.0), (40, 3000, 3, 0.2)):
+        s = make_scene(n, pts, seed=seed, outlier_fraction=outliers)
+        per_pair: dict[tuple[int, int], list] = {}
+        for t in range(len(s.tracks)):
+            v, k = s.tracks.track(t)
+            for a in range(len(v)):
+                for b in range(a + 1, len(v)):
+                    per_pair.setdefault((int(v[a]), int(v[b])), []).append((k[a], k[b]))
+        lookup = {tuple(p): k for k, p in enumerate(s.pairs.tolist())}
+        g = scene_view_graph(s)
+        assert [(e.i, e.j) for e in g.edges] == sorted(per_pair)
+        for e in g.edges:
+            k = lookup[(e.i, e.j)]
+            np.testing.assert_array_equal(e.matches, per_pair[(e.i, e.j)])
+            np.testing.assert_array_equal(e.R, s.R_rel[k])
+            assert e.weight == len(per_pair[(e.i, e.j)])
 
 
 def test_run_global_on_synthetic_view_graph_exact():
