@@ -279,3 +279,16 @@ def test_pair_lists_sequential_and_from_a_file(tmp_path):
             image_view_graph(images, K, pairs=bad)  # before the (empty) images are read
     n = 6
     assert [pair_seed(3, i, j, n) for i in range(n) for j in range(i + 1, n)] == list(range(3, 3 + n * (n - 1) // 2))
+
+
+def test_sfm_command_says_why_views_are_not_posed(tmp_path, capsys):
+    """A pair list that leaves an image out: that view gets no rotation, and the command says so."""
+    if not (SCENE / "images" / "K.txt").is_file():
+        pytest.skip("shared Strecha data not available")
+    pairs = tmp_path / "pairs.txt"
+    pairs.write_text("0000.jpg 0001.jpg\n0001.jpg 0002.jpg\n0000.jpg 0002.jpg\n")
+    out = tmp_path / "o"
+    args = ["sfm", str(SCENE / "images"), "--K", str(SCENE / "images" / "K.txt"), "--out", str(out), "--max-images", "4"]
+    assert main([*args, "--max-features", "1000", "--no-progress", "--pairs", str(pairs)]) == 0
+    text = capsys.readouterr().out
+    assert "cameras: 3/4 posed" in text and "not posed: 1 without a rotation" in text

@@ -156,6 +156,15 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     rec = res.reconstruction
     undetermined = res.info.get("translation_undetermined")
     print(f"cameras: {int(est.sum())}/{len(images)} posed; outlier edges: {len(res.rotation.outlier_edges)}; points: {rec.num_valid}/{len(res.tracks)} valid")
+    if not undetermined and est.sum() < len(images):
+        li = res.ligt.info
+        reasons = {
+            "without a rotation (no trusted pair joins them to the largest component)": int(np.sum(~res.rotation.estimated)),
+            "not joined to the solved component by usable tracks": _count(li, "views_disconnected"),
+            "whose tracks do not fix their centre": _count(li, "views_weak"),
+        }
+        reasons["without usable tracks"] = len(images) - int(est.sum()) - sum(reasons.values())
+        print("not posed: " + ", ".join(f"{k} {why}" for why, k in reasons.items() if k > 0))
     print("stages: " + ", ".join(f"{k} {v:.2f} s" for k, v in res.times_s.items()))
     poses: dict[str, Any] = {"convention": "X_cam = R (X_world - c)", "status": "translation_undetermined" if undetermined else "ok", "images": []}
     for k, p in enumerate(images):
@@ -186,6 +195,12 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         print(f"COLMAP model: {out / 'sparse' / '0'} ({model.num_reg_images()} images, {model.num_points3D()} points)")
     print(f"total {time.perf_counter() - t0:.1f} s; outputs in {out}")
     return 0
+
+
+def _count(info: dict[str, object], key: str) -> int:
+    """A count of a stage's ``info`` (0 when absent)."""
+    v = info.get(key, 0)
+    return int(v) if isinstance(v, (int, np.integer)) else 0
 
 
 def _pair_list(args: argparse.Namespace, images: list[Path]) -> list[tuple[int, int]] | None:
