@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ._fileutil import atomic_savez, clean_stale_temps
+from ._fileutil import atomic_savez, sweep_stale_temps
 from .geometry import InputError, as_real_array, check_intrinsics, essential_from_pose
 
 __all__ = [
@@ -228,11 +228,7 @@ def _read_cache(f: Path) -> Features | None:
 
 def clean_cache(cache_dir: str | os.PathLike) -> int:
     """Remove temp files that killed cache writes left in ``cache_dir``; returns how many."""
-    d = Path(cache_dir)
-    if not d.is_dir():
-        return 0
-    names = {f.name.split(".")[1] for f in d.iterdir() if f.name.startswith(".sift_") and f.name.count(".") >= 2}
-    return sum(clean_stale_temps(d / (n + ".npz")) for n in names)
+    return sweep_stale_temps(cache_dir)
 
 
 def extract_features(
@@ -260,7 +256,6 @@ def extract_features(
         if not path.is_file():
             raise InputError(f"image file not found: {path}")
         cache = _cache_file(path, max_features, Path(cache_dir))
-        clean_cache(cache_dir)
         hit = _read_cache(cache)
         if hit is not None:
             return hit

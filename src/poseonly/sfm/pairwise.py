@@ -14,17 +14,18 @@ from __future__ import annotations
 
 import hashlib
 import os
-import tempfile
+import threading
 import time
+from collections import OrderedDict
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .. import __version__
-from .._fileutil import publish
+from .._fileutil import atomic_savez
 from ..api import estimate_relative_pose
 from ..features import Features, extract_features, match_features, match_noise_scales
 from ..geometry import InputError, bearings_from_normalized, bearings_from_pixels
@@ -35,6 +36,9 @@ from .viewgraph import ViewGraph
 __all__ = ["ImageGraph", "PairwiseOptions", "TwoView", "image_view_graph", "map_ordered", "observation_bearings", "pair_seed", "parse_estimator_options", "two_view"]
 
 MIN_PUTATIVE = 30
+# images whose descriptors image_view_graph keeps in memory at once when it has a feature cache to read
+# them back from (4 MB an image at 8000 SIFT features: 1 GB); beyond it the least recently used are dropped
+RESIDENT_IMAGES = 256
 # part of the two-view cache key with the package version: bump when the default estimator's results
 # change between versions (2: the core-era default at its own threshold, with match scores; 3: its
 # cheirality-aware search; 4: the Student-t ML stage; 5: the keypoints' sizes as noise scales; 6: their
@@ -107,7 +111,10 @@ def parse_estimator_options(items: Sequence[str] | None) -> tuple[tuple[str, Any
 class ImageGraph:
     """``features`` per image, the :class:`ViewGraph` and per-stage ``times_s``; ``K`` per image
     ``(N, 3, 3)``; ``pair_stats`` ``(i, j, putative, inliers, status)``; ``putative[(i, j)]`` the
-    ``(k, 2)`` putative keypoint matches of every pair that was matched."""
+    ``(k, 2)`` putative keypoint matches of every pair that was matched. From
+    :func:`image_view_graph`, ``features`` hold keypoints, sizes and image sizes with ``(0, 128)``
+    descriptors (released after matching), and ``peak_resident_images`` is the most images whose
+    descriptors were in memory at once."""
 
     features: list[Features]
     K: np.ndarray
@@ -116,6 +123,7 @@ class ImageGraph:
     times_s: dict[str, float] = field(default_factory=dict)
     putative: dict[tuple[int, int], np.ndarray] = field(default_factory=dict)
     normalized: list[np.ndarray] | None = None
+    peak_resident_images: int = 0
 
     def bearings(self, tracks: Tracks) -> np.ndarray:
         """Unit camera-frame bearings ``(M, 3)`` of the tracks' observations (from the undistorted
@@ -123,18 +131,70 @@ class ImageGraph:
         return observation_bearings(tracks, self.features, self.K, self.normalized)
 
 
-def _atomic_save(path: Path, **arrays: np.ndarray) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz.tmp")
-    os.close(fd)
-    try:
-        with open(tmp, "wb") as fh:
-            np.savez(fh, **arrays)  # type: ignore[arg-type]
-        publish(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+class _FeaturePool:
+    """Each image's :class:`Features`, extracted (or read from the feature cache) on first use.
+
+    Descriptors (512 bytes a SIFT feature, 4 MB an image at 8000) are needed only to match, so an
+    image holds them only while it has pairs left: after its last pair they are released, and with a
+    feature cache at most ``resident`` images hold them at once (the least recently used are dropped
+    and read back from the cache when needed again; without a cache, reading back would mean
+    extracting again, so only the release after the last pair applies). :attr:`features` keep the
+    keypoints, sizes and image sizes of every image, with ``(0, 128)`` descriptors. Thread-safe; an
+    image is extracted by one thread at a time, and the features never depend on the order of the
+    calls (SIFT and the cache are deterministic). ``peak_resident`` is the most images that held
+    descriptors at once; ``extract_s`` the summed time spent extracting or reading features."""
+
+    def __init__(self, images: Sequence[str | os.PathLike], max_features: int | None, cache: Path | None, uses: np.ndarray, resident: int) -> None:
+        self._images = list(images)
+        self._max_features = max_features
+        self._cache = cache
+        self._left = np.array(uses, dtype=np.int64)
+        self._resident = int(resident) if cache is not None else len(self._images)
+        self._lock = threading.Lock()
+        self._image_locks = [threading.Lock() for _ in self._images]
+        self._base: list[Features | None] = [None] * len(self._images)
+        self._digests: list[str] = [""] * len(self._images)
+        self._desc: OrderedDict[int, np.ndarray] = OrderedDict()
+        self.peak_resident = 0
+        self.extract_s = 0.0
+
+    def get(self, i: int) -> tuple[Features, str]:
+        """Image ``i``'s features with their descriptors, and its content digest (the match cache's key)."""
+        with self._image_locks[i]:
+            with self._lock:
+                base, desc = self._base[i], self._desc.get(i)
+                if base is not None and desc is not None:
+                    self._desc.move_to_end(i)
+                    return replace(base, descriptors=desc), self._digests[i]
+            t0 = time.perf_counter()
+            f = extract_features(self._images[i], max_features=self._max_features, cache_dir=self._cache)
+            with self._lock:
+                self.extract_s += time.perf_counter() - t0
+                if self._base[i] is None:
+                    self._base[i] = replace(f, descriptors=np.zeros((0, f.descriptors.shape[1]), np.float32))
+                    self._digests[i] = _digest(f)
+                if self._left[i] > 0:
+                    self._desc[i] = f.descriptors
+                    while len(self._desc) > self._resident:
+                        self._desc.popitem(last=False)
+                    self.peak_resident = max(self.peak_resident, len(self._desc))
+            return f, self._digests[i]
+
+    def done(self, i: int) -> None:
+        """One of image ``i``'s pairs is matched; after its last, its descriptors are released."""
+        with self._lock:
+            self._left[i] -= 1
+            if self._left[i] <= 0:
+                self._desc.pop(i, None)
+
+    def base(self, i: int) -> Features:
+        """Image ``i``'s keypoints, sizes and image size (descriptors released); extracted if no pair
+        has needed it yet."""
+        if self._base[i] is None:
+            self.get(i)
+        out = self._base[i]
+        assert out is not None
+        return out
 
 
 def _digest(f: Features) -> str:
@@ -172,13 +232,13 @@ def _matches(fa: Features, fb: Features, da: str, db: str, opt: PairwiseOptions,
                     scores = z["scores"] if "scores" in z.files else None
                 if scores is None:
                     scores = _ratio_scores(fa, fb, idx)
-                    _atomic_save(f, idx=idx, scores=scores)
+                    atomic_savez(f, idx=idx, scores=scores)
                 return idx, scores
             except Exception:  # noqa: BLE001, S110 - unreadable cache entry: recompute
                 pass
     idx, scores = match_features(fa.descriptors, fb.descriptors, ratio=opt.ratio, mutual=opt.mutual, return_scores=True)
     if f is not None:
-        _atomic_save(f, idx=idx, scores=scores)
+        atomic_savez(f, idx=idx, scores=scores)
     return idx, scores
 
 
@@ -234,7 +294,7 @@ def two_view(
     r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, seed=seed, scores=scores, noise_scales=noise_scales, **dict(opt.estimator_options), **extra)
     out = TwoView(np.asarray(r.R), np.asarray(r.t), np.asarray(r.inliers, dtype=bool), int(r.num_inliers), str(r.status))
     if f is not None:
-        _atomic_save(f, R=out.R, t=out.t, inliers=out.inliers, num_inliers=np.array(out.num_inliers), status=np.array(out.status))
+        atomic_savez(f, R=out.R, t=out.t, inliers=out.inliers, num_inliers=np.array(out.num_inliers), status=np.array(out.status))
     return out
 
 
@@ -291,12 +351,22 @@ def image_view_graph(
     pairs: Sequence[tuple[int, int]] | None = None,
     progress: Callable | None = None,
     jobs: int = 1,
+    resident_images: int = RESIDENT_IMAGES,
 ) -> ImageGraph:
     """Features of ``images``, matches and two-view poses of ``pairs`` (default: all ``i < j``),
     as an :class:`ImageGraph`. ``K`` is ``(3, 3)`` shared or ``(N, 3, 3)`` per image; ``progress``
     wraps an iterable (e.g. tqdm); ``jobs`` threads (:func:`map_ordered`; the same graph for any
-    number). ``times_s``: ``features`` is the stage's wall time, ``matching`` and ``two_view`` the
-    summed per-pair times (with threads, more than their wall time)."""
+    number). ``times_s``: ``features``, ``matching`` and ``two_view`` are the summed per-image and
+    per-pair times (with threads, more than their wall time).
+
+    Features are extracted as the pairs need them, and an image's descriptors are held only until its
+    last pair is matched; with ``cache_dir`` at most ``resident_images`` images hold them at once (the
+    least recently used are read back from the feature cache when needed again). So a sequential or
+    windowed pair list holds a window's descriptors, and any pair list at most ``resident_images``
+    images' (4 MB each at 8000 features); the returned features keep keypoints and sizes, with
+    ``(0, 128)`` descriptors (:class:`ImageGraph`)."""
+    if isinstance(resident_images, bool) or not isinstance(resident_images, (int, np.integer)) or resident_images < 2:
+        raise InputError(f"resident_images must be an int >= 2 (the two images of a pair), got {resident_images!r}")
     opt = options or PairwiseOptions()
     n = len(images)
     if n < 2:
@@ -315,21 +385,25 @@ def image_view_graph(
     wrap = progress or (lambda it, **_: it)
     cache = Path(cache_dir) if cache_dir is not None else None
     times: dict[str, float] = {}
-    t0 = time.perf_counter()
-    fcache = None if cache is None else cache / "features"
-    feats = list(wrap(map_ordered(lambda p: extract_features(p, max_features=opt.max_features, cache_dir=fcache), list(images), jobs), desc="features", total=n))
-    digests = [_digest(f) for f in feats]
-    times["features"] = time.perf_counter() - t0
+    uses = np.bincount(np.asarray(plist, dtype=np.int64).ravel(), minlength=n)
+    pool = _FeaturePool(images, opt.max_features, None if cache is None else cache / "features", uses, resident_images)
 
     def pair_job(kij: tuple[int, tuple[int, int]]) -> tuple[np.ndarray, TwoView | None, float, float]:
         k, (i, j) = kij
-        t1 = time.perf_counter()
-        idx, scores = _matches(feats[i], feats[j], digests[i], digests[j], opt, cache)
-        t2 = time.perf_counter()
+        try:
+            (fa, da), (fb, db) = pool.get(i), pool.get(j)
+            t1 = time.perf_counter()
+            idx, scores = _matches(fa, fb, da, db, opt, cache)
+            t2 = time.perf_counter()
+        finally:
+            pool.done(i)
+            pool.done(j)
+        del fa, fb  # the descriptors: the pool may release them now
         if len(idx) < opt.min_matches:
             return idx, None, t2 - t1, 0.0
-        ns = match_noise_scales(feats[i], feats[j], idx)
-        r = two_view(feats[i].keypoints[idx[:, 0]], feats[j].keypoints[idx[:, 1]], Ks[i], Ks[j], opt, pair_seed(opt.seed, i, j, n), cache, scores=scores, noise_scales=ns)
+        ba, bb = pool.base(i), pool.base(j)
+        ns = match_noise_scales(ba, bb, idx)
+        r = two_view(ba.keypoints[idx[:, 0]], bb.keypoints[idx[:, 1]], Ks[i], Ks[j], opt, pair_seed(opt.seed, i, j, n), cache, scores=scores, noise_scales=ns)
         return idx, r, t2 - t1, time.perf_counter() - t2
 
     graph = ViewGraph(n)
@@ -347,9 +421,14 @@ def image_view_graph(
             continue
         graph.add_result(i, j, r, idx)
         stats.append((i, j, len(idx), int(r.num_inliers), r.status))
+    unpaired = [i for i in range(n) if uses[i] == 0]
+    for _ in wrap(map_ordered(pool.base, unpaired, jobs), desc="features", total=len(unpaired)) if unpaired else ():
+        pass
+    times["features"] = pool.extract_s
     times["matching"] = tm
     times["two_view"] = te
-    return ImageGraph(feats, Ks, graph, stats, times, putative)
+    feats = [pool.base(i) for i in range(n)]
+    return ImageGraph(feats, Ks, graph, stats, times, putative, peak_resident_images=pool.peak_resident)
 
 
 def observation_bearings(tracks: Tracks, features: Sequence[Features], K: np.ndarray, normalized: Sequence[np.ndarray] | None = None) -> np.ndarray:
