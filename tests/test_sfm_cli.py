@@ -92,6 +92,11 @@ def test_sfm_command_bad_input(tmp_path, capsys):
     # the database's matches decide its pairs: --pairs / --sequential are refused there, not ignored
     assert main(["sfm", str(img), "--database", str(tmp_path / "x.db"), "--out", str(tmp_path / "o"), "--sequential", "1"]) == 2
     assert "with --database" in capsys.readouterr().err
+    assert main(["sfm", str(img), "--database", str(tmp_path / "x.db"), "--out", str(tmp_path / "o"), "--resident-images", "8"]) == 2
+    assert "with --database" in capsys.readouterr().err
+    # a pair's two images must fit (before any image is read: these are empty files)
+    assert main(["sfm", str(img), "--K", str(tmp_path / "K.txt"), "--out", str(tmp_path / "o"), "--resident-images", "1"]) == 2
+    assert "resident_images must be an int >= 2" in capsys.readouterr().err
 
 
 def test_sfm_command_from_colmap_database(tmp_path):

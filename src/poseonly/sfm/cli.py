@@ -120,6 +120,8 @@ def cmd_sfm(args: argparse.Namespace) -> int:
 
         if args.pairs is not None or args.sequential is not None:
             raise InputError("--pairs and --sequential choose the pairs to match; with --database the database's matches decide")
+        if args.resident_images is not None:
+            raise InputError("--resident-images bounds the memory of our features; with --database no descriptors are read")
 
         ig, names = database_view_graph(args.database, options=opt, cache_dir=cache, progress=prog, jobs=args.jobs)
         images = [d / nm for nm in names]
@@ -139,7 +141,8 @@ def cmd_sfm(args: argparse.Namespace) -> int:
             raise InputError(f"{d} gives {len(images)} images{used}; global SfM needs at least 3")
         K = _read_K(args.K)
         pairs = _pair_list(args, images)
-        ig = image_view_graph(images, K, options=opt, cache_dir=cache, pairs=pairs, progress=prog, jobs=args.jobs)
+        resident = {} if args.resident_images is None else {"resident_images": args.resident_images}
+        ig = image_view_graph(images, K, options=opt, cache_dir=cache, pairs=pairs, progress=prog, jobs=args.jobs, **resident)
     print(
         f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
         f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
@@ -279,6 +282,13 @@ def add_parsers(sub: Any, esub: Any) -> None:
     )
     s.add_argument("--pairs", metavar="FILE", help="match only these pairs: one pair of image names per line (COLMAP's / hloc's pair lists); default all pairs")
     s.add_argument("--sequential", type=positive_int, metavar="N", help="match each image with its next N (in name order; video); default all pairs")
+    s.add_argument(
+        "--resident-images",
+        type=positive_int,
+        default=None,
+        metavar="N",
+        help="keep the descriptors of at most N images in memory (4 MB each at 8000 features), reading them back from the cache when needed (default 256)",
+    )
     s.add_argument(
         "--ligt-normalization",
         choices=LIGT_NORMALIZATIONS,
