@@ -283,3 +283,41 @@ def test_match_features_scores_are_one_minus_ratio():
     idx, sc = match_features(d1, d2, return_scores=True)
     assert len(idx) == len(sc) > 0 and np.all((sc > 0.2) & (sc <= 1.0))
     np.testing.assert_array_equal(idx, match_features(d1, d2))
+
+
+def test_match_features_agree_with_opencv_batchdistance(demo, monkeypatch) -> None:
+    """The blocked matrix-product matcher against the OpenCV reference it replaced: the same matches
+    (up to float32 ties) and scores, with blocks smaller than the sets (the mutual check spans blocks)."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from reference.ratio_matching import match_features_batchdistance
+
+    f1 = extract_features(demo.image1, max_features=3000)
+    f2 = extract_features(demo.image2, max_features=3000)
+    for block in (feat.MATCH_BLOCK_ROWS, 97):
+        monkeypatch.setattr(feat, "MATCH_BLOCK_ROWS", block)
+        for mutual in (False, True):
+            idx, sc = match_features(f1.descriptors, f2.descriptors, ratio=0.8, mutual=mutual, return_scores=True)
+            ref, rsc = match_features_batchdistance(f1.descriptors, f2.descriptors, ratio=0.8, mutual=mutual)
+            assert len(idx) > 300
+            both = set(map(tuple, idx)) & set(map(tuple, ref))
+            assert len(both) >= max(len(idx), len(ref)) - 2, (block, mutual)
+            common = np.array(sorted(both))
+            a = sc[np.searchsorted(idx[:, 0], common[:, 0])]
+            b = rsc[np.searchsorted(ref[:, 0], common[:, 0])]
+            np.testing.assert_allclose(a, b, atol=1e-5)
+
+
+def test_match_features_huge_and_tiny_descriptors_match_as_scaled() -> None:
+    """Descriptors whose squares leave float32's range are scaled first: the same matches and scores
+    as the unit-scale set (no overflow to inf or underflow to 0)."""
+    rng = np.random.default_rng(7)
+    d2 = rng.random((60, 128)).astype(np.float32)
+    d1 = d2[:25] + 0.02 * rng.random((25, 128)).astype(np.float32)
+    idx, sc = match_features(d1, d2, mutual=True, return_scores=True)
+    assert len(idx) == 25
+    for s in (1e25, 1e-25):
+        i2, s2 = match_features(d1 * np.float32(s), d2 * np.float32(s), mutual=True, return_scores=True)
+        np.testing.assert_array_equal(i2, idx)
+        np.testing.assert_allclose(s2, sc, atol=1e-6)

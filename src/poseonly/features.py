@@ -45,6 +45,10 @@ __all__ = [
 ]
 
 _CACHE_VERSION = 2  # 2: keypoint sizes cached
+# rows of the first descriptor set per block of the distance matrix (1024 x m2 float32: 32 MB at 8000)
+MATCH_BLOCK_ROWS = 1024
+# descriptor magnitudes whose squared distances float32 holds; sets beyond are scaled (nothing else changes)
+DESCRIPTOR_RANGE = (1e-15, 1e15)
 
 
 def _cv2() -> Any:
@@ -288,9 +292,9 @@ def match_features(d1: np.ndarray, d2: np.ndarray, ratio: float = 0.8, mutual: b
     (and with ``return_scores`` also their quality ``1 - dist1 / dist2`` ``(k,)``, higher is better:
     the PROSAC order of :func:`poseonly.estimate_relative_pose`).
 
-    Brute-force L2 two-nearest-neighbour search (``cv2.batchDistance``, the kernel of
-    ``cv2.BFMatcher``, returning arrays); a match is kept when ``dist1 < ratio * dist2``. With
-    ``mutual`` the match must also be the nearest neighbour in the reverse direction.
+    Brute-force L2 two-nearest-neighbour search (blocked float32 matrix products,
+    :func:`_nearest_neighbours`; no OpenCV needed); a match is kept when ``dist1 < ratio * dist2``.
+    With ``mutual`` the match must also be the nearest neighbour in the reverse direction.
     """
     if not (0.0 < float(ratio) <= 1.0):
         raise InputError(f"ratio must be in (0, 1], got {ratio}")
@@ -301,20 +305,68 @@ def match_features(d1: np.ndarray, d2: np.ndarray, ratio: float = 0.8, mutual: b
     empty = np.zeros((0, 2), dtype=np.int64)
     if len(d1) == 0 or len(d2) < 2:  # the ratio test needs a second neighbour
         return (empty, np.zeros(0)) if return_scores else empty
-    cv2 = _cv2()
-    dist, nn = cv2.batchDistance(d1, d2, cv2.CV_32F, normType=cv2.NORM_L2, K=2)
+    big = max(float(np.abs(d1).max(initial=0.0)), float(np.abs(d2).max(initial=0.0)))
+    if big > DESCRIPTOR_RANGE[1] or 0.0 < big < DESCRIPTOR_RANGE[0]:  # keep the squares within float32
+        d1, d2 = d1 / np.float32(big), d2 / np.float32(big)
+    nn, back = _nearest_neighbours(d1, d2, mutual)
+    rows = np.arange(len(d1))
+    dist = np.stack([_l2(d1, d2[nn[:, 0]]), _l2(d1, d2[nn[:, 1]])], axis=1)
     keep = dist[:, 0] < float(ratio) * dist[:, 1]
-    i1 = np.flatnonzero(keep)
-    i2 = nn[keep, 0].astype(np.int64)
+    i1 = rows[keep]
+    i2 = nn[keep, 0]
     if mutual and len(i1):
-        _, back = cv2.batchDistance(d2, d1, cv2.CV_32F, normType=cv2.NORM_L2, K=1)
-        ok = back[i2, 0] == i1
+        assert back is not None
+        ok = back[i2] == i1
         i1, i2 = i1[ok], i2[ok]
     idx = np.stack([i1, i2], axis=1).astype(np.int64) if len(i1) else empty
     if not return_scores:
         return idx
-    d = dist[i1].astype(float)
+    d = dist[i1]
     return idx, 1.0 - d[:, 0] / np.maximum(d[:, 1], 1e-300)
+
+
+def _l2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise Euclidean distances ``(m,)`` of ``a, b (m, D)``, accumulated in float64."""
+    diff = a.astype(np.float64) - b
+    return np.sqrt(np.einsum("ij,ij->i", diff, diff))
+
+
+def _nearest_neighbours(d1: np.ndarray, d2: np.ndarray, mutual: bool) -> tuple[np.ndarray, np.ndarray | None]:
+    """The nearest and second-nearest rows of ``d2 (m2, D)`` for each row of ``d1 (m1, D)``,
+    ``(m1, 2)`` indices, and with ``mutual`` the nearest row of ``d1`` for each row of ``d2``
+    ``(m2,)`` (else None); ``m2 >= 2``.
+
+    The squared distances ``|a|^2 + |b|^2 - 2 a.b`` come from one float32 matrix product per block of
+    :data:`MATCH_BLOCK_ROWS` rows (BLAS; the whole ``m1 x m2`` matrix is never held), and both
+    directions from the same blocks: 5-7x faster than OpenCV's ``batchDistance`` run both ways
+    (0.06 against 0.31 s for 3798 x 4403 SIFT descriptors; ``benchmarks/match_speed.py``). The
+    expansion's rounding (~1e-7 of |a|^2) can only swap neighbours whose distances tie to that
+    precision; the ratio test then uses their distances recomputed in float64 (:func:`_l2`)."""
+    m1, m2 = len(d1), len(d2)
+    sq2 = np.einsum("ij,ij->i", d2, d2)
+    d2t = np.ascontiguousarray(d2.T)
+    nn = np.empty((m1, 2), dtype=np.int64)
+    back_d = np.full(m2, np.inf, dtype=np.float32)
+    back = np.zeros(m2, dtype=np.int64)
+    cols = np.arange(m2)
+    for s in range(0, m1, MATCH_BLOCK_ROWS):
+        a = d1[s : s + MATCH_BLOCK_ROWS]
+        r = np.arange(len(a))
+        D = a @ d2t
+        D *= -2.0
+        D += sq2[None, :]
+        D += np.einsum("ij,ij->i", a, a)[:, None]
+        if mutual:
+            bi = D.argmin(axis=0)
+            bd = D[bi, cols]
+            better = bd < back_d
+            back_d[better] = bd[better]
+            back[better] = bi[better] + s
+        first = D.argmin(axis=1)
+        nn[s : s + len(a), 0] = first
+        D[r, first] = np.inf
+        nn[s : s + len(a), 1] = D.argmin(axis=1)
+    return nn, (back if mutual else None)
 
 
 def match_images(

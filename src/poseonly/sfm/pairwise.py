@@ -54,6 +54,9 @@ RESIDENT_IMAGES = 256
 # matches just outside its band; 26: the status uncertain, the pure-rotation precision test at noise up to the
 # threshold; 27: its noise check)
 TWO_VIEW_CACHE_TAG = 27
+# part of the match cache key: bump when match_features's results can change (2: the blocked matrix
+# products, which may swap neighbours that tie to float32 precision)
+MATCHER_TAG = 2
 
 
 @dataclass(frozen=True)
@@ -204,36 +207,17 @@ def _digest(f: Features) -> str:
     return h.hexdigest()
 
 
-def _ratio_scores(fa: Features, fb: Features, idx: np.ndarray) -> np.ndarray:
-    """The ratio-test quality ``1 - d1 / d2`` of the matches ``idx (k, 2)`` (their nearest and
-    second-nearest descriptor distances; what :func:`match_features` returns with ``return_scores``)."""
-    if len(idx) == 0 or len(fb.descriptors) < 2:
-        return np.zeros(len(idx))
-    import cv2
-
-    dist, _ = cv2.batchDistance(
-        np.ascontiguousarray(fa.descriptors[idx[:, 0]], dtype=np.float32), np.ascontiguousarray(fb.descriptors, dtype=np.float32), cv2.CV_32F, normType=cv2.NORM_L2, K=2
-    )
-    d = dist.astype(float)
-    return 1.0 - d[:, 0] / np.maximum(d[:, 1], 1e-300)
-
-
 def _matches(fa: Features, fb: Features, da: str, db: str, opt: PairwiseOptions, cache: Path | None) -> tuple[np.ndarray, np.ndarray]:
-    """Putative matches ``(k, 2)`` and their ratio-test scores ``(k,)`` (cached; entries written
-    before the scores were stored get them from the descriptors)."""
+    """Putative matches ``(k, 2)`` and their ratio-test scores ``(k,)`` (cached by the two images'
+    feature digests, the matching options and :data:`MATCHER_TAG`)."""
     f = None
     if cache is not None:
-        key = f"{da}-{db}-{opt.ratio}-{int(opt.mutual)}".encode()
+        key = f"{da}-{db}-{opt.ratio}-{int(opt.mutual)}-{MATCHER_TAG}".encode()
         f = cache / "matches" / f"m_{hashlib.sha1(key).hexdigest()[:24]}.npz"
         if f.is_file():
             try:
                 with np.load(f) as z:
-                    idx = z["idx"]
-                    scores = z["scores"] if "scores" in z.files else None
-                if scores is None:
-                    scores = _ratio_scores(fa, fb, idx)
-                    atomic_savez(f, idx=idx, scores=scores)
-                return idx, scores
+                    return z["idx"], z["scores"]
             except Exception:  # noqa: BLE001, S110 - unreadable cache entry: recompute
                 pass
     idx, scores = match_features(fa.descriptors, fb.descriptors, ratio=opt.ratio, mutual=opt.mutual, return_scores=True)
