@@ -113,7 +113,8 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
                          int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order,
                          int lo, double rival_distance, bool chiral, int min_hits, int challengers, double challenger_distance,
                          int lo_max_points, bool keypoint_once, bool progressive_stop, double floor_parallax,
-                         int min_iterations_parallax, bool progressive_expected, int progressive_min_draws, int prosac_trials) {
+                         int min_iterations_parallax, bool progressive_expected, int progressive_min_draws, int prosac_trials,
+                         double min_inlier_ratio) {
   const Points P = points_of(f1, f2);
   if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
   if (min_hits < 1 || min_hits > 64) throw std::invalid_argument("min_hits must be in [1, 64]");
@@ -131,6 +132,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   ro.progressive_min_draws = progressive_min_draws;
   if (prosac_trials < 0) throw std::invalid_argument("prosac_trials must be >= 0");
   ro.prosac_trials = prosac_trials;
+  ro.min_inlier_ratio = checked_min_inlier_ratio(min_inlier_ratio);
   if (!(floor_parallax >= 0.0 && floor_parallax <= 3.141592653589793)) throw std::invalid_argument("floor_parallax must be in [0, pi] radians");
   if (min_iterations_parallax < 0) throw std::invalid_argument("min_iterations_parallax must be >= 0");
   ro.floor_parallax = floor_parallax;
@@ -448,6 +450,7 @@ POSEONLY_BIND(robust) {
         nb::arg("challengers") = 0, nb::arg("challenger_distance") = 1.0, nb::arg("lo_max_points") = 0, nb::arg("keypoint_once") = false,
         nb::arg("progressive_stop") = false, nb::arg("floor_parallax") = 0.0, nb::arg("min_iterations_parallax") = 0,
         nb::arg("progressive_expected") = false, nb::arg("progressive_min_draws") = 0, nb::arg("prosac_trials") = 0,
+        nb::arg("min_inlier_ratio") = 0.0,
         "LO-RANSAC of minimal hypotheses (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
         "Sampson error against `threshold` (radians); scoring 0 msac, 1 multi-scale msac, 2 count; `order` "
         "(a permutation, best match first) switches to PROSAC; lo 0: LiRP GNC-IRLS, 1: Sampson LM; chiral: a match "
@@ -458,7 +461,8 @@ POSEONLY_BIND(robust) {
         "of the matches that share a keypoint (identical bearings) only the best correspondence scores and is an inlier (conflicts.h; "
         "keypoint_groups in stats); progressive_stop (with order): also stop by PROSAC's rule (ransac.h progressive_needed; not before progressive_min_draws draws), or with progressive_expected where the "
         "expected all-inlier draws of the sampler's schedule reach the confidence (ransac.h expected_needed); floor_parallax > 0 (radians): while the best model's "
-        "inliers have a median parallax of at least that, the sample floor is min(min_iterations, min_iterations_parallax). Returns (R, t, stats).");
+        "inliers have a median parallax of at least that, the sample floor is min(min_iterations, min_iterations_parallax); min_inlier_ratio > 0: "
+        "adaptive stopping assumes at least that inlier share (the search ends once a model with that much support would have been drawn). Returns (R, t, stats).");
   m.def("search_cost", &search_cost, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"), nb::arg("scoring") = 1,
         nb::arg("keypoint_once") = true,
         "The cheirality-aware search objective at one pose (scoring 0 msac, 1 multi-scale msac, 2 count; keypoint_once: "

@@ -54,6 +54,7 @@ def ransac_relpose(
     progressive_expected: bool = False,
     progressive_min_draws: int = 0,
     prosac_trials: int = 0,
+    min_inlier_ratio: float = 0.0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def search_cost(
     R: NDArray[np.float64],

@@ -227,6 +227,14 @@ class PoseonlyOptions(CommonOptions):
     min_iterations_parallax: int = _opt(100, "int", "the sample floor for a best model with parallax (see floor_parallax_deg)", lo=0)
     confidence: float = _opt(0.9999, "real", lo=0.0, hi=1.0, lo_open=True, hi_open=True)
     min_hits: int = _opt(1, "int", "adaptive stopping waits for this many all-inlier samples at `confidence`", lo=1, hi=64)
+    stop_at_min_inliers: bool = _opt(
+        True,
+        "bool",
+        "the stopping rule assumes at least min_inliers inliers: the search ends once a model with min_inliers inliers would have"
+        " been drawn at `confidence`, since a pose with less support is too_few_inliers whatever the search finds (it shortens"
+        " searches on small match sets without such a model, e.g. pairs that do not overlap; with a model that has min_inliers"
+        " inliers the rule is unchanged once one such model is found)",
+    )
     consistency: str = _opt(
         "fallback",
         "str",

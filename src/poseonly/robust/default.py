@@ -186,6 +186,7 @@ def _search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scor
         progressive_rule=o.consistency_rule if consistent else o.progressive_rule,
         progressive_min_draws=o.consistency_min_draws if consistent else 0,
         prosac_trials=o.max_iterations,
+        min_inlier_ratio=min(1.0, o.min_inliers / len(f1)) if o.stop_at_min_inliers else 0.0,
     )
 
 

@@ -110,6 +110,7 @@ def ransac_relpose(
     progressive_rule: str = "prosac",
     progressive_min_draws: int = 0,
     prosac_trials: int = 0,
+    min_inlier_ratio: float = 0.0,
 ) -> RansacResult:
     """LO-RANSAC on bearings ``f1, f2 (n, 3)`` with the Sampson error against ``threshold`` (radians).
 
@@ -152,6 +153,9 @@ def ransac_relpose(
     draws as the whole would). ``floor_parallax_deg > 0``: while the best model's
     inliers have a median parallax (angle between ``R f1`` and ``f2``) of at least that, the sample
     floor is ``min(min_iterations, min_iterations_parallax)`` instead of ``min_iterations``.
+    ``min_inlier_ratio`` in ``[0, 1]``: the classical rule assumes at least that inlier share, so the
+    search ends once a model supported by that share would have been drawn at ``confidence`` (a caller
+    that refuses models with less support need not search longer for them).
     """
     if lo not in _LO:
         raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(_LO)}")
@@ -192,6 +196,7 @@ def ransac_relpose(
         progressive_rule == "expected",
         int(progressive_min_draws),
         int(prosac_trials),
+        float(min_inlier_ratio),
     )
     v = get_residual("sampson")(R, t, f1, f2)
     return RansacResult(
