@@ -29,9 +29,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cache", default="/tmp/match_speed_cache")
     a = ap.parse_args(argv)
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-    from reference.ratio_matching import match_features_batchdistance
-
     from poseonly.features import extract_features, match_features
+    from reference.ratio_matching import match_features_batchdistance
 
     scenes = [sorted((Path(d) / "images").glob("*.jpg")) for d in a.dirs]
     feats = {p: extract_features(p, max_features=a.max_features, cache_dir=a.cache) for ims in scenes for p in ims}
@@ -46,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     for k, (kind, p, q) in enumerate(pairs):
         d1, d2 = feats[p].descriptors, feats[q].descriptors
         runs = {}
-        for name in (("new", "ref") if k % 2 == 0 else ("ref", "new")):
+        for name in ("new", "ref") if k % 2 == 0 else ("ref", "new"):
             t0 = time.perf_counter()
             if name == "new":
                 runs[name] = match_features(d1, d2, ratio=0.8, mutual=True, return_scores=True)
@@ -62,7 +61,8 @@ def main(argv: list[str] | None = None) -> int:
             b_ = s_ref[np.searchsorted(i_ref[:, 0], common[:, 0])]
             dmax = float(np.max(np.abs(a_ - b_)))
         rows.setdefault(kind, []).append((t_new, t_ref, len(sr), len(sn - sr), len(sr - sn), dmax))
-    print(f"| pairs ({a.max_features} features max) | n | median features | match_features s | batchDistance both ways s | ratio | matches (ref) | only new | only ref | max score diff |")
+    head = ["median features", "match_features s", "batchDistance both ways s", "ratio", "matches (ref)", "only new", "only ref", "max score diff"]
+    print(f"| pairs ({a.max_features} features max) | n | " + " | ".join(head) + " |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     nf = int(np.median([len(f.descriptors) for f in feats.values()]))
     for kind, r in rows.items():
