@@ -6,7 +6,7 @@ target (``os.replace``, atomic on POSIX). A process killed mid-write leaves its 
 process's first write into a directory removes the temp files there of processes that no longer run
 (and legacy ``.NAME.*.tmp`` files older than an hour), so killed runs do not accumulate hidden files.
 The sweep lists the directory once per process, not once per write: a cache of 100000 entries costs
-one listing, where a listing per write made filling it quadratic (18 ms a write at 20000 entries).
+one listing, where a listing per write made filling it quadratic in its size.
 """
 
 from __future__ import annotations
