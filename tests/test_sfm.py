@@ -697,3 +697,52 @@ def test_theia_anchor_noise_free_exact():
         assert np.radians(ev["rot_max_deg"]) < EXACT, name
         assert ev["pos_max"] / ev["extent"] < EXACT, name
         assert a["time_s"] >= 0.0
+
+
+def _two_scene_graph(sa, sb) -> tuple[ViewGraph, np.ndarray]:
+    """One view graph of two synthetic scenes that share no pair: scene b's views and keypoints
+    offset past scene a's; the bearings of both, indexed by keypoint."""
+    from poseonly.sfm.viewgraph import Edge
+
+    ga, gb = _graph_of_scene(sa), _graph_of_scene(sb)
+    na, ma = ga.num_views, len(sa.bearings)
+    g = ViewGraph(na + gb.num_views)
+    for e in ga.edges:
+        g.add_edge(e)
+    for e in gb.edges:
+        g.add_edge(Edge(e.i + na, e.j + na, e.R, e.t, e.matches + ma, e.status, e.weight))
+    return g, np.concatenate([sa.bearings, sb.bearings])
+
+
+def test_run_global_models_gives_one_model_per_scene_exactly():
+    """Two scenes in one view graph (no pair joins them): two models, largest first, each exact on its
+    own views and NaN on the other's; every view in exactly one model."""
+    from poseonly.sfm.pipeline import run_global_models
+
+    sa, sb = make_scene(9, 700, seed=21), make_scene(12, 900, seed=22)
+    g, f = _two_scene_graph(sa, sb)
+    started: list[tuple[int, int]] = []
+    models = run_global_models(g, lambda tr: f[tr.keypoints], sa.focal, on_model=lambda k, v: started.append((k, v)))
+    assert started == [(0, 12), (1, 9)] and len(models) == 2
+    for res, s, views in ((models[0], sb, slice(9, 21)), (models[1], sa, slice(0, 9))):
+        posed = np.all(np.isfinite(res.centres), axis=1)
+        assert posed[views].all() and posed.sum() == len(s.rotations)
+        ev = evaluate_poses(res.rotations[views], res.centres[views], s.rotations, s.centres)
+        assert np.radians(ev["rot_max_deg"]) < EXACT and ev["pos_max"] / ev["extent"] < EXACT
+    # a part too small for a model (min_views) gives none; bad min_views is an InputError
+    assert len(run_global_models(g, lambda tr: f[tr.keypoints], sa.focal, min_views=10)) == 1
+    for bad in (1, True, 2.5):
+        with pytest.raises(InputError, match="min_views"):
+            run_global_models(g, lambda tr: f[tr.keypoints], sa.focal, min_views=bad)  # type: ignore[arg-type]
+
+
+def test_run_global_models_of_one_scene_is_run_global():
+    """One connected scene: one model, the result of run_global bit for bit."""
+    from poseonly.sfm.pipeline import run_global_models
+
+    s = make_scene(10, 800, seed=23, noise_px=0.5, rotation_noise_deg=0.2)
+    g = _graph_of_scene(s)
+    (m,) = run_global_models(g, lambda tr: s.bearings[tr.keypoints], s.focal)
+    r = run_global(g, lambda tr: s.bearings[tr.keypoints], s.focal)
+    np.testing.assert_array_equal(m.rotations, r.rotations)
+    np.testing.assert_array_equal(m.centres, r.centres)

@@ -296,4 +296,42 @@ def test_sfm_command_says_why_views_are_not_posed(tmp_path, capsys):
     args = ["sfm", str(SCENE / "images"), "--K", str(SCENE / "images" / "K.txt"), "--out", str(out), "--max-images", "4"]
     assert main([*args, "--max-features", "1000", "--no-progress", "--pairs", str(pairs)]) == 0
     text = capsys.readouterr().out
-    assert "cameras: 3/4 posed" in text and "not posed: 1 without a rotation" in text
+    assert "model 0: cameras: 3/3 posed" in text and "in no model: 1 images" in text
+
+
+def test_sfm_command_writes_one_model_per_scene(tmp_path, capsys):
+    """Images of two scenes in one folder (quarter-size copies of three Herz-Jesus-P8 and three
+    entry-P10 images): two models, sparse/0 and sparse/1, points.ply and points_1.ply, every image in
+    the model of its scene in poses.json."""
+    import json
+
+    cv2 = pytest.importorskip("cv2")
+    other = SCENE.parent / "entry-P10"
+    if not (SCENE / "images" / "K.txt").is_file() or not (other / "images" / "K.txt").is_file():
+        pytest.skip("shared Strecha data not available")
+    K = np.loadtxt(SCENE / "images" / "K.txt")
+    assert np.allclose(K, np.loadtxt(other / "images" / "K.txt"))  # one camera
+    d = tmp_path / "imgs"
+    d.mkdir()
+    for tag, scene in (("a", SCENE), ("b", other)):
+        for f in sorted((scene / "images").glob("*.jpg"))[:3]:
+            im = cv2.imread(str(f))
+            cv2.imwrite(str(d / f"{tag}_{f.name}"), cv2.resize(im, None, fx=0.25, fy=0.25, interpolation=cv2.INTER_AREA))
+    K[:2] *= 0.25
+    np.savetxt(tmp_path / "K.txt", K)
+    out = tmp_path / "o"
+    assert main(["sfm", str(d), "--K", str(tmp_path / "K.txt"), "--out", str(out), "--max-features", "1500", "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    assert "models: 2 (3, 3 images)" in text
+    poses = json.loads((out / "poses.json").read_text())
+    assert [m["status"] for m in poses["models"]] == ["ok", "ok"] and poses["status"] == "ok"
+    by_name = {im["name"]: im["model"] for im in poses["images"]}
+    assert {by_name[n] for n in by_name if n.startswith("a_")} == {0} and {by_name[n] for n in by_name if n.startswith("b_")} == {1}
+    assert all(im["c"] is not None for im in poses["images"])
+    assert (out / "points.ply").is_file() and (out / "points_1.ply").is_file()
+    try:
+        import pycolmap
+    except ImportError:
+        return
+    for k in (0, 1):
+        assert pycolmap.Reconstruction(str(out / "sparse" / str(k))).num_reg_images() == 3

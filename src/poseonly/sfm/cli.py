@@ -5,9 +5,12 @@ the library, print; hooked into :mod:`poseonly.cli` by :func:`add_parsers`).
                  [--cache DIR] [--text] [--seed S]
     poseonly sfm IMAGES_DIR --database colmap.db --out DIR      (keypoints and matches from COLMAP)
 
-Writes ``DIR/sparse/0`` (COLMAP binary model, or text with ``--text``; needs pycolmap),
-``DIR/points.ply`` (valid points, coloured, camera centres in red), ``DIR/poses.json`` and
-``DIR/reconstruction.png`` (cameras and points, as the paper's last figure; needs matplotlib).
+Writes one model per part of the image set that trusted pairs join (at least 3 images; largest
+first, :func:`poseonly.sfm.pipeline.run_global_models`): ``DIR/sparse/K`` (COLMAP binary model, or
+text with ``--text``; needs pycolmap), ``DIR/points.ply`` / ``points_K.ply`` (valid points, coloured,
+camera centres in red), ``DIR/reconstruction.png`` / ``reconstruction_K.png`` (cameras and points,
+as the paper's last figure; needs matplotlib), and one ``DIR/poses.json`` (every image's model, R
+and c; each model's status).
 """
 
 from __future__ import annotations
@@ -91,15 +94,8 @@ def _read_K(path: str) -> np.ndarray:
 
 def cmd_sfm(args: argparse.Namespace) -> int:
     from .._fileutil import atomic_write_text
-    from .export import (
-        colmap_model_of,
-        plot_reconstruction,
-        point_colors,
-        write_colmap_model,
-        write_ply,
-    )
     from .pairwise import PairwiseOptions, image_view_graph, parse_estimator_options
-    from .pipeline import GlobalOptions, num_stages, run_global
+    from .pipeline import MIN_MODEL_VIEWS, GlobalOptions, num_stages, run_global_models
 
     d = Path(args.images)
     if not d.is_dir():
@@ -148,56 +144,98 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
     )
     gopt = GlobalOptions(rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma, ligt_normalization=args.ligt_normalization)
-    bar = None if args.no_progress else _stage_bar(num_stages(gopt))
+    bar: list[_StageBar | None] = [None]
+
+    def on_model(k: int, views: int) -> Any:
+        if bar[0] is not None:
+            bar[0].close()
+        bar[0] = None if args.no_progress else _stage_bar(num_stages(gopt))
+        return None if bar[0] is None else bar[0].stage
+
     try:
-        res = run_global(ig.graph, ig.bearings, float(0.5 * (K[0, 0] + K[1, 1])), gopt, on_stage=None if bar is None else bar.stage)
+        models = run_global_models(ig.graph, ig.bearings, float(0.5 * (K[0, 0] + K[1, 1])), gopt, on_model=on_model)
     finally:
-        if bar is not None:
-            bar.close()
+        if bar[0] is not None:
+            bar[0].close()
+    if not models:
+        raise InputError(f"no model: the trusted pairs join no {MIN_MODEL_VIEWS} of the {len(images)} images ({len(ig.graph)} pairs kept, {len(ig.graph.rejected)} rejected)")
+    out.mkdir(parents=True, exist_ok=True)
+    n = len(images)
+    model_of = np.full(n, -1)
+    for k, res in enumerate(models):
+        model_of[np.all(np.isfinite(res.rotations), axis=(1, 2))] = k
+    print(f"models: {len(models)} ({', '.join(str(int(np.sum(model_of == k))) for k in range(len(models)))} images)")
+    poses: dict[str, Any] = {"convention": "X_cam = R (X_world - c)", "status": "", "models": [], "images": []}
+    for k, res in enumerate(models):
+        poses["models"].append(_write_model(k, res, images, ig, out, args))
+    poses["status"] = poses["models"][0]["status"]
+    if poses["status"] == "translation_undetermined":
+        poses["reason"] = poses["models"][0]["reason"]
+    for v, p in enumerate(images):
+        k = int(model_of[v])
+        R = c = None
+        if k >= 0:
+            R = models[k].rotations[v].tolist()
+            c = models[k].centres[v].tolist() if np.all(np.isfinite(models[k].centres[v])) else None
+        poses["images"].append({"name": p.name, "model": k if k >= 0 else None, "R": R, "c": c})
+    poses["outlier_edges"] = sorted({tuple(e) for res in models for e in res.rotation.outlier_edges})
+    poses["times_s"] = {**ig.times_s, **{key: sum(res.times_s.get(key, 0.0) for res in models) for key in models[0].times_s}}
+    unmodelled = int(np.sum(model_of < 0) - sum(m["views_not_posed"] for m in poses["models"]))
+    if unmodelled > 0:
+        print(f"in no model: {unmodelled} images (no trusted pair joins them to a model of at least {MIN_MODEL_VIEWS} images)")
+    atomic_write_text(out / "poses.json", json.dumps(poses, indent=1))
+    print(f"total {time.perf_counter() - t0:.1f} s; outputs in {out}")
+    return 0
+
+
+def _suffix(k: int) -> str:
+    """Model ``k``'s file suffix: none for the largest (``points.ply``), ``_k`` for the others."""
+    return "" if k == 0 else f"_{k}"
+
+
+def _write_model(k: int, res: Any, images: list[Path], ig: Any, out: Path, args: argparse.Namespace) -> dict[str, Any]:
+    """Print model ``k``'s summary and write its point cloud, figure and COLMAP model (``sparse/k``);
+    returns its entry of poses.json's ``models``."""
+    from .export import colmap_model_of, plot_reconstruction, point_colors, write_colmap_model, write_ply
+
     est = np.all(np.isfinite(res.centres), axis=1)
     has_R = np.all(np.isfinite(res.rotations), axis=(1, 2))
+    component = res.rotation.estimated
     rec = res.reconstruction
     undetermined = res.info.get("translation_undetermined")
-    print(f"cameras: {int(est.sum())}/{len(images)} posed; outlier edges: {len(res.rotation.outlier_edges)}; points: {rec.num_valid}/{len(res.tracks)} valid")
-    if not undetermined and est.sum() < len(images):
-        li = res.ligt.info
-        reasons = {
-            "without a rotation (no trusted pair joins them to the largest component)": int(np.sum(~res.rotation.estimated)),
-            "not joined to the solved component by usable tracks": _count(li, "views_disconnected"),
-            "whose tracks do not fix their centre": _count(li, "views_weak"),
-        }
-        reasons["without usable tracks"] = len(images) - int(est.sum()) - sum(reasons.values())
-        print("not posed: " + ", ".join(f"{k} {why}" for why, k in reasons.items() if k > 0))
-    print("stages: " + ", ".join(f"{k} {v:.2f} s" for k, v in res.times_s.items()))
-    poses: dict[str, Any] = {"convention": "X_cam = R (X_world - c)", "status": "translation_undetermined" if undetermined else "ok", "images": []}
-    for k, p in enumerate(images):
-        poses["images"].append({"name": p.name, "R": res.rotations[k].tolist() if has_R[k] else None, "c": res.centres[k].tolist() if est[k] else None})
-    poses["outlier_edges"] = res.rotation.outlier_edges
-    poses["times_s"] = {**ig.times_s, **res.times_s}
-    out.mkdir(parents=True, exist_ok=True)
+    entry: dict[str, Any] = {"model": k, "status": "translation_undetermined" if undetermined else "ok", "images": int(has_R.sum()), "points": int(rec.num_valid)}
+    print(f"model {k}: cameras: {int(est.sum())}/{int(component.sum())} posed; outlier edges: {len(res.rotation.outlier_edges)}; points: {rec.num_valid}/{len(res.tracks)} valid")
+    li = res.ligt.info
+    reasons = {
+        "not joined to the solved component by usable tracks": _count(li, "views_disconnected"),
+        "whose tracks do not fix their centre": _count(li, "views_weak"),
+    }
+    missing = 0 if undetermined else int(np.sum(component & ~est))
+    reasons["without usable tracks"] = missing - sum(reasons.values())
+    entry["views_not_posed"] = missing
+    if missing > 0:
+        print(f"model {k}: not posed: " + ", ".join(f"{c} {why}" for why, c in reasons.items() if c > 0))
+    print(f"model {k}: stages: " + ", ".join(f"{key} {v:.2f} s" for key, v in res.times_s.items()))
     if undetermined:
-        poses["reason"] = undetermined
-        atomic_write_text(out / "poses.json", json.dumps(poses, indent=1))
-        print(f"the camera centres are not determined: {undetermined} (a pure rotation or a panorama?)")
-        print(f"poses.json holds the {int(has_R.sum())} averaged rotations; no model, point cloud or figure written")
-        print(f"total {time.perf_counter() - t0:.1f} s; outputs in {out}")
-        return 0
+        entry["reason"] = undetermined
+        print(f"model {k}: the camera centres are not determined: {undetermined} (a pure rotation or a panorama?)")
+        print(f"model {k}: poses.json holds its {int(has_R.sum())} averaged rotations; no COLMAP model, point cloud or figure written")
+        return entry
+    sfx = _suffix(k)
     colors = point_colors(images, [f.keypoints for f in ig.features], res.tracks, rec.base[:, 0])
-    write_ply(out / "points.ply", rec.points[rec.valid], colors[rec.valid], res.centres)
-    fig = plot_reconstruction(out / "reconstruction.png", rec.points[rec.valid], res.centres, res.rotations, colors[rec.valid])
+    write_ply(out / f"points{sfx}.ply", rec.points[rec.valid], colors[rec.valid], res.centres)
+    fig = plot_reconstruction(out / f"reconstruction{sfx}.png", rec.points[rec.valid], res.centres, res.rotations, colors[rec.valid])
     if fig is not None:
-        print(f"figure: {fig}")
-    atomic_write_text(out / "poses.json", json.dumps(poses, indent=1))
+        print(f"model {k}: figure: {fig}")
     try:
         import pycolmap  # noqa: F401
     except ImportError:
-        print("pycolmap is not installed: COLMAP model not written (points.ply and poses.json are)")
+        print(f"model {k}: pycolmap is not installed: COLMAP model not written (points{sfx}.ply and poses.json are)")
     else:
         model = colmap_model_of([p.name for p in images], ig, res, colors)
-        write_colmap_model(model, out / "sparse" / "0", binary=not args.text)
-        print(f"COLMAP model: {out / 'sparse' / '0'} ({model.num_reg_images()} images, {model.num_points3D()} points)")
-    print(f"total {time.perf_counter() - t0:.1f} s; outputs in {out}")
-    return 0
+        write_colmap_model(model, out / "sparse" / str(k), binary=not args.text)
+        print(f"model {k}: COLMAP model: {out / 'sparse' / str(k)} ({model.num_reg_images()} images, {model.num_points3D()} points)")
+    return entry
 
 
 def _count(info: dict[str, object], key: str) -> int:

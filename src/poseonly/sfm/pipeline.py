@@ -23,11 +23,11 @@ from .ligt_global import MIN_PARALLAX_DEG, LiGTResult, TranslationUndetermined, 
 from .reconstruct import MAX_ERROR_PX, Reconstruction, reconstruct_points
 from .rotation_averaging import RotationAveragingResult, average_rotations
 from .tracks import Tracks, build_tracks
-from .viewgraph import ViewGraph
+from .viewgraph import ViewGraph, largest_component, view_components
 
 BearingsFn = Callable[[Tracks], np.ndarray]
 
-__all__ = ["ROTATION_WEIGHTS", "STAGES", "BearingsFn", "GlobalOptions", "GlobalResult", "filter_observations", "num_stages", "run_global"]
+__all__ = ["ROTATION_WEIGHTS", "STAGES", "BearingsFn", "GlobalOptions", "GlobalResult", "filter_observations", "MIN_MODEL_VIEWS", "num_stages", "run_global", "run_global_models"]
 
 # the stages of run_global in order; each filter round runs "filter", "LiGT" and "points" again
 STAGES = ("rotation averaging", "tracks", "LiGT", "points", "filter")
@@ -200,3 +200,50 @@ def run_global(
     R[~lg.estimated] = np.nan
     info["points_valid"] = rec.num_valid
     return GlobalResult(R, lg.centres, tracks, f, rec, ra, lg, times, info)
+
+
+# the fewest views a model of run_global_models may have (two views are a two-view result, not a model)
+MIN_MODEL_VIEWS = 3
+
+
+def run_global_models(
+    graph: ViewGraph,
+    bearings_of: BearingsFn,
+    focal: float,
+    options: GlobalOptions | None = None,
+    on_model: Callable[[int, int], Callable[[str], None] | None] | None = None,
+    min_views: int = MIN_MODEL_VIEWS,
+) -> list[GlobalResult]:
+    """Every model ``graph`` holds, largest first: :func:`run_global` on the edges among the views no
+    model has claimed yet, until the largest connected component left has fewer than ``min_views``
+    views (a run that poses fewer than ``min_views`` gives no model; its views are set aside and the
+    search goes on). A run claims the views its rotation averaging
+    solved (``rotation.estimated``: its component after the outlier edges are removed), posed or not,
+    so the views of one scene do not come back as a model of their own; an image set of several scenes
+    (or one scene whose pairs split into parts that no trusted pair joins) gives one model per part, as
+    COLMAP's mappers write ``sparse/0``, ``sparse/1``, ... Each result is indexed like ``graph`` (NaN
+    for the views of other models). ``on_model(k, views)`` is called as model ``k`` starts (its
+    component's view count) and may return an ``on_stage`` callback for that run."""
+    if isinstance(min_views, bool) or not isinstance(min_views, (int, np.integer)) or min_views < 2:
+        raise InputError(f"min_views must be an int >= 2, got {min_views!r}")
+    if len(graph) == 0:
+        raise InputError("the view graph has no edges")
+    pairs = graph.pairs()
+    free = np.ones(graph.num_views, dtype=bool)
+    models: list[GlobalResult] = []
+    while True:
+        emask = free[pairs[:, 0]] & free[pairs[:, 1]]
+        if not emask.any():
+            break
+        views = int(largest_component(view_components(graph.num_views, pairs[emask])).sum())
+        if views < min_views:
+            break
+        stage = on_model(len(models), views) if on_model is not None else None
+        res = run_global(graph.subgraph(emask), bearings_of, focal, options, on_stage=stage)
+        claimed = res.rotation.estimated & free
+        if not claimed.any():
+            break
+        free &= ~claimed
+        if int(np.sum(np.all(np.isfinite(res.rotations), axis=(1, 2)))) >= min_views:
+            models.append(res)
+    return models
