@@ -104,14 +104,29 @@ def test_sweep_removes_only_dead_writers_temps(tmp_path):
     import os
     import subprocess
     import sys
+    import time
 
     from poseonly._fileutil import TMP_SUFFIX, sweep_stale_temps
 
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait()
-    stale = [tmp_path / f".m_1.npz.{dead.pid}.k2j_x{TMP_SUFFIX}", tmp_path / f".a.b.c.{dead.pid}.zz{TMP_SUFFIX}"]
-    live = [tmp_path / f".m_2.npz.{os.getpid()}.abc{TMP_SUFFIX}", tmp_path / "m_3.npz", tmp_path / f".odd{TMP_SUFFIX}"]
+    from poseonly._fileutil import HOST
+
+    stale = [
+        tmp_path / f".m_1.npz.{HOST}-{dead.pid}.k2j_x{TMP_SUFFIX}",
+        tmp_path / f".a.b.c.{HOST}-{dead.pid}.zz{TMP_SUFFIX}",
+        tmp_path / f".m_0.npz.{dead.pid}.q{TMP_SUFFIX}",  # an earlier version's name (no host)
+    ]
+    live = [
+        tmp_path / f".m_2.npz.{HOST}-{os.getpid()}.abc{TMP_SUFFIX}",
+        tmp_path / f".m_4.npz.other-host-{dead.pid}.abc{TMP_SUFFIX}",  # another host sharing the folder
+        tmp_path / ".my_editor_backup.tmp",  # not ours, however old
+        tmp_path / "m_3.npz",
+        tmp_path / f".odd{TMP_SUFFIX}",
+    ]
     for f in stale + live:
         f.write_text("x")
-    assert sweep_stale_temps(tmp_path) == 2
+    old = time.time() - 7200
+    os.utime(tmp_path / ".my_editor_backup.tmp", (old, old))
+    assert sweep_stale_temps(tmp_path) == 3
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(f.name for f in live)

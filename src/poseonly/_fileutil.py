@@ -1,10 +1,12 @@
 """Atomic writers: a file is either absent, its old version or its complete new version.
 
-Every writer writes to a temp file in the target's directory (``.NAME.PID.RANDOM.poseonly-tmp``),
+Every writer writes to a temp file in the target's directory (``.NAME.HOST-PID.RANDOM.poseonly-tmp``),
 flushes and fsyncs it, gives it the mode a plain ``open`` would have created and renames it onto the
 target (``os.replace``, atomic on POSIX). A process killed mid-write leaves its temp file behind; a
-process's first write into a directory removes the temp files there of processes that no longer run
-(and legacy ``.NAME.*.tmp`` files older than an hour), so killed runs do not accumulate hidden files.
+process's first write into a directory removes the temp files there of this host's processes that no
+longer run (a folder shared with other hosts keeps theirs: their PIDs mean nothing here), so killed
+runs do not accumulate hidden files (and earlier writers' ``.NAME.RANDOM.tmp`` files older than an
+hour next to their target).
 The sweep lists the directory once per process, not once per write: a cache of 100000 entries costs
 one listing, where a listing per write made filling it quadratic in its size.
 """
@@ -59,18 +61,38 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
+def _host_tag() -> str:
+    """This machine's name as it goes into temp names (letters, digits and ``-`` only, at most 32)."""
+    import socket
+
+    return "".join(c if c.isalnum() else "-" for c in socket.gethostname())[:32] or "host"
+
+
+HOST = _host_tag()
+
+
 def _stale(f: Path, now: float) -> bool:
-    """``f`` is a temp file of a writer that no longer runs: ``.NAME.PID.RANDOM.poseonly-tmp`` of a
-    dead PID, or a legacy ``.NAME.*.tmp`` older than :data:`LEGACY_TMP_AGE_S`."""
+    """``f`` is a temp file of a writer that no longer runs: ``.NAME.HOST-PID.RANDOM.poseonly-tmp`` of
+    this host and a dead PID (a writer on another host sharing the folder is never judged by this
+    host's PIDs), ``.NAME.PID.RANDOM.poseonly-tmp`` (earlier versions) of a dead PID, or an earlier
+    writer's ``.NAME.RANDOM.tmp`` older than :data:`LEGACY_TMP_AGE_S` whose target ``NAME`` exists
+    (other programs' hidden ``.tmp`` files are left alone)."""
     name = f.name
     if not name.startswith("."):
         return False
     if name.endswith(TMP_SUFFIX):
-        parts = name.rsplit(".", 3)  # [".NAME", PID, RANDOM, "poseonly-tmp"] (mkstemp's RANDOM has no dot)
-        return len(parts) == 4 and parts[1].isdigit() and not _pid_alive(int(parts[1]))
-    if name.endswith(".tmp"):
+        parts = name.rsplit(".", 3)  # [".NAME", HOST-PID, RANDOM, "poseonly-tmp"] (mkstemp's RANDOM has no dot)
+        if len(parts) != 4:
+            return False
+        host, _, pid = parts[1].rpartition("-")
+        if host and host != HOST:
+            return False
+        return pid.isdigit() and not _pid_alive(int(pid))
+    if name.endswith(".tmp"):  # an earlier writer's .TARGET.RANDOM.tmp, next to its (existing) target
+        inner = name[1:-4]
+        target = inner.rpartition(".")[0]
         try:
-            return now - f.stat().st_mtime > LEGACY_TMP_AGE_S
+            return bool(target) and f.with_name(target).is_file() and now - f.stat().st_mtime > LEGACY_TMP_AGE_S
         except OSError:
             return False
     return False
@@ -93,8 +115,8 @@ def clean_stale_temps(path: str | os.PathLike) -> int:
 
 
 def sweep_stale_temps(directory: str | os.PathLike) -> int:
-    """Remove the temp files of killed writers anywhere in ``directory`` (not recursive); returns how
-    many were removed."""
+    """Remove the temp files of this host's killed writers anywhere in ``directory`` (not recursive;
+    other programs' hidden files are left alone, :func:`_stale`); returns how many were removed."""
     d = Path(directory)
     if not d.is_dir():
         return 0
@@ -131,8 +153,7 @@ def atomic_open(path: str | os.PathLike, mode: str = "w", **kw: Any) -> Iterator
     if path.is_dir():
         raise IsADirectoryError(f"{path} is a directory")
     path.parent.mkdir(parents=True, exist_ok=True)
-    _sweep_once(path.parent)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.{os.getpid()}.", suffix=TMP_SUFFIX)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.{HOST}-{os.getpid()}.", suffix=TMP_SUFFIX)
     try:
         if mode == "w":
             kw.setdefault("encoding", "utf-8")
@@ -145,6 +166,7 @@ def atomic_open(path: str | os.PathLike, mode: str = "w", **kw: Any) -> Iterator
         with contextlib.suppress(OSError):
             os.unlink(tmp)
         raise
+    _sweep_once(path.parent)  # after the write: an earlier writer's .NAME.RANDOM.tmp is judged with its target in place
 
 
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:

@@ -45,10 +45,16 @@ __all__ = [
 ]
 
 _CACHE_VERSION = 2  # 2: keypoint sizes cached
-# rows of the first descriptor set per block of the distance matrix (1024 x m2 float32: 32 MB at 8000)
+# rows of the first descriptor set per block of the distance matrix (1024 x m2 float32: 32 MB at 8000
+# features), fewer where the block would exceed MATCH_BLOCK_BYTES (large m2)
 MATCH_BLOCK_ROWS = 1024
+MATCH_BLOCK_BYTES = 32 << 20
 # descriptor magnitudes whose squared distances float32 holds; sets beyond are scaled (nothing else changes)
 DESCRIPTOR_RANGE = (1e-15, 1e15)
+# descriptor sets whose mean's squared norm exceeds this many times their squared spread are centred
+# first (distances do not change; the products' rounding scales with |a|^2, not with the distance).
+# SIFT's (whole numbers 0-255, mean about as large as the spread) are not: their products are exact.
+OFFSET_RATIO = 100.0
 
 
 def _cv2() -> Any:
@@ -276,15 +282,18 @@ def extract_features(
 
 
 def _check_desc(d: np.ndarray, name: str) -> np.ndarray:
+    """``d`` as a finite ``(m, D)`` array: float32 as given, any other numeric type as float64 (so
+    that values beyond float32's range can still be scaled into it)."""
     try:
-        d = np.asarray(d, dtype=np.float32)
+        a = np.asarray(d)
+        a = a if a.dtype == np.float32 else np.asarray(a, dtype=np.float64)
     except (TypeError, ValueError):
         raise InputError(f"{name} must be a numeric (m, D) descriptor array") from None
-    if d.ndim != 2:
-        raise InputError(f"{name} must have shape (m, D), got {d.shape}")
-    if not np.all(np.isfinite(d)):
+    if a.ndim != 2:
+        raise InputError(f"{name} must have shape (m, D), got {a.shape}")
+    if not np.all(np.isfinite(a)):
         raise InputError(f"{name} contains NaN or inf values")
-    return np.ascontiguousarray(d)
+    return a
 
 
 def match_features(d1: np.ndarray, d2: np.ndarray, ratio: float = 0.8, mutual: bool = False, return_scores: bool = False) -> Any:
@@ -307,7 +316,13 @@ def match_features(d1: np.ndarray, d2: np.ndarray, ratio: float = 0.8, mutual: b
         return (empty, np.zeros(0)) if return_scores else empty
     big = max(float(np.abs(d1).max(initial=0.0)), float(np.abs(d2).max(initial=0.0)))
     if big > DESCRIPTOR_RANGE[1] or 0.0 < big < DESCRIPTOR_RANGE[0]:  # keep the squares within float32
-        d1, d2 = d1 / np.float32(big), d2 / np.float32(big)
+        d1, d2 = d1 / d1.dtype.type(big), d2 / d2.dtype.type(big)
+    d1, d2 = np.ascontiguousarray(d1, dtype=np.float32), np.ascontiguousarray(d2, dtype=np.float32)
+    centre = d2.mean(axis=0, dtype=np.float64)
+    c2 = float(centre @ centre)
+    spread = float(np.einsum("ij,ij->", d2, d2, dtype=np.float64)) / len(d2) - c2  # mean |d - centre|^2
+    if c2 > OFFSET_RATIO * spread:  # a common offset would swamp the distances' digits
+        d1, d2 = (d1 - centre).astype(np.float32), (d2 - centre).astype(np.float32)
     nn, back = _nearest_neighbours(d1, d2, mutual)
     rows = np.arange(len(d1))
     dist = np.stack([_l2(d1, d2[nn[:, 0]]), _l2(d1, d2[nn[:, 1]])], axis=1)
@@ -337,7 +352,8 @@ def _nearest_neighbours(d1: np.ndarray, d2: np.ndarray, mutual: bool) -> tuple[n
     ``(m2,)`` (else None); ``m2 >= 2``.
 
     The squared distances ``|a|^2 + |b|^2 - 2 a.b`` come from one float32 matrix product per block of
-    :data:`MATCH_BLOCK_ROWS` rows (BLAS; the whole ``m1 x m2`` matrix is never held), and both
+    :data:`MATCH_BLOCK_ROWS` rows, at most :data:`MATCH_BLOCK_BYTES` (BLAS; the whole ``m1 x m2`` matrix
+    is never held), and both
     directions from the same blocks: ~7x faster than OpenCV's ``batchDistance`` run both ways
     (median 0.072 against 0.481 s on 26 overlapping Strecha pairs of ~4900 SIFT features, the same
     matches; ``benchmarks/match_speed.py``). The
@@ -350,8 +366,9 @@ def _nearest_neighbours(d1: np.ndarray, d2: np.ndarray, mutual: bool) -> tuple[n
     back_d = np.full(m2, np.inf, dtype=np.float32)
     back = np.zeros(m2, dtype=np.int64)
     cols = np.arange(m2)
-    for s in range(0, m1, MATCH_BLOCK_ROWS):
-        a = d1[s : s + MATCH_BLOCK_ROWS]
+    rows = max(1, min(MATCH_BLOCK_ROWS, MATCH_BLOCK_BYTES // (4 * m2)))
+    for s in range(0, m1, rows):
+        a = d1[s : s + rows]
         r = np.arange(len(a))
         D = a @ d2t
         D *= -2.0

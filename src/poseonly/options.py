@@ -230,10 +230,11 @@ class PoseonlyOptions(CommonOptions):
     stop_at_min_inliers: bool = _opt(
         True,
         "bool",
-        "the stopping rule assumes at least min_inliers inliers: the search ends once a model with min_inliers inliers would have"
-        " been drawn at `confidence`, since a pose with less support is too_few_inliers whatever the search finds (it shortens"
-        " searches on small match sets without such a model, e.g. pairs that do not overlap; with a model that has min_inliers"
-        " inliers the rule is unchanged once one such model is found)",
+        "the stopping rule assumes at least min_inliers inliers: a pose with less support is too_few_inliers whatever the search"
+        " finds, so the search ends once a model with min_inliers inliers would have been drawn at `confidence` (without"
+        " replacement; with scores only PROSAC's uniform draws, after its pool holds every match, count). It shortens searches"
+        " on small match sets without such a model (pairs that do not overlap) when no scores are given; with such a model the"
+        " rule is the classical one as soon as one is found",
     )
     consistency: str = _opt(
         "fallback",
