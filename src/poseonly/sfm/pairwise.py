@@ -52,8 +52,9 @@ RESIDENT_IMAGES = 256
 # neighbour-consistency fallback of searches that have not converged after 3000 samples; 23: its two
 # stages' rivals merged, ties of the scores in input order; 24-25: the ML stage's inlier share bounded by the
 # matches just outside its band; 26: the status uncertain, the pure-rotation precision test at noise up to the
-# threshold; 27: its noise check; 28: the stopping rule assumes min_inliers inliers)
-TWO_VIEW_CACHE_TAG = 28
+# threshold; 27: its noise check; 28: the stopping rule assumes min_inliers inliers; 29: that rule
+# without replacement and, with scores, on PROSAC's uniform draws only)
+TWO_VIEW_CACHE_TAG = 29
 # part of the match cache key: bump when match_features's results can change (2: the blocked matrix
 # products, which may swap neighbours that tie to float32 precision)
 MATCHER_TAG = 2
