@@ -350,7 +350,7 @@ def image_view_graph(
     windowed pair list holds a window's descriptors, and any pair list at most ``resident_images``
     images' in the pool (4 MB each at 8000 features), plus those the pairs being matched still hold
     (two a pair; ``2 jobs`` pairs in flight); the returned features keep keypoints and sizes, with
-    ``(0, 128)`` descriptors (:class:`ImageGraph`).
+    ``(0, 128)`` descriptors (:class:`ImageGraph`)."""
     if isinstance(resident_images, bool) or not isinstance(resident_images, (int, np.integer)) or resident_images < 2:
         raise InputError(f"resident_images must be an int >= 2 (the two images of a pair), got {resident_images!r}")
     opt = options or PairwiseOptions()
