@@ -66,6 +66,7 @@ def main(argv: list[str] | None = None) -> int:
     diff = [k for k in range(m) if runs[True][k][0] != runs[False][k][0] or not np.array_equal(runs[True][k][1], runs[False][k][1])]
     flips = [k for k in diff if runs[True][k][0] != runs[False][k][0]]
     print(f"\npairs with another pose: {len(diff)} (status flips: {len(flips)}: {[(runs[False][k][0], runs[True][k][0]) for k in flips]})")
+    print(f"their statuses: {dict(collections.Counter(runs[False][k][0] for k in diff))}")
     return 0
 
 
