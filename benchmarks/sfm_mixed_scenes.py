@@ -24,11 +24,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("dirs", nargs="+")
     ap.add_argument("--max-features", type=int, default=8000)
     ap.add_argument("--cache", default="/tmp/sfm_cache")
+    ap.add_argument("--joint-variants", action="store_true", help="rerun each model of several scenes without the reprojection filter, and with only the bridges of >= 100 inliers")
     a = ap.parse_args(argv)
     from poseonly.io.strecha import load_scene
     from poseonly.sfm.align import evaluate_poses
     from poseonly.sfm.pairwise import PairwiseOptions, image_view_graph
-    from poseonly.sfm.pipeline import run_global, run_global_models
+    from poseonly.sfm.pipeline import GlobalOptions, run_global, run_global_models
 
     scenes = [load_scene(Path(d)) for d in a.dirs]
     images: list[Path] = []
@@ -66,6 +67,22 @@ def main(argv: list[str] | None = None) -> int:
             row = [f"{ev['rot_mean_deg']:.4f}", f"{ev['rot_mean_deg_rotalign']:.4f}", f"{ev['pos_mean']:.4f}"] if ev else ["", "", ""]
             alone_row = f"{ea['rot_mean_deg']:.4f} / {ea['rot_mean_deg_rotalign']:.4f} / {ea['pos_mean']:.4f}"
             print(f"| {k} | {scenes[s].name} | {cnt} / {int(own.sum())} | " + " | ".join(row) + f" | {alone_row} |")
+    if a.joint_variants:
+        print()
+        print("| model | variant | scene | rot mean (deg) | rot mean, rot-only align | pos mean (m) |")
+        print("|---|---|---|---|---|---|")
+        for k, res in enumerate(models):
+            posed = np.all(np.isfinite(res.centres), axis=1)
+            if len(set(so[posed].tolist())) < 2:
+                continue
+            em = posed[p[:, 0]] & posed[p[:, 1]]
+            strong = em & (~across | np.array([len(e.matches) >= 100 for e in ig.graph.edges]))
+            for name, mask, gopt in (("no reprojection filter", em, GlobalOptions(filter_rounds=0)), ("bridges of >= 100 inliers only", strong, GlobalOptions())):
+                v = run_global(ig.graph.subgraph(mask), ig.bearings, focal, gopt)
+                for s in sorted(set(so[posed].tolist())):
+                    sel = (so == s) & np.all(np.isfinite(v.centres), axis=1)
+                    ev = evaluate_poses(v.rotations[sel], v.centres[sel], R_gt[sel], C_gt[sel])
+                    print(f"| {k} | {name} | {scenes[s].name} | {ev['rot_mean_deg']:.4f} | {ev['rot_mean_deg_rotalign']:.4f} | {ev['pos_mean']:.4f} |")
     return 0
 
 
