@@ -24,7 +24,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("dirs", nargs="+")
     ap.add_argument("--max-features", type=int, default=8000)
     ap.add_argument("--cache", default="/tmp/sfm_cache")
-    ap.add_argument("--joint-variants", action="store_true", help="rerun each model of several scenes without the reprojection filter, and with only the bridges of >= 100 inliers")
+    ap.add_argument("--joint-variants", action="store_true", help="rerun each joint model: no reprojection filter, only bridges of >= 100 inliers, LiGT reweighted")
     a = ap.parse_args(argv)
     from poseonly.io.strecha import load_scene
     from poseonly.sfm.align import evaluate_poses
@@ -77,7 +77,12 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             em = posed[p[:, 0]] & posed[p[:, 1]]
             strong = em & (~across | np.array([len(e.matches) >= 100 for e in ig.graph.edges]))
-            for name, mask, gopt in (("no reprojection filter", em, GlobalOptions(filter_rounds=0)), ("bridges of >= 100 inliers only", strong, GlobalOptions())):
+            variants = (
+                ("no reprojection filter", em, GlobalOptions(filter_rounds=0)),
+                ("bridges of >= 100 inliers only", strong, GlobalOptions()),
+                ("LiGT reweighted once (ligt_reweight=1)", em, GlobalOptions(ligt_reweight=1)),
+            )
+            for name, mask, gopt in variants:
                 v = run_global(ig.graph.subgraph(mask), ig.bearings, focal, gopt)
                 for s in sorted(set(so[posed].tolist())):
                     sel = (so == s) & np.all(np.isfinite(v.centres), axis=1)
