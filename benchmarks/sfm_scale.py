@@ -2,7 +2,7 @@
 graph grows (issue 15, "10k cameras and 1M observations").
 
     PYTHONPATH=src python benchmarks/sfm_scale.py [--views 1000 2000 5000 10000] [--obs-per-view 100]
-        [--outliers 0.1] [--stages rotation_averaging ligt ligt_averaged pipeline] [--normalization noise|unit]
+        [--outliers 0.1] [--stages rotation_averaging ligt ligt_averaged pipeline] [--normalization noise|unit] [--reweight N]
         [--seed 0] [--out docs/results/sfm_scale.json]
 
 ``ligt`` runs LiGT from the true rotations (its own error), ``ligt_averaged`` from rotation averaging's
@@ -42,10 +42,10 @@ def _vm(key: str) -> float:
     return float("nan")
 
 
-def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int, normalization: str) -> dict:
+def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int, normalization: str, reweight: int = 0) -> dict:
     from poseonly.sfm import average_rotations, ligt_positions
     from poseonly.sfm.align import evaluate_poses
-    from poseonly.sfm.pipeline import run_global
+    from poseonly.sfm.pipeline import GlobalOptions, run_global
     from poseonly.sfm.synthetic import make_scene, scene_view_graph
 
     s = make_scene(n, int(n * obs_per_view / TRACK_LENGTH_MEAN), noise_px=0.5, rotation_noise_deg=0.3, outlier_fraction=outliers, seed=seed)
@@ -66,11 +66,11 @@ def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int, no
         extra.update(sigma_deg=ra.info["sigma_deg"], irls_iterations=ra.info["irls_iterations"])
     elif stage == "pipeline":
         assert graph is not None
-        res = run_global(graph, lambda tr: s.bearings[tr.keypoints], s.focal)
+        res = run_global(graph, lambda tr: s.bearings[tr.keypoints], s.focal, GlobalOptions(ligt_reweight=reweight, ligt_normalization=normalization))
         extra = {"times_s": res.times_s, "points_valid": res.reconstruction.num_valid, "outliers_found": len(res.rotation.outlier_edges), "outliers_true": int(s.outlier.sum())}
     else:
-        lg = ligt_positions(R_ligt, s.tracks, s.bearings, normalization=normalization)
-        extra = {"normalization": normalization, "times_s": lg.times_s, "rows": lg.info["rows"], "nnz_H": lg.info["nnz_H"], "eig_ratio": lg.info["eig_ratio"]}
+        lg = ligt_positions(R_ligt, s.tracks, s.bearings, normalization=normalization, reweight_iterations=reweight)
+        extra = {"normalization": normalization, "reweight": reweight, "times_s": lg.times_s, "rows": lg.info["rows"], "nnz_H": lg.info["nnz_H"], "eig_ratio": lg.info["eig_ratio"]}
     dt = time.perf_counter() - t0
     if stage == "rotation_averaging":
         # the accuracy too: the mean rotation error after the rotation-only alignment (a wrong start
@@ -105,11 +105,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--stages", nargs="+", default=["rotation_averaging", "ligt"], choices=("rotation_averaging", "ligt", "ligt_averaged", "pipeline"))
     p.add_argument("--normalization", default="noise", choices=("noise", "unit"), help="LiGT's scale normalisation (ligt_positions)")
+    p.add_argument("--reweight", type=int, default=0, help="LiGT's reweighting rounds (ligt_positions' reweight_iterations; GlobalOptions.ligt_reweight)")
     p.add_argument("--out", default="docs/results/sfm_scale.json")
     p.add_argument("--child", nargs=2, metavar=("STAGE", "VIEWS"), help=argparse.SUPPRESS)
     a = p.parse_args(argv)
     if a.child:
-        print(json.dumps(_child(a.child[0], int(a.child[1]), a.obs_per_view, a.outliers, a.seed, a.normalization)))
+        print(json.dumps(_child(a.child[0], int(a.child[1]), a.obs_per_view, a.outliers, a.seed, a.normalization, a.reweight)))
         return 0
     rows = []
     env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
@@ -117,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
         for st in a.stages:
             r = subprocess.run(
                 [sys.executable, __file__, "--child", st, str(n), "--obs-per-view", str(a.obs_per_view), "--outliers", str(a.outliers)]
-                + ["--seed", str(a.seed), "--normalization", a.normalization],
+                + ["--seed", str(a.seed), "--normalization", a.normalization, "--reweight", str(a.reweight)],
                 capture_output=True,
                 text=True,
                 env=env,
