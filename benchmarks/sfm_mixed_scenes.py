@@ -24,7 +24,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("dirs", nargs="+")
     ap.add_argument("--max-features", type=int, default=8000)
     ap.add_argument("--cache", default="/tmp/sfm_cache")
-    ap.add_argument("--joint-variants", action="store_true", help="rerun each joint model: no reprojection filter, only bridges of >= 100 inliers, LiGT reweighted")
+    ap.add_argument("--joint-variants", action="store_true", help="rerun each joint model: no reprojection filter, only bridges of >= 100 inliers, LiGT not reweighted")
     a = ap.parse_args(argv)
     from poseonly.io.strecha import load_scene
     from poseonly.sfm.align import evaluate_poses
@@ -80,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
             variants = (
                 ("no reprojection filter", em, GlobalOptions(filter_rounds=0)),
                 ("bridges of >= 100 inliers only", strong, GlobalOptions()),
-                ("LiGT reweighted once (ligt_reweight=1)", em, GlobalOptions(ligt_reweight=1)),
+                ("LiGT not reweighted (ligt_reweight=0, before the ninth session)", em, GlobalOptions(ligt_reweight=0)),
             )
             for name, mask, gopt in variants:
                 v = run_global(ig.graph.subgraph(mask), ig.bearings, focal, gopt)

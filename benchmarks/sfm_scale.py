@@ -31,6 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from poseonly.sfm.choices import LIGT_REWEIGHT
+
 TRACK_LENGTH_MEAN = 3.2  # measured mean track length of make_scene(window=5, max_track=6)
 
 
@@ -42,7 +44,7 @@ def _vm(key: str) -> float:
     return float("nan")
 
 
-def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int, normalization: str, reweight: int = 0) -> dict:
+def _child(stage: str, n: int, obs_per_view: int, outliers: float, seed: int, normalization: str, reweight: int = LIGT_REWEIGHT) -> dict:
     from poseonly.sfm import average_rotations, ligt_positions
     from poseonly.sfm.align import evaluate_poses
     from poseonly.sfm.pipeline import GlobalOptions, run_global
@@ -105,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--stages", nargs="+", default=["rotation_averaging", "ligt"], choices=("rotation_averaging", "ligt", "ligt_averaged", "pipeline"))
     p.add_argument("--normalization", default="noise", choices=("noise", "unit"), help="LiGT's scale normalisation (ligt_positions)")
-    p.add_argument("--reweight", type=int, default=0, help="LiGT's reweighting rounds (ligt_positions' reweight_iterations; GlobalOptions.ligt_reweight)")
+    p.add_argument("--reweight", type=int, default=LIGT_REWEIGHT, help="LiGT's reweighting rounds (ligt_positions' reweight_iterations; GlobalOptions.ligt_reweight)")
     p.add_argument("--out", default="docs/results/sfm_scale.json")
     p.add_argument("--child", nargs=2, metavar=("STAGE", "VIEWS"), help=argparse.SUPPRESS)
     a = p.parse_args(argv)

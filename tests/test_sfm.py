@@ -249,6 +249,11 @@ def test_rotation_averaging_gm_scale_needs_redundancy_and_valid_options():
             checked_sigma_deg(bad)
         with pytest.raises(InputError, match="rotation_sigma_deg"):
             GlobalOptions(rotation_sigma_deg=bad)  # type: ignore[arg-type]
+    # LiGT's reweighting rounds are checked when the options are made, not after rotation averaging
+    assert GlobalOptions().ligt_reweight == 1 and GlobalOptions(ligt_reweight=np.int64(0)).ligt_reweight == 0
+    for bad in (-1, 1.5, True, "1", float("nan")):
+        with pytest.raises(InputError, match="ligt_reweight"):
+            GlobalOptions(ligt_reweight=bad)  # type: ignore[arg-type]
 
 
 def test_spanning_tree_start_avoids_edges_whose_triangles_do_not_close():

@@ -73,7 +73,7 @@ def test_sfm_command_bad_input(tmp_path, capsys):
         assert e.value.code == 2
         assert "--rotation-sigma" in capsys.readouterr().err
     # counts and seeds are checked by argparse too (--max-images -1 dropped the last image)
-    for opt, bad in (("--max-images", "-1"), ("--max-images", "0"), ("--seed", "-3"), ("--max-features", "x"), ("--ligt-normalization", "gauge")):
+    for opt, bad in (("--max-images", "-1"), ("--max-images", "0"), ("--seed", "-3"), ("--max-features", "x"), ("--ligt-normalization", "gauge"), ("--ligt-reweight", "-1")):
         with pytest.raises(SystemExit) as e:
             main(["sfm", str(tmp_path / "nope"), "--K", "K.txt", "--out", str(tmp_path / "o"), opt, bad])
         assert e.value.code == 2

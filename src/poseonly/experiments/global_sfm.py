@@ -36,7 +36,7 @@ import numpy as np
 from ..argtypes import non_negative_int
 from ..geometry import InputError
 from ..io.strecha import find_scenes, load_scene
-from ..sfm.choices import LIGT_NORMALIZATIONS, ROTATION_WEIGHTS
+from ..sfm.choices import LIGT_NORMALIZATIONS, LIGT_REWEIGHT, ROTATION_WEIGHTS
 from ..sfm.cli import positive_degrees
 from ._common import code_version, machine, markdown_table, progress, write_outputs
 
@@ -58,7 +58,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--threshold-px", type=float, default=None, help="two-view RANSAC threshold in pixels (default: the method's, 1 px)")
     p.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
     p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")
-    p.add_argument("--reweight", type=non_negative_int, default=0, help="LiGT reweighting iterations (default 0 = openMVG's LiGT)")
+    p.add_argument("--reweight", type=non_negative_int, default=LIGT_REWEIGHT, help=f"LiGT reweighting iterations (default {LIGT_REWEIGHT}; 0 = the paper's and openMVG's LiGT)")
     p.add_argument(
         "--ligt-normalization",
         choices=LIGT_NORMALIZATIONS,

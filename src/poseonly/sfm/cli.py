@@ -26,7 +26,7 @@ import numpy as np
 from ..argtypes import non_negative_int, positive_int
 from ..geometry import InputError, check_intrinsics
 from ..io.pair_list import parse_pair_names
-from .choices import LIGT_NORMALIZATIONS, ROTATION_WEIGHTS, checked_sigma_deg
+from .choices import LIGT_NORMALIZATIONS, LIGT_REWEIGHT, ROTATION_WEIGHTS, checked_sigma_deg
 
 __all__ = ["IMAGE_EXTS", "add_parsers", "cmd_sfm"]
 
@@ -143,7 +143,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
         f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
     )
-    gopt = GlobalOptions(rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma, ligt_normalization=args.ligt_normalization)
+    gopt = GlobalOptions(rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma, ligt_normalization=args.ligt_normalization, ligt_reweight=args.ligt_reweight)
     bar: list[_StageBar | None] = [None]
 
     def on_model(k: int, views: int) -> Any:
@@ -332,6 +332,13 @@ def add_parsers(sub: Any, esub: Any) -> None:
         choices=LIGT_NORMALIZATIONS,
         default=LIGT_NORMALIZATIONS[0],
         help="LiGT's scale: the expected noise of its rows (default) or the paper's unit norm of the centres",
+    )
+    s.add_argument(
+        "--ligt-reweight",
+        type=non_negative_int,
+        default=LIGT_REWEIGHT,
+        metavar="N",
+        help=f"LiGT's reweighting rounds by the observations' angular errors (default {LIGT_REWEIGHT}; 0: the paper's LiGT)",
     )
     s.set_defaults(func=cmd_sfm)
 

@@ -17,8 +17,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..geometry import InputError
-from .choices import LIGT_NORMALIZATIONS, ROTATION_WEIGHTS, checked_sigma_deg
+from .choices import LIGT_NORMALIZATIONS, LIGT_REWEIGHT, ROTATION_WEIGHTS, checked_sigma_deg
 from .edge_information import edge_informations
+from .inputs import checked_count
 from .ligt_global import MIN_PARALLAX_DEG, LiGTResult, TranslationUndetermined, ligt_positions
 from .reconstruct import MAX_ERROR_PX, Reconstruction, reconstruct_points
 from .rotation_averaging import RotationAveragingResult, average_rotations
@@ -36,7 +37,8 @@ STAGES = ("rotation averaging", "tracks", "LiGT", "points", "filter")
 @dataclass(frozen=True)
 class GlobalOptions:
     """``min_track_length``, track ``conflicts`` policy, rotation averaging outlier thresholds,
-    LiGT ``min_parallax_deg``, ``ligt_reweight`` iterations and ``ligt_normalization``
+    LiGT ``min_parallax_deg``, ``ligt_reweight`` iterations (default :data:`LIGT_REWEIGHT`, one:
+    the angular weighting decided on real images; 0 is the paper's LiGT) and ``ligt_normalization``
     (:func:`poseonly.sfm.ligt_global.ligt_positions`), reconstruction ``max_error_px`` and ``filter_rounds``;
     ``rotation_weights``: how rotation averaging weighs the edges, ``"inliers"`` (the two-view inlier
     counts) or ``"information"`` (each relative rotation's inverse covariance from its inlier matches,
@@ -50,7 +52,7 @@ class GlobalOptions:
     min_parallax_deg: float = MIN_PARALLAX_DEG
     max_error_px: float = MAX_ERROR_PX
     filter_rounds: int = 2
-    ligt_reweight: int = 0
+    ligt_reweight: int = LIGT_REWEIGHT
     # "noise" (Taubin's: the expected noise part of L^T L) or "unit" (the paper's / openMVG's unit
     # norm, which bends long graphs: 4.8 % of the extent on a 5000-view ring against 0.16 %)
     ligt_normalization: str = LIGT_NORMALIZATIONS[0]
@@ -71,6 +73,7 @@ class GlobalOptions:
         checked_sigma_deg(self.rotation_sigma_deg, "rotation_sigma_deg")
         if self.ligt_normalization not in LIGT_NORMALIZATIONS:
             raise InputError(f"ligt_normalization must be one of {LIGT_NORMALIZATIONS}, got {self.ligt_normalization!r}")
+        checked_count(self.ligt_reweight, "ligt_reweight")
 
 
 def num_stages(options: GlobalOptions | None = None) -> int:
