@@ -143,7 +143,9 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
         f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
     )
-    gopt = GlobalOptions(rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma, ligt_normalization=args.ligt_normalization, ligt_reweight=args.ligt_reweight)
+    gopt = GlobalOptions(
+        rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma, ligt_normalization=args.ligt_normalization, ligt_reweight=args.ligt_reweight
+    )
     bar: list[_StageBar | None] = [None]
 
     def on_model(k: int, views: int) -> Any:
