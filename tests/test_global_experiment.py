@@ -50,3 +50,29 @@ def test_global_experiment_on_four_views(tmp_path: Path, capsys) -> None:
         assert a[row]["num_estimated"] == 4 and a[row]["rot_mean_deg_rotalign"] < 0.2, lib
         assert f"{lib} {row}" in md
     capsys.readouterr()
+
+
+def test_global_experiment_reports_a_scene_it_cannot_pose(tmp_path: Path, capsys) -> None:
+    """A scene of three copies of one image (no translation anywhere) is a row saying why, and the
+    run goes on to the next scene instead of ending with an error."""
+    if not (SCENE / "images" / "K.txt").is_file():
+        pytest.skip("shared Strecha data not available")
+    root = tmp_path / "data"
+    for name, views in (("A-same", ("0000", "0000", "0000")), ("B-P8-3", VIEWS[:3])):
+        scene = root / name
+        (scene / "images").mkdir(parents=True)
+        (scene / "gt_dense_cameras").mkdir()
+        for k, v in enumerate(views):
+            (scene / "images" / f"{k:04d}.jpg").symlink_to((SCENE / "images" / f"{v}.jpg").resolve())
+            (scene / "gt_dense_cameras" / f"{k:04d}.jpg.camera").symlink_to((SCENE / "gt_dense_cameras" / f"{VIEWS[k]}.jpg.camera").resolve())
+        (scene / "images" / "K.txt").write_text((SCENE / "images" / "K.txt").read_text())
+    out = tmp_path / "out"
+    rc = main(["experiment", "global", str(root), "--cache", str(tmp_path / "cache"), "--max-features", "2000", "--no-anchor", "--out", str(out)])
+    assert rc == 0
+    res = json.loads((out / "global_sfm.json").read_text())
+    bad, good = res["results"]
+    assert bad["scene"] == "A-same" and set(bad["ours"]) == {"error"}
+    assert good["scene"] == "B-P8-3" and good["ours"]["num_estimated"] == 3
+    md = (out / "global_sfm.md").read_text()
+    assert f"A-same | poseonly (RA + LiGT, no BA): {bad['ours']['error']} | 0/3" in md
+    capsys.readouterr()

@@ -34,7 +34,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..argtypes import non_negative_int
-from ..geometry import InputError
 from ..io.strecha import find_scenes, load_scene
 from ..sfm.choices import LIGT_NORMALIZATIONS, LIGT_REWEIGHT, ROTATION_WEIGHTS
 from ..sfm.cli import positive_degrees
@@ -43,6 +42,7 @@ from ._common import code_version, machine, markdown_table, progress, write_outp
 if TYPE_CHECKING:  # the pipeline's modules (scipy) load when a scene runs, not when the CLI starts
     from ..sfm.pairwise import ImageGraph
     from ..sfm.pipeline import GlobalResult
+    from ..sfm.tracks import Tracks
 
 # openMVG GlobalSfM (bundle adjustment included), mean rotation error in degrees, as published by
 # the LiGT authors (PoSDK benchmark data; docs/SFM.md)
@@ -124,17 +124,26 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
     t0 = time.perf_counter()
     ig = image_view_graph(sc.image_paths, sc.K, options=opt, cache_dir=args.cache, progress=lambda it, **kw: progress(it, **kw), jobs=args.jobs)
     t_pairs = time.perf_counter() - t0
-    res = run_global(ig.graph, ig.bearings, float(sc.K[0, 0]), gopt)
-    if "translation_undetermined" in res.info:
-        raise InputError(f"{path.name}: the camera centres are not determined ({res.info['translation_undetermined']})")
-    ev = _scores(res.rotations, res.centres, R_gt, C_gt)
     out: dict[str, Any] = {
         "scene": sc.name,
         "views": len(sc),
         "edges": len(ig.graph),
         "pairs_rejected": len(ig.graph.rejected),
+        "times_s": {"pairwise (cached parts excluded)": t_pairs, **ig.times_s},
+    }
+    # a scene our pipeline cannot pose is a row of the table, not the end of the run: the other scenes
+    # and the anchors (which may pose it) are still reported
+    if len(ig.graph) == 0:
+        out["ours"] = {"error": "no pair was trusted (the view graph has no edges)"}
+        return _with_mappers(out, ig, sc, R_gt, C_gt, args)
+    out["input_rotation_error_deg"] = _input_rotation_error(ig.graph, R_gt)
+    res = run_global(ig.graph, ig.bearings, float(sc.K[0, 0]), gopt)
+    if "translation_undetermined" in res.info:
+        out["ours"] = {"error": f"the camera centres are not determined ({res.info['translation_undetermined']})"}
+        return _with_mappers(out, ig, sc, R_gt, C_gt, args)
+    ev = _scores(res.rotations, res.centres, R_gt, C_gt)
+    out |= {
         "outlier_edges": res.rotation.outlier_edges,
-        "input_rotation_error_deg": _input_rotation_error(ig.graph, R_gt),
         "tracks": len(res.tracks),
         "observations": res.tracks.num_observations,
         "points_valid": res.reconstruction.num_valid,
@@ -152,20 +161,35 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
         R_ba, C_ba = poses_from_reconstruction(model, len(sc))
         out["ba"] = _scores(R_ba, C_ba, R_gt, C_gt) | {"time_s": t_ba}
     if not args.no_anchor:
-        try:
-            from ..sfm import colmap_anchor
-        except ImportError as exc:  # pragma: no cover - pycolmap missing
-            out["pycolmap"] = {"error": str(exc)}
-        else:
-            out["pycolmap"] = {}
-            for fn in (lambda: colmap_anchor.run(ig, res.tracks), lambda: colmap_anchor.run_mappers(ig, sc.image_paths)):
-                try:
-                    a = fn()
-                except Exception as exc:  # noqa: BLE001 - an anchor failure must not lose our numbers
-                    out["pycolmap"]["error"] = f"{type(exc).__name__}: {exc}"
-                    continue
-                out["pycolmap"].update({k: _scores(v["rotations"], v["centres"], R_gt, C_gt) | {"time_s": v["time_s"]} for k, v in a.items()})
+        out["pycolmap"] = _colmap_anchors(ig, sc, R_gt, C_gt, res.tracks)
         out["pytheia"] = _theia_anchor(ig, res, R_gt, C_gt)
+    return out
+
+
+def _with_mappers(out: dict[str, Any], ig: ImageGraph, sc: Any, R_gt: np.ndarray, C_gt: np.ndarray, args: argparse.Namespace) -> dict[str, Any]:
+    """``out`` of a scene our pipeline did not pose, with pycolmap's own mappers (which run on the
+    images, not on our result) unless ``--no-anchor``."""
+    if not args.no_anchor:
+        out["pycolmap"] = _colmap_anchors(ig, sc, R_gt, C_gt, None)
+    return out
+
+
+def _colmap_anchors(ig: ImageGraph, sc: Any, R_gt: np.ndarray, C_gt: np.ndarray, tracks: Tracks | None) -> dict[str, Any]:
+    """pycolmap's global stages on our view graph and ``tracks`` (skipped when None) and its own
+    mappers on the scene's images, scored; an ``error`` entry where pycolmap is missing or fails."""
+    try:
+        from ..sfm import colmap_anchor
+    except ImportError as exc:  # pragma: no cover - pycolmap missing
+        return {"error": str(exc)}
+    out: dict[str, Any] = {}
+    runs = ([lambda: colmap_anchor.run(ig, tracks)] if tracks is not None else []) + [lambda: colmap_anchor.run_mappers(ig, sc.image_paths)]
+    for fn in runs:
+        try:
+            a = fn()
+        except Exception as exc:  # noqa: BLE001 - an anchor failure must not lose our numbers
+            out["error"] = f"{type(exc).__name__}: {exc}"
+            continue
+        out.update({k: _scores(v["rotations"], v["centres"], R_gt, C_gt) | {"time_s": v["time_s"]} for k, v in a.items()})
     return out
 
 
@@ -204,22 +228,25 @@ def _table(results: list[dict[str, Any]]) -> str:
     for r in results:
         ev = r["ours"]
         t = sum(v for k, v in r["times_s"].items() if k in ("rotation_averaging", "tracks", "ligt", "reconstruction"))
-        rows.append(
-            [
-                r["scene"],
-                "poseonly (RA + LiGT, no BA)",
-                f"{ev['num_estimated']}/{r['views']}",
-                ev["rot_mean_deg"],
-                ev["rot_median_deg"],
-                ev["rot_mean_deg_rotalign"],
-                ev["rel_rot_mean_deg"],
-                ev["pos_mean"],
-                ev["pos_mean_frac"],
-                ev["auc@1"],
-                ev["auc@5"],
-                t,
-            ]
-        )
+        if "error" in ev:
+            rows.append([r["scene"], f"poseonly (RA + LiGT, no BA): {ev['error']}", f"0/{r['views']}"] + [""] * 9)
+        else:
+            rows.append(
+                [
+                    r["scene"],
+                    "poseonly (RA + LiGT, no BA)",
+                    f"{ev['num_estimated']}/{r['views']}",
+                    ev["rot_mean_deg"],
+                    ev["rot_median_deg"],
+                    ev["rot_mean_deg_rotalign"],
+                    ev["rel_rot_mean_deg"],
+                    ev["pos_mean"],
+                    ev["pos_mean_frac"],
+                    ev["auc@1"],
+                    ev["auc@5"],
+                    t,
+                ]
+            )
         if "ba" in r:
             b = r["ba"]
             rows.append(
@@ -266,7 +293,8 @@ def _table(results: list[dict[str, Any]]) -> str:
 def _stage_table(results: list[dict[str, Any]]) -> str:
     keys = ["features", "matching", "two_view", "rotation_averaging", "tracks", "ligt", "reconstruction"]
     rows = [
-        [r["scene"], r["edges"], len(r["outlier_edges"]), r["input_rotation_error_deg"], r["tracks"], r["points_valid"]] + [r["times_s"].get(k, float("nan")) for k in keys]
+        [r["scene"], r["edges"], len(r.get("outlier_edges", ())), r.get("input_rotation_error_deg", ""), r.get("tracks", ""), r.get("points_valid", "")]
+        + [r["times_s"].get(k, float("nan")) for k in keys]
         for r in results
     ]
     return markdown_table(["scene", "edges", "outlier edges", "two-view rot err (deg)", "tracks", "points"] + [f"{k} (s)" for k in keys], rows)
