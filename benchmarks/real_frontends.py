@@ -1,0 +1,139 @@
+"""The real-data benchmark's methods on matches of other front-ends than full-resolution SIFT.
+
+    python benchmarks/real_frontends.py DIR [DIR ...] [--front-end sift-1600 sift-1024 akaze]
+        [--seeds 3] [--methods poseonly poselib-1px poselib-2px opencv-magsac] [--cache /tmp/frontend_cache]
+        [--out DIR]
+
+``poseonly bench real`` matches full-resolution SIFT. Pipelines often resize first (hloc to 1024 or
+1600 px, COLMAP to 3200), which scales the keypoints' noise in full-resolution pixels by the inverse
+of the factor, and some use other detectors. Front-ends:
+
+* ``sift-S``: OpenCV SIFT on the image resized (``INTER_AREA``) so that its long side is at most ``S``
+  pixels; keypoints and sizes mapped back to full-resolution pixels (the ground truth's ``K`` is kept);
+* ``akaze``: OpenCV AKAZE on the full-resolution image, binary descriptors matched by Hamming distance.
+
+Matching is the bench's: two nearest neighbours, Lowe's ratio 0.8 (not mutual), the score ``1 - ratio``
+(PROSAC for the default), keypoint sizes as noise scales. The methods, metrics and tables are
+:mod:`poseonly.experiments.real_bench`'s (``run_pair``, ``summarize``, ``overview_markdown``), time
+ratios to PoseLib 1 px in the same run. Features and matches are cached per front-end in ``--cache``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+
+RATIO = 0.8
+FRONT_ENDS = ("sift-1600", "sift-1024", "akaze")
+DEFAULT_METHODS = ("poseonly", "poselib-1px", "poselib-2px", "opencv-magsac")
+
+
+def _key(path: Path, front_end: str) -> str:
+    st = path.stat()
+    return hashlib.sha256(json.dumps([str(path.resolve()), st.st_size, st.st_mtime_ns, front_end, 1]).encode()).hexdigest()[:32]
+
+
+def features(path: Path, front_end: str, cache: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Keypoints ``(m, 2)`` in full-resolution pixels, descriptors ``(m, D)`` and sizes ``(m,)`` (cached)."""
+    import cv2
+
+    from poseonly._fileutil import atomic_savez
+    from poseonly.features import extract_features, read_image
+
+    f = cache / "features" / f"{front_end}_{_key(path, front_end)}.npz"
+    if f.is_file():
+        with np.load(f) as z:
+            return z["kp"], z["desc"], z["sizes"]
+    gray = read_image(path)
+    if front_end.startswith("sift-"):
+        side = int(front_end.split("-")[1])
+        s = min(1.0, side / max(gray.shape))
+        small = cv2.resize(gray, (round(gray.shape[1] * s), round(gray.shape[0] * s)), interpolation=cv2.INTER_AREA) if s < 1.0 else gray
+        sx, sy = small.shape[1] / gray.shape[1], small.shape[0] / gray.shape[0]
+        ft = extract_features(small)
+        kp = (ft.keypoints + 0.5) / np.array([sx, sy]) - 0.5  # pixel centres at integer coordinates
+        desc = ft.descriptors
+        sizes = (ft.sizes if ft.sizes is not None else np.ones(len(kp))) / np.sqrt(sx * sy)
+    elif front_end == "akaze":
+        kps, d = cv2.AKAZE_create().detectAndCompute(gray, None)
+        kp = np.array([k.pt for k in kps], dtype=np.float64).reshape(-1, 2)
+        sizes = np.array([k.size for k in kps], dtype=np.float64)
+        desc = d if d is not None else np.zeros((0, 61), np.uint8)
+    else:
+        raise SystemExit(f"unknown front-end {front_end!r}; choose from {FRONT_ENDS}")
+    atomic_savez(f, kp=kp, desc=desc, sizes=sizes)
+    return kp, desc, sizes
+
+
+def ratio_matches(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Index pairs ``(k, 2)`` and ratios ``(k,)`` of Lowe's test (L2 for float descriptors, Hamming for binary)."""
+    import cv2
+
+    if len(d1) == 0 or len(d2) < 2:
+        return np.zeros((0, 2), np.int64), np.zeros(0)
+    if d1.dtype == np.uint8:
+        nn = cv2.BFMatcher(cv2.NORM_HAMMING).knnMatch(d1, d2, k=2)
+        rows = [(m[0].queryIdx, m[0].trainIdx, m[0].distance, m[1].distance) for m in nn if len(m) == 2]
+        a = np.array(rows, dtype=np.float64).reshape(-1, 4)
+        keep = a[:, 2] < RATIO * a[:, 3]
+        return a[keep, :2].astype(np.int64), a[keep, 2] / np.maximum(a[keep, 3], 1e-30)
+    from poseonly.features import match_features
+
+    idx, score = match_features(d1, d2, ratio=RATIO, return_scores=True)
+    return idx, 1.0 - score
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("dirs", nargs="+")
+    ap.add_argument("--front-end", nargs="+", default=list(FRONT_ENDS[:1]), choices=FRONT_ENDS)
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--methods", nargs="+", default=list(DEFAULT_METHODS))
+    ap.add_argument("--cache", default="/tmp/frontend_cache")
+    ap.add_argument("--out", default=None, help="write real_frontends.md / .json here")
+    a = ap.parse_args(argv)
+    from poseonly.experiments._common import code_version, machine, single_thread
+    from poseonly.experiments.real_bench import GT_MIN, GT_PX, MIN_MATCHES, available_methods, load_datasets, overview_markdown, run_pair, summarize, warm_up
+
+    single_thread()
+    ms, notes = available_methods(a.methods)
+    data = load_datasets(a.dirs)
+    cache = Path(a.cache)
+    plan = [p for pairs in data.values() for p in pairs]
+    md = [f"# The real benchmark's methods on other front-ends (`python benchmarks/real_frontends.py {' '.join(argv or [])}`)", ""]
+    out: dict = {"front_ends": {}, "machine": machine(), "code_version": code_version(), "notes": notes}
+    for fe in a.front_end:
+        matches = []
+        for p in plan:
+            k1, d1, s1 = features(p.im1, fe, cache)
+            k2, d2, s2 = features(p.im2, fe, cache)
+            idx, r = ratio_matches(d1, d2)
+            matches.append((k1[idx[:, 0]].reshape(-1, 2), k2[idx[:, 1]].reshape(-1, 2), r, np.sqrt(s1[idx[:, 0]] * s2[idx[:, 1]])))
+        warm_up(plan, matches, ms)
+        records = [run_pair(p, m[0], m[1], m[2], ms, a.seeds, m[3]) for p, m in zip(plan, matches)]
+        res = {
+            "config": {"datasets": {k: v[0].kind for k, v in data.items()}, "seeds": a.seeds, "ratio": RATIO, "min_matches": MIN_MATCHES, "gt_px": GT_PX, "gt_min": GT_MIN},
+            "methods": ms,
+            "pairs": records,
+        }
+        res["summary"] = summarize(res)
+        out["front_ends"][fe] = res
+        md += [f"## {fe}", "", f"matches per pair (median): {int(np.median([len(m[0]) for m in matches]))}", "", overview_markdown(res), ""]
+        print("\n".join(md[-5:]), flush=True)
+    md.append(f"Machine: {out['machine']}; code `{out['code_version']}`.")
+    if a.out:
+        from poseonly.experiments._common import atomic_write_text, write_json
+
+        d = Path(a.out)
+        d.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(d / "real_frontends.md", "\n".join(md) + "\n")
+        write_json(d / "real_frontends.json", out)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
