@@ -1,6 +1,6 @@
 """The real-data benchmark's methods on matches of other front-ends than full-resolution SIFT.
 
-    python benchmarks/real_frontends.py DIR [DIR ...] [--front-end sift-1600 sift-1024 akaze]
+    python benchmarks/real_frontends.py DIR [DIR ...] [--front-end sift-1600 sift-1024 orb]
         [--seeds 3] [--methods poseonly poselib-1px poselib-2px opencv-magsac] [--cache /tmp/frontend_cache]
         [--out DIR]
 
@@ -10,7 +10,8 @@ of the factor, and some use other detectors. Front-ends:
 
 * ``sift-S``: OpenCV SIFT on the image resized (``INTER_AREA``) so that its long side is at most ``S``
   pixels; keypoints and sizes mapped back to full-resolution pixels (the ground truth's ``K`` is kept);
-* ``akaze``: OpenCV AKAZE on the full-resolution image, binary descriptors matched by Hamming distance.
+* ``orb``: OpenCV ORB (8000 features) on the full-resolution image, binary descriptors matched by
+  Hamming distance (this OpenCV build has no AKAZE).
 
 Matching is the bench's: two nearest neighbours, Lowe's ratio 0.8 (not mutual), the score ``1 - ratio``
 (PROSAC for the default), keypoint sizes as noise scales. The methods, metrics and tables are
@@ -28,7 +29,8 @@ from pathlib import Path
 import numpy as np
 
 RATIO = 0.8
-FRONT_ENDS = ("sift-1600", "sift-1024", "akaze")
+FRONT_ENDS = ("sift-1600", "sift-1024", "orb")
+ORB_FEATURES = 8000
 DEFAULT_METHODS = ("poseonly", "poselib-1px", "poselib-2px", "opencv-magsac")
 
 
@@ -58,11 +60,11 @@ def features(path: Path, front_end: str, cache: Path) -> tuple[np.ndarray, np.nd
         kp = (ft.keypoints + 0.5) / np.array([sx, sy]) - 0.5  # pixel centres at integer coordinates
         desc = ft.descriptors
         sizes = (ft.sizes if ft.sizes is not None else np.ones(len(kp))) / np.sqrt(sx * sy)
-    elif front_end == "akaze":
-        kps, d = cv2.AKAZE_create().detectAndCompute(gray, None)
+    elif front_end == "orb":
+        kps, d = cv2.ORB_create(nfeatures=ORB_FEATURES).detectAndCompute(gray, None)
         kp = np.array([k.pt for k in kps], dtype=np.float64).reshape(-1, 2)
         sizes = np.array([k.size for k in kps], dtype=np.float64)
-        desc = d if d is not None else np.zeros((0, 61), np.uint8)
+        desc = d if d is not None else np.zeros((0, 32), np.uint8)
     else:
         raise SystemExit(f"unknown front-end {front_end!r}; choose from {FRONT_ENDS}")
     atomic_savez(f, kp=kp, desc=desc, sizes=sizes)
@@ -87,6 +89,22 @@ def ratio_matches(d1: np.ndarray, d2: np.ndarray) -> tuple[np.ndarray, np.ndarra
     return idx, 1.0 - score
 
 
+def wrong_ok(records: list[dict], methods: list[str]) -> list[dict]:
+    """Every ``ok`` pose of a method that reports a status with a rotation error above 5 deg, any seed."""
+    from poseonly.experiments.real_bench import WRONG_DEG
+
+    out = []
+    for r in records:
+        pl = r["methods"].get("poselib-1px")
+        for m in methods:
+            for s, x in enumerate(r["methods"][m]):
+                if x["status"] == "ok" and x["R_err"] is not None and x["R_err"] > WRONG_DEG:
+                    ref = pl[s]["R_err"] if pl else None
+                    ref_err = None if ref is None else round(ref, 2)
+                    out.append({"dataset": r["dataset"], "pair": r["id"], "seed": s, "method": m, "R_err": x["R_err"], "inliers": x["inliers"], "poselib_R_err": ref_err})
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("dirs", nargs="+")
@@ -95,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--methods", nargs="+", default=list(DEFAULT_METHODS))
     ap.add_argument("--cache", default="/tmp/frontend_cache")
     ap.add_argument("--out", default=None, help="write real_frontends.md / .json here")
+    ap.add_argument("--full-json", action="store_true", help="keep every pair's records in the JSON (else the summaries and the wrong ok poses)")
     a = ap.parse_args(argv)
     from poseonly.experiments._common import code_version, machine, single_thread
     from poseonly.experiments.real_bench import GT_MIN, GT_PX, MIN_MATCHES, available_methods, load_datasets, overview_markdown, run_pair, summarize, warm_up
@@ -121,8 +140,14 @@ def main(argv: list[str] | None = None) -> int:
             "pairs": records,
         }
         res["summary"] = summarize(res)
-        out["front_ends"][fe] = res
+        wrong = wrong_ok(records, ms)
+        out["front_ends"][fe] = res if a.full_json else {k: v for k, v in res.items() if k != "pairs"} | {"wrong_ok": wrong}
         md += [f"## {fe}", "", f"matches per pair (median): {int(np.median([len(m[0]) for m in matches]))}", "", overview_markdown(res), ""]
+        md += ["`ok` poses more than 5 deg off, every seed (pair, seed: error, inliers; PoseLib 1 px's error on the same pair and seed):", ""]
+        md += [f"* {w['dataset']} {w['pair']} seed {w['seed']} ({w['method']}): {w['R_err']:.2f} deg, {w['inliers']} inliers; PoseLib {w['poselib_R_err']}" for w in wrong] or [
+            "* none"
+        ]
+        md.append("")
         print("\n".join(md[-5:]), flush=True)
     md.append(f"Machine: {out['machine']}; code `{out['code_version']}`.")
     if a.out:

@@ -225,6 +225,8 @@ METHODS: dict[str, MethodFn] = {
     "superansac": superansac(),
     # ablations of the default (issue 12's suspects); not run unless asked for with --methods
     "poseonly@1px": ours(threshold_px=1.0),
+    # the default (scores, scales) at a 2 px threshold: for keypoints noisier than SIFT's (ORB; benchmarks/real_frontends.py)
+    "poseonly-2px": ours(use_scores=True, use_scales=True, threshold_px=2.0),
     "poseonly-fixed-thr": ours(adaptive_threshold=False),
     "poseonly@1px-fixed-thr": ours(threshold_px=1.0, adaptive_threshold=False),
     "poseonly-no-refine": ours(refine=False),
