@@ -71,8 +71,8 @@ def checked_rotation(rotation: object, name: str) -> np.ndarray:
 
 
 def checked_count(value: object, name: str, minimum: int = 0) -> int:
-    """A whole number ``>= minimum`` (an integral float or a 0-d array is accepted; a bool is not)."""
-    if isinstance(value, (bool, np.bool_)):
+    """A whole number ``>= minimum`` (an integral float or a 0-d array is accepted; a bool or a string is not)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
         raise InputError(f"{name} must be a whole number >= {minimum}, got {value!r}")
     try:
         v = float(np.asarray(value, dtype=np.float64))
