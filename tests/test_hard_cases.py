@@ -16,9 +16,10 @@ import pytest
 from poseonly.api import estimate_relative_pose
 from poseonly.features import sampson_error_px
 from poseonly.geometry import rotation_error_deg, translation_error_deg
-from poseonly.sim_hard import HardCase, low_parallax, repetitive_texture, second_motion
+from poseonly.sim_hard import HardCase, low_parallax, repetitive_texture, second_motion, structured_first_scores
 
 STRUCTURED = 1
+RANDOM_GROUP = 2
 
 REP_SEEDS = (0, 1, 2, 3)
 # the accuracy comparison's scenes: on 4 the median swings by 1.4x between variants of the default
@@ -121,6 +122,37 @@ def test_repetitive_texture_never_returns_the_wrong_geometry():
         assert status == "ok"
         assert np.count_nonzero(inl & (c.group == STRUCTURED)) <= 2
         assert float(translation_error_deg(c.t, t)) < 3.0
+
+
+MISLEADING_SCENES = tuple(range(6))
+
+
+@pytest.mark.xfail(
+    strict=False,
+    reason="issue 12: PROSAC's stopping rule (progressive_stop) certifies the best model only within the top of the score order; "
+    "with the repeated structure ranked first the search ends on its 90 matches before the 120 true inliers are drawn (measured: "
+    "the wrong geometry `ok` in 12 of 24 runs, median 1447 hypotheses; with progressive_stop=False 0 of 24 at 21461; right in "
+    "all 6 scenes without scores). The ORB front-end's wrong `ok` poses on entry-P10 / fountain-P11 (docs/RESULTS_real.md)",
+)
+def test_repetitive_texture_with_misleading_scores():
+    """Scores that rank the repeated facade's matches first (:func:`structured_first_scores`): the
+    true geometry explains 120 matches and the wrong one 90, so the search's own objective prefers the
+    truth; the default must return it, or not call the wrong one ``ok``."""
+    for s in MISLEADING_SCENES:
+        c = _rep(s)
+        sc = structured_first_scores(c, seed=100 + s)
+        for es in ESTIMATOR_SEEDS:
+            r = estimate_relative_pose(c.u1, c.u2, c.K, c.K, seed=es, scores=sc)
+            wrong = np.count_nonzero(np.asarray(r.inliers, bool) & (c.group == STRUCTURED)) > 2 or float(translation_error_deg(c.t, r.t)) > 3.0
+            assert not (wrong and r.status == "ok"), f"scene {s}, seed {es}: {r.status}, t {float(translation_error_deg(c.t, r.t)):.1f} deg off"
+
+
+def test_structured_first_scores_rank_the_structure_first():
+    c = _rep(0)
+    sc = structured_first_scores(c, seed=1)
+    np.testing.assert_array_equal(sc, structured_first_scores(c, seed=1))
+    assert sc[c.group == STRUCTURED].min() >= 0.5 and sc[c.group == RANDOM_GROUP].max() <= 0.5
+    assert np.median(sc[c.group == STRUCTURED]) > np.median(sc[c.inliers]) > np.median(sc[c.group == RANDOM_GROUP])
 
 
 @pytest.mark.parametrize("scene", [1, 3, 8])

@@ -26,7 +26,7 @@ import numpy as np
 from .geometry import normalize, rotation_from_rotvec
 from .sim import FOCAL, HEIGHT, WIDTH, default_K
 
-__all__ = ["NOISE_PX", "HardCase", "low_parallax", "repetitive_texture", "second_motion"]
+__all__ = ["NOISE_PX", "HardCase", "low_parallax", "repetitive_texture", "second_motion", "structured_first_scores"]
 
 NOISE_PX = 0.3  # real SIFT keypoint noise (px per axis)
 INLIER, STRUCTURED, RANDOM = 0, 1, 2
@@ -253,3 +253,15 @@ def low_parallax(
     ga = (_project(K, I3, O3, X)[0], _project(K, R, C, X)[0], INLIER)
     gc = (*_random_matches(rng, k), RANDOM)
     return _finish(rng, "low_parallax", K, R, C, [ga, gc], noise_px, None, None, X)
+
+
+def structured_first_scores(case: HardCase, seed: int | np.random.Generator | None = 0) -> np.ndarray:
+    """Match scores ``(n,)`` (higher is better, as ``estimate_relative_pose(..., scores=)`` takes them)
+    that rank ``case``'s structured outliers first: structured ``U(0.5, 1)``, true inliers ``U(0, 1)``,
+    random outliers ``U(0, 0.5)``. Informative against the random matches, misleading about the
+    repeated structure: the order a ratio test gives a repeated facade's matches when its keypoints are
+    coarse (ORB on Strecha's entry-P10 and fountain-P11, docs/RESULTS_real.md, "Other front-ends")."""
+    rng = _rng(seed)
+    lo = np.where(case.group == STRUCTURED, 0.5, 0.0)
+    hi = np.where(case.group == RANDOM, 0.5, 1.0)
+    return lo + (hi - lo) * rng.uniform(0.0, 1.0, case.n)
