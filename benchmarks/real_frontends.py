@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -123,7 +124,8 @@ def main(argv: list[str] | None = None) -> int:
     data = load_datasets(a.dirs)
     cache = Path(a.cache)
     plan = [p for pairs in data.values() for p in pairs]
-    md = [f"# The real benchmark's methods on other front-ends (`python benchmarks/real_frontends.py {' '.join(argv or [])}`)", ""]
+    shown = sys.argv[1:] if argv is None else argv
+    md = [f"# The real benchmark's methods on other front-ends (`python benchmarks/real_frontends.py {' '.join(shown)}`)", ""]
     out: dict = {"front_ends": {}, "machine": machine(), "code_version": code_version(), "notes": notes}
     for fe in a.front_end:
         matches = []
