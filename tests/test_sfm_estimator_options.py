@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from poseonly import InputError, estimate_relative_pose
-from poseonly.sfm.pairwise import PairwiseOptions, parse_estimator_options, two_view
+from poseonly.sfm.pairwise import PAIRWISE_MAX_ITERATIONS, PairwiseOptions, parse_estimator_options, two_view
 from poseonly.sim import make_scene
 
 
@@ -42,9 +42,31 @@ def test_two_view_passes_the_options_and_keys_the_cache_by_them(tmp_path):
     ref = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0, ml_tails="gauss")
     np.testing.assert_array_equal(a.R, ref.R)
     b = two_view(sc.u1, sc.u2, sc.K, sc.K, PairwiseOptions(use_scores=False), 0, tmp_path)  # the default: its own entry
-    default = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0)
+    default = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0, max_iterations=PAIRWISE_MAX_ITERATIONS)
     np.testing.assert_array_equal(b.R, default.R)
     assert len(list((tmp_path / "twoview").iterdir())) == 2
+
+
+def test_the_pairwise_stage_caps_the_default_method_at_colmaps_trials(monkeypatch):
+    """The default method runs at PAIRWISE_MAX_ITERATIONS (10000) in the pairwise stage unless
+    estimator_options sets max_iterations; other methods keep their own (their max_iterations means
+    something else: GNC-RANSAC's 50 samples of 30)."""
+    import poseonly.sfm.pairwise as pw
+
+    seen: list[dict] = []
+    real = pw.estimate_relative_pose
+
+    def spy(*args, **kw):
+        seen.append(kw)
+        return real(*args, **kw)
+
+    monkeypatch.setattr(pw, "estimate_relative_pose", spy)
+    sc = make_scene(60, "normal", "pinhole", 0.2, 0.3, 7)
+    two_view(sc.u1, sc.u2, sc.K, sc.K, PairwiseOptions(use_scores=False), 0, None)
+    two_view(sc.u1, sc.u2, sc.K, sc.K, PairwiseOptions(use_scores=False, estimator_options=(("max_iterations", 123),)), 0, None)
+    two_view(sc.u1, sc.u2, sc.K, sc.K, PairwiseOptions(use_scores=False, method="gnc-ransac"), 0, None)
+    assert PAIRWISE_MAX_ITERATIONS == 10000
+    assert [kw.get("max_iterations") for kw in seen] == [10000, 123, None]
 
 
 def test_two_view_passes_the_noise_scales_unless_turned_off(tmp_path):
