@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..argtypes import non_negative_int
+from ..geometry import InputError
 from ..io.strecha import find_scenes, load_scene
 from ..sfm.choices import LIGT_NORMALIZATIONS, LIGT_REWEIGHT, ROTATION_WEIGHTS
 from ..sfm.cli import positive_degrees
@@ -141,7 +142,11 @@ def run_scene(path: Path, args: argparse.Namespace) -> dict[str, Any]:
     if "translation_undetermined" in res.info:
         out["ours"] = {"error": f"the camera centres are not determined ({res.info['translation_undetermined']})"}
         return _with_mappers(out, ig, sc, R_gt, C_gt, args)
-    ev = _scores(res.rotations, res.centres, R_gt, C_gt)
+    try:
+        ev = _scores(res.rotations, res.centres, R_gt, C_gt)
+    except InputError as exc:  # fewer than 3 cameras posed: no similarity to align
+        out["ours"] = {"error": f"too few cameras posed to score ({exc})"}
+        return _with_mappers(out, ig, sc, R_gt, C_gt, args)
     out |= {
         "outlier_edges": res.rotation.outlier_edges,
         "tracks": len(res.tracks),
@@ -189,8 +194,18 @@ def _colmap_anchors(ig: ImageGraph, sc: Any, R_gt: np.ndarray, C_gt: np.ndarray,
         except Exception as exc:  # noqa: BLE001 - an anchor failure must not lose our numbers
             out["error"] = f"{type(exc).__name__}: {exc}"
             continue
-        out.update({k: _scores(v["rotations"], v["centres"], R_gt, C_gt) | {"time_s": v["time_s"]} for k, v in a.items()})
+        _add_scored(out, a, R_gt, C_gt)
     return out
+
+
+def _add_scored(out: dict[str, Any], runs: dict[str, Any], R_gt: np.ndarray, C_gt: np.ndarray) -> None:
+    """``out[name]``: the scores of each anchor run (``rotations``, ``centres``, ``time_s``); a run that
+    cannot be scored (fewer than 3 cameras posed) is added to ``out["error"]`` instead."""
+    for k, v in runs.items():
+        try:
+            out[k] = _scores(v["rotations"], v["centres"], R_gt, C_gt) | {"time_s": v["time_s"]}
+        except InputError as exc:
+            out["error"] = "; ".join(filter(None, [out.get("error"), f"{k}: {exc}"]))
 
 
 def _theia_anchor(ig: ImageGraph, res: GlobalResult, R_gt: np.ndarray, C_gt: np.ndarray) -> dict[str, Any]:
@@ -206,7 +221,9 @@ def _theia_anchor(ig: ImageGraph, res: GlobalResult, R_gt: np.ndarray, C_gt: np.
         a = theia_anchor.run(ig.graph, res.tracks, ig.bearings(res.tracks), res.rotations)
     except Exception as exc:  # noqa: BLE001
         return {"error": f"{type(exc).__name__}: {exc}"}
-    return {k: _scores(v["rotations"], v["centres"], R_gt, C_gt) | {"time_s": v["time_s"]} for k, v in a.items()}
+    out: dict[str, Any] = {}
+    _add_scored(out, a, R_gt, C_gt)
+    return out
 
 
 def _table(results: list[dict[str, Any]]) -> str:

@@ -287,7 +287,7 @@ def two_view(
                 h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
         h.update(f"{__version__}-{TWO_VIEW_CACHE_TAG}-{opt.method}-{opt.threshold_px}-{seed}-{focal_px}-{scores is not None}-{noise_scales is not None}".encode())
         if opt.estimator_options:
-            h.update(repr(sorted(opt.estimator_options)).encode())
+            h.update(repr(sorted(dict(opt.estimator_options).items())).encode())  # as the call sees them (the last of a repeated name)
         f = cache / "twoview" / f"r_{h.hexdigest()[:24]}.npz"
         if f.is_file():
             try:
