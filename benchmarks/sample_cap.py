@@ -2,7 +2,7 @@
 passes them: the default ``max_iterations`` (100000, PoseLib's) against a lower cap (COLMAP's
 two-view verification uses 10000).
 
-    python benchmarks/sample_cap.py DIR [DIR ...] [--caps 100000 10000] [--max-features 8000] [--cache /tmp/sample_cap_cache]
+    python benchmarks/sample_cap.py DIR [DIR ...] [--caps 100000 10000] [--max-features 8000] [--cache /tmp/sample_cap_cache] [--no-scores]
 
 Takes the images of the Strecha-style folders as one set (``DIR/images/*.jpg``, one ``K.txt``),
 matches all pairs once (features and matches cached), then runs the pairwise stage of ``poseonly
@@ -10,7 +10,9 @@ sfm`` (:func:`poseonly.sfm.pairwise.image_view_graph`: ratio scores, keypoint si
 per cap with ``estimator_options=(("max_iterations", cap),)`` and an empty two-view cache. Prints per
 cap the two-view stage's time, the statuses, the rotation error of the kept (``ok``) edges within one
 scene against the ground truth (median, largest, count above 5 deg) and the edges kept across scenes;
-then the pairs whose status differs between the caps.
+then the pairs whose status differs between the caps. ``--no-scores``: the pairs estimated without the
+ratio scores (uniform sampling), as ``poseonly colmap verify`` and ``poseonly sfm --database`` estimate
+them (a COLMAP database stores no match scores).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--caps", type=int, nargs="+", default=[100000, 10000])
     ap.add_argument("--max-features", type=int, default=8000)
     ap.add_argument("--cache", default="/tmp/sample_cap_cache")
+    ap.add_argument("--no-scores", action="store_true", help="estimate without the ratio scores (uniform sampling)")
     a = ap.parse_args(argv)
     from poseonly.geometry import rotation_error_deg
     from poseonly.io.strecha import load_scene
@@ -47,12 +50,15 @@ def main(argv: list[str] | None = None) -> int:
     image_view_graph(images, K, options=PairwiseOptions(max_features=a.max_features), cache_dir=cache)  # features and matches, once
     shutil.rmtree(cache / "twoview", ignore_errors=True)
     stats: dict[int, dict[tuple[int, int], str]] = {}
-    print(f"{len(images)} images; every pair estimated with the ratio scores (PROSAC) and keypoint sizes, as poseonly sfm does")
+    how = "without scores (uniform sampling), as colmap verify and sfm --database do" if a.no_scores else "with the ratio scores (PROSAC), as poseonly sfm does"
+    print(f"{len(images)} images; every pair estimated {how}, with the keypoint sizes as noise scales")
     print()
     print("| max_iterations | two-view s | ok | ok within a scene: median / largest R err (deg), > 5 deg | too_few_inliers | other | edges across scenes |")
     print("|---|---|---|---|---|---|---|")
     for cap in a.caps:
-        ig = image_view_graph(images, K, options=PairwiseOptions(max_features=a.max_features, estimator_options=(("max_iterations", cap),)), cache_dir=cache)
+        ig = image_view_graph(
+            images, K, options=PairwiseOptions(max_features=a.max_features, use_scores=not a.no_scores, estimator_options=(("max_iterations", cap),)), cache_dir=cache
+        )
         st = {(i, j): s for i, j, _, _, s in ig.pair_stats}
         stats[cap] = st
         c = collections.Counter(st.values())

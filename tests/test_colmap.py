@@ -203,3 +203,36 @@ def test_cli_errors(tmp_path, capsys):
     assert main(["colmap", "verify", str(path), "--no-progress"]) == 0
     out = capsys.readouterr().out
     assert "1 already verified" in out and "--overwrite" in out
+
+
+def test_sample_cap(tmp_path, monkeypatch, capsys):
+    """The default method runs at MANY_PAIRS_MAX_ITERATIONS (COLMAP's two-view cap) unless the caller
+    sets max_iterations; other methods keep their own; the CLI's --max-iterations reaches the estimator."""
+    import poseonly.colmap_verify as cv
+    from poseonly.cli import main
+    from poseonly.options import MANY_PAIRS_MAX_ITERATIONS
+
+    seen = []
+    real = cv.estimate_relative_poses
+
+    def spy(pairs, **kw):
+        seen.append({k: kw.get(k) for k in ("method", "max_iterations")})
+        return real(pairs, **kw)
+
+    monkeypatch.setattr(cv, "estimate_relative_poses", spy)
+    path = tmp_path / "db.db"
+    make_db(path, n_images=2)
+    assert MANY_PAIRS_MAX_ITERATIONS == 10000
+    verify_database(path, progress=False)
+    verify_database(path, progress=False, overwrite=True, max_iterations=300)
+    verify_database(path, progress=False, overwrite=True, method="lirp")
+    assert main(["colmap", "verify", str(path), "--no-progress", "--overwrite", "--max-iterations", "2000"]) == 0
+    assert seen == [
+        {"method": None, "max_iterations": MANY_PAIRS_MAX_ITERATIONS},
+        {"method": None, "max_iterations": 300},
+        {"method": "lirp", "max_iterations": None},
+        {"method": "poseonly", "max_iterations": 2000},
+    ]
+    capsys.readouterr()
+    assert main(["colmap", "verify", str(path), "--no-progress", "--overwrite", "--method", "lirp", "--max-iterations", "5"]) == 2
+    assert "max_iterations" in capsys.readouterr().err

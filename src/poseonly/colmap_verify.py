@@ -18,6 +18,11 @@ our status             COLMAP configuration    row content
 invalid input          ``UNDEFINED``           no inliers
 =====================  ======================  =====================================================
 
+The default method runs at most :data:`poseonly.options.MANY_PAIRS_MAX_ITERATIONS` (10000) samples a
+pair, COLMAP's two-view cap, as in ``poseonly sfm``'s pairwise stage (most pairs of an exhaustively
+matched database do not overlap, and their searches run to the cap); ``max_iterations=...``
+(``--max-iterations``) overrides it.
+
 Rows are written in transactions of ``write_every`` pairs, so a killed run leaves every pair either
 complete or absent. A rerun skips pairs that already have a geometry (it resumes); ``overwrite=True``
 first deletes the selected pairs' geometries (one transaction), e.g. those of COLMAP's own verifier.
@@ -39,6 +44,7 @@ from .api import DEFAULT_METHOD, METHODS
 from .batch import Pair, PairResult, estimate_relative_poses
 from .geometry import InputError
 from .io.colmap_db import ColmapDatabase, GeometryRow
+from .options import MANY_PAIRS_MAX_ITERATIONS
 
 __all__ = ["MIN_MATCHES", "STATUS_CONFIG", "VerifySummary", "add_arguments", "run_cli", "verify_database"]
 
@@ -182,13 +188,16 @@ def verify_database(
 ) -> VerifySummary:
     """Verify the matched pairs of the COLMAP database ``path`` and write their two-view geometries
     (module docstring). ``options``: those of :func:`poseonly.estimate_relative_pose`
-    (``threshold_px``, ``method``, ``seed`` ...); ``noise_scales``: pass each match's
+    (``threshold_px``, ``method``, ``seed`` ...; the default method's ``max_iterations`` defaults to
+    :data:`poseonly.options.MANY_PAIRS_MAX_ITERATIONS`); ``noise_scales``: pass each match's
     ``sqrt(s1 s2)`` of its keypoints' scales (when the database stores keypoint shapes); ``n_jobs``,
     ``backend`` (``"processes"`` or ``"threads"``) and ``client`` as :func:`poseonly.estimate_relative_poses`
     takes them (the database is read and written in this thread only). Returns a :class:`VerifySummary`."""
     t0 = time.perf_counter()
     if not isinstance(write_every, int) or write_every < 1:
         raise InputError(f"write_every must be a positive int, got {write_every!r}")
+    if options.get("method", DEFAULT_METHOD) == "poseonly" and options.get("max_iterations") is None:
+        options["max_iterations"] = MANY_PAIRS_MAX_ITERATIONS
     summary = VerifySummary()
     with ColmapDatabase(path) as db:
         pairs = db.matched_pairs()
@@ -237,6 +246,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--threshold", type=float, default=None, help="inlier threshold in pixels (default: the method's, 1 px for the default method)")
     p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"estimation method (default {DEFAULT_METHOD})")
     p.add_argument("--seed", type=int, default=0, help="base seed; each pair's seed derives from it and the pair id")
+    p.add_argument(
+        "--max-iterations",
+        type=int,
+        default=None,
+        help=f"the search's sample cap per pair (default for the default method: {MANY_PAIRS_MAX_ITERATIONS}, COLMAP's two-view cap; the method's own otherwise)",
+    )
     p.add_argument("--jobs", type=int, default=1, help="local workers (-1: all cores; default 1): processes, or threads with --threads")
     p.add_argument("--threads", action="store_true", help="the local workers are threads (the core releases the GIL), not processes")
     p.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS instead of local processes")
@@ -262,6 +277,7 @@ def run_cli(args: argparse.Namespace) -> int:
         method=args.method,
         seed=args.seed,
         **({} if args.threshold is None else {"threshold_px": args.threshold}),
+        **({} if args.max_iterations is None else {"max_iterations": args.max_iterations}),
     )
     print(f"{s.selected} pairs selected, {s.skipped} already verified (kept), {s.written} written in {s.time_s:.1f} s")
     if s.skipped and not s.written:

@@ -26,6 +26,7 @@ __all__ = [
     "GncIrlsOptions",
     "GncRansacOptions",
     "LirpOptions",
+    "MANY_PAIRS_MAX_ITERATIONS",
     "PoseonlyOptions",
     "Spec",
     "check_angle",
@@ -37,6 +38,14 @@ __all__ = [
 # of unit bearings is meaningful, above 1 rad (57 deg) nearly every match is an inlier of any pose
 MIN_ANGLE = 1e-12
 MAX_ANGLE = 1.0
+# the default method's sample cap (``max_iterations``) where many pairs of one image set are estimated:
+# the pairwise stage of ``poseonly sfm`` and ``poseonly colmap verify``. COLMAP's two-view verification
+# caps at 10000, where the two-view API keeps PoseLib's 100000. In an image set most pairs do not
+# overlap and their searches run to the cap (with match scores no stopping rule ends a search without
+# a model); a pair whose model is not found in 10000 draws has under ~13 % inliers, and the view
+# graph's other pairs carry its views. Measured in docs/SFM.md, "The sample cap"
+# (`python benchmarks/sample_cap.py $S/Herz-Jesus-P8 $S/entry-P10 $S/fountain-P11 [--no-scores]`)
+MANY_PAIRS_MAX_ITERATIONS = 10000
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,7 @@ from .._fileutil import atomic_savez
 from ..api import estimate_relative_pose
 from ..features import Features, extract_features, match_features, match_noise_scales
 from ..geometry import InputError, bearings_from_normalized, bearings_from_pixels
+from ..options import MANY_PAIRS_MAX_ITERATIONS
 from .inputs import checked_pairs
 from .tracks import Tracks
 from .viewgraph import ViewGraph
@@ -67,14 +68,8 @@ RESIDENT_IMAGES = 256
 # without replacement and, with scores, on PROSAC's uniform draws only; 30: PAIRWISE_MAX_ITERATIONS)
 TWO_VIEW_CACHE_TAG = 30
 # the default method's sample cap in the pairwise stage (``max_iterations``; an ``estimator_options``
-# entry overrides it): COLMAP's two-view verification caps at 10000, where the two-view API keeps
-# PoseLib's 100000. In an image set most pairs do not overlap and their searches run to the cap; a pair
-# whose model is not found in 10000 PROSAC draws has under ~13 % inliers, and the view graph's other
-# pairs carry its views. Measured (`python benchmarks/sample_cap.py $S/Herz-Jesus-P8 $S/entry-P10
-# $S/fountain-P11`, docs/SFM.md "The sample cap"): the 29 Strecha images as one set, two-view stage
-# 170.3 -> 20.5 s, 143 -> 145 `ok` pairs, within-scene `ok` rotation errors median 0.036 -> 0.037 deg,
-# largest 0.99 -> 0.61; the three scenes' global results within 2 % (`experiment global`)
-PAIRWISE_MAX_ITERATIONS = 10000
+# entry overrides it): COLMAP's two-view cap, as ``poseonly colmap verify`` (options.MANY_PAIRS_MAX_ITERATIONS)
+PAIRWISE_MAX_ITERATIONS = MANY_PAIRS_MAX_ITERATIONS
 # part of the match cache key: bump when match_features's results can change (2: the blocked matrix
 # products, which may swap neighbours that tie to float32 precision)
 MATCHER_TAG = 2
