@@ -3,6 +3,8 @@ the library, print; hooked into :mod:`poseonly.cli` by :func:`add_parsers`).
 
     poseonly sfm IMAGES_DIR --K K.txt --out DIR [--max-features N] [--max-images N] [--threshold-px T]
                  [--cache DIR] [--text] [--seed S]
+    poseonly sfm IMAGES_DIR --camera-model OPENCV --camera-params fx,fy,cx,cy,k1,k2,p1,p2 --out DIR
+                                                               (a distorted camera, COLMAP's model names)
     poseonly sfm IMAGES_DIR --database colmap.db --out DIR      (keypoints and matches from COLMAP)
 
 Writes one model per part of the image set that trusted pairs join (at least 3 images; largest
@@ -92,6 +94,26 @@ def _read_K(path: str) -> np.ndarray:
     return check_intrinsics(K, f"K in {path}")
 
 
+def _camera_arg(args: argparse.Namespace) -> dict[str, Any] | None:
+    """The shared camera of ``--camera-model`` / ``--camera-params`` (COLMAP's names and parameter
+    order; width and height from the images), or None; checked before any image is read."""
+    if args.camera_model is None and args.camera_params is None:
+        return None
+    if args.camera_model is None or args.camera_params is None:
+        raise InputError("--camera-model and --camera-params go together (e.g. --camera-model SIMPLE_RADIAL --camera-params f,cx,cy,k)")
+    if args.K or args.database:
+        raise InputError("give one of --K, --camera-model / --camera-params and --database (which holds the cameras)")
+    try:
+        params = [float(v) for v in args.camera_params.replace(" ", "").split(",") if v]
+    except ValueError:
+        raise InputError(f"--camera-params must be comma-separated numbers, got {args.camera_params!r}") from None
+    from ..cameras import as_camera
+
+    spec = {"model": args.camera_model.upper(), "width": 0, "height": 0, "params": params}
+    as_camera(spec, "--camera-model / --camera-params")  # the model name, the parameter count and values
+    return spec
+
+
 def cmd_sfm(args: argparse.Namespace) -> int:
     from .._fileutil import atomic_write_text
     from .pairwise import PairwiseOptions, image_view_graph, parse_estimator_options
@@ -111,6 +133,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     )
     cache = args.cache if args.cache else out / "cache"
     prog = None if args.no_progress else _progress
+    camera = _camera_arg(args)
     if args.database:
         from .colmap_db import database_view_graph
 
@@ -126,8 +149,8 @@ def cmd_sfm(args: argparse.Namespace) -> int:
             raise InputError(f"images of the database not found in {d}: {missing[:3]}")
         K = ig.K[0]
     else:
-        if not args.K:
-            raise InputError("give --K K.txt (or --database colmap.db, which holds the cameras)")
+        if not args.K and camera is None:
+            raise InputError("give --K K.txt, --camera-model / --camera-params, or --database colmap.db (which holds the cameras)")
         images = sorted(p for p in d.iterdir() if p.is_file() and p.suffix in IMAGE_EXTS)
         held = len(images)
         if args.max_images:
@@ -135,10 +158,11 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         if len(images) < 3:
             used = f" (--max-images {args.max_images} of {held})" if len(images) < held else ""
             raise InputError(f"{d} gives {len(images)} images{used}; global SfM needs at least 3")
-        K = _read_K(args.K)
+        lens = {"camera": camera} if camera is not None else {"K": _read_K(args.K)}
         pairs = _pair_list(args, images)
         resident = {} if args.resident_images is None else {"resident_images": args.resident_images}
-        ig = image_view_graph(images, K, options=opt, cache_dir=cache, pairs=pairs, progress=prog, jobs=args.jobs, **resident)
+        ig = image_view_graph(images, options=opt, cache_dir=cache, pairs=pairs, progress=prog, jobs=args.jobs, **lens, **resident)
+        K = ig.K[0]
     print(
         f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
         f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
@@ -288,7 +312,12 @@ def add_parsers(sub: Any, esub: Any) -> None:
     """Add ``sfm`` to the command subparsers ``sub`` and ``global`` to the experiment ones ``esub``."""
     s = sub.add_parser("sfm", help="global SfM of an image folder (rotation averaging + LiGT + analytical points)")
     s.add_argument("images", help="folder of images (.jpg / .png), one calibrated camera")
-    s.add_argument("--K", help="text file with the 3x3 calibration matrix (not needed with --database)")
+    s.add_argument("--K", help="text file with the 3x3 calibration matrix of the (undistorted) images")
+    s.add_argument(
+        "--camera-model",
+        help="instead of --K: the images' camera model, a COLMAP name (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE, FULL_OPENCV)",
+    )
+    s.add_argument("--camera-params", help="the camera model's parameters in COLMAP's order, comma-separated (e.g. f,cx,cy,k for SIMPLE_RADIAL)")
     s.add_argument("--database", help="COLMAP database with cameras, keypoints and matches (replaces our features and matching)")
     s.add_argument("--out", required=True, help="output folder")
     s.add_argument("--max-features", type=non_negative_int, default=8000, help="strongest SIFT features per image (default 8000)")

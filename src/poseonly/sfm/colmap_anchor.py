@@ -83,14 +83,18 @@ def run(ig: ImageGraph, tracks: Tracks) -> dict[str, dict[str, Any]]:
 
 
 def write_database(db_path: Path, names: Sequence[str], ig: ImageGraph) -> None:
-    """A new COLMAP database at ``db_path``: one PINHOLE camera, trivial rig and frame per image
-    (``names``), the keypoints and the putative matches of ``ig``."""
+    """A new COLMAP database at ``db_path``: one camera (PINHOLE from ``ig.K``, or ``ig.cameras``'
+    model), trivial rig and frame per image (``names``), the keypoints and the putative matches of ``ig``."""
     import pycolmap
 
     with pycolmap.Database.open(str(db_path)) as db:
         for k, (name, f) in enumerate(zip(names, ig.features)):
             K = ig.K[k]
-            cam = pycolmap.Camera(model="PINHOLE", width=int(f.image_size[0]), height=int(f.image_size[1]), params=[K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
+            if ig.cameras is not None:
+                c = ig.cameras[k]
+                cam = pycolmap.Camera(model=str(c["model"]), width=int(c["width"]), height=int(c["height"]), params=[float(v) for v in c["params"]])
+            else:
+                cam = pycolmap.Camera(model="PINHOLE", width=int(f.image_size[0]), height=int(f.image_size[1]), params=[K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
             cam.has_prior_focal_length = True  # the calibration is known, as for our pipeline
             cid = db.write_camera(cam)
             sensor = pycolmap.sensor_t(pycolmap.SensorType.CAMERA, cid)

@@ -4,7 +4,8 @@ Read: cameras (any COLMAP model; keypoints are undistorted to normalized coordin
 ``Camera.cam_from_img``), images (sorted by name; view ``k`` is the ``k``-th name), keypoints and
 the putative ``matches`` table. Every pair with at least ``min_matches`` matches is estimated by
 :func:`poseonly.estimate_relative_pose` on the normalized coordinates (threshold in pixels at the
-mean focal of the two cameras); COLMAP's own two-view geometries are not used.
+mean focal of the two cameras); COLMAP's own two-view geometries are not used. The exported
+COLMAP model keeps the database's camera models and parameters.
 """
 
 from __future__ import annotations
@@ -49,9 +50,10 @@ def database_view_graph(
             raise InputError(f"{p} holds {len(images)} images; need at least two")
         cams = {c.camera_id: c for c in db.read_all_cameras()}
         index = {im.image_id: k for k, im in enumerate(images)}
-        feats, normalized, Ks, focal = [], [], [], []
+        feats, normalized, Ks, focal, cameras = [], [], [], [], []
         for im in images:
             cam = cams[im.camera_id]
+            cameras.append({"model": str(cam.model_name), "width": int(cam.width), "height": int(cam.height), "params": [float(v) for v in np.asarray(cam.params)]})
             raw = np.asarray(db.read_keypoints(im.image_id), dtype=np.float64)
             raw = raw.reshape(len(raw), -1) if raw.size else np.zeros((0, 2))
             kp = raw[:, :2]
@@ -96,5 +98,5 @@ def database_view_graph(
         graph.add_result(i, j, r, pm)
         stats.append((i, j, len(pm), int(r.num_inliers), r.status))
     times["two_view"] = time.perf_counter() - t0
-    ig = ImageGraph(feats, np.array(Ks), graph, stats, times, putative, normalized)
+    ig = ImageGraph(feats, np.array(Ks), graph, stats, times, putative, normalized, cameras=cameras)
     return ig, [im.name for im in images]

@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -60,6 +60,7 @@ def colmap_model_of(names: Sequence[str], ig: ImageGraph, res: GlobalResult, col
         rc.valid,
         rc.obs_valid,
         colors,
+        ig.cameras,
     )
 
 
@@ -75,8 +76,11 @@ def build_colmap_reconstruction(
     point_valid: np.ndarray,
     obs_valid: np.ndarray,
     colors: np.ndarray | None = None,
+    cameras: Sequence[Mapping[str, Any]] | None = None,
 ) -> Any:
-    """A ``pycolmap.Reconstruction``: one PINHOLE camera per image (``K (N, 3, 3)``), the posed
+    """A ``pycolmap.Reconstruction``: one camera per image, PINHOLE from ``K (N, 3, 3)`` or the COLMAP
+    camera ``cameras[k]`` (``{"model", "width", "height", "params"}``: the model the keypoints
+    were lifted through, so the model's reprojections are those of its distorted keypoints), the posed
     images (world -> camera ``rotations (N, 3, 3)``, ``centres (N, 3)``; NaN rows are left out)
     with all their keypoints as 2D points, and every valid track as a 3D point over its valid
     observations (``points (T, 3)``, ``point_valid (T,)``, ``obs_valid (M,)``)."""
@@ -86,9 +90,13 @@ def build_colmap_reconstruction(
     rec = pycolmap.Reconstruction()
     posed = np.all(np.isfinite(rotations), axis=(1, 2)) & np.all(np.isfinite(centres), axis=1)
     for k in range(n):
-        fx, fy, cx, cy = K[k][0, 0], K[k][1, 1], K[k][0, 2], K[k][1, 2]
         w, h = image_sizes[k]
-        cam = pycolmap.Camera(model="PINHOLE", width=int(w), height=int(h), params=[fx, fy, cx, cy], camera_id=k + 1)
+        if cameras is not None:
+            c = cameras[k]
+            cam = pycolmap.Camera(model=str(c["model"]), width=int(c["width"]), height=int(c["height"]), params=[float(v) for v in c["params"]], camera_id=k + 1)
+        else:
+            fx, fy, cx, cy = K[k][0, 0], K[k][1, 1], K[k][0, 2], K[k][1, 2]
+            cam = pycolmap.Camera(model="PINHOLE", width=int(w), height=int(h), params=[fx, fy, cx, cy], camera_id=k + 1)
         rec.add_camera_with_trivial_rig(cam)
         img = pycolmap.Image(name=str(names[k]), keypoints=np.asarray(keypoints[k], dtype=np.float64), camera_id=k + 1, image_id=k + 1)
         if posed[k]:

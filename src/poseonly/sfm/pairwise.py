@@ -135,7 +135,11 @@ class ImageGraph:
     ``(k, 2)`` putative keypoint matches of every pair that was matched. From
     :func:`image_view_graph`, ``features`` hold keypoints, sizes and image sizes with ``(0, 128)``
     descriptors (released after matching), and ``peak_resident_images`` is the most images whose
-    descriptors were in memory at once."""
+    descriptors were in memory at once. ``normalized``: per image, its keypoints lifted through its
+    camera model, ``(m_k, 2)`` undistorted normalized coordinates or ``(m_k, 3)`` unit bearings (NaN
+    rows where the model cannot undistort), ``None`` for pinhole ``K``; ``cameras``: per image, the
+    COLMAP camera ``{"model", "width", "height", "params"}`` the keypoints were lifted through (the
+    exported COLMAP model's), ``None`` for pinhole ``K``."""
 
     features: list[Features]
     K: np.ndarray
@@ -145,6 +149,7 @@ class ImageGraph:
     putative: dict[tuple[int, int], np.ndarray] = field(default_factory=dict)
     normalized: list[np.ndarray] | None = None
     peak_resident_images: int = 0
+    cameras: list[dict[str, Any]] | None = None
 
     def bearings(self, tracks: Tracks) -> np.ndarray:
         """Unit camera-frame bearings ``(M, 3)`` of the tracks' observations (from the undistorted
@@ -347,8 +352,9 @@ def pair_seed(seed: int, i: int, j: int, n: int) -> int:
 
 def image_view_graph(
     images: Sequence[str | os.PathLike],
-    K: np.ndarray,
+    K: np.ndarray | None = None,
     *,
+    camera: Any = None,
     options: PairwiseOptions | None = None,
     cache_dir: str | os.PathLike | None = None,
     pairs: Sequence[tuple[int, int]] | None = None,
@@ -357,7 +363,11 @@ def image_view_graph(
     resident_images: int = RESIDENT_IMAGES,
 ) -> ImageGraph:
     """Features of ``images``, matches and two-view poses of ``pairs`` (default: all ``i < j``),
-    as an :class:`ImageGraph`. ``K`` is ``(3, 3)`` shared or ``(N, 3, 3)`` per image; ``progress``
+    as an :class:`ImageGraph`. ``K`` is ``(3, 3)`` shared or ``(N, 3, 3)`` per image (pinhole
+    cameras); or ``camera``: a distorted camera shared by all images or a list of ``N``, anything
+    :func:`poseonly.cameras.as_camera` accepts (a COLMAP model; width and height 0 take each image's
+    size), whose keypoints are then lifted through the model (matches with a keypoint the model
+    cannot undistort are dropped) and estimated as bearings at the camera's focal length; ``progress``
     wraps an iterable (e.g. tqdm); ``jobs`` threads (:func:`map_ordered`; the same graph for any
     number). ``times_s``: ``features``, ``matching`` and ``two_view`` are the summed per-image and
     per-pair times (with threads, more than their wall time).
@@ -375,10 +385,16 @@ def image_view_graph(
     n = len(images)
     if n < 2:
         raise InputError(f"need at least two images, got {n}")
-    Ks = np.asarray(K, dtype=np.float64)
-    Ks = np.broadcast_to(Ks, (n, 3, 3)).copy() if Ks.shape == (3, 3) else Ks
-    if Ks.shape != (n, 3, 3):
-        raise InputError(f"K must be (3, 3) or ({n}, 3, 3), got {Ks.shape}")
+    cams = None if camera is None else _image_cameras(camera, n, K)
+    if cams is not None:
+        Ks = np.stack([c.K for c in cams])
+    elif K is None:
+        raise InputError("give K ((3, 3) or (N, 3, 3)) or a camera")
+    else:
+        Ks = np.asarray(K, dtype=np.float64)
+        Ks = np.broadcast_to(Ks, (n, 3, 3)).copy() if Ks.shape == (3, 3) else Ks
+        if Ks.shape != (n, 3, 3):
+            raise InputError(f"K must be (3, 3) or ({n}, 3, 3), got {Ks.shape}")
     if pairs is None:
         plist = [(i, j) for i in range(n) for j in range(i + 1, n)]
     else:  # whole indices in range, no self pair; each unordered pair once, in order
@@ -391,6 +407,22 @@ def image_view_graph(
     times: dict[str, float] = {}
     uses = np.bincount(np.asarray(plist, dtype=np.int64).ravel(), minlength=n)
     pool = _FeaturePool(images, opt.max_features, None if cache is None else cache / "features", uses, resident_images)
+    lifted: dict[int, np.ndarray] = {}
+    lift_lock = threading.Lock()
+
+    def lift(i: int) -> np.ndarray:
+        """Image ``i``'s keypoints as unit bearings through its camera model (NaN rows where it
+        cannot undistort), computed once."""
+        assert cams is not None
+        with lift_lock:
+            b = lifted.get(i)
+        if b is None:
+            base = pool.base(i)
+            _check_image_size(cams[i], base.image_size, images[i])
+            b = cams[i].unproject(base.keypoints, invalid="nan") if len(base.keypoints) else np.zeros((0, 3))
+            with lift_lock:
+                b = lifted.setdefault(i, b)
+        return b
 
     def pair_job(kij: tuple[int, tuple[int, int]]) -> tuple[np.ndarray, TwoView | None, float, float]:
         k, (i, j) = kij
@@ -403,11 +435,20 @@ def image_view_graph(
             pool.done(i)
             pool.done(j)
         del fa, fb  # the descriptors: the pool may release them now
+        if cams is not None and len(idx):  # only matches whose keypoints the cameras can lift
+            ok = np.isfinite(lift(i)[idx[:, 0], 0]) & np.isfinite(lift(j)[idx[:, 1], 0])
+            if not ok.all():
+                idx, scores = idx[ok], (None if scores is None else scores[ok])
         if len(idx) < opt.min_matches:
             return idx, None, t2 - t1, 0.0
         ba, bb = pool.base(i), pool.base(j)
         ns = match_noise_scales(ba, bb, idx)
-        r = two_view(ba.keypoints[idx[:, 0]], bb.keypoints[idx[:, 1]], Ks[i], Ks[j], opt, pair_seed(opt.seed, i, j, n), cache, scores=scores, noise_scales=ns)
+        seed = pair_seed(opt.seed, i, j, n)
+        if cams is None:
+            r = two_view(ba.keypoints[idx[:, 0]], bb.keypoints[idx[:, 1]], Ks[i], Ks[j], opt, seed, cache, scores=scores, noise_scales=ns)
+        else:
+            focal = 0.5 * (cams[i].focal_px + cams[j].focal_px)
+            r = two_view(lift(i)[idx[:, 0]], lift(j)[idx[:, 1]], None, None, opt, seed, cache, focal_px=focal, scores=scores, noise_scales=ns)
         return idx, r, t2 - t1, time.perf_counter() - t2
 
     graph = ViewGraph(n)
@@ -432,16 +473,42 @@ def image_view_graph(
     times["matching"] = tm
     times["two_view"] = te
     feats = [pool.base(i) for i in range(n)]
-    return ImageGraph(feats, Ks, graph, stats, times, putative, peak_resident_images=pool.peak_resident)
+    if cams is None:
+        return ImageGraph(feats, Ks, graph, stats, times, putative, peak_resident_images=pool.peak_resident)
+    normalized = [lift(i) for i in range(n)]
+    cam_dicts = [{**c.to_dict(), "width": int(f.image_size[0]), "height": int(f.image_size[1])} for c, f in zip(cams, feats)]
+    return ImageGraph(feats, Ks, graph, stats, times, putative, normalized, pool.peak_resident, cam_dicts)
+
+
+def _image_cameras(camera: Any, n: int, K: Any) -> list[Any]:
+    """``N`` cameras (:class:`poseonly.cameras.Camera`) from one camera description or a list of ``N``."""
+    from ..cameras import as_camera
+
+    if K is not None:
+        raise InputError("give K or camera, not both")
+    if isinstance(camera, list):  # one per image (a tuple is an OpenCV (K, dist) camera)
+        if len(camera) != n:
+            raise InputError(f"camera: a list needs one camera per image ({n}), got {len(camera)}")
+        return [as_camera(c, f"camera[{k}]") for k, c in enumerate(camera)]
+    return [as_camera(camera)] * n
+
+
+def _check_image_size(cam: Any, size: tuple[int, int], path: Any) -> None:
+    """An image must have its camera's size (when the camera states one)."""
+    if (cam.width or cam.height) and (cam.width, cam.height) != tuple(size):
+        raise InputError(f"{path} is {size[0]}x{size[1]} pixels but its camera is {cam.width}x{cam.height}")
 
 
 def observation_bearings(tracks: Tracks, features: Sequence[Features], K: np.ndarray, normalized: Sequence[np.ndarray] | None = None) -> np.ndarray:
     """Unit camera-frame bearings ``(M, 3)`` of every track observation: from the pixels and
-    ``K (N, 3, 3)``, or from undistorted ``normalized`` keypoints ``(m_k, 2)`` per image when given."""
+    ``K (N, 3, 3)``, or from ``normalized`` keypoints per image when given (undistorted normalized
+    coordinates ``(m_k, 2)`` or lifted unit bearings ``(m_k, 3)``)."""
     out = np.empty((tracks.num_observations, 3))
     for v in np.unique(tracks.views):
         sel = np.flatnonzero(tracks.views == v)
-        if normalized is not None:
+        if normalized is not None and normalized[v].shape[1] == 3:  # lifted bearings
+            out[sel] = normalized[v][tracks.keypoints[sel]]
+        elif normalized is not None:
             out[sel] = bearings_from_normalized(normalized[v][tracks.keypoints[sel]])
         else:
             out[sel] = bearings_from_pixels(features[v].keypoints[tracks.keypoints[sel]], K[v])
