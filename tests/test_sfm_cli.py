@@ -141,25 +141,19 @@ def distorted_images(tmp_path_factory):
         pytest.skip("shared Strecha data not available")
     import cv2
 
-    from poseonly.cameras import as_camera
     from poseonly.io.strecha import load_scene
+    from warped import warp_to_camera
 
     sc = load_scene(SCENE)
     K = sc.K.copy()
     K[:2, :2] *= 0.5
     K[:2, 2] = 0.5 * K[:2, 2] - 0.25  # cv2.resize by 1/2: pixel centres u -> (u + 0.5) / 2 - 0.5
     d = tmp_path_factory.mktemp("distorted")
-    cam = None
     for p in sc.image_paths[:N_IMAGES]:
         img = cv2.resize(cv2.imread(str(p)), None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
         h, w = img.shape[:2]
-        if cam is None:
-            cam = {"model": "OPENCV", "width": w, "height": h, "params": [K[0, 0], K[1, 1], K[0, 2], K[1, 2], *DISTORTION, 0.0, 0.0]}
-            u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64))
-            b = as_camera(cam).unproject(np.column_stack([u.ravel(), v.ravel()]))
-            x = (b @ K.T)[:, :2] / (b[:, 2:] @ np.ones((1, 2)))
-            maps = x[:, 0].reshape(h, w).astype(np.float32), x[:, 1].reshape(h, w).astype(np.float32)
-        cv2.imwrite(str(d / p.name), cv2.remap(img, maps[0], maps[1], cv2.INTER_LINEAR))
+        cam = {"model": "OPENCV", "width": w, "height": h, "params": [K[0, 0], K[1, 1], K[0, 2], K[1, 2], *DISTORTION, 0.0, 0.0]}
+        cv2.imwrite(str(d / p.name), warp_to_camera(img, K, cam))
     return d, cam, sc
 
 

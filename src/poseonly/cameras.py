@@ -42,7 +42,7 @@ import numpy as np
 from . import _core
 from .geometry import InputError
 
-__all__ = ["MODELS", "NEWTON_TOL", "Camera", "as_camera", "from_opencv", "lift_pair"]
+__all__ = ["MODELS", "NEWTON_TOL", "Camera", "as_camera", "camera_from_text", "from_opencv", "lift_pair"]
 
 # model name -> parameter names (COLMAP order)
 MODELS: dict[str, tuple[str, ...]] = {
@@ -298,6 +298,20 @@ def as_camera(spec: Any, name: str = "camera") -> Camera:
     raise InputError(
         f"{name} must be a poseonly Camera, a pycolmap.Camera, a dict {{model, width, height, params}}, a dict {{K, dist}} or a tuple (K, dist); got {type(spec).__name__}"
     )
+
+
+def camera_from_text(model: str, params: str, width: int = 0, height: int = 0, name: str = "camera") -> Camera:
+    """A :class:`Camera` from a COLMAP model name (any case) and its parameters as comma-separated
+    text in COLMAP's order (as COLMAP's ``--ImageReader.camera_model / camera_params``), e.g.
+    ``("SIMPLE_RADIAL", "1200,640,480,-0.05")``; :class:`InputError` naming ``name`` otherwise."""
+    try:
+        values = tuple(float(v) for v in params.replace(" ", "").split(",") if v)
+    except ValueError:
+        raise InputError(f"{name}: the parameters must be comma-separated numbers, got {params!r}") from None
+    try:
+        return Camera(model.upper(), int(width), int(height), values)
+    except InputError as exc:
+        raise InputError(f"{name}: {exc}") from None
 
 
 def lift_pair(x1: Any, x2: Any, camera1: Any, camera2: Any = None) -> tuple[np.ndarray, np.ndarray, float]:

@@ -1,7 +1,7 @@
 """Command-line interface (thin: parses, calls the library, prints).
 
 poseonly demo [--draw out.png] [--json]
-poseonly relpose IMG1 IMG2 (--K K.txt | --K1 A --K2 B | --focal F [--pp CX CY]) [--json] [--draw out.png]
+poseonly relpose IMG1 IMG2 (--K K.txt | --K1 A --K2 B | --focal F [--pp CX CY] | --camera-model M --camera-params P) [--json] [--draw out.png]
 poseonly relpose --matches matches.npz [--K ...]
 poseonly experiment NAME [--trials N] [--quick] [--out DIR] [...]
 poseonly bench NAME [...]
@@ -57,6 +57,25 @@ def _intrinsics(args, image_size=None):
         K = np.array([[args.focal, 0, cx], [0, args.focal, cy], [0, 0, 1.0]])
         return K, K
     return None, None
+
+
+def _cameras(args):
+    """``(camera1, camera2)`` of ``--camera-model / --camera-params`` (both images) and
+    ``--camera2-model / --camera2-params`` (the second image's, when it differs), or None."""
+    given = [args.camera_model, args.camera_params, args.camera2_model, args.camera2_params]
+    if not any(v is not None for v in given):
+        return None
+    if (args.camera_model is None) != (args.camera_params is None) or (args.camera2_model is None) != (args.camera2_params is None):
+        raise CLIError("--camera-model and --camera-params go together (and so do --camera2-model and --camera2-params)")
+    if args.camera_model is None:
+        raise CLIError("--camera2-model / --camera2-params give the second image's camera: give the first's with --camera-model / --camera-params")
+    if args.K or args.K1 or args.K2 or args.focal:
+        raise CLIError("give the cameras with --K / --K1 / --K2 / --focal (pinhole) or --camera-model / --camera-params, not both")
+    from .cameras import camera_from_text
+
+    cam1 = camera_from_text(args.camera_model, args.camera_params, name="--camera-model / --camera-params")
+    cam2 = cam1 if args.camera2_model is None else camera_from_text(args.camera2_model, args.camera2_params, name="--camera2-model / --camera2-params")
+    return cam1, cam2
 
 
 def _check_draw_target(path: str | None) -> None:
@@ -126,15 +145,20 @@ def cmd_relpose(args) -> int:
     opts = {"method": args.method, "seed": args.seed}
     if args.threshold is not None:
         opts["threshold_px"] = args.threshold
+    cams = _cameras(args)
+    if cams is not None:
+        opts.update(camera1=cams[0], camera2=cams[1])
+        if args.epipolar and not (cams[0].is_undistorted and cams[1].is_undistorted):
+            raise CLIError("--epipolar draws straight epipolar lines, which a distorted camera does not have; draw without it")
     if args.matches:
         from .features import load_matches_npz
 
         md = load_matches_npz(args.matches)
-        K1, K2 = _intrinsics(args)
-        if K1 is None:
+        K1, K2 = (None, None) if cams is not None else _intrinsics(args)
+        if K1 is None and cams is None:
             K1, K2 = md.K1, md.K2
-        if K1 is None:
-            raise CLIError("no calibration: pass --K, --K1/--K2 or --focal/--pp, or store K in the npz")
+        if K1 is None and cams is None:
+            raise CLIError("no calibration: pass --K, --K1/--K2, --focal/--pp or --camera-model/--camera-params, or store K in the npz")
         pr = relpose_matches(md.u1, md.u2, K1, K2, scores=md.scores, noise_scales=md.noise_scales, **opts)
         imgs = (args.image1, args.image2) if args.image1 and args.image2 else None  # only for --draw
     else:
@@ -144,16 +168,21 @@ def cmd_relpose(args) -> int:
 
         im = read_image(args.image1)
         read_image(args.image2)
-        K1, K2 = _intrinsics(args, (im.shape[1], im.shape[0]))
-        if K1 is None:
-            raise CLIError("no calibration: pass --K K.txt, --K1/--K2, or --focal F [--pp CX CY]")
+        K1, K2 = (None, None) if cams is not None else _intrinsics(args, (im.shape[1], im.shape[0]))
+        if K1 is None and cams is None:
+            raise CLIError("no calibration: pass --K K.txt, --K1/--K2, --focal F [--pp CX CY], or --camera-model M --camera-params P")
         pr = relpose_images(args.image1, args.image2, K1, K2, ratio=args.ratio, cache_dir=args.cache, **opts)
         imgs = (args.image1, args.image2)
     r = pr.result
     if args.draw and imgs:
         from .features import fundamental_from_pose
 
-        F = fundamental_from_pose(K1, K2, r.R, r.t) if r.R is not None and r.t is not None else None
+        # epipolar lines are straight for pinhole cameras only (--epipolar was refused for distorted ones)
+        Ka, Kb = (cams[0].K, cams[1].K) if cams is not None else (K1, K2)
+        straight = cams is None or (cams[0].is_undistorted and cams[1].is_undistorted)
+        F = None
+        if straight and Ka is not None and Kb is not None and r.R is not None and r.t is not None:
+            F = fundamental_from_pose(Ka, Kb, r.R, r.t)
         draw_matches(imgs[0], imgs[1], pr.u1, pr.u2, r.inliers, args.draw, F=F, epipolar=args.epipolar if F is not None else 0, title=f"status: {r.status}")
     if args.save:
         _save_result(args.save, r)
@@ -259,6 +288,13 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--K2", help="text file with the 3x3 calibration matrix of the second image")
     r.add_argument("--focal", type=float, help="focal length in pixels (a pinhole K with --pp or the image centre)")
     r.add_argument("--pp", type=float, nargs=2, metavar=("CX", "CY"), help="principal point in pixels (with --focal; default: the image centre)")
+    r.add_argument(
+        "--camera-model",
+        help="instead of a K: the camera model of the images, a COLMAP name (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE, FULL_OPENCV)",
+    )
+    r.add_argument("--camera-params", help="the camera model's parameters in COLMAP's order, comma-separated (e.g. f,cx,cy,k for SIMPLE_RADIAL)")
+    r.add_argument("--camera2-model", help="the second image's camera model, when it differs from the first's")
+    r.add_argument("--camera2-params", help="the second image's camera parameters (with --camera2-model)")
     r.add_argument("--method", default="poseonly", choices=METHOD_CHOICES, help=METHOD_HELP)
     r.add_argument("--threshold", type=float, default=None, help="inlier threshold in pixels (default: the method's; 1 px for the default method)")
     r.add_argument("--ratio", type=float, default=0.8, help="Lowe ratio")

@@ -103,15 +103,9 @@ def _camera_arg(args: argparse.Namespace) -> dict[str, Any] | None:
         raise InputError("--camera-model and --camera-params go together (e.g. --camera-model SIMPLE_RADIAL --camera-params f,cx,cy,k)")
     if args.K or args.database:
         raise InputError("give one of --K, --camera-model / --camera-params and --database (which holds the cameras)")
-    try:
-        params = [float(v) for v in args.camera_params.replace(" ", "").split(",") if v]
-    except ValueError:
-        raise InputError(f"--camera-params must be comma-separated numbers, got {args.camera_params!r}") from None
-    from ..cameras import as_camera
+    from ..cameras import camera_from_text
 
-    spec = {"model": args.camera_model.upper(), "width": 0, "height": 0, "params": params}
-    as_camera(spec, "--camera-model / --camera-params")  # the model name, the parameter count and values
-    return spec
+    return camera_from_text(args.camera_model, args.camera_params, name="--camera-model / --camera-params").to_dict()
 
 
 def cmd_sfm(args: argparse.Namespace) -> int:
