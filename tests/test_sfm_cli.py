@@ -451,3 +451,35 @@ def test_sfm_command_writes_one_model_per_scene(tmp_path, capsys):
         return
     for k in (0, 1):
         assert pycolmap.Reconstruction(str(out / "sparse" / str(k))).num_reg_images() == 3
+
+
+def test_sfm_database_with_keypoints_the_camera_cannot_undistort(distorted_images, tmp_path):
+    """Keypoints beyond the region where a database camera's distortion is invertible lift to NaN in
+    pycolmap (a SIMPLE_RADIAL camera with k < 0 beyond its turning radius); their matches are left out
+    and the rest estimated, as ``colmap verify`` does (before, one such match ended the run with an
+    input error)."""
+    import dataclasses
+
+    pycolmap = pytest.importorskip("pycolmap")
+    from poseonly.sfm.colmap_anchor import write_database
+    from poseonly.sfm.pairwise import PairwiseOptions, image_view_graph
+
+    d, cam, sc = distorted_images
+    names = sorted(p.name for p in d.iterdir())
+    ig = image_view_graph([d / nm for nm in names], camera=cam, options=PairwiseOptions(max_features=2000), cache_dir=tmp_path / "cache")
+    far = np.array([[-5000.0 - 10 * k, -4000.0 + 7 * k] for k in range(20)])
+    feats = [dataclasses.replace(f, keypoints=np.vstack([f.keypoints, far]), sizes=None if f.sizes is None else np.r_[f.sizes, np.full(20, 3.0)]) for f in ig.features]
+    putative = {}
+    for (i, j), m in ig.putative.items():
+        extra = np.column_stack([len(ig.features[i].keypoints) + np.arange(20), len(ig.features[j].keypoints) + np.arange(20)])
+        putative[(i, j)] = np.vstack([m, extra])
+    f, cx, cy = cam["params"][0], cam["params"][2], cam["params"][3]
+    radial = [{"model": "SIMPLE_RADIAL", "width": cam["width"], "height": cam["height"], "params": [f, cx, cy, DISTORTION[0]]}] * len(names)
+    assert np.isnan(pycolmap.Camera(**{k: radial[0][k] for k in ("model", "width", "height", "params")}).cam_from_img(far)).all()
+    db = tmp_path / "database.db"
+    write_database(db, names, dataclasses.replace(ig, features=feats, putative=putative, cameras=radial))
+    out = tmp_path / "db"
+    assert main(["sfm", str(d), "--database", str(db), "--out", str(out), "--no-progress"]) == 0
+    rec = pycolmap.Reconstruction(str(out / "sparse" / "0"))
+    assert rec.num_reg_images() == N_IMAGES and {c.model_name for c in rec.cameras.values()} == {"SIMPLE_RADIAL"}
+    assert _camera_errors(rec, sc)["rot_mean_deg_rotalign"] < 0.1

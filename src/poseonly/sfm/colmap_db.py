@@ -79,17 +79,26 @@ def database_view_graph(
     stats: list[tuple[int, int, int, int, str]] = []
     putative: dict[tuple[int, int], np.ndarray] = {}
     cache = Path(cache_dir) if cache_dir is not None else None
+    # keypoints the camera model cannot undistort (pycolmap gives NaN beyond the invertible region)
+    valid: list[np.ndarray | None] = [None if np.isfinite(x).all() else np.asarray(np.isfinite(x).all(axis=1)) for x in normalized]
     t0 = time.perf_counter()
 
-    def pair_job(kp: tuple[int, tuple[int, int, np.ndarray]]) -> TwoView | None:
+    def pair_job(kp: tuple[int, tuple[int, int, np.ndarray]]) -> tuple[np.ndarray, TwoView | None]:
+        """The pair's matches (those whose keypoints both cameras lift) and its two-view result."""
         k, (i, j, m) = kp
+        if valid[i] is not None or valid[j] is not None:
+            ok = np.ones(len(m), bool)
+            for v, col in ((valid[i], 0), (valid[j], 1)):
+                if v is not None:
+                    ok &= v[m[:, col]]
+            m = m[ok]
         if len(m) < opt.min_matches:
-            return None
+            return m, None
         ns = match_noise_scales(feats[i], feats[j], m)
         seed = pair_seed(opt.seed, i, j, len(images))
-        return two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, seed, cache, focal_px=0.5 * (focal[i] + focal[j]), noise_scales=ns)
+        return m, two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, seed, cache, focal_px=0.5 * (focal[i] + focal[j]), noise_scales=ns)
 
-    for (i, j, pm), r in zip(pairs, wrap(map_ordered(pair_job, enumerate(pairs), jobs), desc="pairs", total=len(pairs)), strict=True):
+    for (i, j, _), (pm, r) in zip(pairs, wrap(map_ordered(pair_job, enumerate(pairs), jobs), desc="pairs", total=len(pairs)), strict=True):
         putative[(i, j)] = pm
         if r is None:
             graph.rejected.append((i, j, f"{len(pm)} putative matches"))
