@@ -58,10 +58,13 @@ def test_herz_jesus_p8_0_6_no_consensus_of_one_keypoint(tmp_path: Path) -> None:
     pytest.importorskip("cv2")
     pair = next(p for p in rb.load_datasets([P8])["Herz-Jesus-P8"] if p.pid == "0-6")
     u1, u2, ratio, scales = rb.pair_match_data(pair, tmp_path)
-    errs = []
+    errs, statuses = [], []
     for seed in range(6):
         r = estimate_relative_pose(u1, u2, pair.K1, pair.K2, scores=1.0 - ratio, noise_scales=scales, seed=seed)
         errs.append(_angle_deg(r.R, pair.R))
-        if r.status == "ok":
-            assert errs[-1] < 2.0, seed
+        statuses.append(r.status)
     assert max(errs) < 30.0, errs
+    # no pose more than 2 deg off is called ok; the seeds do end off (measured 1.2-15.9 deg: ambiguous
+    # on four seeds, too_few_inliers on two), so this checks the statuses of wrong poses
+    assert all(s != "ok" or e < 2.0 for s, e in zip(statuses, errs)), list(zip(statuses, errs))
+    assert sum(e > 2.0 for e in errs) >= 2, errs
