@@ -188,12 +188,58 @@ def option_dicts(draw, method):
 # estimate_relative_pose
 
 
-@SETTINGS
-@given(x1=arrays(), x2=arrays(), K=st.one_of(st.none(), intrinsics()))
-def test_adversarial_arrays(x1, x2, K):
-    r = call(poseonly.estimate_relative_pose, x1, x2, K, **FAST)
+def _shape(a) -> tuple[int, int]:
+    a = np.asarray(a)
+    return (a.shape[0], a.shape[1]) if a.ndim == 2 else (0, 2)
+
+
+@settings(SETTINGS, max_examples=40)
+@given(data=st.data(), K=st.one_of(st.none(), st.none(), st.just(default_K()), intrinsics()))
+def test_adversarial_arrays(data, K):
+    """Adversarial values and dtypes; x2 mostly of x1's shape (and focal_px given without K), so that
+    the values reach the estimator rather than the shape checks."""
+    if data.draw(st.integers(0, 3)):  # mostly well-shaped, so that the values are what is tested
+        x1 = data.draw(arrays(data.draw(st.integers(6, 40)), data.draw(st.sampled_from([2, 3]))))
+    else:
+        x1 = data.draw(arrays())
+    n, c = _shape(x1)
+    x2 = data.draw(arrays(n, c)) if data.draw(st.integers(0, 3)) else data.draw(arrays())
+    r = call(poseonly.estimate_relative_pose, x1, x2, K, **({"focal_px": 800.0} if K is None else {}), **FAST)
     if r is not None:
         check_result(r, len(np.asarray(x1)))
+
+
+@pytest.mark.parametrize(
+    "kind",
+    ["huge", "tiny", "int", "float32", "list", "pixels-int", "pixels-float32"],
+)
+def test_adversarial_but_valid_values_reach_the_estimator(kind):
+    """Valid input at the edges of the value range gives a result with the invariants (not an error):
+    bearings scaled by 1e300 or 1e-9 (only directions matter), integer and float32 arrays, nested
+    lists, integer and float32 pixels with K. Bearings shorter than 1e-12 are zero-length: an error."""
+    sc = make_scene(40, camera="pinhole", noise_px=0.5, outlier_fraction=0.2, seed=11)
+    x1, x2, kw = sc.f1, sc.f2, {"focal_px": 800.0}
+    if kind == "huge":
+        x1, x2 = x1 * 1e300, x2 * 1e300
+    elif kind == "tiny":  # (rows shorter than geometry.ZERO_BEARING, 1e-12, are an error: below)
+        x1, x2 = x1 * 1e-9, x2 * 1e-9
+    elif kind == "int":
+        x1, x2 = np.round(x1 * 1e6).astype(np.int64), np.round(x2 * 1e6).astype(np.int64)
+    elif kind == "float32":
+        x1, x2 = x1.astype(np.float32), x2.astype(np.float32)
+    elif kind == "list":
+        x1, x2 = x1.tolist(), x2.tolist()
+    elif kind == "pixels-int":
+        x1, x2, kw = np.round(sc.u1).astype(np.int64), np.round(sc.u2).astype(np.int64), {}
+    else:
+        x1, x2, kw = sc.u1.astype(np.float32), sc.u2.astype(np.float32), {}
+    r = call(poseonly.estimate_relative_pose, x1, x2, None if kw else sc.K, **kw, **FAST)
+    assert r is not None
+    check_result(r, 40)
+    assert r.status == "ok" and poseonly.rotation_error_deg(sc.R, r.R) < 1.0, (r.status, r.message)
+    if kind == "tiny":
+        with pytest.raises(InputError, match="zero-length bearing"):
+            poseonly.estimate_relative_pose(sc.f1 * 1e-300, sc.f2 * 1e-300, focal_px=800.0)
 
 
 @SETTINGS
@@ -259,14 +305,33 @@ def test_options_of_every_type(data, method):
         check_result(r, 30)
 
 
+valid_px = st.floats(min_value=1e-6, max_value=1e6, allow_nan=False, allow_infinity=False)
+
+
 @SETTINGS
-@given(thr=floats, focal=st.one_of(st.none(), floats))
+@given(thr=st.one_of(valid_px, valid_px, floats), focal=st.one_of(valid_px, valid_px, st.none(), floats))
 def test_threshold_and_focal_extremes(thr, focal):
+    """Thresholds and focal lengths from 1e-6 to 1e6 px (valid as long as their angle is within
+    options.MIN_ANGLE..MAX_ANGLE) and adversarial ones (0, negative, NaN, inf): a result or an
+    InputError."""
     sc = make_scene(30, seed=2)
     r = call(poseonly.estimate_relative_pose, sc.f1, sc.f2, threshold_px=thr, focal_px=focal, **FAST)
     if r is not None:
         check_result(r, 30)
         assert np.isfinite(thr) and thr > 0
+
+
+def test_threshold_and_focal_extremes_that_are_valid():
+    """The valid corners of the range return results (the hypothesis test above may draw few)."""
+    from poseonly.options import MAX_ANGLE, MIN_ANGLE
+
+    sc = make_scene(30, seed=2)
+    for thr, focal in ((1e-6, 1e-6), (1e6, 1e6), (1e-3, 1e6), (1e3, 1e3 / (0.99 * MAX_ANGLE)), (1.0, 1.0 / (1.01 * MIN_ANGLE)), (0.01, 800.0)):
+        r = call(poseonly.estimate_relative_pose, sc.f1, sc.f2, threshold_px=thr, focal_px=focal, **FAST)
+        assert r is not None, (thr, focal)
+        check_result(r, 30)
+    for thr, focal in ((1.0, 1.0 / (0.99 * MIN_ANGLE)), (1e3, 1e3 / (1.01 * MAX_ANGLE))):
+        assert call(poseonly.estimate_relative_pose, sc.f1, sc.f2, threshold_px=thr, focal_px=focal, **FAST) is None, (thr, focal)
 
 
 def test_numpy_scalars_and_messages():
@@ -357,6 +422,20 @@ def test_cli_relpose_matches(args, data, tmp_path_factory, capsys):
     out = capsys.readouterr().out
     if rc in (0, 1) and "--json" in argv:
         json.loads(out, parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
+
+
+@pytest.mark.parametrize("method", ["lirp", "poseonly"])
+def test_cli_relpose_matches_json_is_strict(method, tmp_path, capsys):
+    """The success path the hypothesis test above rarely reaches: a matches file of a real pose, the
+    JSON printed parses without NaN / Infinity constants and carries the pose."""
+    from poseonly.cli import main
+
+    sc = make_scene(60, camera="pinhole", noise_px=0.5, outlier_fraction=0.2, seed=5)
+    np.savez(tmp_path / "m.npz", u1=sc.u1, u2=sc.u2, K=sc.K)
+    rc = main(["relpose", "--matches", str(tmp_path / "m.npz"), "--json", "--method", method])
+    d = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
+    assert rc == (0 if d["status"] == "ok" else 1)
+    assert np.asarray(d["R"]).shape == (3, 3) and len(d["t"]) == 3
 
 
 @SETTINGS
