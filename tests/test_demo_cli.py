@@ -106,7 +106,7 @@ def test_relpose_with_a_distorted_camera(tmp_path, capsys):
     w, h = d.image_size
     cams = []
     for k, (img, K) in enumerate(((d.image1, d.K1), (d.image2, d.K2))):
-        cam = {"model": "OPENCV", "width": w, "height": h, "params": [K[0, 0], K[1, 1], K[0, 2], K[1, 2], -0.25, 0.0, 0.0, 0.0]}
+        cam = {"model": "OPENCV", "width": w, "height": h, "params": [K[0, 0], K[1, 1], K[0, 2] + 0.5, K[1, 2] + 0.5, -0.25, 0.0, 0.0, 0.0]}  # COLMAP's pixel convention
         cv2.imwrite(str(tmp_path / f"{k}.png"), warp_to_camera(cv2.imread(str(img)), K, cam))
         cams.append(",".join(repr(float(v)) for v in cam["params"]))
     ims = [str(tmp_path / "0.png"), str(tmp_path / "1.png")]
@@ -122,11 +122,19 @@ def test_relpose_with_a_distorted_camera(tmp_path, capsys):
     assert float(rotation_error_deg(d.R_gt, np.array(r_pin["R"]))) > 3 * err  # measured 0.141 against 0.030 deg
     assert main(["relpose", *ims, "--camera-model", "opencv", "--camera-params", cams[0], "--draw", str(tmp_path / "m.png")]) == 0
     assert (tmp_path / "m.png").stat().st_size > 1000
+    capsys.readouterr()
+    # a model that cannot undistort the outer keypoints (k = -1 turns back within the image): those
+    # matches are left out and said so, the rest estimated (before: exit 2 for the whole pair)
+    f, cx, cy = d.K1[0, 0], d.K1[0, 2] + 0.5, d.K1[1, 2] + 0.5
+    assert main(["relpose", *ims, "--camera-model", "SIMPLE_RADIAL", "--camera-params", f"{f} {cx} {cy} -1.0", "--json"]) in (0, 1)
+    r_bad = json.loads(capsys.readouterr().out)
+    assert r_bad["num_dropped"] > 100 and r_bad["num_matches"] > 100, (r_bad["num_dropped"], r_bad["num_matches"])
     for extra, msg in (
         (["--camera-model", "OPENCV"], "go together"),
         (["--camera2-model", "OPENCV", "--camera2-params", cams[1]], "give the first's"),
         (["--camera-model", "OPENCV", "--camera-params", "1,2,3"], "takes 8 parameters"),
         (["--camera-model", "OPENCV", "--camera-params", cams[0], "--focal", "800"], "not both"),
+        (["--camera-model", "OPENCV", "--camera-params", cams[0], "--pp", "480", "320"], "not both"),
         (["--camera-model", "OPENCV", "--camera-params", cams[0], "--draw", str(tmp_path / "e.png"), "--epipolar", "5"], "distorted camera"),
     ):
         assert main(["relpose", *ims, *extra]) == 2

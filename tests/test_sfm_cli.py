@@ -152,7 +152,8 @@ def distorted_images(tmp_path_factory):
     for p in sc.image_paths[:N_IMAGES]:
         img = cv2.resize(cv2.imread(str(p)), None, fx=0.5, fy=0.5, interpolation=cv2.INTER_AREA)
         h, w = img.shape[:2]
-        cam = {"model": "OPENCV", "width": w, "height": h, "params": [K[0, 0], K[1, 1], K[0, 2], K[1, 2], *DISTORTION, 0.0, 0.0]}
+        # COLMAP's pixel convention: the principal point 0.5 px further than in K's (OpenCV's)
+        cam = {"model": "OPENCV", "width": w, "height": h, "params": [K[0, 0], K[1, 1], K[0, 2] + 0.5, K[1, 2] + 0.5, *DISTORTION, 0.0, 0.0]}
         cv2.imwrite(str(d / p.name), warp_to_camera(img, K, cam))
     return d, cam, sc
 
@@ -196,7 +197,7 @@ def test_sfm_command_with_a_distorted_camera(distorted_images, tmp_path):
     out2 = tmp_path / "pinhole"
     Kp = tmp_path / "K.txt"
     f = cam["params"]
-    Kp.write_text(f"{f[0]} 0 {f[2]}\n0 {f[1]} {f[3]}\n0 0 1\n")
+    Kp.write_text(f"{f[0]} 0 {f[2] - 0.5}\n0 {f[1]} {f[3] - 0.5}\n0 0 1\n")  # OpenCV's convention, as the keypoints
     assert main(["sfm", str(d), "--K", str(Kp), "--out", str(out2), "--max-features", "2000", "--no-progress"]) == 0
     ev2 = _camera_errors(pycolmap.Reconstruction(str(out2 / "sparse" / "0")), sc)
     assert ev2["rot_mean_deg_rotalign"] > 5 * ev["rot_mean_deg_rotalign"], (ev2, ev)
@@ -229,7 +230,9 @@ def test_sfm_camera_arguments_are_checked(tmp_path, capsys):
         (["--camera-model", "OPENCV"], "go together"),
         (["--camera-model", "OPENCV", "--camera-params", "800,800,320"], "takes 8 parameters"),
         (["--camera-model", "KANNALA", "--camera-params", "800,320,240"], "unsupported camera model"),
-        (["--camera-model", "SIMPLE_RADIAL", "--camera-params", "800,320,x,0"], "comma-separated numbers"),
+        (["--camera-model", "SIMPLE_RADIAL", "--camera-params", "800,320,x,0"], "numbers separated by commas or spaces"),
+        (["--camera-model", "SIMPLE_RADIAL", "--camera-params", "800,,320,240"], "numbers separated by commas or spaces"),
+        (["--camera-model", "SIMPLE_RADIAL", "--camera-params", "800 800,320,240,0"], "takes 4 parameters"),
         (["--camera-model", "SIMPLE_RADIAL", "--camera-params", "800,320,240,0", "--K", str(tmp_path / "K.txt")], "give one of --K"),
         ([], "give --K K.txt, --camera-model"),
     ]

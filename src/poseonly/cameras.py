@@ -22,8 +22,13 @@ numpy version it replaced, the same roots bit for bit, is ``tests/reference/came
 where it does not converge to the physical root (outside the region where the distortion is
 invertible) raise :class:`ValueError` naming how many and the first index.
 
-Pixel convention: COLMAP's (the centre of the top-left pixel is ``(0.5, 0.5)``); the principal
-point is wherever the parameters put it, so any consistent convention works.
+Pixel convention: a camera maps pixels in the convention of its parameters, which
+:func:`poseonly.estimate_relative_pose` assumes its pixels share. COLMAP's parameters (``cameras.txt``, a
+``pycolmap.Camera``, the command line's ``--camera-params``) put the centre of the top-left pixel at
+``(0.5, 0.5)``; OpenCV's keypoints (:mod:`poseonly.features`) at ``(0, 0)``. Where poseonly lifts its
+own SIFT keypoints through such a camera (``poseonly relpose IMG1 IMG2 --camera-model ...``,
+``poseonly sfm --camera-model ...``, :func:`poseonly.sfm.pairwise.image_view_graph` with ``camera``) it
+adds :data:`OPENCV_TO_COLMAP_PX` first, and the COLMAP model it writes holds the shifted keypoints.
 
 :func:`as_camera` accepts a :class:`Camera`, a ``pycolmap.Camera`` (duck-typed: ``model_name``,
 ``width``, ``height``, ``params``; pycolmap is not imported), a PoseLib/COLMAP-style dict
@@ -33,6 +38,7 @@ OpenCV distortion coefficients ``(k1, k2, p1, p2[, k3[, k4, k5, k6]])``.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -42,7 +48,7 @@ import numpy as np
 from . import _core
 from .geometry import InputError
 
-__all__ = ["MODELS", "NEWTON_TOL", "Camera", "as_camera", "camera_from_text", "from_opencv", "lift_pair"]
+__all__ = ["MODELS", "NEWTON_TOL", "OPENCV_TO_COLMAP_PX", "Camera", "as_camera", "camera_from_text", "from_opencv", "lift_pair"]
 
 # model name -> parameter names (COLMAP order)
 MODELS: dict[str, tuple[str, ...]] = {
@@ -55,6 +61,8 @@ MODELS: dict[str, tuple[str, ...]] = {
     "FULL_OPENCV": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"),
 }
 NEWTON_TOL = 1e-12  # relative step size at which Newton's undistortion stops
+# added to OpenCV pixels (integer values at pixel centres) to get COLMAP's (centres at + 0.5)
+OPENCV_TO_COLMAP_PX = 0.5
 NEWTON_MAX_ITER = 100
 _FISHEYE_EPS = 1e-12  # below this normalized radius a fisheye point is on the axis (no distortion)
 
@@ -301,13 +309,17 @@ def as_camera(spec: Any, name: str = "camera") -> Camera:
 
 
 def camera_from_text(model: str, params: str, width: int = 0, height: int = 0, name: str = "camera") -> Camera:
-    """A :class:`Camera` from a COLMAP model name (any case) and its parameters as comma-separated
-    text in COLMAP's order (as COLMAP's ``--ImageReader.camera_model / camera_params``), e.g.
-    ``("SIMPLE_RADIAL", "1200,640,480,-0.05")``; :class:`InputError` naming ``name`` otherwise."""
+    """A :class:`Camera` from a COLMAP model name (any case) and its parameters as text in COLMAP's
+    order, separated by commas and / or spaces (as COLMAP's ``--ImageReader.camera_model /
+    camera_params``), e.g. ``("SIMPLE_RADIAL", "1200,640,480,-0.05")``; :class:`InputError` naming
+    ``name`` otherwise (an empty field, as in ``"800,,320"``, is an error)."""
+    fields = re.split(r"\s*,\s*|\s+", params.strip())
     try:
-        values = tuple(float(v) for v in params.replace(" ", "").split(",") if v)
+        if "" in fields:
+            raise ValueError
+        values = tuple(float(v) for v in fields)
     except ValueError:
-        raise InputError(f"{name}: the parameters must be comma-separated numbers, got {params!r}") from None
+        raise InputError(f"{name}: the parameters must be numbers separated by commas or spaces, got {params!r}") from None
     try:
         return Camera(model.upper(), int(width), int(height), values)
     except InputError as exc:

@@ -69,8 +69,8 @@ def _cameras(args):
         raise CLIError("--camera-model and --camera-params go together (and so do --camera2-model and --camera2-params)")
     if args.camera_model is None:
         raise CLIError("--camera2-model / --camera2-params give the second image's camera: give the first's with --camera-model / --camera-params")
-    if args.K or args.K1 or args.K2 or args.focal:
-        raise CLIError("give the cameras with --K / --K1 / --K2 / --focal (pinhole) or --camera-model / --camera-params, not both")
+    if args.K or args.K1 or args.K2 or args.focal is not None or args.pp is not None:
+        raise CLIError("give the cameras with --K / --K1 / --K2 / --focal / --pp (pinhole) or --camera-model / --camera-params, not both")
     from .cameras import camera_from_text
 
     cam1 = camera_from_text(args.camera_model, args.camera_params, name="--camera-model / --camera-params")
@@ -188,11 +188,13 @@ def cmd_relpose(args) -> int:
         _save_result(args.save, r)
     if args.json:
         d = r.to_dict()
-        d.update(num_matches=int(len(pr.u1)), time_features_s=pr.time_features_s, time_estimate_s=pr.time_estimate_s)
+        d.update(num_matches=int(len(pr.u1)), num_dropped=pr.dropped, time_features_s=pr.time_features_s, time_estimate_s=pr.time_estimate_s)
         print(json.dumps(d, indent=2, allow_nan=False))
     else:
         print(_fmt_pose(r.R, r.t))
         print(f"inliers: {r.num_inliers} / {len(pr.u1)} matches ({100 * r.inlier_ratio:.1f}%)")
+        if pr.dropped:
+            print(f"left out: {pr.dropped} matches with a keypoint the camera model cannot undistort")
         if r.rotation_covariance is not None:
             std_t = r.diagnostics.get("translation_std_deg", float("nan"))
             print(f"deviation from the matches' noise alone (1 sigma, first order): rotation {r.diagnostics['rotation_std_deg']:.3g} deg, translation direction {std_t:.3g} deg")
@@ -292,7 +294,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--camera-model",
         help="instead of a K: the camera model of the images, a COLMAP name (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE, FULL_OPENCV)",
     )
-    r.add_argument("--camera-params", help="the camera model's parameters in COLMAP's order, comma-separated (e.g. f,cx,cy,k for SIMPLE_RADIAL)")
+    r.add_argument(
+        "--camera-params",
+        help="the camera model's parameters in COLMAP's order and pixel convention (as in its cameras.txt), separated by commas or spaces "
+        "(e.g. f,cx,cy,k for SIMPLE_RADIAL); with --matches, the matches' pixels must be in that convention too",
+    )
     r.add_argument("--camera2-model", help="the second image's camera model, when it differs from the first's")
     r.add_argument("--camera2-params", help="the second image's camera parameters (with --camera2-model)")
     r.add_argument("--method", default="poseonly", choices=METHOD_CHOICES, help=METHOD_HELP)

@@ -18,11 +18,16 @@ __all__ = ["relpose_images", "relpose_matches", "draw_matches", "run_demo", "Pai
 
 @dataclass
 class PairResult:
+    """A pair's result with its matches ``u1, u2 (k, 2)`` in the images' pixels (OpenCV's convention
+    for our own features), the stage times and ``dropped``: matches left out because a camera model
+    could not undistort a keypoint of theirs (images with ``camera1/camera2``)."""
+
     result: RelativePoseResult
     u1: np.ndarray
     u2: np.ndarray
     time_features_s: float
     time_estimate_s: float
+    dropped: int = 0
 
 
 def relpose_matches(u1, u2, K1, K2, **options: Any) -> PairResult:
@@ -37,18 +42,41 @@ def relpose_matches(u1, u2, K1, K2, **options: Any) -> PairResult:
 
 
 def relpose_images(img1, img2, K1, K2=None, *, ratio: float = 0.8, mutual: bool = False, cache_dir=None, **options: Any) -> PairResult:
-    """SIFT + ratio-test matching + :func:`poseonly.estimate_relative_pose` on two image files."""
+    """SIFT + ratio-test matching + :func:`poseonly.estimate_relative_pose` on two image files. With
+    ``camera1`` (/ ``camera2``) options instead of ``K1``: cameras in COLMAP's pixel convention (the
+    OpenCV keypoints are shifted by :data:`poseonly.cameras.OPENCV_TO_COLMAP_PX`), and matches with a
+    keypoint the model cannot undistort are left out (``PairResult.dropped``)."""
     from .features import match_images
 
     t0 = time.perf_counter()
     m = match_images(img1, img2, ratio=ratio, mutual=mutual, cache_dir=cache_dir)
     tf = time.perf_counter() - t0
-    if len(m.u1) < 6:
-        raise InputError(f"only {len(m.u1)} matches between {img1} and {img2}: at least 6 are needed")
-    options.setdefault("scores", m.scores)  # the ratio test's quality drives PROSAC sampling
-    options.setdefault("noise_scales", m.noise_scales)  # the keypoints' sizes weight the ML refinement
-    pr = relpose_matches(m.u1, m.u2, K1, K1 if K2 is None else K2, **options)
-    pr.time_features_s = tf
+    u1, u2, scores, scales = m.u1, m.u2, m.scores, m.noise_scales
+    dropped = 0
+    if options.get("camera1") is not None:
+        from .cameras import OPENCV_TO_COLMAP_PX, as_camera
+
+        c1 = as_camera(options["camera1"], "camera1")
+        c2 = c1 if options.get("camera2") is None else as_camera(options["camera2"], "camera2")
+        ok = np.ones(len(u1), bool)
+        if len(u1):
+            ok = np.isfinite(c1.unproject(u1 + OPENCV_TO_COLMAP_PX, invalid="nan")[:, 0]) & np.isfinite(c2.unproject(u2 + OPENCV_TO_COLMAP_PX, invalid="nan")[:, 0])
+        dropped = int(np.count_nonzero(~ok))
+        u1, u2 = u1[ok], u2[ok]
+        scores = None if scores is None else scores[ok]
+        scales = None if scales is None else scales[ok]
+    if len(u1) < 6:
+        why = f" ({dropped} left out: a camera model could not undistort a keypoint)" if dropped else ""
+        raise InputError(f"only {len(u1)} matches between {img1} and {img2}{why}: at least 6 are needed")
+    options.setdefault("scores", scores)  # the ratio test's quality drives PROSAC sampling
+    options.setdefault("noise_scales", scales)  # the keypoints' sizes weight the ML refinement
+    if options.get("camera1") is not None:
+        t1 = time.perf_counter()
+        r = estimate_relative_pose(u1 + OPENCV_TO_COLMAP_PX, u2 + OPENCV_TO_COLMAP_PX, K1, K2, **options)
+        pr = PairResult(r, u1, u2, tf, time.perf_counter() - t1, dropped)
+    else:
+        pr = relpose_matches(u1, u2, K1, K1 if K2 is None else K2, **options)
+        pr.time_features_s = tf
     return pr
 
 

@@ -311,7 +311,10 @@ def add_parsers(sub: Any, esub: Any) -> None:
         "--camera-model",
         help="instead of --K: the images' camera model, a COLMAP name (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE, FULL_OPENCV)",
     )
-    s.add_argument("--camera-params", help="the camera model's parameters in COLMAP's order, comma-separated (e.g. f,cx,cy,k for SIMPLE_RADIAL)")
+    s.add_argument(
+        "--camera-params",
+        help="the camera model's parameters in COLMAP's order and pixel convention (as in its cameras.txt), separated by commas or spaces (e.g. f,cx,cy,k for SIMPLE_RADIAL)",
+    )
     s.add_argument("--database", help="COLMAP database with cameras, keypoints and matches (replaces our features and matching)")
     s.add_argument("--out", required=True, help="output folder")
     s.add_argument("--max-features", type=non_negative_int, default=8000, help="strongest SIFT features per image (default 8000)")

@@ -32,15 +32,25 @@ __all__ = ["SEED", "run", "run_mappers", "write_database"]
 SEED = 0
 
 
+def _camera(ig: ImageGraph, k: int, **kw: Any) -> Any:
+    """Image ``k``'s ``pycolmap.Camera``: PINHOLE from ``ig.K``, or the COLMAP camera its keypoints
+    were lifted through (``ig.cameras``)."""
+    import pycolmap
+
+    if ig.cameras is not None:
+        c = ig.cameras[k]
+        return pycolmap.Camera(model=str(c["model"]), width=int(c["width"]), height=int(c["height"]), params=[float(v) for v in c["params"]], **kw)
+    K, (w, h) = ig.K[k], ig.features[k].image_size
+    return pycolmap.Camera(model="PINHOLE", width=int(w), height=int(h), params=[K[0, 0], K[1, 1], K[0, 2], K[1, 2]], **kw)
+
+
 def _base_reconstruction(ig: ImageGraph, tracks: Tracks | None) -> Any:
     import pycolmap
 
     rec = pycolmap.Reconstruction()
-    for k, f in enumerate(ig.features):
-        K = ig.K[k]
-        cam = pycolmap.Camera(model="PINHOLE", width=int(f.image_size[0]), height=int(f.image_size[1]), params=[K[0, 0], K[1, 1], K[0, 2], K[1, 2]], camera_id=k + 1)
-        rec.add_camera_with_trivial_rig(cam)
-        rec.add_image_with_trivial_frame(pycolmap.Image(name=f"{k:06d}", keypoints=np.asarray(f.keypoints, dtype=np.float64), camera_id=k + 1, image_id=k + 1))
+    for k in range(len(ig.features)):
+        rec.add_camera_with_trivial_rig(_camera(ig, k, camera_id=k + 1))
+        rec.add_image_with_trivial_frame(pycolmap.Image(name=f"{k:06d}", keypoints=np.asarray(ig.camera_keypoints(k), dtype=np.float64), camera_id=k + 1, image_id=k + 1))
     return rec
 
 
@@ -84,17 +94,13 @@ def run(ig: ImageGraph, tracks: Tracks) -> dict[str, dict[str, Any]]:
 
 def write_database(db_path: Path, names: Sequence[str], ig: ImageGraph) -> None:
     """A new COLMAP database at ``db_path``: one camera (PINHOLE from ``ig.K``, or ``ig.cameras``'
-    model), trivial rig and frame per image (``names``), the keypoints and the putative matches of ``ig``."""
+    model), trivial rig and frame per image (``names``), the keypoints (in the cameras' pixel
+    convention) and the putative matches of ``ig``."""
     import pycolmap
 
     with pycolmap.Database.open(str(db_path)) as db:
-        for k, (name, f) in enumerate(zip(names, ig.features)):
-            K = ig.K[k]
-            if ig.cameras is not None:
-                c = ig.cameras[k]
-                cam = pycolmap.Camera(model=str(c["model"]), width=int(c["width"]), height=int(c["height"]), params=[float(v) for v in c["params"]])
-            else:
-                cam = pycolmap.Camera(model="PINHOLE", width=int(f.image_size[0]), height=int(f.image_size[1]), params=[K[0, 0], K[1, 1], K[0, 2], K[1, 2]])
+        for k, name in enumerate(names):
+            cam = _camera(ig, k)
             cam.has_prior_focal_length = True  # the calibration is known, as for our pipeline
             cid = db.write_camera(cam)
             sensor = pycolmap.sensor_t(pycolmap.SensorType.CAMERA, cid)
@@ -106,7 +112,7 @@ def write_database(db_path: Path, names: Sequence[str], ig: ImageGraph) -> None:
             frame.rig_id = rid
             frame.add_data_id(pycolmap.data_t(sensor, iid))
             db.write_frame(frame)
-            db.write_keypoints(iid, np.asarray(f.keypoints, dtype=np.float32))
+            db.write_keypoints(iid, np.asarray(ig.camera_keypoints(k), dtype=np.float32))
         for (i, j), idx in sorted(ig.putative.items()):
             db.write_matches(i + 1, j + 1, np.asarray(idx, dtype=np.uint32))
 

@@ -52,7 +52,7 @@ def colmap_model_of(names: Sequence[str], ig: ImageGraph, res: GlobalResult, col
         names,
         ig.K,
         [f.image_size for f in ig.features],
-        [f.keypoints for f in ig.features],
+        [ig.camera_keypoints(k) for k in range(len(ig.features))],
         res.rotations,
         res.centres,
         res.tracks,

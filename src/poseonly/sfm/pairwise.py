@@ -27,6 +27,7 @@ import numpy as np
 from .. import __version__
 from .._fileutil import atomic_savez
 from ..api import estimate_relative_pose
+from ..cameras import OPENCV_TO_COLMAP_PX
 from ..features import Features, extract_features, match_features, match_noise_scales
 from ..geometry import InputError, bearings_from_normalized, bearings_from_pixels
 from ..options import MANY_PAIRS_MAX_ITERATIONS
@@ -139,7 +140,9 @@ class ImageGraph:
     camera model, ``(m_k, 2)`` undistorted normalized coordinates or ``(m_k, 3)`` unit bearings (NaN
     rows where the model cannot undistort), ``None`` for pinhole ``K``; ``cameras``: per image, the
     COLMAP camera ``{"model", "width", "height", "params"}`` the keypoints were lifted through (the
-    exported COLMAP model's), ``None`` for pinhole ``K``."""
+    exported COLMAP model's), ``None`` for pinhole ``K``; ``keypoint_offset``: what to add to the
+    features' keypoints to get the cameras' pixel convention (:data:`poseonly.cameras.OPENCV_TO_COLMAP_PX`
+    for our OpenCV keypoints with COLMAP cameras, 0 otherwise)."""
 
     features: list[Features]
     K: np.ndarray
@@ -150,6 +153,13 @@ class ImageGraph:
     normalized: list[np.ndarray] | None = None
     peak_resident_images: int = 0
     cameras: list[dict[str, Any]] | None = None
+    keypoint_offset: float = 0.0
+
+    def camera_keypoints(self, k: int) -> np.ndarray:
+        """Image ``k``'s keypoints in its camera's pixel convention (``features[k].keypoints`` plus
+        ``keypoint_offset``): what a COLMAP model or database of this graph holds."""
+        kp = self.features[k].keypoints
+        return kp + self.keypoint_offset if self.keypoint_offset else kp
 
     def bearings(self, tracks: Tracks) -> np.ndarray:
         """Unit camera-frame bearings ``(M, 3)`` of the tracks' observations (from the undistorted
@@ -365,8 +375,9 @@ def image_view_graph(
     """Features of ``images``, matches and two-view poses of ``pairs`` (default: all ``i < j``),
     as an :class:`ImageGraph`. ``K`` is ``(3, 3)`` shared or ``(N, 3, 3)`` per image (pinhole
     cameras); or ``camera``: a distorted camera shared by all images or a list of ``N``, anything
-    :func:`poseonly.cameras.as_camera` accepts (a COLMAP model; width and height 0 take each image's
-    size), whose keypoints are then lifted through the model (matches with a keypoint the model
+    :func:`poseonly.cameras.as_camera` accepts (a COLMAP model with COLMAP's pixel convention: the
+    OpenCV keypoints are shifted by :data:`poseonly.cameras.OPENCV_TO_COLMAP_PX`; width and height 0
+    take each image's size), whose keypoints are then lifted through the model (matches with a keypoint the model
     cannot undistort are dropped) and estimated as bearings at the camera's focal length; ``progress``
     wraps an iterable (e.g. tqdm); ``jobs`` threads (:func:`map_ordered`; the same graph for any
     number). ``times_s``: ``features``, ``matching`` and ``two_view`` are the summed per-image and
@@ -419,7 +430,8 @@ def image_view_graph(
         if b is None:
             base = pool.base(i)
             _check_image_size(cams[i], base.image_size, images[i])
-            b = cams[i].unproject(base.keypoints, invalid="nan") if len(base.keypoints) else np.zeros((0, 3))
+            # OpenCV keypoints into the camera's (COLMAP's) pixel convention
+            b = cams[i].unproject(base.keypoints + OPENCV_TO_COLMAP_PX, invalid="nan") if len(base.keypoints) else np.zeros((0, 3))
             with lift_lock:
                 b = lifted.setdefault(i, b)
         return b
@@ -477,7 +489,7 @@ def image_view_graph(
         return ImageGraph(feats, Ks, graph, stats, times, putative, peak_resident_images=pool.peak_resident)
     normalized = [lift(i) for i in range(n)]
     cam_dicts = [{**c.to_dict(), "width": int(f.image_size[0]), "height": int(f.image_size[1])} for c, f in zip(cams, feats)]
-    return ImageGraph(feats, Ks, graph, stats, times, putative, normalized, pool.peak_resident, cam_dicts)
+    return ImageGraph(feats, Ks, graph, stats, times, putative, normalized, pool.peak_resident, cam_dicts, OPENCV_TO_COLMAP_PX)
 
 
 def _image_cameras(camera: Any, n: int, K: Any) -> list[Any]:
