@@ -236,3 +236,33 @@ def test_sample_cap(tmp_path, monkeypatch, capsys):
     capsys.readouterr()
     assert main(["colmap", "verify", str(path), "--no-progress", "--overwrite", "--method", "lirp", "--max-iterations", "5"]) == 2
     assert "max_iterations" in capsys.readouterr().err
+
+
+def test_camera_override(tmp_path, capsys):
+    """``camera=`` (``--camera-model / --camera-params``) replaces every image's database camera: the
+    database's own camera given this way writes the same rows; a camera without the distortion
+    (the database's model guessed wrong) other rows, with larger errors; bad arguments are errors."""
+    from poseonly.cli import main
+
+    path = tmp_path / "db.db"
+    poses, ids = make_db(path, n_images=3)
+    verify_database(path, progress=False)
+    base = _rows(path)
+    assert verify_database(path, progress=False, overwrite=True, camera=CAM).written == 3
+    assert _rows(path) == base
+    params = ",".join(repr(v) for v in CAM.params)
+    assert main(["colmap", "verify", str(path), "--no-progress", "--overwrite", "--camera-model", "opencv", "--camera-params", params]) == 0
+    assert _rows(path) == base
+    pinhole = ",".join(repr(v) for v in CAM.params[:4])
+    assert main(["colmap", "verify", str(path), "--no-progress", "--overwrite", "--camera-model", "PINHOLE", "--camera-params", pinhole]) == 0
+    assert _rows(path) != base
+    db = pycolmap.Database.open(str(path))
+    g = db.read_two_view_geometry(ids[0], ids[2])
+    db.close()
+    R_true = poses[2][0] @ poses[0][0].T
+    assert rotation_error_deg(R_true, g.cam2_from_cam1.rotation.matrix()) > 0.2  # the distortion ignored
+    capsys.readouterr()
+    assert main(["colmap", "verify", str(path), "--no-progress", "--camera-model", "OPENCV"]) == 2
+    assert "go together" in capsys.readouterr().err
+    assert main(["colmap", "verify", str(path), "--no-progress", "--camera-model", "OPENCV", "--camera-params", "1,2"]) == 2
+    assert "takes 8 parameters" in capsys.readouterr().err

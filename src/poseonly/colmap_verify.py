@@ -184,13 +184,17 @@ def verify_database(
     write_every: int = WRITE_EVERY,
     progress: bool = True,
     noise_scales: bool = True,
+    camera: Any = None,
     **options: Any,
 ) -> VerifySummary:
     """Verify the matched pairs of the COLMAP database ``path`` and write their two-view geometries
     (module docstring). ``options``: those of :func:`poseonly.estimate_relative_pose`
     (``threshold_px``, ``method``, ``seed`` ...; the default method's ``max_iterations`` defaults to
     :data:`poseonly.options.MANY_PAIRS_MAX_ITERATIONS`); ``noise_scales``: pass each match's
-    ``sqrt(s1 s2)`` of its keypoints' scales (when the database stores keypoint shapes); ``n_jobs``,
+    ``sqrt(s1 s2)`` of its keypoints' scales (when the database stores keypoint shapes); ``camera``:
+    one camera for every image instead of the database's (anything :func:`poseonly.cameras.as_camera`
+    accepts, in COLMAP's pixel convention as the database's keypoints; e.g. a calibration where the
+    database holds COLMAP's guess); ``n_jobs``,
     ``backend`` (``"processes"`` or ``"threads"``) and ``client`` as :func:`poseonly.estimate_relative_poses`
     takes them (the database is read and written in this thread only). Returns a :class:`VerifySummary`."""
     t0 = time.perf_counter()
@@ -199,7 +203,15 @@ def verify_database(
     if options.get("method", DEFAULT_METHOD) == "poseonly" and options.get("max_iterations") is None:
         options["max_iterations"] = MANY_PAIRS_MAX_ITERATIONS
     summary = VerifySummary()
+    cam = None
+    if camera is not None:
+        from .cameras import as_camera
+
+        cam = as_camera(camera)
     with ColmapDatabase(path) as db:
+        if cam is not None:  # every image's camera replaced (checked before any pair is estimated)
+            db.cameras = dict.fromkeys(db.image_names, cam)
+            db.unsupported.clear()
         pairs = db.matched_pairs()
         if pairs_file is not None:
             pf = Path(pairs_file)
@@ -259,10 +271,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--write-every", type=int, default=WRITE_EVERY, help=f"pairs per database transaction (default {WRITE_EVERY})")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' scales to the estimator as noise scales")
+    p.add_argument("--camera-model", help="one camera for every image instead of the database's: a COLMAP model name (with --camera-params)")
+    p.add_argument("--camera-params", help="its parameters in COLMAP's order and pixel convention, separated by commas or spaces")
 
 
 def run_cli(args: argparse.Namespace) -> int:
     """Run ``poseonly colmap verify`` from parsed arguments; prints a summary, returns the exit code."""
+    camera = None
+    if args.camera_model is not None or args.camera_params is not None:
+        if args.camera_model is None or args.camera_params is None:
+            raise InputError("--camera-model and --camera-params go together")
+        from .cameras import camera_from_text
+
+        camera = camera_from_text(args.camera_model, args.camera_params, name="--camera-model / --camera-params")
     s = verify_database(
         args.database,
         pairs_file=args.pairs,
@@ -274,6 +295,7 @@ def run_cli(args: argparse.Namespace) -> int:
         write_every=args.write_every,
         progress=not args.no_progress,
         noise_scales=not args.no_noise_scales,
+        camera=camera,
         method=args.method,
         seed=args.seed,
         **({} if args.threshold is None else {"threshold_px": args.threshold}),
