@@ -111,6 +111,15 @@ CLI_WORDS = (
     "missing.txt",
     "--ratio",
     "1.5",
+    "--camera-model",
+    "SIMPLE_RADIAL",
+    "opencv_fisheye",
+    "--camera-params",
+    "800,320,240,-0.2",
+    "800 800 320 240 0.1 0 0 0",
+    "1,,2",
+    "--camera2-model",
+    "--camera2-params",
 )
 
 
@@ -233,8 +242,11 @@ def case(rng) -> tuple[str, object]:
         same = rng.random() < 0.8  # mostly matching shapes, so that the values are what is tested
         x1 = _array(rng, n, c)
         x2 = _array(rng, n if same else None, c if same else None)
-        K = _K(rng)
-        return fam, lambda: (est(x1, x2, K, **FAST), len(x1))
+        # half the cases with an adversarial K, the others with a valid K or none (then mostly with
+        # focal_px, which bearings and normalized coordinates need), so that the values reach the estimator
+        K = _K(rng) if rng.random() < 0.5 else (default_K() if rng.random() < 0.5 else None)
+        kw = {"focal_px": FOCAL} if K is None and rng.random() < 0.8 else {}
+        return fam, lambda: (est(x1, x2, K, **kw, **FAST), len(x1))
     if fam == "scene":
         sc, m = _scene(rng), str(rng.choice(list(poseonly.METHODS)))
         o = dict(FAST) if m == "poseonly" else ({"max_iterations": 5, "sample_size": min(30, len(sc.f1))} if m == "gnc-ransac" else {})
