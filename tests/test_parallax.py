@@ -38,6 +38,26 @@ def test_core_parallax_ratio_matches_the_reference(kind, camera, outliers):
         np.testing.assert_allclose(got[2], ref[2], atol=1e-12)
 
 
+@pytest.mark.parametrize("baseline", [0.005, 0.01, 0.02])
+def test_core_parallax_ratio_matches_the_reference_on_wide_low_parallax(baseline):
+    """The wide camera with a translation: above, its normal and planar scenes have too much
+    parallax for the rotation's band (both sides return None); a small translation (``baseline``
+    times the median depth; 30 % outliers) gives ratios of 25-180, compared here."""
+    for seed in range(3):
+        s = sim.make_scene(300, kind="rotation", camera="wide", noise_px=0.5, outlier_fraction=0.3, seed=seed)
+        t = baseline * float(np.median(np.linalg.norm(s.X, axis=1))) * np.array([1.0, 0.3, 0.1])
+        P = s.X @ s.R.T + t
+        f2 = P / np.linalg.norm(P, axis=1)[:, None]
+        f2[~s.inliers] = s.f2[~s.inliers]
+        Rr, _, _ = robust_rotation(s.f1, f2, TAU)
+        v = v_sampson(s.R, t / np.linalg.norm(t), s.f1, f2)
+        got, ref = parallax_ratio(Rr, s.f1, f2, v, TAU), ref_parallax_ratio(Rr, s.f1, f2, v, TAU)
+        assert ref[2] is not None and ref[0] > 10.0, (seed, ref[0])
+        np.testing.assert_allclose(got[0], ref[0], rtol=1e-9)
+        np.testing.assert_allclose(got[1], ref[1], rtol=1e-12)
+        np.testing.assert_allclose(got[2], ref[2], atol=1e-12)
+
+
 def test_parallax_ratio_edge_cases():
     s = sim.make_scene(300, kind="rotation", noise_px=0.0, seed=1)
     v = v_sampson(s.R, np.array([0.0, 0.0, 1.0]), s.f1, s.f2)
