@@ -15,6 +15,18 @@ SCENE = Path("/work/shared/data/strecha/Herz-Jesus-P8")
 N_IMAGES = 4
 
 
+def _camera_errors(rec, sc):
+    from poseonly.sfm import evaluate_poses
+
+    R = np.zeros((N_IMAGES, 3, 3))
+    C = np.zeros((N_IMAGES, 3))
+    for img in rec.images.values():
+        k = [p.name for p in sc.image_paths].index(img.name)
+        T = img.cam_from_world().matrix()
+        R[k], C[k] = T[:, :3], -T[:, :3].T @ T[:, 3]
+    return evaluate_poses(R, C, np.array([c.R_cw.T for c in sc.cameras[:N_IMAGES]]), np.array([c.C for c in sc.cameras[:N_IMAGES]]))
+
+
 def _reprojection_error(rec) -> float:
     """Mean reprojection error (px) of a model read back from disk (its stored errors are 0 until
     recomputed)."""
@@ -48,7 +60,6 @@ def test_sfm_command_writes_outputs(sfm_run):
 def test_sfm_colmap_model_reads_back_and_matches_ground_truth(sfm_run):
     pycolmap = pytest.importorskip("pycolmap")
     from poseonly.io.strecha import load_scene
-    from poseonly.sfm import evaluate_poses
 
     rc, out = sfm_run
     assert rc == 0
@@ -56,16 +67,7 @@ def test_sfm_colmap_model_reads_back_and_matches_ground_truth(sfm_run):
     assert rec.num_reg_images() == N_IMAGES
     assert rec.num_points3D() > 100
     assert _reprojection_error(rec) < 2.0
-    sc = load_scene(SCENE)
-    R_gt = np.array([c.R_cw.T for c in sc.cameras[:N_IMAGES]])
-    C_gt = np.array([c.C for c in sc.cameras[:N_IMAGES]])
-    R = np.zeros((N_IMAGES, 3, 3))
-    C = np.zeros((N_IMAGES, 3))
-    for img in rec.images.values():
-        k = [p.name for p in sc.image_paths].index(img.name)
-        T = img.cam_from_world().matrix()
-        R[k], C[k] = T[:, :3], -T[:, :3].T @ T[:, 3]
-    ev = evaluate_poses(R, C, R_gt, C_gt)
+    ev = _camera_errors(rec, load_scene(SCENE))
     assert ev["rot_mean_deg_rotalign"] < 0.1
     assert ev["pos_mean_frac"] < 0.01
 
@@ -156,18 +158,6 @@ def distorted_images(tmp_path_factory):
         cam = {"model": "OPENCV", "width": w, "height": h, "params": [K[0, 0], K[1, 1], K[0, 2] + 0.5, K[1, 2] + 0.5, *DISTORTION, 0.0, 0.0]}
         cv2.imwrite(str(d / p.name), warp_to_camera(img, K, cam))
     return d, cam, sc
-
-
-def _camera_errors(rec, sc):
-    from poseonly.sfm import evaluate_poses
-
-    R = np.zeros((N_IMAGES, 3, 3))
-    C = np.zeros((N_IMAGES, 3))
-    for img in rec.images.values():
-        k = [p.name for p in sc.image_paths].index(img.name)
-        T = img.cam_from_world().matrix()
-        R[k], C[k] = T[:, :3], -T[:, :3].T @ T[:, 3]
-    return evaluate_poses(R, C, np.array([c.R_cw.T for c in sc.cameras[:N_IMAGES]]), np.array([c.C for c in sc.cameras[:N_IMAGES]]))
 
 
 def test_sfm_command_with_a_distorted_camera(distorted_images, tmp_path):
