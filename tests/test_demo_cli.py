@@ -123,6 +123,12 @@ def test_relpose_with_a_distorted_camera(tmp_path, capsys):
     assert main(["relpose", *ims, "--camera-model", "opencv", "--camera-params", cams[0], "--draw", str(tmp_path / "m.png")]) == 0
     assert (tmp_path / "m.png").stat().st_size > 1000
     capsys.readouterr()
+    # an undistorted camera given as a model draws epipolar lines (its K in the drawing's OpenCV pixels)
+    K1 = d.K1
+    pin = f"{K1[0, 0]},{K1[1, 1]},{K1[0, 2] + 0.5},{K1[1, 2] + 0.5}"
+    assert main(["relpose", str(d.image1), str(d.image2), "--camera-model", "PINHOLE", "--camera-params", pin, "--draw", str(tmp_path / "p.png"), "--epipolar", "5"]) == 0
+    assert (tmp_path / "p.png").stat().st_size > 1000
+    capsys.readouterr()
     # a model that cannot undistort the outer keypoints (k = -1 turns back within the image): those
     # matches are left out and said so, the rest estimated (before: exit 2 for the whole pair)
     f, cx, cy = d.K1[0, 0], d.K1[0, 2] + 0.5, d.K1[1, 2] + 0.5

@@ -78,6 +78,16 @@ def _cameras(args):
     return cam1, cam2
 
 
+def _opencv_K(cam) -> np.ndarray:
+    """A camera's pinhole ``K`` in OpenCV's pixel convention (the drawing's): COLMAP's principal point
+    less :data:`poseonly.cameras.OPENCV_TO_COLMAP_PX`."""
+    from .cameras import OPENCV_TO_COLMAP_PX
+
+    K = cam.K.copy()
+    K[:2, 2] -= OPENCV_TO_COLMAP_PX
+    return K
+
+
 def _check_draw_target(path: str | None) -> None:
     """Fail before any work when a drawing could not be written (directory, unknown format)."""
     if not path:
@@ -178,7 +188,7 @@ def cmd_relpose(args) -> int:
         from .features import fundamental_from_pose
 
         # epipolar lines are straight for pinhole cameras only (--epipolar was refused for distorted ones)
-        Ka, Kb = (cams[0].K, cams[1].K) if cams is not None else (K1, K2)
+        Ka, Kb = (_opencv_K(cams[0]), _opencv_K(cams[1])) if cams is not None else (K1, K2)
         straight = cams is None or (cams[0].is_undistorted and cams[1].is_undistorted)
         F = None
         if straight and Ka is not None and Kb is not None and r.R is not None and r.t is not None:
