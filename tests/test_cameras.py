@@ -179,3 +179,22 @@ def test_core_fisheye_undistortion_equals_the_numpy_reference():
             thr, okr = ref.undistort_fisheye(rd, np.array(k))
         assert np.array_equal(ok.astype(bool), okr)
         assert np.array_equal(th[okr], thr[okr])
+
+
+def test_as_colmap_camera_converts_opencv_descriptions_only():
+    """``as_colmap_camera``: an OpenCV ``(K, dist)`` (tuple or dict) moves its principal point by
+    OPENCV_TO_COLMAP_PX, so that OpenCV pixels shifted by it lift to the bearings the OpenCV camera
+    gives the unshifted pixels; COLMAP-style descriptions are taken as they are."""
+    import numpy as np
+
+    from poseonly.cameras import OPENCV_TO_COLMAP_PX, as_camera, as_colmap_camera
+
+    K = np.array([[800.0, 0.0, 319.5], [0.0, 810.0, 239.5], [0.0, 0.0, 1.0]])
+    dist = np.array([-0.1, 0.02, 0.001, -0.0005])
+    u = np.random.default_rng(0).uniform([0, 0], [640, 480], (50, 2))
+    for spec in ((K, dist), {"K": K, "dist": dist}):
+        cam = as_colmap_camera(spec)
+        assert cam.principal_point == (319.5 + OPENCV_TO_COLMAP_PX, 239.5 + OPENCV_TO_COLMAP_PX)
+        np.testing.assert_allclose(cam.unproject(u + OPENCV_TO_COLMAP_PX), as_camera(spec).unproject(u), atol=1e-12)
+    colmap = {"model": "SIMPLE_RADIAL", "width": 640, "height": 480, "params": [800.0, 320.0, 240.0, -0.1]}
+    assert as_colmap_camera(colmap) == as_camera(colmap)

@@ -48,7 +48,7 @@ import numpy as np
 from . import _core
 from .geometry import InputError
 
-__all__ = ["MODELS", "NEWTON_TOL", "OPENCV_TO_COLMAP_PX", "Camera", "as_camera", "camera_from_text", "from_opencv", "lift_pair"]
+__all__ = ["MODELS", "NEWTON_TOL", "OPENCV_TO_COLMAP_PX", "Camera", "as_camera", "as_colmap_camera", "camera_from_text", "from_opencv", "lift_pair"]
 
 # model name -> parameter names (COLMAP order)
 MODELS: dict[str, tuple[str, ...]] = {
@@ -306,6 +306,21 @@ def as_camera(spec: Any, name: str = "camera") -> Camera:
     raise InputError(
         f"{name} must be a poseonly Camera, a pycolmap.Camera, a dict {{model, width, height, params}}, a dict {{K, dist}} or a tuple (K, dist); got {type(spec).__name__}"
     )
+
+
+def as_colmap_camera(spec: Any, name: str = "camera") -> Camera:
+    """:func:`as_camera` in COLMAP's pixel convention, for lifting poseonly's own (OpenCV) keypoints
+    shifted by :data:`OPENCV_TO_COLMAP_PX`: an OpenCV description (a tuple ``(K, dist)`` or a dict
+    with ``K``) has its principal point moved by the same amount; the others (COLMAP, PoseLib, a
+    :class:`Camera`) are taken to be in COLMAP's convention already."""
+    cam = as_camera(spec, name)
+    if not (isinstance(spec, tuple) or (isinstance(spec, Mapping) and "K" in spec)):
+        return cam
+    p = list(cam.params)
+    i = 1 if MODELS[cam.model][0] == "f" else 2  # cx, cy
+    p[i] += OPENCV_TO_COLMAP_PX
+    p[i + 1] += OPENCV_TO_COLMAP_PX
+    return Camera(cam.model, cam.width, cam.height, tuple(p))
 
 
 def camera_from_text(model: str, params: str, width: int = 0, height: int = 0, name: str = "camera") -> Camera:

@@ -43,8 +43,9 @@ def relpose_matches(u1, u2, K1, K2, **options: Any) -> PairResult:
 
 def relpose_images(img1, img2, K1, K2=None, *, ratio: float = 0.8, mutual: bool = False, cache_dir=None, **options: Any) -> PairResult:
     """SIFT + ratio-test matching + :func:`poseonly.estimate_relative_pose` on two image files. With
-    ``camera1`` (/ ``camera2``) options instead of ``K1``: cameras in COLMAP's pixel convention (the
-    OpenCV keypoints are shifted by :data:`poseonly.cameras.OPENCV_TO_COLMAP_PX`), and matches with a
+    ``camera1`` (/ ``camera2``) options instead of ``K1``: cameras in COLMAP's pixel convention (an
+    OpenCV ``(K, dist)`` converted to it; the OpenCV keypoints are shifted by
+    :data:`poseonly.cameras.OPENCV_TO_COLMAP_PX`), and matches with a
     keypoint the model cannot undistort are left out (``PairResult.dropped``)."""
     from .features import match_images
 
@@ -54,10 +55,11 @@ def relpose_images(img1, img2, K1, K2=None, *, ratio: float = 0.8, mutual: bool 
     u1, u2, scores, scales = m.u1, m.u2, m.scores, m.noise_scales
     dropped = 0
     if options.get("camera1") is not None:
-        from .cameras import OPENCV_TO_COLMAP_PX, as_camera
+        from .cameras import OPENCV_TO_COLMAP_PX, as_colmap_camera
 
-        c1 = as_camera(options["camera1"], "camera1")
-        c2 = c1 if options.get("camera2") is None else as_camera(options["camera2"], "camera2")
+        c1 = as_colmap_camera(options["camera1"], "camera1")
+        c2 = c1 if options.get("camera2") is None else as_colmap_camera(options["camera2"], "camera2")
+        options = {**options, "camera1": c1, "camera2": c2}
         ok = np.ones(len(u1), bool)
         if len(u1):
             ok = np.isfinite(c1.unproject(u1 + OPENCV_TO_COLMAP_PX, invalid="nan")[:, 0]) & np.isfinite(c2.unproject(u2 + OPENCV_TO_COLMAP_PX, invalid="nan")[:, 0])

@@ -375,9 +375,10 @@ def image_view_graph(
     """Features of ``images``, matches and two-view poses of ``pairs`` (default: all ``i < j``),
     as an :class:`ImageGraph`. ``K`` is ``(3, 3)`` shared or ``(N, 3, 3)`` per image (pinhole
     cameras); or ``camera``: a distorted camera shared by all images or a list of ``N``, anything
-    :func:`poseonly.cameras.as_camera` accepts (a COLMAP model with COLMAP's pixel convention: the
-    OpenCV keypoints are shifted by :data:`poseonly.cameras.OPENCV_TO_COLMAP_PX`; width and height 0
-    take each image's size), whose keypoints are then lifted through the model (matches with a keypoint the model
+    :func:`poseonly.cameras.as_camera` accepts (taken in COLMAP's pixel convention, an OpenCV
+    ``(K, dist)`` converted to it, :func:`poseonly.cameras.as_colmap_camera`: the OpenCV keypoints are
+    shifted by :data:`poseonly.cameras.OPENCV_TO_COLMAP_PX`; width and height 0 take each image's
+    size), whose keypoints are then lifted through the model (matches with a keypoint the model
     cannot undistort are dropped) and estimated as bearings at the camera's focal length; ``progress``
     wraps an iterable (e.g. tqdm); ``jobs`` threads (:func:`map_ordered`; the same graph for any
     number). ``times_s``: ``features``, ``matching`` and ``two_view`` are the summed per-image and
@@ -494,15 +495,15 @@ def image_view_graph(
 
 def _image_cameras(camera: Any, n: int, K: Any) -> list[Any]:
     """``N`` cameras (:class:`poseonly.cameras.Camera`) from one camera description or a list of ``N``."""
-    from ..cameras import as_camera
+    from ..cameras import as_colmap_camera
 
     if K is not None:
         raise InputError("give K or camera, not both")
     if isinstance(camera, list):  # one per image (a tuple is an OpenCV (K, dist) camera)
         if len(camera) != n:
             raise InputError(f"camera: a list needs one camera per image ({n}), got {len(camera)}")
-        return [as_camera(c, f"camera[{k}]") for k, c in enumerate(camera)]
-    return [as_camera(camera)] * n
+        return [as_colmap_camera(c, f"camera[{k}]") for k, c in enumerate(camera)]
+    return [as_colmap_camera(camera)] * n
 
 
 def _check_image_size(cam: Any, size: tuple[int, int], path: Any) -> None:
