@@ -32,6 +32,7 @@ __all__ = [
     "clean_stale_temps",
     "sweep_stale_temps",
     "new_results_dir",
+    "remove_empty_results_dirs",
     "publish",
 ]
 
@@ -152,8 +153,11 @@ def atomic_open(path: str | os.PathLike, mode: str = "w", **kw: Any) -> Iterator
     path = Path(path)
     if path.is_dir():
         raise IsADirectoryError(f"{path} is a directory")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.{HOST}-{os.getpid()}.", suffix=TMP_SUFFIX)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.{HOST}-{os.getpid()}.", suffix=TMP_SUFFIX)
+    except OSError as exc:  # name the target, not the hidden temp file
+        raise OSError(exc.errno, f"cannot write {path}: {exc.strerror}") from None
     try:
         if mode == "w":
             kw.setdefault("encoding", "utf-8")
@@ -196,20 +200,33 @@ def atomic_savefig(fig: Any, path: str | os.PathLike, **kw: Any) -> Path:
     return path
 
 
+_NEW_RESULTS_DIRS: list[Path] = []  # made by new_results_dir in this process
+
+
 def new_results_dir(name: str, base: str | os.PathLike | None = None) -> Path:
     """A new, empty folder ``poseonly-NAME-YYYYmmdd-HHMMSS[-k]`` under ``base`` (default: the working
     directory): where experiments and benchmarks write when no ``--out`` is given, so that a run never
-    overwrites earlier results (a clone's committed docs/results included)."""
+    overwrites earlier results (a clone's committed docs/results included). A run that fails before
+    writing anything leaves no folder behind (:func:`remove_empty_results_dirs`, called by the CLI)."""
     root = Path.cwd() if base is None else Path(base)
     stem = f"poseonly-{name}-{time.strftime('%Y%m%d-%H%M%S')}"
     for k in range(1000):
         p = root / (stem if k == 0 else f"{stem}-{k}")
         try:
             p.mkdir(parents=True)
+            _NEW_RESULTS_DIRS.append(p)
             return p
         except FileExistsError:
             continue
     raise FileExistsError(f"could not create a new results folder {stem}-* under {root}")
+
+
+def remove_empty_results_dirs() -> None:
+    """Remove the folders :func:`new_results_dir` made in this process that are still empty (a run
+    that failed before writing anything); folders with content are kept."""
+    while _NEW_RESULTS_DIRS:
+        with contextlib.suppress(OSError):
+            _NEW_RESULTS_DIRS.pop().rmdir()  # only an empty folder can be removed
 
 
 def atomic_savez(path: str | os.PathLike, **arrays: Any) -> None:

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from ._fileutil import new_results_dir
+from .argtypes import non_negative_int, positive_int
 from .experiments._common import atomic_write_text, machine, markdown_table, progress, savefig, single_thread, write_json
 from .geometry import rotation_error_deg
 from .sim import make_scene
@@ -182,10 +183,10 @@ def _figure(res: dict, path: Path) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="poseonly bench robust", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--trials", type=int, default=200, help="seeded scenes per cell (default 200)")
+    ap.add_argument("--trials", type=positive_int, default=200, help="seeded scenes per cell (default 200)")
     ap.add_argument("--quick", action="store_true", help="2 trials, outliers 0 / 0.5 / 0.8, pinhole only")
     ap.add_argument("--cameras", nargs="+", default=["wide", "pinhole"], choices=["wide", "pinhole"], help="cameras to run (default both)")
-    ap.add_argument("--seed", type=int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
+    ap.add_argument("--seed", type=non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     ap.add_argument("--out", default=None, help="output folder (default: a new folder poseonly-robust-<date>-<time> under the working directory)")
     args = ap.parse_args(argv)
     outliers, cams, trials = OUTLIERS, tuple(args.cameras), args.trials

@@ -26,28 +26,20 @@ class CLIError(Exception):
     pass
 
 
-def _load_K(path: str) -> np.ndarray:
-    p = Path(path)
-    if not p.is_file():
-        raise CLIError(f"calibration file not found: {path}")
-    try:
-        K = np.loadtxt(p, dtype=float)
-    except ValueError as exc:
-        raise CLIError(f"could not read a 3x3 matrix from {path}: {exc}") from None
-    if K.shape != (3, 3):
-        raise CLIError(f"{path} must contain a 3x3 matrix, found shape {K.shape}")
-    return K
-
-
 def _intrinsics(args, image_size=None):
+    from .io.calibration import read_K
+
+    given = [f for f, v in (("--K", args.K), ("--K1/--K2", args.K1 or args.K2), ("--focal", args.focal is not None)) if v]
+    if len(given) > 1 or (args.pp is not None and args.focal is None):
+        raise CLIError(f"give one calibration: --K, --K1/--K2 or --focal [--pp] (got {', '.join(given + (['--pp'] if args.pp is not None else []))})")
     if args.K:
-        K = _load_K(args.K)
+        K = read_K(args.K, "--K")
         return K, K
     if args.K1 or args.K2:
         if not (args.K1 and args.K2):
             raise CLIError("give both --K1 and --K2 (or --K for a shared calibration)")
-        return _load_K(args.K1), _load_K(args.K2)
-    if args.focal:
+        return read_K(args.K1, "--K1"), read_K(args.K2, "--K2")
+    if args.focal is not None:
         if args.pp:
             cx, cy = args.pp
         elif image_size is not None:
@@ -148,6 +140,10 @@ def cmd_relpose(args) -> int:
     from .pipeline import draw_matches, relpose_images, relpose_matches
 
     _check_draw_target(args.draw)
+    if args.save and (not args.save.endswith(".npz") or Path(args.save).is_dir()):
+        raise CLIError(f"--save writes an .npz file; got {args.save!r}" + (" (a directory)" if Path(args.save).is_dir() else ""))
+    if args.cache and Path(args.cache).exists() and not Path(args.cache).is_dir():
+        raise CLIError(f"--cache {args.cache}: is a file; give a folder")
     if args.epipolar and not args.draw:
         raise CLIError("--epipolar draws into the match drawing: give --draw OUT.png as well")
     if args.draw and not (args.image1 and args.image2):
@@ -307,7 +303,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument(
         "--camera-params",
         help="the camera model's parameters in COLMAP's order and pixel convention (as in its cameras.txt), separated by commas or spaces "
-        "(e.g. f,cx,cy,k for SIMPLE_RADIAL); with --matches, the matches' pixels must be in that convention too",
+        "(e.g. f,cx,cy,k for SIMPLE_RADIAL; write --camera-params=... when the first value is negative); with --matches, the matches' pixels "
+        "must be in that convention too",
     )
     r.add_argument("--camera2-model", help="the second image's camera model, when it differs from the first's")
     r.add_argument("--camera2-params", help="the second image's camera parameters (with --camera2-model)")
@@ -362,14 +359,23 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    rc = 1
     try:
-        return int(args.func(args) or 0)
+        rc = int(args.func(args) or 0)
+        return rc
     except (CLIError, ValueError, ImportError, OSError) as exc:
         print(f"poseonly: error: {exc}", file=sys.stderr)
-        return 2
+        rc = 2
+        return rc
     except KeyboardInterrupt:
         print("poseonly: interrupted", file=sys.stderr)
-        return 130
+        rc = 130
+        return rc
+    finally:
+        if rc != 0:
+            from ._fileutil import remove_empty_results_dirs
+
+            remove_empty_results_dirs()  # a run that failed before writing leaves no empty results folder
 
 
 if __name__ == "__main__":  # pragma: no cover

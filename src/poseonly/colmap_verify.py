@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from .api import DEFAULT_METHOD, METHODS
+from .argtypes import jobs_int, non_negative_int, positive_float, positive_int
 from .batch import Pair, PairResult, estimate_relative_poses
 from .geometry import InputError
 from .io.colmap_db import ColmapDatabase, GeometryRow
@@ -206,8 +207,10 @@ def verify_database(
     cam = None
     if camera is not None:
         from .cameras import as_camera
+        from .options import check_camera_threshold
 
         cam = as_camera(camera)
+        check_camera_threshold(cam, options.get("method", DEFAULT_METHOD), options.get("threshold_px"))
     with ColmapDatabase(path) as db:
         if cam is not None:  # every image's camera replaced (checked before any pair is estimated)
             db.cameras = dict.fromkeys(db.image_names, cam)
@@ -217,7 +220,11 @@ def verify_database(
             pf = Path(pairs_file)
             if not pf.is_file():
                 raise InputError(f"pairs file not found: {pairs_file}")
-            wanted = db.pair_ids_from_names(pf.read_text().splitlines(), str(pf))
+            try:
+                lines = pf.read_text(encoding="utf-8").splitlines()
+            except UnicodeDecodeError as exc:
+                raise InputError(f"pairs file {pf} is not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+            wanted = db.pair_ids_from_names(lines, str(pf))
             pairs = [p for p in pairs if p[0] in wanted]
         summary.selected = len(pairs)
         if overwrite:
@@ -255,20 +262,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="replace the selected pairs' existing two-view geometries (default: keep them and verify only the others, which also resumes an interrupted run)",
     )
-    p.add_argument("--threshold", type=float, default=None, help="inlier threshold in pixels (default: the method's, 1 px for the default method)")
+    p.add_argument("--threshold", type=positive_float, default=None, help="inlier threshold in pixels (default: the method's, 1 px for the default method)")
     p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"estimation method (default {DEFAULT_METHOD})")
-    p.add_argument("--seed", type=int, default=0, help="base seed; each pair's seed derives from it and the pair id")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="base seed; each pair's seed derives from it and the pair id")
     p.add_argument(
         "--max-iterations",
-        type=int,
+        type=positive_int,
         default=None,
         help=f"the search's sample cap per pair (default for the default method: {MANY_PAIRS_MAX_ITERATIONS}, COLMAP's two-view cap; the method's own otherwise)",
     )
-    p.add_argument("--jobs", type=int, default=1, help="local workers (-1: all cores; default 1): processes, or threads with --threads")
+    p.add_argument("--jobs", type=jobs_int, default=1, help="local workers (-1: all cores; default 1): processes, or threads with --threads")
     p.add_argument("--threads", action="store_true", help="the local workers are threads (the core releases the GIL), not processes")
     p.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS instead of local processes")
-    p.add_argument("--chunk", type=int, default=None, help="pairs per task (default 16 local, 256 on Dask)")
-    p.add_argument("--write-every", type=int, default=WRITE_EVERY, help=f"pairs per database transaction (default {WRITE_EVERY})")
+    p.add_argument("--chunk", type=positive_int, default=None, help="pairs per task (default 16 local, 256 on Dask)")
+    p.add_argument("--write-every", type=positive_int, default=WRITE_EVERY, help=f"pairs per database transaction (default {WRITE_EVERY})")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' scales to the estimator as noise scales")
     p.add_argument("--camera-model", help="one camera for every image instead of the database's: a COLMAP model name (with --camera-params)")

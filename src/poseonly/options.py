@@ -30,6 +30,7 @@ __all__ = [
     "PoseonlyOptions",
     "Spec",
     "check_angle",
+    "check_camera_threshold",
     "check_value",
     "parse_options",
 ]
@@ -437,6 +438,17 @@ def check_angle(name: str, tau: float, how: str = "") -> float:
             f"{name} = {tau:.3g} rad{how} must lie in [{MIN_ANGLE:g}, {MAX_ANGLE:g}] rad (a smaller angle is below double precision, a larger one makes every match an inlier)"
         )
     return float(tau)
+
+
+def check_camera_threshold(camera: Any, method: str, threshold_px: float | None, name: str = "camera") -> None:
+    """That ``threshold_px`` (``None``: ``method``'s default) over ``camera``'s mean focal length is an
+    angle :func:`check_angle` accepts: a camera given once for many pairs is checked before any pair
+    is estimated (each pair would fail alike)."""
+    from .cameras import as_camera
+
+    thr = float(parse_options(method, {}).threshold_px) if threshold_px is None else float(threshold_px)
+    f = as_camera(camera, name).focal_px
+    check_angle(f"{name}: the angular threshold threshold_px / focal", thr / f, f" (threshold {thr:g} px, focal {f:g} px)")
 
 
 def parse_options(method: Any, options: dict[str, Any]) -> CommonOptions:

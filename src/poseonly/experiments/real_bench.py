@@ -339,6 +339,8 @@ def load_realpairs(folder: Path) -> list[Pair]:
         meta = json.loads(f.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise InputError(f"cannot read {f}: {exc}") from None
+    if not isinstance(meta, dict):
+        raise InputError(f"{f} must hold a JSON object with a 'pairs' list, got {type(meta).__name__}")
     name = str(meta.get("dataset") or folder.name)
     pairs = meta.get("pairs")
     if not isinstance(pairs, list) or not pairs:
@@ -969,16 +971,39 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _check_stored(res: Any, path: str) -> dict:
+    """An earlier run's results as :func:`compute` returns them (the keys the report reads)."""
+    keys = ("methods", "summary", "config", "pairs")
+    if not isinstance(res, dict) or any(k not in res for k in keys):
+        raise InputError(f"{path} is not the real_bench.json of a run (needs the keys {list(keys)})")
+    return res
+
+
+def _check_diagnose(n: int, methods: list[str]) -> None:
+    """``--diagnose N`` compares the default with the reference: both must have run."""
+    if n < 0:
+        raise InputError(f"--diagnose must be >= 0 (pairs to diagnose), got {n}")
+    missing = [m for m in ("poseonly", REFERENCE) if m not in methods]
+    if n and missing:
+        raise InputError(f"--diagnose compares poseonly with {REFERENCE}: the run lacks {missing}")
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.diagnose and not args.from_json:
+        _check_diagnose(args.diagnose, list(args.methods or DEFAULT_METHODS))
+    if args.out and Path(args.out).exists() and not Path(args.out).is_dir():
+        raise InputError(f"--out {args.out}: is a file; give a folder")
     out = Path(args.out) if args.out else new_results_dir("real")
     cache = Path(args.cache) if args.cache else out / "cache"
     cmd = "poseonly bench real " + " ".join(argv if argv is not None else sys.argv[1:])
     if args.from_json:
         try:
             res = json.loads(Path(args.from_json).read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise InputError(f"cannot read {args.from_json}: {exc}") from None
+        res = _check_stored(res, args.from_json)
+        _check_diagnose(args.diagnose, list(res["methods"]))
         if args.diagnose:
             single_thread()
             diag = diagnose(res, cache, args.diagnose, datasets=args.diagnose_datasets, overlap_only=args.diagnose_overlap)
@@ -1001,6 +1026,7 @@ def main(argv: list[str] | None = None) -> int:
     figure(res, out / "real_bench.png")
     print(md)
     if args.diagnose:
+        _check_diagnose(args.diagnose, list(res["methods"]))  # a method may have been unavailable
         diag = diagnose(res, cache, args.diagnose, datasets=args.diagnose_datasets, overlap_only=args.diagnose_overlap)
         dmd = diagnosis_markdown(diag) + f"\nCommand: `{cmd}`\n"
         atomic_write_text(out / f"{args.diagnose_name}.md", dmd)

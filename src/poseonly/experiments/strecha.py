@@ -48,6 +48,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..argtypes import positive_float
 from ..geometry import InputError, bearings_from_pixels, rotation_error_deg, translation_error_deg
 from ._common import atomic_write_text, code_version, fmt, machine, markdown_table, progress, savefig, strict_json, write_json
 
@@ -83,7 +84,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--threshold-px",
         nargs="+",
-        type=float,
+        type=positive_float,
         metavar="PX",
         help="inlier threshold(s) in pixels of our methods (default: the API default); several values run every one of our methods once per value, named METHOD@PXpx",
     )

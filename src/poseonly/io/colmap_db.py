@@ -28,7 +28,7 @@ from ..cameras import Camera, as_camera
 from ..geometry import InputError
 from .pair_list import parse_pair_names
 
-__all__ = ["KEYPOINT_CACHE_IMAGES", "ColmapDatabase", "GeometryRow", "keypoint_scales"]
+__all__ = ["KEYPOINT_CACHE_IMAGES", "ColmapDatabase", "GeometryRow", "keypoint_scales", "matched_pair_ids"]
 
 KEYPOINT_CACHE_IMAGES = 512  # images whose keypoints (and bearings) are kept in memory (LRU)
 
@@ -69,26 +69,34 @@ def _pycolmap():
     return pycolmap
 
 
+def matched_pair_ids(path: str | Path) -> list[int]:
+    """The pair ids of ``path``'s matches (pairs with at least one match, ascending), after checking
+    that ``path`` is an existing COLMAP database: :class:`InputError` otherwise, and the file is never
+    created or changed (pycolmap's ``Database.open`` creates the tables in any SQLite file, or in a
+    new one). Read with a read-only SQL connection, closed on return: Python's sqlite3 is a different
+    SQLite library from pycolmap's, and both must never have the file open in one process (closing
+    one connection drops the other's POSIX locks, which corrupts the database:
+    sqlite.org/howtocorrupt.html 2.2.1)."""
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"COLMAP database not found: {path}")
+    try:
+        with closing(sqlite3.connect(f"file:{p}?mode=ro", uri=True)) as con:
+            tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+            missing = {"cameras", "images", "keypoints", "matches", "two_view_geometries"} - tables
+            if missing:
+                raise InputError(f"{path} is not a COLMAP database (missing tables {sorted(missing)})")
+            return [int(r[0]) for r in con.execute("SELECT pair_id FROM matches WHERE rows > 0 ORDER BY pair_id")]
+    except sqlite3.DatabaseError as exc:
+        raise InputError(f"{path} is not an SQLite database: {exc}") from None
+
+
 class ColmapDatabase:
     """An existing COLMAP database file (never created here: a wrong path is an error)."""
 
     def __init__(self, path: str | Path) -> None:
         p = Path(path)
-        if not p.is_file():
-            raise InputError(f"COLMAP database not found: {path}")
-        # Python's sqlite3 is a different SQLite library from pycolmap's: both must never have the
-        # file open in one process (closing one connection drops the other's POSIX locks, which
-        # corrupts the database: sqlite.org/howtocorrupt.html 2.2.1). So every SQL read happens
-        # here, and the connection is closed before pycolmap opens the file.
-        try:
-            with closing(sqlite3.connect(f"file:{p}?mode=ro", uri=True)) as con:
-                tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
-                missing = {"cameras", "images", "keypoints", "matches", "two_view_geometries"} - tables
-                if missing:
-                    raise InputError(f"{path} is not a COLMAP database (missing tables {sorted(missing)})")
-                pair_ids = [int(r[0]) for r in con.execute("SELECT pair_id FROM matches WHERE rows > 0 ORDER BY pair_id")]
-        except sqlite3.DatabaseError as exc:
-            raise InputError(f"{path} is not an SQLite database: {exc}") from None
+        pair_ids = matched_pair_ids(p)  # checked, read-only, before pycolmap opens the file
         self.path = p
         self._pc = _pycolmap()
         self.db = self._pc.Database.open(str(p))

@@ -20,13 +20,14 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..argtypes import non_negative_int, positive_int
-from ..geometry import InputError, check_intrinsics
+from ..argtypes import non_negative_int, positive_float, positive_int
+from ..geometry import InputError
 from ..io.pair_list import parse_pair_names
 from .choices import LIGT_NORMALIZATIONS, LIGT_REWEIGHT, ROTATION_WEIGHTS, checked_sigma_deg
 
@@ -81,19 +82,6 @@ def _stage_bar(total: int) -> _StageBar | None:
     return _StageBar(tqdm(total=total, leave=False, dynamic_ncols=True, bar_format="{desc} [{n}/{total} stages, {elapsed}]"))
 
 
-def _read_K(path: str) -> np.ndarray:
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(f"calibration file not found: {path}")
-    try:
-        K = np.loadtxt(p, dtype=float)
-    except ValueError as exc:
-        raise InputError(f"could not read a 3x3 matrix from {path}: {exc}") from None
-    if K.shape != (3, 3):
-        raise InputError(f"{path} must contain a 3x3 matrix, found shape {K.shape}")
-    return check_intrinsics(K, f"K in {path}")
-
-
 def _camera_arg(args: argparse.Namespace) -> dict[str, Any] | None:
     """The shared camera of ``--camera-model`` / ``--camera-params`` (COLMAP's names and parameter
     order; width and height from the images), or None; checked before any image is read."""
@@ -104,12 +92,16 @@ def _camera_arg(args: argparse.Namespace) -> dict[str, Any] | None:
     if args.K or args.database:
         raise InputError("give one of --K, --camera-model / --camera-params and --database (which holds the cameras)")
     from ..cameras import camera_from_text
+    from ..options import check_camera_threshold
 
-    return camera_from_text(args.camera_model, args.camera_params, name="--camera-model / --camera-params").to_dict()
+    cam = camera_from_text(args.camera_model, args.camera_params, name="--camera-model / --camera-params")
+    check_camera_threshold(cam, "poseonly", args.threshold_px, "--camera-model / --camera-params")
+    return cam.to_dict()
 
 
 def cmd_sfm(args: argparse.Namespace) -> int:
     from .._fileutil import atomic_write_text
+    from ..io.calibration import read_K
     from .pairwise import PairwiseOptions, image_view_graph, parse_estimator_options
     from .pipeline import MIN_MODEL_VIEWS, GlobalOptions, num_stages, run_global_models
 
@@ -117,6 +109,10 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     if not d.is_dir():
         raise InputError(f"image folder not found: {d}")
     out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {out}: is a file; give a folder")
+    if args.database and args.K:
+        raise InputError("give --K or --database (which holds the cameras), not both")
     t0 = time.perf_counter()
     opt = PairwiseOptions(
         max_features=args.max_features,
@@ -136,11 +132,13 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         if args.resident_images is not None:
             raise InputError("--resident-images bounds the memory of our features; with --database no descriptors are read")
 
-        ig, names = database_view_graph(args.database, options=opt, cache_dir=cache, progress=prog, jobs=args.jobs)
+        def images_exist(names: list[str]) -> None:  # before any pair is estimated
+            missing = [str(d / nm) for nm in names if not (d / nm).is_file()]
+            if missing:
+                raise InputError(f"{len(missing)} images of the database not found in {d}: {missing[:3]}")
+
+        ig, names = database_view_graph(args.database, options=opt, cache_dir=cache, progress=prog, jobs=args.jobs, check_names=images_exist)
         images = [d / nm for nm in names]
-        missing = [str(p) for p in images if not p.is_file()]
-        if missing:
-            raise InputError(f"images of the database not found in {d}: {missing[:3]}")
         K = ig.K[0]
     else:
         if not args.K and camera is None:
@@ -152,7 +150,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         if len(images) < 3:
             used = f" (--max-images {args.max_images} of {held})" if len(images) < held else ""
             raise InputError(f"{d} gives {len(images)} images{used}; global SfM needs at least 3")
-        lens = {"camera": camera} if camera is not None else {"K": _read_K(args.K)}
+        lens = {"camera": camera} if camera is not None else {"K": read_K(args.K, "--K")}
         pairs = _pair_list(args, images)
         resident = {} if args.resident_images is None else {"resident_images": args.resident_images}
         ig = image_view_graph(images, options=opt, cache_dir=cache, pairs=pairs, progress=prog, jobs=args.jobs, **lens, **resident)
@@ -161,6 +159,9 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
         f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
     )
+    if len(ig.graph) == 0:
+        why = ", ".join(f"{k} {v}" for k, v in sorted(Counter(st for *_, st in ig.pair_stats).items()))
+        raise InputError(f"no pair of the {len(images)} images gave a trusted pose (pairs by two-view status: {why or 'none matched'})")
     gopt = GlobalOptions(
         rotation_weights=args.rotation_weights, rotation_sigma_deg=args.rotation_sigma, ligt_normalization=args.ligt_normalization, ligt_reweight=args.ligt_reweight
     )
@@ -313,13 +314,14 @@ def add_parsers(sub: Any, esub: Any) -> None:
     )
     s.add_argument(
         "--camera-params",
-        help="the camera model's parameters in COLMAP's order and pixel convention (as in its cameras.txt), separated by commas or spaces (e.g. f,cx,cy,k for SIMPLE_RADIAL)",
+        help="the camera model's parameters in COLMAP's order and pixel convention (as in its cameras.txt), separated by commas or spaces "
+        "(e.g. f,cx,cy,k for SIMPLE_RADIAL; write --camera-params=... when the first value is negative)",
     )
     s.add_argument("--database", help="COLMAP database with cameras, keypoints and matches (replaces our features and matching)")
     s.add_argument("--out", required=True, help="output folder")
     s.add_argument("--max-features", type=non_negative_int, default=8000, help="strongest SIFT features per image (default 8000)")
     s.add_argument("--max-images", type=positive_int, help="use only the first N images (sorted by name)")
-    s.add_argument("--threshold-px", type=float, default=None, help="two-view inlier threshold (px; default: the method's, 1 px)")
+    s.add_argument("--threshold-px", type=positive_float, default=None, help="two-view inlier threshold (px; default: the method's, 1 px)")
     s.add_argument("--cache", help="feature / match cache (default OUT/cache)")
     s.add_argument("--text", action="store_true", help="write the COLMAP model as text")
     s.add_argument("--no-progress", action="store_true", help="no progress bars")

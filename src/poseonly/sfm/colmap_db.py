@@ -19,7 +19,7 @@ import numpy as np
 
 from ..features import Features, match_noise_scales
 from ..geometry import InputError
-from ..io.colmap_db import keypoint_scales
+from ..io.colmap_db import keypoint_scales, matched_pair_ids
 from .pairwise import ImageGraph, PairwiseOptions, TwoView, map_ordered, pair_seed, two_view
 from .viewgraph import ViewGraph
 
@@ -33,14 +33,17 @@ def database_view_graph(
     cache_dir: str | os.PathLike | None = None,
     progress: Callable | None = None,
     jobs: int = 1,
+    check_names: Callable[[list[str]], None] | None = None,
 ) -> tuple[ImageGraph, list[str]]:
     """``(ImageGraph, image names)`` from the COLMAP database ``db_path``; the pairs are estimated on
-    ``jobs`` threads (:func:`poseonly.sfm.pairwise.map_ordered`: the same graph for any number)."""
+    ``jobs`` threads (:func:`poseonly.sfm.pairwise.map_ordered`: the same graph for any number).
+    ``check_names(names)``, if given, runs on the image names before any pair is estimated (e.g. that
+    the images exist). A pair whose matches index keypoints its images do not have is rejected, as
+    ``poseonly colmap verify`` marks it; the file is checked to be a COLMAP database and never changed."""
     import pycolmap
 
     p = Path(db_path)
-    if not p.is_file():
-        raise InputError(f"COLMAP database not found: {p}")
+    matched_pair_ids(p)  # an existing COLMAP database (pycolmap would add its tables to any file)
     opt = options or PairwiseOptions()
     wrap = progress or (lambda it, **_: it)
     t0 = time.perf_counter()
@@ -48,6 +51,8 @@ def database_view_graph(
         images = sorted(db.read_all_images(), key=lambda im: im.name)
         if len(images) < 2:
             raise InputError(f"{p} holds {len(images)} images; need at least two")
+        if check_names is not None:
+            check_names([im.name for im in images])
         cams = {c.camera_id: c for c in db.read_all_cameras()}
         index = {im.image_id: k for k, im in enumerate(images)}
         feats, normalized, Ks, focal, cameras = [], [], [], [], []
@@ -83,9 +88,12 @@ def database_view_graph(
     valid: list[np.ndarray | None] = [None if np.isfinite(x).all() else np.asarray(np.isfinite(x).all(axis=1)) for x in normalized]
     t0 = time.perf_counter()
 
-    def pair_job(kp: tuple[int, tuple[int, int, np.ndarray]]) -> tuple[np.ndarray, TwoView | None]:
-        """The pair's matches (those whose keypoints both cameras lift) and its two-view result."""
+    def pair_job(kp: tuple[int, tuple[int, int, np.ndarray]]) -> tuple[np.ndarray, TwoView | None | str]:
+        """The pair's matches (those whose keypoints both cameras lift) and its two-view result (or why
+        it has none)."""
         k, (i, j, m) = kp
+        if len(m) and (m.min() < 0 or m[:, 0].max() >= len(normalized[i]) or m[:, 1].max() >= len(normalized[j])):
+            return m[:0], "matches index keypoints that do not exist"
         if valid[i] is not None or valid[j] is not None:
             ok = np.ones(len(m), bool)
             for v, col in ((valid[i], 0), (valid[j], 1)):
@@ -100,6 +108,10 @@ def database_view_graph(
 
     for (i, j, _), (pm, r) in zip(pairs, wrap(map_ordered(pair_job, enumerate(pairs), jobs), desc="pairs", total=len(pairs)), strict=True):
         putative[(i, j)] = pm
+        if isinstance(r, str):
+            graph.rejected.append((i, j, r))
+            stats.append((i, j, 0, 0, "invalid_matches"))
+            continue
         if r is None:
             graph.rejected.append((i, j, f"{len(pm)} putative matches"))
             stats.append((i, j, len(pm), 0, "few_matches"))

@@ -1,0 +1,30 @@
+"""Calibration files of the command lines: a 3x3 ``K`` as text (``--K K.txt``)."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..geometry import InputError, check_intrinsics
+
+__all__ = ["read_K"]
+
+
+def read_K(path: str | Path, name: str = "--K") -> np.ndarray:
+    """The checked 3x3 calibration matrix in the text file ``path`` (whitespace-separated rows, as
+    ``numpy.loadtxt`` reads them); :class:`InputError` naming the file and ``name`` otherwise (missing,
+    unreadable, empty, not 3x3, not a calibration matrix: :func:`poseonly.geometry.check_intrinsics`)."""
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{name}: calibration file not found: {path}")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # numpy's "input contained no data": reported below
+            K = np.loadtxt(p, dtype=float, ndmin=2)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError(f"{name}: could not read a 3x3 matrix from {path}: {exc}") from None
+    if K.shape != (3, 3):
+        raise InputError(f"{name}: {path} must contain a 3x3 matrix, found {'no numbers' if K.size == 0 else f'shape {K.shape}'}")
+    return check_intrinsics(K, f"{name} ({path})")

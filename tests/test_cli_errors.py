@@ -1,0 +1,158 @@
+"""Bad command-line input found by an audit of every subcommand (tenth session): each gives a clear
+error (exit 2, or argparse's usage error), touches no input file and leaves no empty results folder."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from poseonly.cli import main
+
+pycolmap = pytest.importorskip("pycolmap")
+
+
+def _err(capsys) -> str:
+    return capsys.readouterr().err
+
+
+def test_sfm_database_that_is_not_one_is_refused_and_left_alone(tmp_path, capsys):
+    """pycolmap's Database.open adds COLMAP's tables to any file: the database is checked first."""
+    imgs = tmp_path / "imgs"
+    imgs.mkdir()
+    for name, content, msg in (("text.db", b"not a database", "not an SQLite database"), ("empty.db", b"", "not a COLMAP database")):
+        f = tmp_path / name
+        f.write_bytes(content)
+        assert main(["sfm", str(imgs), "--database", str(f), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+        assert msg in _err(capsys), name
+        assert f.read_bytes() == content
+    other = tmp_path / "other.db"
+    import sqlite3
+    from contextlib import closing
+
+    with closing(sqlite3.connect(other)) as con:
+        con.execute("CREATE TABLE foo (x INTEGER)")
+        con.commit()
+    before = other.read_bytes()
+    assert main(["sfm", str(imgs), "--database", str(other), "--out", str(tmp_path / "o"), "--no-progress"]) == 2
+    assert "not a COLMAP database" in _err(capsys)
+    assert other.read_bytes() == before
+    # --K with --database (which holds the cameras) is refused, not ignored
+    (tmp_path / "K.txt").write_text("800 0 320\n0 800 240\n0 0 1\n")
+    assert main(["sfm", str(imgs), "--database", str(other), "--K", str(tmp_path / "K.txt"), "--out", str(tmp_path / "o")]) == 2
+    assert "not both" in _err(capsys)
+    # --out an existing file
+    assert main(["sfm", str(imgs), "--K", str(tmp_path / "K.txt"), "--out", str(tmp_path / "K.txt")]) == 2
+    assert "is a file" in _err(capsys)
+
+
+def test_database_matches_indexing_missing_keypoints_reject_the_pair(tmp_path):
+    """A match that indexes a keypoint its image does not have: the pair is rejected with the reason
+    (``poseonly colmap verify`` marks it UNDEFINED); before, an IndexError ended the run."""
+    from poseonly.sfm.colmap_db import database_view_graph
+    from test_colmap import make_db
+
+    path = tmp_path / "db.db"
+    _, ids = make_db(path, n_images=3)
+    db = pycolmap.Database.open(str(path))
+    m = np.asarray(db.read_matches(ids[0], ids[2])).copy()
+    m[0, 1] = 999  # the image has 150 keypoints
+    db.delete_matches(ids[0], ids[2])
+    db.write_matches(ids[0], ids[2], m.astype(np.uint32))
+    db.close()
+    names = []
+    ig, names = database_view_graph(path, check_names=names.extend)
+    assert names == ["im0.jpg", "im1.jpg", "im2.jpg"]
+    assert (0, 2, "matches index keypoints that do not exist") in ig.graph.rejected
+    assert (0, 1) in ig.putative and len(ig.graph) >= 1
+
+
+def test_bench_and_experiment_arguments(tmp_path, capsys, monkeypatch):
+    from poseonly.experiments import real_bench as rb
+
+    monkeypatch.chdir(tmp_path)
+    d = tmp_path / "ds"
+    d.mkdir()
+    for content in ("[]", "null", '"x"'):
+        (d / "pairs.json").write_text(content)
+        with pytest.raises(ValueError, match="must hold a JSON object"):
+            rb.load_datasets([d])
+    (tmp_path / "e.json").write_text("{}")
+    assert main(["bench", "real", "--from-json", str(tmp_path / "e.json"), "--out", str(tmp_path / "r")]) == 2
+    assert "is not the real_bench.json of a run" in _err(capsys)
+    # --diagnose compares the default with PoseLib: refused before the run when PoseLib is not run
+    assert main(["bench", "real", str(d), "--methods", "poseonly", "--diagnose", "1"]) == 2
+    assert "--diagnose compares poseonly with poselib-1px" in _err(capsys)
+    stored = {"methods": ["poseonly", "poselib-1px"], "summary": {}, "config": {"dirs": []}, "pairs": []}
+    (tmp_path / "r.json").write_text(json.dumps(stored))
+    assert main(["bench", "real", "--from-json", str(tmp_path / "r.json"), "--diagnose", "-1", "--out", str(tmp_path / "r2")]) == 2
+    assert "--diagnose must be >= 0" in _err(capsys)
+    # a failing run without --out leaves no empty results folder in the working directory
+    assert main(["bench", "real", str(tmp_path / "missing")]) == 2
+    assert not list(tmp_path.glob("poseonly-*")), list(tmp_path.glob("poseonly-*"))
+    for argv, opt in (
+        (["bench", "robust", "--trials", "0"], "--trials"),
+        (["bench", "robust", "--seed", "-1"], "--seed"),
+        (["experiment", "strecha", str(tmp_path), "--threshold-px", "0"], "--threshold-px"),
+        (["colmap", "verify", "x.db", "--seed", "-1"], "--seed"),
+        (["colmap", "verify", "x.db", "--jobs", "0"], "--jobs"),
+        (["colmap", "verify", "x.db", "--write-every", "0"], "--write-every"),
+        (["colmap", "verify", "x.db", "--threshold", "0"], "--threshold"),
+        (["sfm", str(tmp_path), "--K", "K.txt", "--out", "o", "--threshold-px", "0"], "--threshold-px"),
+    ):
+        with pytest.raises(SystemExit) as e:
+            main(argv)
+        assert e.value.code == 2
+        assert opt in _err(capsys), argv
+
+
+def test_colmap_verify_camera_with_an_impossible_threshold_angle(tmp_path, capsys):
+    """A camera override whose focal makes every pair's angular threshold invalid is refused before
+    any row is replaced (before: every geometry overwritten as UNDEFINED, exit 0)."""
+    from test_colmap import _rows, make_db
+
+    path = tmp_path / "db.db"
+    make_db(path, n_images=3)
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 0
+    before = _rows(path)
+    argv = ["colmap", "verify", str(path), "--no-progress", "--overwrite", "--camera-model", "PINHOLE", "--camera-params", "1e-300,1e-300,320,240"]
+    assert main(argv) == 2
+    assert "angular threshold" in _err(capsys)
+    assert _rows(path) == before
+    (tmp_path / "pairs.txt").write_bytes(b"\x88\x99 binary")
+    assert main(["colmap", "verify", str(path), "--no-progress", "--pairs", str(tmp_path / "pairs.txt")]) == 2
+    assert "pairs.txt is not UTF-8 text" in _err(capsys)
+
+
+def test_relpose_calibration_conflicts_and_early_checks(tmp_path, capsys):
+    from poseonly.demo_data import load_demo_pair
+
+    d = load_demo_pair()
+    ims = [str(d.image1), str(d.image2)]
+    np.savetxt(tmp_path / "K.txt", d.K1)
+    for extra in (["--focal", "800"], ["--pp", "1", "2"]):
+        assert main(["relpose", *ims, "--K", str(tmp_path / "K.txt"), *extra]) == 2
+        assert "give one calibration" in _err(capsys)
+    # --save's target is checked before anything is drawn
+    assert main(["relpose", *ims, "--K", str(tmp_path / "K.txt"), "--draw", str(tmp_path / "p.png"), "--save", str(tmp_path / "out.txt")]) == 2
+    assert "--save writes an .npz file" in _err(capsys)
+    assert not (tmp_path / "p.png").exists()
+    (tmp_path / "cfile").write_text("x")
+    assert main(["relpose", *ims, "--K", str(tmp_path / "K.txt"), "--cache", str(tmp_path / "cfile")]) == 2
+    assert "is a file" in _err(capsys)
+    (tmp_path / "empty.txt").write_text("")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["relpose", *ims, "--K", str(tmp_path / "empty.txt")]) == 2
+    assert "found no numbers" in _err(capsys)
+
+
+def test_writer_errors_name_the_target(tmp_path):
+    from poseonly._fileutil import atomic_write_text
+
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(OSError, match=r"cannot write .*f/x\.md"):
+        atomic_write_text(Path(tmp_path / "f" / "x.md"), "a")
