@@ -74,7 +74,8 @@ class LiRPResult:
     ``R, t``: the identified pose (``X2 = R X1 + t``, unit ``t``); ``E``: its candidate essential
     matrix; ``candidates_E/R/t``: all 18 candidates (order: 12 action-matrix, 3 det-cubic, q1, q2,
     q3), ``candidate_valid`` (pose-only depth conditions), ``candidate_cost`` (weighted mean PPO);
-    ``d_min``: Table 2 indicator for ``C1`` (``d_min_C2`` for ``C2``); ``singular_values`` of ``A``;
+    ``d_min``: Table 2 indicator for ``C1`` (``d_min_C2`` for ``C2``); ``singular_values`` of ``A``
+    (with the weights divided by their maximum: only their ratios matter);
     ``rank``: numerical rank of ``A`` (8 general, 6 planar or pure rotation, < 6 degenerate);
     ``status``: ``"ok"`` or ``"degenerate"`` (rank < 6: the null space is larger than 3-D and the
     pose is not determined by the data).
@@ -121,6 +122,10 @@ def lirp_checked(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None, rank_tol:
     weights ``(n,)`` finite and non-negative or ``None``; ``0 < rank_tol < 1``): the public
     :func:`poseonly.lirp` validates once and calls this. One core call (``_core.lirp_one``); ``R, t, E``
     are copies of the best candidate's rows of ``candidates_R/t/E``."""
+    if w is not None:  # relative weights at most 1: the singular values and weight sums stay finite
+        wmax = float(w.max())  # (uniform 1e308 overflowed them, 5e-324 the reciprocal: a wrong pose)
+        if wmax > 0.0 and wmax != 1.0:
+            w = np.ascontiguousarray(w / wmax)
     cE, cR, ct, valid, cost, s, best, d_min, d_min_c2, rank = _core.lirp_one(f1, f2, w, True, rank_tol)
     status = "ok" if rank >= 6 else "degenerate"
     notes = []
