@@ -104,9 +104,32 @@ def _as_pair(p: Any, index: int) -> Pair:
     return pair
 
 
+# a pair's own options may not name its data (the Pair's fields carry it)
+_PAIR_FIELDS_IN_OPTIONS = ("x1", "x2", "K1", "K2", "camera1", "camera2", "scores", "noise_scales")
+
+
+def _pair_options(pair: Pair, options: dict[str, Any]) -> tuple[dict[str, Any], int]:
+    """The batch's options with the pair's own, and the pair's base seed; :class:`InputError` for a
+    pair whose ``options`` are not a dict of option names, name its data, or hold a non-int seed."""
+    own = pair.options
+    if not isinstance(own, Mapping) or not all(isinstance(k, str) for k in own):
+        raise InputError(f"the pair's options must be a dict of option names, got {own!r}")
+    clash = sorted(set(own) & set(_PAIR_FIELDS_IN_OPTIONS))
+    if clash:
+        raise InputError(f"the pair's options name its data {clash}: pass them as the Pair's fields")
+    opts = {**options, **own}
+    seed = opts.pop("seed", 0)
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"a pair's seed must be an int >= 0, got {seed!r}")
+    return opts, int(seed)
+
+
 def _run_one(index: int, pair: Pair, options: dict[str, Any]) -> PairResult:
-    opts = {**options, **pair.options}
-    seed = pair_seed(int(opts.pop("seed", 0)), pair.key)
+    try:
+        opts, base = _pair_options(pair, options)
+    except InputError as exc:
+        return PairResult(index, pair.key, 0, None, str(exc))
+    seed = pair_seed(base, pair.key)
     try:
         if pair.scores is not None:
             opts.setdefault("scores", pair.scores)
@@ -182,10 +205,14 @@ def estimate_relative_poses(
     seed of :func:`pair_seed`. ``progress``: a tqdm bar (if tqdm is installed)."""
     if not isinstance(n_jobs, (int, np.integer)) or isinstance(n_jobs, bool) or n_jobs == 0 or n_jobs < -1:
         raise InputError(f"n_jobs must be a positive int or -1 (all cores), got {n_jobs!r}")
-    if chunk_size is not None and (not isinstance(chunk_size, (int, np.integer)) or chunk_size < 1):
+    if chunk_size is not None and (not isinstance(chunk_size, (int, np.integer)) or isinstance(chunk_size, bool) or chunk_size < 1):
         raise InputError(f"chunk_size must be a positive int, got {chunk_size!r}")
-    if not isinstance(retries, (int, np.integer)) or retries < 0:
+    if not isinstance(retries, (int, np.integer)) or isinstance(retries, bool) or retries < 0:
         raise InputError(f"retries must be an int >= 0, got {retries!r}")
+    if not isinstance(pairs, Iterable) or isinstance(pairs, (str, bytes, Mapping)):
+        raise InputError(f"pairs must be an iterable of Pair or dicts, got {type(pairs).__name__}")
+    if client is not None and not isinstance(client, str) and not hasattr(client, "submit"):
+        raise InputError(f"client must be a dask.distributed.Client or a scheduler address, got {client!r}")
     if backend not in BACKENDS:
         raise InputError(f"backend must be one of {BACKENDS}, got {backend!r}")
     _check_options(options)

@@ -92,9 +92,18 @@ class Camera:
     params: tuple[float, ...]
 
     def __post_init__(self) -> None:
-        if self.model not in MODELS:
+        if not isinstance(self.model, str) or self.model not in MODELS:
             raise InputError(f"unsupported camera model {self.model!r}; supported: {sorted(MODELS)}")
         names = MODELS[self.model]
+        try:
+            if np.iscomplexobj(self.params) or isinstance(self.params, (str, bytes)):
+                raise TypeError
+            params = tuple(float(v) for v in np.asarray(self.params, dtype=float).ravel())
+        except (TypeError, ValueError):
+            raise InputError(f"camera parameters must be real numbers, got {self.params!r}") from None
+        object.__setattr__(self, "params", params)
+        for side in ("width", "height"):
+            object.__setattr__(self, side, _whole_pixels(getattr(self, side), side))
         if len(self.params) != len(names):
             raise InputError(f"camera model {self.model} takes {len(names)} parameters ({', '.join(names)}), got {len(self.params)}")
         p = np.asarray(self.params, dtype=float)
@@ -220,6 +229,14 @@ class Camera:
         return np.column_stack([fx * xd + cx, fy * yd + cy])
 
 
+def _whole_pixels(v: Any, side: str) -> int:
+    """A camera's width or height: a whole number of pixels >= 0 (an integral float too; 0: unknown)."""
+    ok = not isinstance(v, (bool, np.bool_)) and isinstance(v, (int, np.integer, float, np.floating)) and np.isfinite(v) and float(v) == round(float(v))
+    if not ok:
+        raise InputError(f"camera {side} must be a whole number of pixels (0: unknown), got {v!r}")
+    return int(v)
+
+
 def _check_points(a: Any, d: int, name: str) -> np.ndarray:
     try:
         a = np.asarray(a, dtype=float)
@@ -257,21 +274,24 @@ def from_opencv(K: Any, dist: Any = None, width: int = 0, height: int = 0, *, fi
     if abs(Kf[0, 1]) > 1e-12 * abs(Kf[0, 0]) or np.any(np.abs(Kf[2] - [0, 0, 1]) > 1e-12) or Kf[1, 0] != 0:
         raise InputError(f"K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew), got {Kf.tolist()}")
     base = (Kf[0, 0], Kf[1, 1], Kf[0, 2], Kf[1, 2])
-    d = np.zeros(0) if dist is None else np.asarray(dist, dtype=float).ravel()
+    try:
+        d = np.zeros(0) if dist is None else np.asarray(dist, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise InputError(f"distortion coefficients must be real numbers, got {dist!r}") from None
     if not np.all(np.isfinite(d)):
         raise InputError("distortion coefficients contain NaN or inf values")
     if fisheye:
         if len(d) != 4:
             raise InputError(f"fisheye distortion takes 4 coefficients (k1, k2, k3, k4), got {len(d)}")
-        return Camera("OPENCV_FISHEYE", int(width), int(height), tuple(float(v) for v in (*base, *d)))
+        return Camera("OPENCV_FISHEYE", width, height, tuple(float(v) for v in (*base, *d)))
     if len(d) == 0 or not np.any(d):
-        return Camera("PINHOLE", int(width), int(height), tuple(float(v) for v in base))
+        return Camera("PINHOLE", width, height, tuple(float(v) for v in base))
     if len(d) == 4:
-        return Camera("OPENCV", int(width), int(height), tuple(float(v) for v in (*base, *d)))
+        return Camera("OPENCV", width, height, tuple(float(v) for v in (*base, *d)))
     if len(d) in (5, 8):
         full = np.zeros(8)
         full[: len(d)] = d  # OpenCV order k1 k2 p1 p2 k3 k4 k5 k6 = FULL_OPENCV's
-        return Camera("FULL_OPENCV", int(width), int(height), tuple(float(v) for v in (*base, *full)))
+        return Camera("FULL_OPENCV", width, height, tuple(float(v) for v in (*base, *full)))
     raise InputError(f"OpenCV distortion takes 4, 5 or 8 coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6]]), got {len(d)} (thin-prism / tilt coefficients are not supported)")
 
 
@@ -283,7 +303,7 @@ def as_camera(spec: Any, name: str = "camera") -> Camera:
         model = str(spec.model_name)
         if model not in MODELS:
             raise InputError(f"{name}: pycolmap camera model {model} is not supported; supported: {sorted(MODELS)}")
-        return Camera(model, int(spec.width), int(spec.height), tuple(float(v) for v in np.asarray(spec.params)))
+        return Camera(model, spec.width, spec.height, spec.params)
     if isinstance(spec, Mapping):
         if "K" in spec:
             extra = set(spec) - {"K", "dist", "width", "height", "fisheye"}
@@ -300,7 +320,7 @@ def as_camera(spec: Any, name: str = "camera") -> Camera:
             params = tuple(float(v) for v in np.asarray(spec["params"], dtype=float).ravel())
         except (TypeError, ValueError):
             raise InputError(f"{name}: camera params must be numeric") from None
-        return Camera(model.upper(), int(spec.get("width", 0)), int(spec.get("height", 0)), params)
+        return Camera(model.upper(), spec.get("width", 0), spec.get("height", 0), params)
     if isinstance(spec, tuple) and len(spec) == 2:
         return from_opencv(spec[0], spec[1])
     raise InputError(
@@ -328,6 +348,8 @@ def camera_from_text(model: str, params: str, width: int = 0, height: int = 0, n
     order, separated by commas and / or spaces (as COLMAP's ``--ImageReader.camera_model /
     camera_params``), e.g. ``("SIMPLE_RADIAL", "1200,640,480,-0.05")``; :class:`InputError` naming
     ``name`` otherwise (an empty field, as in ``"800,,320"``, is an error)."""
+    if not isinstance(model, str) or not isinstance(params, str):
+        raise InputError(f"{name}: the model and the parameters must be text, got {model!r} and {params!r}")
     fields = re.split(r"\s*,\s*|\s+", params.strip())
     try:
         if "" in fields:

@@ -199,7 +199,7 @@ def verify_database(
     ``backend`` (``"processes"`` or ``"threads"``) and ``client`` as :func:`poseonly.estimate_relative_poses`
     takes them (the database is read and written in this thread only). Returns a :class:`VerifySummary`."""
     t0 = time.perf_counter()
-    if not isinstance(write_every, int) or write_every < 1:
+    if isinstance(write_every, (bool, np.bool_)) or not isinstance(write_every, (int, np.integer)) or write_every < 1:
         raise InputError(f"write_every must be a positive int, got {write_every!r}")
     if options.get("method", DEFAULT_METHOD) == "poseonly" and options.get("max_iterations") is None:
         options["max_iterations"] = MANY_PAIRS_MAX_ITERATIONS

@@ -190,6 +190,9 @@ def _to_u8(a: np.ndarray) -> np.ndarray:
 # features
 
 
+MAX_FEATURES_LIMIT = 2**31 - 1  # OpenCV's nfeatures is a C int
+
+
 def _sift(gray: np.ndarray, max_features: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Keypoints ``(m, 2)``, descriptors ``(m, 128)`` and sizes ``(m,)`` of OpenCV's SIFT."""
     cv2 = _cv2()
@@ -253,8 +256,8 @@ def extract_features(
     cached in an ``.npz`` keyed by the absolute path, file size, mtime and parameters; the cache is
     written atomically and an unreadable cache file is ignored and rewritten.
     """
-    if max_features is not None and int(max_features) < 0:
-        raise InputError(f"max_features must be >= 0 or None, got {max_features}")
+    if max_features is not None and (isinstance(max_features, bool) or not isinstance(max_features, (int, np.integer)) or not 0 <= int(max_features) <= MAX_FEATURES_LIMIT):
+        raise InputError(f"max_features must be None or a whole number in [0, {MAX_FEATURES_LIMIT}] (0: all), got {max_features!r}")
     if isinstance(image_or_path, np.ndarray):
         gray = _to_gray_u8(image_or_path)
         kp, desc, sizes = _sift(gray, max_features)
@@ -305,8 +308,8 @@ def match_features(d1: np.ndarray, d2: np.ndarray, ratio: float = 0.8, mutual: b
     :func:`_nearest_neighbours`; no OpenCV needed); a match is kept when ``dist1 < ratio * dist2``.
     With ``mutual`` the match must also be the nearest neighbour in the reverse direction.
     """
-    if not (0.0 < float(ratio) <= 1.0):
-        raise InputError(f"ratio must be in (0, 1], got {ratio}")
+    if isinstance(ratio, bool) or not isinstance(ratio, (int, float, np.integer, np.floating)) or not (0.0 < float(ratio) <= 1.0):
+        raise InputError(f"ratio must be a number in (0, 1], got {ratio!r}")
     d1 = _check_desc(d1, "d1")
     d2 = _check_desc(d2, "d2")
     if d1.shape[1] != d2.shape[1]:

@@ -453,8 +453,12 @@ def rotation_angle_deg(R: np.ndarray) -> np.ndarray:
 
 
 def rotation_error_deg(R_gt: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """``arccos((tr(R_gt^T R) - 1) / 2)`` in degrees, computed stably."""
-    return rotation_angle_deg(np.swapaxes(np.asarray(R_gt, float), -1, -2) @ np.asarray(R, float))
+    """``arccos((tr(R_gt^T R) - 1) / 2)`` in degrees, computed stably; ``R_gt, R (..., 3, 3)``."""
+    A, B = as_real_array(R_gt, "R_gt"), as_real_array(R, "R")
+    for name, M in (("R_gt", A), ("R", B)):
+        if M.ndim < 2 or M.shape[-2:] != (3, 3):
+            raise InputError(f"{name} must have shape (..., 3, 3), got {M.shape}")
+    return rotation_angle_deg(np.swapaxes(A, -1, -2) @ B)
 
 
 def translation_error_deg(t_gt: np.ndarray, t: np.ndarray, sign_invariant: bool = False) -> np.ndarray:

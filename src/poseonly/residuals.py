@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _core
-from .geometry import normalize
+from .geometry import InputError, as_real_array, normalize
 
 __all__ = [
     "Residual",
@@ -55,6 +55,22 @@ def _one_pose(R: object, t: object, f1: object, f2: object) -> bool:
     return R.shape == (3, 3) and t.shape == (3,) and f1.shape[1] == 3 and f2.shape == f1.shape  # type: ignore[attr-defined]
 
 
+def _checked_args(R: object, t: object, f1: object, f2: object) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A residual's arguments as float arrays of the shapes it takes: ``R (..., 3, 3)``, ``t (..., 3)``,
+    bearings ``f1, f2 (..., n, 3)`` with the same ``n``; :class:`InputError` naming the argument."""
+    Ra, ta, g1, g2 = (as_real_array(a, name) for a, name in ((R, "R"), (t, "t"), (f1, "f1"), (f2, "f2")))
+    if Ra.ndim < 2 or Ra.shape[-2:] != (3, 3):
+        raise InputError(f"R must have shape (..., 3, 3), got {Ra.shape}")
+    if ta.ndim < 1 or ta.shape[-1] != 3:
+        raise InputError(f"t must have shape (..., 3), got {ta.shape}")
+    for name, g in (("f1", g1), ("f2", g2)):
+        if g.ndim < 2 or g.shape[-1] != 3:
+            raise InputError(f"{name} must be bearing vectors of shape (..., n, 3), got {g.shape}")
+    if g1.shape[-2] != g2.shape[-2]:
+        raise InputError(f"f1 and f2 differ in length: {g1.shape[-2]} vs {g2.shape[-2]}")
+    return Ra, ta, g1, g2
+
+
 @dataclass(frozen=True)
 class Residual:
     """One residual of the core's table: its ``name`` and the core's ``code`` (its index in
@@ -70,10 +86,8 @@ class Residual:
             tn = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
             tk = t / tn if tn > 0 else t
             return _core.residual_matrix(self.code, R.reshape(1, 3, 3), tk.reshape(1, 3), f1, f2)[0]
-        R = np.asarray(R, dtype=float)
-        t = normalize(np.asarray(t, dtype=float))
-        f1 = np.asarray(f1, dtype=float)
-        f2 = np.asarray(f2, dtype=float)
+        R, t, f1, f2 = _checked_args(R, t, f1, f2)
+        t = normalize(t)
         lead = R.shape[:-2]
         if f1.ndim == 2 and f2.ndim == 2:
             Rk = np.ascontiguousarray(R.reshape(-1, 3, 3))

@@ -7,7 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry import InputError
+from ..geometry import InputError, as_real_array
+from .inputs import MAX_COORDINATE
 from .so3 import angle_deg, project_so3
 
 __all__ = ["AUC_THRESHOLDS_DEG", "Similarity", "align_similarity", "evaluate_poses", "pose_auc", "relative_pose_errors"]
@@ -29,15 +30,17 @@ class Similarity:
 def align_similarity(src: np.ndarray, dst: np.ndarray) -> Similarity:
     """Least-squares similarity (Umeyama 1991) with ``dst ~ s R src + t``; ``(n, 3)`` each,
     ``n >= 3`` non-collinear points."""
-    a = np.asarray(src, dtype=np.float64)
-    b = np.asarray(dst, dtype=np.float64)
+    a = as_real_array(src, "src")
+    b = as_real_array(dst, "dst")
     if a.shape != b.shape or a.ndim != 2 or a.shape[1] != 3 or len(a) < 3:
         raise InputError(f"align_similarity needs two (n >= 3, 3) arrays, got {a.shape} and {b.shape}")
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))) or max(np.abs(a).max(), np.abs(b).max()) > MAX_COORDINATE:
+        raise InputError(f"align_similarity needs finite points below {MAX_COORDINATE:g} in magnitude")
     ma, mb = a.mean(0), b.mean(0)
     A, B = a - ma, b - mb
     va = np.sum(A * A) / len(a)
-    if va <= 0:
-        raise InputError("align_similarity: the source points are all identical")
+    if va <= 0 or np.sum(B * B) <= 0:
+        raise InputError(f"align_similarity: the {'source' if va <= 0 else 'destination'} points are all identical")
     S = B.T @ A / len(a)
     U, d, Vt = np.linalg.svd(S)
     D = np.eye(3)
@@ -58,8 +61,16 @@ def evaluate_poses(rotations: np.ndarray, centres: np.ndarray, R_gt: np.ndarray,
     similarity (openMVG's protocol) and, beside it, after the best rotation-only alignment
     (chordal L2 mean), which does not mix position errors into the rotations.
     """
-    R = np.asarray(rotations, dtype=np.float64)
-    C = np.asarray(centres, dtype=np.float64)
+    R, C = as_real_array(rotations, "rotations"), as_real_array(centres, "centres")
+    R_gt, C_gt = as_real_array(R_gt, "R_gt"), as_real_array(C_gt, "C_gt")
+    if R.ndim != 3:
+        raise InputError(f"evaluate_poses: rotations must have shape (N, 3, 3), got {R.shape}")
+    n = len(R)
+    for name, a, shape in (("rotations", R, (n, 3, 3)), ("centres", C, (n, 3)), ("R_gt", R_gt, (n, 3, 3)), ("C_gt", C_gt, (n, 3))):
+        if a.shape != shape:
+            raise InputError(f"evaluate_poses: {name} must have shape (N, {', '.join(map(str, shape[1:]))}) with N = {n} views, got {a.shape}")
+    if not (np.all(np.isfinite(R_gt)) and np.all(np.isfinite(C_gt))):
+        raise InputError("evaluate_poses: the ground truth must be finite")
     est = np.all(np.isfinite(R), axis=(1, 2)) & np.all(np.isfinite(C), axis=1)
     if est.sum() < 3:
         raise InputError("evaluate_poses needs at least 3 estimated cameras")

@@ -27,18 +27,23 @@ LIGT_NORMALIZATIONS = ("noise", "unit")
 LIGT_REWEIGHT = 1
 
 
+# the Geman-McClure scale a caller may set (degrees): below, its square underflows the IRLS weights'
+# arithmetic to nothing; above, no rotation error (at most 180 deg) is down-weighted
+SIGMA_RANGE_DEG = (1e-6, 180.0)
+
+
 def checked_sigma_deg(value: object, name: str = "sigma_deg") -> float | None:
     """A Geman-McClure scale option: None (from the data) or a finite real number > 0 (degrees; not a
     bool); anything else is an :class:`InputError` naming ``name``."""
     if value is None:
         return None
-    bad = InputError(f"{name} must be a finite number of degrees > 0, got {value!r} (the default, None, takes the scale from the data)")
+    bad = InputError(f"{name} must be a number of degrees in [{SIGMA_RANGE_DEG[0]:g}, {SIGMA_RANGE_DEG[1]:g}], got {value!r} (the default, None, takes the scale from the data)")
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise bad
     try:
         v = float(value)
     except (OverflowError, ValueError):
         raise bad from None
-    if not (np.isfinite(v) and v > 0):
+    if not (np.isfinite(v) and SIGMA_RANGE_DEG[0] <= v <= SIGMA_RANGE_DEG[1]):
         raise bad
     return v

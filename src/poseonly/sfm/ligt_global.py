@@ -337,6 +337,8 @@ def ligt_positions(
     t_start = time.perf_counter()
     Rg = checked_rotations(rotations, "rotations", missing=True)
     n = len(Rg)
+    if not isinstance(tracks, Tracks):
+        raise InputError(f"tracks must be a poseonly.sfm.tracks.Tracks, got {type(tracks).__name__}")
     f = checked_bearings(bearings, "bearings", tracks.num_observations)
     if len(tracks) and tracks.views.max() >= n:
         raise InputError(f"tracks reference view {tracks.views.max()} but only {n} rotations are given")

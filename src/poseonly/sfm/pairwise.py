@@ -102,7 +102,21 @@ class PairwiseOptions:
 
     def __post_init__(self) -> None:
         from ..options import parse_options
+        from .inputs import checked_count, checked_positive
 
+        if self.max_features is not None:
+            checked_count(self.max_features, "max_features")  # 0: every feature
+        if isinstance(self.ratio, bool) or not (isinstance(self.ratio, (int, float, np.floating)) and 0.0 < float(self.ratio) <= 1.0):
+            raise InputError(f"ratio must be a number in (0, 1] (Lowe's ratio test), got {self.ratio!r}")
+        checked_count(self.min_matches, "min_matches", 6)
+        checked_count(self.seed, "seed")
+        if self.threshold_px is not None:
+            checked_positive(self.threshold_px, "threshold_px")
+        for name in ("mutual", "use_scores", "use_noise_scales"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise InputError(f"{name} must be True or False, got {getattr(self, name)!r}")
+        if not isinstance(self.estimator_options, tuple) or not all(isinstance(kv, tuple) and len(kv) == 2 and isinstance(kv[0], str) for kv in self.estimator_options):
+            raise InputError(f"estimator_options must be a tuple of (name, value) pairs, got {self.estimator_options!r}")
         reserved = {"seed", "scores", "noise_scales", "threshold_px", "focal_px", "method"} & {k for k, _ in self.estimator_options}
         if reserved:
             raise InputError(f"estimator_options: {sorted(reserved)} are set by the pipeline (use the PairwiseOptions fields)")
@@ -393,6 +407,17 @@ def image_view_graph(
     ``(0, 128)`` descriptors (:class:`ImageGraph`)."""
     if isinstance(resident_images, bool) or not isinstance(resident_images, (int, np.integer)) or resident_images < 2:
         raise InputError(f"resident_images must be an int >= 2 (the two images of a pair), got {resident_images!r}")
+    if isinstance(images, (str, bytes, os.PathLike)) or not isinstance(images, Iterable):
+        raise InputError(f"images must be a sequence of image paths, got {type(images).__name__}")
+    images = list(images)
+    if options is not None and not isinstance(options, PairwiseOptions):
+        raise InputError(f"options must be a PairwiseOptions, got {type(options).__name__}")
+    if progress is not None and not callable(progress):
+        raise InputError(f"progress must be a callable wrapping an iterable (e.g. tqdm), got {progress!r}")
+    if pairs is not None and not isinstance(pairs, np.ndarray):
+        if isinstance(pairs, (str, bytes)) or not isinstance(pairs, Iterable):
+            raise InputError(f"pairs must be a sequence of (i, j) index pairs, got {type(pairs).__name__}")
+        pairs = list(pairs)
     opt = options or PairwiseOptions()
     n = len(images)
     if n < 2:

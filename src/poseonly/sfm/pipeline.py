@@ -10,6 +10,7 @@ removed and LiGT is solved again (``filter_rounds`` times). Translation-untruste
 
 from __future__ import annotations
 
+import numbers
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -19,11 +20,11 @@ import numpy as np
 from ..geometry import InputError
 from .choices import LIGT_NORMALIZATIONS, LIGT_REWEIGHT, ROTATION_WEIGHTS, checked_sigma_deg
 from .edge_information import edge_informations
-from .inputs import checked_count
+from .inputs import checked_count, checked_positive
 from .ligt_global import MIN_PARALLAX_DEG, LiGTResult, TranslationUndetermined, ligt_positions
 from .reconstruct import MAX_ERROR_PX, Reconstruction, reconstruct_points
 from .rotation_averaging import RotationAveragingResult, average_rotations
-from .tracks import Tracks, build_tracks
+from .tracks import CONFLICT_POLICIES, Tracks, build_tracks
 from .viewgraph import ViewGraph, largest_component, view_components
 
 BearingsFn = Callable[[Tracks], np.ndarray]
@@ -74,6 +75,14 @@ class GlobalOptions:
         if self.ligt_normalization not in LIGT_NORMALIZATIONS:
             raise InputError(f"ligt_normalization must be one of {LIGT_NORMALIZATIONS}, got {self.ligt_normalization!r}")
         checked_count(self.ligt_reweight, "ligt_reweight")
+        checked_count(self.min_track_length, "min_track_length", 2)
+        checked_count(self.filter_rounds, "filter_rounds")
+        for name in ("max_rotation_error_deg", "min_rotation_error_deg", "max_error_px"):
+            checked_positive(getattr(self, name), name)
+        if not (isinstance(self.min_parallax_deg, numbers.Real) and not isinstance(self.min_parallax_deg, bool) and 0.0 <= float(self.min_parallax_deg) < 90.0):
+            raise InputError(f"min_parallax_deg must be a number of degrees in [0, 90), got {self.min_parallax_deg!r}")
+        if self.conflicts not in CONFLICT_POLICIES:
+            raise InputError(f"conflicts must be one of {CONFLICT_POLICIES}, got {self.conflicts!r}")
 
 
 def num_stages(options: GlobalOptions | None = None) -> int:
@@ -129,6 +138,10 @@ def run_global(
     Where the tracks determine no camera centre (every track without parallax: a pure rotation or a
     panorama; :class:`~poseonly.sfm.ligt_global.TranslationUndetermined`) the result holds the averaged
     rotations, NaN centres, no valid point and ``info["translation_undetermined"]`` saying why."""
+    if options is not None and not isinstance(options, GlobalOptions):
+        raise InputError(f"options must be a GlobalOptions, got {type(options).__name__}")
+    if not isinstance(graph, ViewGraph):
+        raise InputError(f"graph must be a ViewGraph, got {type(graph).__name__}")
     opt = options or GlobalOptions()
     if len(graph) == 0:
         raise InputError("the view graph has no edges")
@@ -229,6 +242,10 @@ def run_global_models(
     component's view count) and may return an ``on_stage`` callback for that run."""
     if isinstance(min_views, bool) or not isinstance(min_views, (int, np.integer)) or min_views < 2:
         raise InputError(f"min_views must be an int >= 2, got {min_views!r}")
+    if options is not None and not isinstance(options, GlobalOptions):
+        raise InputError(f"options must be a GlobalOptions, got {type(options).__name__}")
+    if not isinstance(graph, ViewGraph):
+        raise InputError(f"graph must be a ViewGraph, got {type(graph).__name__}")
     if len(graph) == 0:
         raise InputError("the view graph has no edges")
     pairs = graph.pairs()

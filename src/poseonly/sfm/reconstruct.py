@@ -58,6 +58,8 @@ def reconstruct_points(
     and ``focal`` (pixels, converts angles to reprojection pixels)."""
     Rg = checked_rotations(rotations, "rotations", missing=True)
     C = checked_centres(centres, "centres", len(Rg))
+    if not isinstance(tracks, Tracks):
+        raise InputError(f"tracks must be a poseonly.sfm.tracks.Tracks, got {type(tracks).__name__}")
     f = checked_bearings(bearings, "bearings", tracks.num_observations)
     if len(tracks) and tracks.views.max() >= len(Rg):
         raise InputError(f"tracks reference view {tracks.views.max()} but only {len(Rg)} rotations are given")

@@ -57,7 +57,7 @@ from scipy.sparse.linalg import splu
 
 from ..geometry import InputError, as_real_array
 from .choices import checked_sigma_deg
-from .inputs import checked_count, checked_pairs, checked_rotations
+from .inputs import checked_count, checked_pairs, checked_positive, checked_rotations
 from .so3 import exp_so3, log_so3
 from .viewgraph import largest_component, view_components
 
@@ -112,6 +112,13 @@ def _check_inputs(num_views: object, pairs: np.ndarray, R_rel: np.ndarray, weigh
     w = np.ones(len(p)) if weights is None else as_real_array(weights, "weights").ravel()
     if w.shape != (len(p),) or not np.all(np.isfinite(w)) or np.any(w <= 0):
         raise InputError(f"weights must be ({len(p)},) positive finite values")
+    if len(p):
+        key = np.sort(p, axis=1)
+        u, counts = np.unique(key, axis=0, return_counts=True)
+        if np.any(counts > 1):
+            i, j = u[np.flatnonzero(counts > 1)[0]]
+            raise InputError(f"pairs holds the views ({i}, {j}) more than once: one relative rotation per pair of views")
+        w = w / w.max()  # relative weights (the median of 1e308s overflowed)
     return p, R, w
 
 
@@ -401,14 +408,23 @@ def average_rotations(
     p, R, w = _check_inputs(num_views, pairs, R_rel, weights)
     n = checked_count(num_views, "num_views", 1)
     sigma_deg = checked_sigma_deg(sigma_deg)
+    l1_outer = checked_count(l1_outer, "l1_outer", 1)
+    l1_admm_iterations = checked_count(l1_admm_iterations, "l1_admm_iterations", 1)
+    irls_iterations = checked_count(irls_iterations, "irls_iterations", 1)
+    outlier_rounds = checked_count(outlier_rounds, "outlier_rounds", 0)
+    l1_tol, irls_tol = checked_positive(l1_tol, "l1_tol"), checked_positive(irls_tol, "irls_tol")
+    max_error_deg, min_error_deg = checked_positive(max_error_deg, "max_error_deg"), checked_positive(min_error_deg, "min_error_deg")
     if len(p) == 0:
         raise InputError("rotation averaging needs at least one edge")
     w = w / np.median(w)
     info_all = None
     if information is not None:
-        info_all = np.asarray(information, dtype=np.float64)
+        info_all = as_real_array(information, "information")
         if info_all.shape != (len(p), 3, 3) or not np.all(np.isfinite(info_all)):
             raise InputError(f"information must be a finite ({len(p)}, 3, 3) array")
+        top = float(np.max(np.abs(info_all))) if info_all.size else 0.0
+        if top > 0.0:
+            info_all = info_all / top  # only the matrices' ratios matter (their scale is normalised below)
         if not np.allclose(info_all, np.swapaxes(info_all, 1, 2), rtol=1e-9, atol=0.0):
             raise InputError("information matrices must be symmetric")
         info_all = 0.5 * (info_all + np.swapaxes(info_all, 1, 2))
@@ -475,7 +491,7 @@ def average_rotations(
         full[:] = np.nan
         full[views] = Rg
         res = rotation_residuals_deg(full, p, R)
-        if rnd == outlier_rounds:
+        if rnd == outlier_rounds or not np.any(np.isfinite(res[emask])):
             break
         thr = _x84_threshold(res[emask], min_error_deg, max_error_deg)
         bad = emask & (res > thr)

@@ -39,6 +39,21 @@ class Tracks:
     num_conflicting: int = 0
     num_short: int = 0
 
+    def __post_init__(self) -> None:
+        """The CSR layout checked: integer arrays, ``ptr`` from 0 non-decreasing to ``M``, ``views`` and
+        ``keypoints`` of length ``M`` and non-negative (:class:`InputError` otherwise)."""
+        arrays = {}
+        for name in ("ptr", "views", "keypoints"):
+            a = getattr(self, name)
+            if not isinstance(a, np.ndarray) or a.ndim != 1 or a.dtype.kind not in "iu":
+                raise InputError(f"Tracks.{name} must be a 1-D integer array, got {type(a).__name__}{getattr(a, 'shape', '')} {getattr(a, 'dtype', '')}")
+            arrays[name] = a
+        ptr, views, kps = arrays["ptr"], arrays["views"], arrays["keypoints"]
+        if len(ptr) == 0 or ptr[0] != 0 or np.any(np.diff(ptr) < 0) or ptr[-1] != len(views) or len(kps) != len(views):
+            raise InputError("Tracks: ptr must run from 0, non-decreasing, to len(views) == len(keypoints)")
+        if len(views) and (views.min() < 0 or kps.min() < 0):
+            raise InputError("Tracks: views and keypoints must be >= 0")
+
     def __len__(self) -> int:
         return len(self.ptr) - 1
 
@@ -175,6 +190,12 @@ def tracks_from_arrays(
 def build_tracks(graph: ViewGraph, min_length: int = 2, conflicts: str = "split", edge_mask: np.ndarray | None = None) -> Tracks:
     """Tracks from the inlier matches of the (masked) edges of ``graph``; conflicts are resolved
     in favour of the heavier edges (see the module docstring)."""
+    if not isinstance(graph, ViewGraph):
+        raise InputError(f"graph must be a poseonly.sfm.viewgraph.ViewGraph, got {type(graph).__name__}")
+    if edge_mask is not None:
+        edge_mask = np.asarray(edge_mask)
+        if edge_mask.shape != (len(graph.edges),):
+            raise InputError(f"edge_mask must have one entry per edge ({len(graph.edges)},), got {edge_mask.shape}")
     edges = graph.edges if edge_mask is None else [e for e, k in zip(graph.edges, edge_mask) if k]
     if not edges:
         return tracks_from_arrays(*(np.zeros(0, np.int64),) * 4, min_length=min_length, conflicts=conflicts)

@@ -56,7 +56,7 @@ def edge_from_result(i: int, j: int, result: Any, matches: np.ndarray, weight: f
     kept). ``i > j`` is accepted and inverted. Weight: ``num_inliers`` unless given."""
     i, j = checked_count(i, "view index i"), checked_count(j, "view index j")
     m = _checked_matches(matches, f"matches of pair ({i}, {j})")
-    if result.inliers is None:
+    if getattr(result, "inliers", None) is None:
         raise InputError(f"pair ({i}, {j}): the result has no inlier flags")
     inl = as_real_array(result.inliers, f"inliers of pair ({i}, {j})")
     if inl.shape != (len(m),) or not np.all((inl == 0) | (inl == 1)):
@@ -99,6 +99,8 @@ class ViewGraph:
 
     def __post_init__(self) -> None:
         self.num_views = checked_count(self.num_views, "num_views", 1)
+        if not isinstance(self.edges, (list, tuple)):
+            raise InputError(f"edges must be a list of Edge, got {type(self.edges).__name__}")
         given, self.edges = list(self.edges), []
         for e in given:
             self.add_edge(e)
@@ -108,6 +110,8 @@ class ViewGraph:
         whole numbers or outside the views, a self loop, a duplicate, a weight that is not a positive
         number, a matrix that is not a rotation, a translation that is not 3 finite numbers, matches that
         are not ``(k, 2)`` whole indices)."""
+        if not isinstance(e, Edge):
+            raise InputError(f"an edge must be a poseonly.sfm.viewgraph.Edge, got {type(e).__name__}")
         i, j = checked_count(e.i, "edge index i"), checked_count(e.j, "edge index j")
         if not (i < self.num_views and j < self.num_views):
             raise InputError(f"edge ({i}, {j}) outside the {self.num_views} views")

@@ -1,0 +1,159 @@
+"""Bad input to the library's public functions beyond the two-view estimate (an audit of the API,
+tenth session): each is a ValueError (poseonly.InputError) naming the problem, never a TypeError,
+IndexError, AttributeError, LinAlgError or an escaping RuntimeWarning; degenerate but valid input
+returns a result."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import poseonly
+from poseonly import InputError, sim
+from poseonly.sfm import synthetic
+
+
+@pytest.fixture(autouse=True)
+def _warnings_are_errors():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        yield
+
+
+def test_rotation_averaging_arguments():
+    from poseonly.sfm.rotation_averaging import average_rotations
+
+    sc = synthetic.make_scene(8, 300)
+    E, I3 = len(sc.pairs), np.tile(np.eye(3), (4, 1, 1))
+    with pytest.raises(InputError, match=r"views \(0, 1\) more than once"):
+        average_rotations(3, [[0, 1], [1, 2], [0, 2], [1, 0]], I3)
+    for kw, msg in (
+        ({"outlier_rounds": -1}, "outlier_rounds"),
+        ({"irls_iterations": "3"}, "irls_iterations"),
+        ({"l1_outer": 2.5}, "l1_outer"),
+        ({"irls_tol": "x"}, "irls_tol"),
+        ({"max_error_deg": 0}, "max_error_deg"),
+        ({"sigma_deg": 1e308}, "sigma_deg"),
+        ({"sigma_deg": 1e-300}, "sigma_deg"),
+        ({"information": np.full((E, 3, 3), None)}, "information"),
+    ):
+        with pytest.raises(InputError, match=msg):
+            average_rotations(8, sc.pairs, sc.R_rel, **kw)
+    # extreme but valid scales: only ratios matter
+    ref = average_rotations(8, sc.pairs, sc.R_rel).rotations
+    for kw in ({"weights": np.full(E, 1e308)}, {"information": np.tile(np.eye(3) * 1e-320, (E, 1, 1))}, {"information": np.tile(np.eye(3) * 1e300, (E, 1, 1))}):
+        r = average_rotations(8, sc.pairs, sc.R_rel, **kw)
+        assert np.all(np.isfinite(r.rotations)) and np.allclose(r.rotations, ref, atol=1e-6)
+    # an inconsistent triangle of half turns: a result, no warning
+    average_rotations(3, [[0, 1], [1, 2], [0, 2]], np.tile(np.diag([1.0, -1.0, -1.0]), (3, 1, 1)))
+
+
+def test_sfm_types_and_options():
+    from poseonly.sfm import ViewGraph, align_similarity, evaluate_poses, ligt_positions
+    from poseonly.sfm.pairwise import PairwiseOptions, image_view_graph
+    from poseonly.sfm.pipeline import GlobalOptions, run_global
+    from poseonly.sfm.tracks import Tracks, build_tracks
+
+    for kw in ({"filter_rounds": 1.5}, {"filter_rounds": -1}, {"min_rotation_error_deg": None}, {"conflicts": "x"}, {"min_track_length": 1}):
+        with pytest.raises(InputError):
+            GlobalOptions(**kw)
+    for kw in ({"ratio": None}, {"min_matches": None}, {"seed": None}, {"estimator_options": None}, {"mutual": 1}, {"threshold_px": 0}):
+        with pytest.raises(InputError):
+            PairwiseOptions(**kw)
+    with pytest.raises(InputError, match="Tracks.views"):
+        Tracks(np.array([0, 2]), np.array([0.5, 1.0]), np.array([0, 1]))
+    with pytest.raises(InputError, match="ptr must run"):
+        Tracks(np.array([0, 3]), np.array([0, 1]), np.array([0, 1]))
+    with pytest.raises(InputError, match=">= 0"):
+        Tracks(np.array([0, 2]), np.array([-1, 1]), np.array([0, 1]))
+    sc = synthetic.make_scene(6, 100)
+    with pytest.raises(InputError, match="tracks must be"):
+        ligt_positions(sc.rotations, None, np.zeros((0, 3)))  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="edges must be a list"):
+        ViewGraph(3, None)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="an edge must be"):
+        ViewGraph(3).add_edge(5)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="graph must be"):
+        build_tracks(None)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="edge_mask must have one entry per edge"):
+        build_tracks(ViewGraph(3), edge_mask=np.ones(2, bool))
+    with pytest.raises(InputError, match="options must be a GlobalOptions"):
+        run_global(ViewGraph(3), lambda t: np.zeros((0, 3)), 800.0, {"filter_rounds": 1})  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="images must be"):
+        image_view_graph(None, np.eye(3))  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="options must be a PairwiseOptions"):
+        image_view_graph(["a.jpg", "b.jpg"], np.eye(3), options={"ratio": 0.8})  # type: ignore[arg-type]
+    R, C = sc.rotations, sc.centres
+    with pytest.raises(InputError, match="ground truth must be finite"):
+        evaluate_poses(R, C, R, C * np.nan)
+    with pytest.raises(InputError, match="R_gt must have shape"):
+        evaluate_poses(R, C, R[:3], C)
+    with pytest.raises(InputError, match="rotations must have shape"):
+        evaluate_poses(R.reshape(-1, 9), C, R, C)
+    with pytest.raises(InputError, match="destination points are all identical"):
+        align_similarity(C, np.zeros_like(C))
+    with pytest.raises(InputError, match="finite points"):
+        align_similarity(C * 1e300, C)
+
+
+def test_batch_arguments_and_bad_pairs():
+    from poseonly.batch import Pair
+
+    s = sim.make_scene(60, noise_px=0.5, seed=1)
+    with pytest.raises(InputError, match="pairs must be an iterable"):
+        poseonly.estimate_relative_poses(None, progress=False)  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="client must be"):
+        poseonly.estimate_relative_poses([], client=5, progress=False)
+    for bad in ({"chunk_size": True}, {"retries": True}):
+        with pytest.raises(InputError):
+            poseonly.estimate_relative_poses([], progress=False, **bad)
+    good = Pair(s.f1, s.f2, key="good", options={"focal_px": 800.0})
+    bad = [
+        Pair(s.f1, s.f2, key="none", options=None),  # type: ignore[arg-type]
+        Pair(s.f1, s.f2, key="list", options=[1]),  # type: ignore[arg-type]
+        Pair(s.f1, s.f2, key="data", options={"focal_px": 800.0, "K1": np.eye(3)}),
+        Pair(s.f1, s.f2, key="seed", options={"focal_px": 800.0, "seed": None}),
+        Pair(s.f1, s.f2, key="camera", camera1={"model": "PINHOLE", "width": None, "height": 1, "params": [1, 1, 1, 1]}),
+    ]
+    out = {r.key: r for r in poseonly.estimate_relative_poses([good, *bad], progress=False)}
+    assert out["good"].result is not None and out["good"].error is None
+    for p in bad:
+        assert out[p.key].result is None and out[p.key].error, p.key
+
+
+def test_cameras_features_residuals():
+    from poseonly.cameras import Camera, as_camera, camera_from_text, from_opencv
+    from poseonly.demo_data import load_demo_pair
+    from poseonly.features import match_images
+
+    K = np.array([[800.0, 0.0, 320.0], [0.0, 800.0, 240.0], [0.0, 0.0, 1.0]])
+    for make in (
+        lambda: Camera(["PINHOLE"], 1, 1, (1, 1, 1, 1)),  # type: ignore[arg-type]
+        lambda: Camera("PINHOLE", "640", 480, (1, 1, 1, 1)),  # type: ignore[arg-type]
+        lambda: Camera("PINHOLE", 640, 480, (1 + 1j, 1, 1, 1)),  # type: ignore[arg-type]
+        lambda: as_camera({"model": "PINHOLE", "width": None, "height": 480, "params": [1, 1, 1, 1]}),
+        lambda: as_camera({"model": "PINHOLE", "width": np.inf, "height": 480, "params": [1, 1, 1, 1]}),
+        lambda: from_opencv(K, object()),
+        lambda: camera_from_text(5, "1"),  # type: ignore[arg-type]
+    ):
+        with pytest.raises(InputError):
+            make()
+    assert from_opencv(K, None, 640.0, 480).width == 640  # an integral float is a whole number
+    d = load_demo_pair()
+    for kw in ({"max_features": 10**30}, {"max_features": np.inf}, {"ratio": None}):
+        with pytest.raises(InputError):
+            match_images(d.image1, d.image2, **kw)
+    s = sim.make_scene(20, seed=1)
+    for args, msg in (
+        ((s.R, s.t, None, s.f2), "f1"),
+        ((s.R, s.t, s.f1[0], s.f2), "f1"),
+        ((s.R, None, s.f1, s.f2), "t"),
+        ((s.R[:2], s.t, s.f1, s.f2), "R"),
+        ((s.R, s.t, s.f1, s.f2[:5]), "differ in length"),
+    ):
+        with pytest.raises(InputError, match=msg):
+            poseonly.v_E(*args)
+    with pytest.raises(InputError, match="R_gt"):
+        poseonly.rotation_error_deg(None, s.R)
