@@ -4,41 +4,35 @@ value is an argument error before any work starts."""
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 
 __all__ = ["jobs_int", "non_negative_int", "positive_int", "positive_float"]
 
 
-def positive_int(text: str) -> int:
-    """An integer >= 1."""
+def _int_in(text: str, ok: Callable[[int], bool], what: str) -> int:
+    """``text`` as an integer for which ``ok`` holds; otherwise an argument error saying ``what``."""
     try:
         v = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {v}")
+        raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
+    if not ok(v):
+        raise argparse.ArgumentTypeError(f"must be {what}, got {v}")
     return v
+
+
+def positive_int(text: str) -> int:
+    """An integer >= 1."""
+    return _int_in(text, lambda v: v >= 1, "an integer >= 1")
 
 
 def non_negative_int(text: str) -> int:
     """An integer >= 0 (seeds, counts where 0 means "all")."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {v}")
-    return v
+    return _int_in(text, lambda v: v >= 0, "an integer >= 0")
 
 
 def jobs_int(text: str) -> int:
     """A worker count: an integer >= 1, or -1 for one per core."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1 or -1 (one per core), got {text!r}") from None
-    if v < 1 and v != -1:
-        raise argparse.ArgumentTypeError(f"must be >= 1 or -1 (one per core), got {v}")
-    return v
+    return _int_in(text, lambda v: v >= 1 or v == -1, "an integer >= 1 or -1 (one per core)")
 
 
 def positive_float(text: str) -> float:
