@@ -71,7 +71,7 @@ def test_sfm_types_and_options():
     sc = synthetic.make_scene(6, 100)
     with pytest.raises(InputError, match="tracks must be"):
         ligt_positions(sc.rotations, None, np.zeros((0, 3)))  # type: ignore[arg-type]
-    with pytest.raises(InputError, match="edges must be a list"):
+    with pytest.raises(InputError, match="edges must be an iterable of Edge"):
         ViewGraph(3, None)  # type: ignore[arg-type]
     with pytest.raises(InputError, match="an edge must be"):
         ViewGraph(3).add_edge(5)  # type: ignore[arg-type]
@@ -157,3 +157,37 @@ def test_cameras_features_residuals():
             poseonly.v_E(*args)
     with pytest.raises(InputError, match="R_gt"):
         poseonly.rotation_error_deg(None, s.R)
+
+
+def test_valid_inputs_at_the_edges_stay_accepted():
+    """What the checks above must not refuse (a review of them found each refused at first): numpy
+    and integral-float counts kept as ints, bounds that switch a limit off, separators and 0-d arrays."""
+    from poseonly.batch import Pair
+    from poseonly.cameras import Camera, camera_from_text
+    from poseonly.features import match_features
+    from poseonly.sfm import ViewGraph
+    from poseonly.sfm.pairwise import PairwiseOptions
+    from poseonly.sfm.pipeline import GlobalOptions
+    from poseonly.sfm.rotation_averaging import average_rotations
+    from poseonly.sfm.tracks import Tracks
+
+    o = PairwiseOptions(max_features=100.0, ratio=np.int64(1), seed=np.int64(3), estimator_options=[["ml_tails", "gauss"]])  # type: ignore[arg-type]
+    assert (o.max_features, o.ratio, o.seed, o.estimator_options) == (100, 1.0, 3, (("ml_tails", "gauss"),))
+    assert type(o.max_features) is int and type(o.seed) is int
+    g = GlobalOptions(filter_rounds=2.0, min_rotation_error_deg=0, max_rotation_error_deg=np.inf)  # type: ignore[arg-type]
+    assert g.filter_rounds == 2 and type(g.filter_rounds) is int
+    sc = synthetic.make_scene(8, 300)
+    r = average_rotations(8, sc.pairs, sc.R_rel, min_error_deg=0, max_error_deg=np.inf, irls_tol=0, l1_tol=0, sigma_deg=360)
+    assert np.all(np.isfinite(r.rotations)) and r.info["sigma_deg"] == 360.0
+    assert camera_from_text("SIMPLE_RADIAL", "800,320,240,0,").params == (800.0, 320.0, 240.0, 0.0)
+    assert Camera("PINHOLE", np.array(640), np.int32(480), (1, 1, 1, 1)).width == 640  # type: ignore[arg-type]
+    assert len(Tracks([0, 2], [0, 1], [0, 0])) == 1  # type: ignore[arg-type]
+    assert ViewGraph(3, (e for e in [])).num_views == 3  # type: ignore[arg-type]
+    assert match_features(np.zeros((0, 128), np.float32), np.zeros((0, 128), np.float32), ratio=np.array(0.8)).shape == (0, 2)
+    s = sim.make_scene(60, noise_px=0.5, seed=1)
+    pairs = [
+        Pair(s.f1, s.f2, key="scores", options={"focal_px": 800.0, "scores": np.linspace(1, 0, 60)}),
+        Pair(s.f1, s.f2, key="seed", options={"focal_px": 800.0, "seed": 7.0}),
+    ]
+    out = {r.key: r for r in poseonly.estimate_relative_poses(pairs, seed=-1, progress=False)}
+    assert all(r.error is None and r.result is not None for r in out.values()), {k: r.error for k, r in out.items()}

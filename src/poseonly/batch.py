@@ -104,13 +104,15 @@ def _as_pair(p: Any, index: int) -> Pair:
     return pair
 
 
-# a pair's own options may not name its data (the Pair's fields carry it)
-_PAIR_FIELDS_IN_OPTIONS = ("x1", "x2", "K1", "K2", "camera1", "camera2", "scores", "noise_scales")
+# a pair's own options may not name its points or cameras (the Pair's fields carry them; ``scores`` and
+# ``noise_scales`` there override the Pair's fields)
+_PAIR_FIELDS_IN_OPTIONS = ("x1", "x2", "K1", "K2", "camera1", "camera2")
 
 
 def _pair_options(pair: Pair, options: dict[str, Any]) -> tuple[dict[str, Any], int]:
     """The batch's options with the pair's own, and the pair's base seed; :class:`InputError` for a
-    pair whose ``options`` are not a dict of option names, name its data, or hold a non-int seed."""
+    pair whose ``options`` are not a dict of option names, name its points or cameras, or hold a seed
+    that is not a whole number (any integer: :func:`pair_seed` hashes it)."""
     own = pair.options
     if not isinstance(own, Mapping) or not all(isinstance(k, str) for k in own):
         raise InputError(f"the pair's options must be a dict of option names, got {own!r}")
@@ -119,8 +121,9 @@ def _pair_options(pair: Pair, options: dict[str, Any]) -> tuple[dict[str, Any], 
         raise InputError(f"the pair's options name its data {clash}: pass them as the Pair's fields")
     opts = {**options, **own}
     seed = opts.pop("seed", 0)
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InputError(f"a pair's seed must be an int >= 0, got {seed!r}")
+    whole = isinstance(seed, (int, np.integer)) or (isinstance(seed, (float, np.floating)) and np.isfinite(seed) and seed == round(seed))
+    if isinstance(seed, (bool, np.bool_)) or not whole:
+        raise InputError(f"a pair's seed must be a whole number (the base of its pair_seed), got {seed!r}")
     return opts, int(seed)
 
 

@@ -231,7 +231,9 @@ class Camera:
 
 def _whole_pixels(v: Any, side: str) -> int:
     """A camera's width or height: a whole number of pixels >= 0 (an integral float too; 0: unknown)."""
-    ok = not isinstance(v, (bool, np.bool_)) and isinstance(v, (int, np.integer, float, np.floating)) and np.isfinite(v) and float(v) == round(float(v))
+    if isinstance(v, np.ndarray) and v.ndim == 0:
+        v = v[()]
+    ok = not isinstance(v, (bool, np.bool_)) and isinstance(v, (int, np.integer, float, np.floating)) and np.isfinite(v) and float(v) == round(float(v)) and v >= 0
     if not ok:
         raise InputError(f"camera {side} must be a whole number of pixels (0: unknown), got {v!r}")
     return int(v)
@@ -351,6 +353,8 @@ def camera_from_text(model: str, params: str, width: int = 0, height: int = 0, n
     if not isinstance(model, str) or not isinstance(params, str):
         raise InputError(f"{name}: the model and the parameters must be text, got {model!r} and {params!r}")
     fields = re.split(r"\s*,\s*|\s+", params.strip())
+    if len(fields) > 1 and fields[-1] == "":  # a trailing separator
+        fields = fields[:-1]
     try:
         if "" in fields:
             raise ValueError

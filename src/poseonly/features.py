@@ -308,7 +308,8 @@ def match_features(d1: np.ndarray, d2: np.ndarray, ratio: float = 0.8, mutual: b
     :func:`_nearest_neighbours`; no OpenCV needed); a match is kept when ``dist1 < ratio * dist2``.
     With ``mutual`` the match must also be the nearest neighbour in the reverse direction.
     """
-    if isinstance(ratio, bool) or not isinstance(ratio, (int, float, np.integer, np.floating)) or not (0.0 < float(ratio) <= 1.0):
+    r = ratio[()] if isinstance(ratio, np.ndarray) and ratio.ndim == 0 else ratio
+    if isinstance(r, (bool, np.bool_)) or not isinstance(r, (int, float, np.integer, np.floating)) or not (0.0 < float(r) <= 1.0):
         raise InputError(f"ratio must be a number in (0, 1], got {ratio!r}")
     d1 = _check_desc(d1, "d1")
     d2 = _check_desc(d2, "d2")

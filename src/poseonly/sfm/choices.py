@@ -28,8 +28,9 @@ LIGT_REWEIGHT = 1
 
 
 # the Geman-McClure scale a caller may set (degrees): below, its square underflows the IRLS weights'
-# arithmetic to nothing; above, no rotation error (at most 180 deg) is down-weighted
-SIGMA_RANGE_DEG = (1e-6, 180.0)
+# arithmetic to nothing; above 180 deg no rotation error is down-weighted any more (the upper bound
+# only keeps the weights' arithmetic finite)
+SIGMA_RANGE_DEG = (1e-6, 1e6)
 
 
 def checked_sigma_deg(value: object, name: str = "sigma_deg") -> float | None:

@@ -37,8 +37,8 @@ IMAGE_EXTS = (".jpg", ".jpeg", ".png", ".JPG", ".JPEG", ".PNG")
 
 
 def positive_degrees(text: str) -> float:
-    """argparse type of ``--rotation-sigma``: a finite number of degrees > 0 (checked before any image
-    is read)."""
+    """argparse type of ``--rotation-sigma``: a number of degrees in ``choices.SIGMA_RANGE_DEG`` (checked
+    before any image is read)."""
     try:
         v = checked_sigma_deg(float(text), "--rotation-sigma")
     except (ValueError, InputError) as e:

@@ -104,19 +104,29 @@ class PairwiseOptions:
         from ..options import parse_options
         from .inputs import checked_count, checked_positive
 
+        def keep(name: str, value: Any) -> None:  # the checked value, as the pipeline uses it
+            object.__setattr__(self, name, value)
+
         if self.max_features is not None:
-            checked_count(self.max_features, "max_features")  # 0: every feature
-        if isinstance(self.ratio, bool) or not (isinstance(self.ratio, (int, float, np.floating)) and 0.0 < float(self.ratio) <= 1.0):
+            keep("max_features", checked_count(self.max_features, "max_features"))  # 0: every feature
+        keep("ratio", checked_positive(self.ratio, "ratio"))
+        if self.ratio > 1.0:
             raise InputError(f"ratio must be a number in (0, 1] (Lowe's ratio test), got {self.ratio!r}")
-        checked_count(self.min_matches, "min_matches", 6)
-        checked_count(self.seed, "seed")
+        keep("min_matches", checked_count(self.min_matches, "min_matches", 6))
+        keep("seed", checked_count(self.seed, "seed"))
         if self.threshold_px is not None:
-            checked_positive(self.threshold_px, "threshold_px")
+            keep("threshold_px", checked_positive(self.threshold_px, "threshold_px"))
         for name in ("mutual", "use_scores", "use_noise_scales"):
             if not isinstance(getattr(self, name), (bool, np.bool_)):
                 raise InputError(f"{name} must be True or False, got {getattr(self, name)!r}")
-        if not isinstance(self.estimator_options, tuple) or not all(isinstance(kv, tuple) and len(kv) == 2 and isinstance(kv[0], str) for kv in self.estimator_options):
-            raise InputError(f"estimator_options must be a tuple of (name, value) pairs, got {self.estimator_options!r}")
+            keep(name, bool(getattr(self, name)))
+        try:
+            pairs = tuple((k, v) for k, v in self.estimator_options)
+        except (TypeError, ValueError):
+            pairs = None
+        if pairs is None or not all(isinstance(k, str) for k, _ in pairs):
+            raise InputError(f"estimator_options must be (name, value) pairs, got {self.estimator_options!r}")
+        keep("estimator_options", pairs)
         reserved = {"seed", "scores", "noise_scales", "threshold_px", "focal_px", "method"} & {k for k, _ in self.estimator_options}
         if reserved:
             raise InputError(f"estimator_options: {sorted(reserved)} are set by the pipeline (use the PairwiseOptions fields)")

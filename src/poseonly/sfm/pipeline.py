@@ -23,7 +23,7 @@ from .edge_information import edge_informations
 from .inputs import checked_count, checked_positive
 from .ligt_global import MIN_PARALLAX_DEG, LiGTResult, TranslationUndetermined, ligt_positions
 from .reconstruct import MAX_ERROR_PX, Reconstruction, reconstruct_points
-from .rotation_averaging import RotationAveragingResult, average_rotations
+from .rotation_averaging import RotationAveragingResult, average_rotations, checked_error_bounds
 from .tracks import CONFLICT_POLICIES, Tracks, build_tracks
 from .viewgraph import ViewGraph, largest_component, view_components
 
@@ -74,11 +74,10 @@ class GlobalOptions:
         checked_sigma_deg(self.rotation_sigma_deg, "rotation_sigma_deg")
         if self.ligt_normalization not in LIGT_NORMALIZATIONS:
             raise InputError(f"ligt_normalization must be one of {LIGT_NORMALIZATIONS}, got {self.ligt_normalization!r}")
-        checked_count(self.ligt_reweight, "ligt_reweight")
-        checked_count(self.min_track_length, "min_track_length", 2)
-        checked_count(self.filter_rounds, "filter_rounds")
-        for name in ("max_rotation_error_deg", "min_rotation_error_deg", "max_error_px"):
-            checked_positive(getattr(self, name), name)
+        for name, least in (("ligt_reweight", 0), ("min_track_length", 2), ("filter_rounds", 0)):
+            object.__setattr__(self, name, checked_count(getattr(self, name), name, least))  # the checked int
+        object.__setattr__(self, "max_error_px", checked_positive(self.max_error_px, "max_error_px"))
+        checked_error_bounds(self.min_rotation_error_deg, self.max_rotation_error_deg, "min_rotation_error_deg", "max_rotation_error_deg")
         if not (isinstance(self.min_parallax_deg, numbers.Real) and not isinstance(self.min_parallax_deg, bool) and 0.0 <= float(self.min_parallax_deg) < 90.0):
             raise InputError(f"min_parallax_deg must be a number of degrees in [0, 90), got {self.min_parallax_deg!r}")
         if self.conflicts not in CONFLICT_POLICIES:

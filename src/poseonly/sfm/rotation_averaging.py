@@ -57,7 +57,7 @@ from scipy.sparse.linalg import splu
 
 from ..geometry import InputError, as_real_array
 from .choices import checked_sigma_deg
-from .inputs import checked_count, checked_pairs, checked_positive, checked_rotations
+from .inputs import checked_count, checked_pairs, checked_rotations
 from .so3 import exp_so3, log_so3
 from .viewgraph import largest_component, view_components
 
@@ -113,10 +113,11 @@ def _check_inputs(num_views: object, pairs: np.ndarray, R_rel: np.ndarray, weigh
     if w.shape != (len(p),) or not np.all(np.isfinite(w)) or np.any(w <= 0):
         raise InputError(f"weights must be ({len(p)},) positive finite values")
     if len(p):
-        key = np.sort(p, axis=1)
-        u, counts = np.unique(key, axis=0, return_counts=True)
-        if np.any(counts > 1):
-            i, j = u[np.flatnonzero(counts > 1)[0]]
+        lo, hi = np.minimum(p[:, 0], p[:, 1]), np.maximum(p[:, 0], p[:, 1])
+        key = np.sort(lo.astype(np.int64) * n + hi)  # one number per unordered pair (a 2-D unique is 15x slower)
+        dup = np.flatnonzero(key[1:] == key[:-1])
+        if len(dup):
+            i, j = divmod(int(key[dup[0]]), n)
             raise InputError(f"pairs holds the views ({i}, {j}) more than once: one relative rotation per pair of views")
         w = w / w.max()  # relative weights (the median of 1e308s overflowed)
     return p, R, w
@@ -375,6 +376,27 @@ def _x84_threshold(res_deg: np.ndarray, min_deg: float, max_deg: float) -> float
     return float(min(max_deg, max(med + X84_FACTOR * MAD_TO_SIGMA * mad, min_deg)))
 
 
+def _checked_tolerance(value: object, name: str) -> float:
+    """A stopping tolerance: a finite number >= 0 (0 runs every iteration)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)) or not np.isfinite(value) or value < 0:
+        raise InputError(f"{name} must be a finite number >= 0, got {value!r}")
+    return float(value)
+
+
+def checked_error_bounds(min_deg: object, max_deg: object, min_name: str = "min_error_deg", max_name: str = "max_error_deg") -> tuple[float, float]:
+    """The outlier test's floor and ceiling (degrees): ``0 <= min <= max``, ``max`` may be ``inf``
+    (no ceiling), ``min`` 0 (no floor)."""
+    out = []
+    for v, name in ((min_deg, min_name), (max_deg, max_name)):
+        ok = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_)) and not np.isnan(v) and v >= 0
+        if not ok:
+            raise InputError(f"{name} must be a number of degrees >= 0 (inf: no bound), got {v!r}")
+        out.append(float(v))  # type: ignore[arg-type]
+    if out[0] > out[1] or not np.isfinite(out[0]):
+        raise InputError(f"{min_name} ({out[0]:g}) must be finite and at most {max_name} ({out[1]:g})")
+    return out[0], out[1]
+
+
 def average_rotations(
     num_views: int,
     pairs: np.ndarray,
@@ -412,8 +434,8 @@ def average_rotations(
     l1_admm_iterations = checked_count(l1_admm_iterations, "l1_admm_iterations", 1)
     irls_iterations = checked_count(irls_iterations, "irls_iterations", 1)
     outlier_rounds = checked_count(outlier_rounds, "outlier_rounds", 0)
-    l1_tol, irls_tol = checked_positive(l1_tol, "l1_tol"), checked_positive(irls_tol, "irls_tol")
-    max_error_deg, min_error_deg = checked_positive(max_error_deg, "max_error_deg"), checked_positive(min_error_deg, "min_error_deg")
+    l1_tol, irls_tol = _checked_tolerance(l1_tol, "l1_tol"), _checked_tolerance(irls_tol, "irls_tol")
+    min_error_deg, max_error_deg = checked_error_bounds(min_error_deg, max_error_deg)
     if len(p) == 0:
         raise InputError("rotation averaging needs at least one edge")
     w = w / np.median(w)

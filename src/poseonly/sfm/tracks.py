@@ -45,6 +45,9 @@ class Tracks:
         arrays = {}
         for name in ("ptr", "views", "keypoints"):
             a = getattr(self, name)
+            if isinstance(a, (list, tuple)):  # a list of ints is taken as the array it spells
+                a = np.asarray(a, dtype=np.int64) if all(isinstance(x, (int, np.integer)) and not isinstance(x, bool) for x in a) else a
+                object.__setattr__(self, name, a)
             if not isinstance(a, np.ndarray) or a.ndim != 1 or a.dtype.kind not in "iu":
                 raise InputError(f"Tracks.{name} must be a 1-D integer array, got {type(a).__name__}{getattr(a, 'shape', '')} {getattr(a, 'dtype', '')}")
             arrays[name] = a

@@ -99,8 +99,8 @@ class ViewGraph:
 
     def __post_init__(self) -> None:
         self.num_views = checked_count(self.num_views, "num_views", 1)
-        if not isinstance(self.edges, (list, tuple)):
-            raise InputError(f"edges must be a list of Edge, got {type(self.edges).__name__}")
+        if isinstance(self.edges, (str, bytes, dict)) or not isinstance(self.edges, Iterable):
+            raise InputError(f"edges must be an iterable of Edge, got {type(self.edges).__name__}")
         given, self.edges = list(self.edges), []
         for e in given:
             self.add_edge(e)
