@@ -156,3 +156,24 @@ def test_writer_errors_name_the_target(tmp_path):
     (tmp_path / "f").write_text("x")
     with pytest.raises(OSError, match=r"cannot write .*f/x\.md"):
         atomic_write_text(Path(tmp_path / "f" / "x.md"), "a")
+
+
+def test_sfm_refuses_files_that_are_no_images_before_any_work(tmp_path, capsys):
+    """A file with an image's name that OpenCV cannot decode ends the run at once, naming it (before,
+    the other images' features, matches and two-view results were computed first)."""
+    import shutil
+
+    from poseonly.demo_data import load_demo_pair
+
+    d = load_demo_pair()
+    imgs = tmp_path / "imgs"
+    imgs.mkdir()
+    for k, src in enumerate((d.image1, d.image2, d.image1)):
+        shutil.copy(src, imgs / f"{k}.jpg")
+    (imgs / "3.jpg").write_bytes(b"not an image")
+    np.savetxt(tmp_path / "K.txt", d.K1)
+    out = tmp_path / "out"
+    assert main(["sfm", str(imgs), "--K", str(tmp_path / "K.txt"), "--out", str(out), "--no-progress"]) == 2
+    err = _err(capsys)
+    assert "1 of the 4 images cannot be read as images" in err and "3.jpg" in err
+    assert not (out / "cache" / "features").exists() or not any((out / "cache" / "features").iterdir())

@@ -19,6 +19,7 @@ import hashlib
 import json
 import os
 import zipfile
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -30,18 +31,19 @@ from .geometry import InputError, as_real_array, check_intrinsics, essential_fro
 
 __all__ = [
     "Features",
-    "Matches",
     "MatchData",
-    "read_image",
+    "Matches",
     "extract_features",
+    "fundamental_from_pose",
+    "load_matches_npz",
     "match_features",
     "match_images",
     "match_noise_scales",
-    "load_matches_npz",
-    "save_matches_npz",
-    "fundamental_from_pose",
+    "read_image",
     "sampson_distance",
     "sampson_error_px",
+    "save_matches_npz",
+    "unreadable_images",
 ]
 
 _CACHE_VERSION = 2  # 2: keypoint sizes cached
@@ -191,6 +193,14 @@ def _to_u8(a: np.ndarray) -> np.ndarray:
 
 
 MAX_FEATURES_LIMIT = 2**31 - 1  # OpenCV's nfeatures is a C int
+
+
+def unreadable_images(paths: Iterable[str | os.PathLike]) -> list[str]:
+    """The ``paths`` that are not files OpenCV can decode by their header (missing, empty, another
+    format): checked without decoding, so a truncated image still fails when it is read."""
+    import cv2
+
+    return [str(p) for p in paths if not (os.path.isfile(p) and cv2.haveImageReader(str(p)))]
 
 
 def _sift(gray: np.ndarray, max_features: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -28,7 +28,7 @@ from .. import __version__
 from .._fileutil import atomic_savez
 from ..api import estimate_relative_pose
 from ..cameras import OPENCV_TO_COLMAP_PX
-from ..features import Features, extract_features, match_features, match_noise_scales
+from ..features import Features, extract_features, match_features, match_noise_scales, unreadable_images
 from ..geometry import InputError, bearings_from_normalized, bearings_from_pixels
 from ..options import MANY_PAIRS_MAX_ITERATIONS
 from .inputs import checked_pairs
@@ -449,6 +449,9 @@ def image_view_graph(
             raise InputError("pairs is empty: give at least one pair, or None for all pairs")
         pa = checked_pairs(pairs, n)
         plist = sorted({(int(min(a, b)), int(max(a, b))) for a, b in pa.tolist()})
+    bad = unreadable_images(images)  # before any work: a file that is no image would end the run midway
+    if bad:
+        raise InputError(f"{len(bad)} of the {n} images cannot be read as images: {bad[:3]}")
     wrap = progress or (lambda it, **_: it)
     cache = Path(cache_dir) if cache_dir is not None else None
     times: dict[str, float] = {}
