@@ -177,3 +177,26 @@ def test_sfm_refuses_files_that_are_no_images_before_any_work(tmp_path, capsys):
     err = _err(capsys)
     assert "1 of the 4 images cannot be read as images" in err and "3.jpg" in err
     assert not (out / "cache" / "features").exists() or not any((out / "cache" / "features").iterdir())
+
+
+def test_experiments_take_trials_with_quick_write_strict_json_and_check_values(tmp_path, capsys):
+    """An explicit ``--trials`` wins over ``--quick`` (it was silently overridden); a report whose cells
+    all failed writes strict JSON (null, not NaN); nonsense values are argument errors."""
+    assert main(["experiment", "table2", "--quick", "--trials", "2", "--out", str(tmp_path / "t")]) == 0
+    assert json.loads((tmp_path / "t" / "table2.json").read_text())["trials"] == 2
+    assert main(["experiment", "chirality", "--quick", "--n", "4", "--out", str(tmp_path / "c")]) == 0  # every trial fails
+    json.loads((tmp_path / "c" / "chirality.json").read_text(), parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
+    assert main(["bench", "robust", "--quick", "--trials", "1", "--cameras", "wide", "--out", str(tmp_path / "r")]) == 0
+    res = json.loads((tmp_path / "r" / "robust.json").read_text())
+    assert res["trials"] == 1 and {r["camera"] for r in res["rows"]} == {"wide"}  # as the recorded command says
+    capsys.readouterr()
+    for argv, opt in (
+        (["experiment", "gnc-ransac", "--threshold-px", "0"], "--threshold-px"),
+        (["experiment", "gnc-ransac", "--jobs", "0"], "--jobs"),
+        (["experiment", "chirality", "--cauchy-px", "-2"], "--cauchy-px"),
+        (["experiment", "strecha", str(tmp_path), "--noise-factor", "-1"], "--noise-factor"),
+        (["experiment", "strecha", str(tmp_path), "--anchor-threshold-px", "-1"], "--anchor-threshold-px"),
+    ):
+        with pytest.raises(SystemExit) as e:
+            main(argv)
+        assert e.value.code == 2 and opt in _err(capsys), argv

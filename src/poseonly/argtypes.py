@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from collections.abc import Callable
 
-__all__ = ["jobs_int", "non_negative_int", "positive_int", "positive_float"]
+__all__ = ["jobs_int", "non_negative_float", "non_negative_int", "positive_float", "positive_int"]
 
 
 def _int_in(text: str, ok: Callable[[int], bool], what: str) -> int:
@@ -43,4 +43,15 @@ def positive_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
     if not (v > 0 and v != float("inf")):
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return v
+
+
+def non_negative_float(text: str) -> float:
+    """A finite number >= 0 (noise levels)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}") from None
+    if not (v >= 0 and v != float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
     return v

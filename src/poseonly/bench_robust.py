@@ -183,15 +183,15 @@ def _figure(res: dict, path: Path) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="poseonly bench robust", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--trials", type=positive_int, default=200, help="seeded scenes per cell (default 200)")
-    ap.add_argument("--quick", action="store_true", help="2 trials, outliers 0 / 0.5 / 0.8, pinhole only")
-    ap.add_argument("--cameras", nargs="+", default=["wide", "pinhole"], choices=["wide", "pinhole"], help="cameras to run (default both)")
+    ap.add_argument("--trials", type=positive_int, default=None, help="seeded scenes per cell (default 200; 2 with --quick)")
+    ap.add_argument("--quick", action="store_true", help="2 trials, outliers 0 / 0.5 / 0.8, pinhole only (an explicit --trials or --cameras wins)")
+    ap.add_argument("--cameras", nargs="+", default=None, choices=["wide", "pinhole"], help="cameras to run (default both; pinhole with --quick)")
     ap.add_argument("--seed", type=non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     ap.add_argument("--out", default=None, help="output folder (default: a new folder poseonly-robust-<date>-<time> under the working directory)")
     args = ap.parse_args(argv)
-    outliers, cams, trials = OUTLIERS, tuple(args.cameras), args.trials
-    if args.quick:
-        outliers, cams, trials = (0.0, 0.5, 0.8), ("pinhole",), 2
+    outliers = (0.0, 0.5, 0.8) if args.quick else OUTLIERS
+    cams = tuple(args.cameras) if args.cameras else (("pinhole",) if args.quick else ("wide", "pinhole"))
+    trials = args.trials or (2 if args.quick else 200)
     t0 = time.perf_counter()
     res = compute(trials, cams, outliers, seed=args.seed)
     res["wall_s"] = time.perf_counter() - t0

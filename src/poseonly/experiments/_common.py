@@ -66,7 +66,9 @@ def figure_writer(draw: Callable[[Any, Any], Any]) -> Callable[[Any, Path], None
 
 
 def write_json(path: str | Path, data: Any) -> Path:
-    return atomic_write_text(path, json.dumps(data, indent=2, default=_jsonable))
+    """``data`` as strict JSON (NaN / inf as ``null``: :func:`strict_json`, after numpy values are
+    converted), written atomically."""
+    return atomic_write_text(path, json.dumps(strict_json(json.loads(json.dumps(data, default=_jsonable))), indent=2, allow_nan=False))
 
 
 def fmt(x: float | np.floating[Any] | None) -> str:

@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from .. import sim
+from ..argtypes import non_negative_float, positive_float, positive_int
 from ..geometry import normalize, rotation_error_deg
 from ._common import figure_writer, finish_run, fmt, markdown_table, progress, stamp
 from .opengv_ransac import get_refiner, opengv_ransac_5pt
@@ -47,9 +48,9 @@ GENERATORS = ("chirality", "none")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--n", type=int, default=300, help="points per scene (paper App. B: 300)")
-    p.add_argument("--noise", type=float, default=1.0, help="noise in px (paper: 1)")
-    p.add_argument("--cauchy-px", type=float, default=2.0, help="Cauchy scale of the robust N-point (px at f = 800)")
+    p.add_argument("--n", type=positive_int, default=300, help="points per scene (paper App. B: 300)")
+    p.add_argument("--noise", type=non_negative_float, default=1.0, help="noise in px (paper: 1)")
+    p.add_argument("--cauchy-px", type=positive_float, default=2.0, help="Cauchy scale of the robust N-point (px at f = 800)")
 
 
 def make_scene_no_chirality(n: int, noise_px: float, outlier_fraction: float, seed) -> sim.Scene:
@@ -221,7 +222,7 @@ def to_markdown(res: dict) -> str:
 
 def run(args: argparse.Namespace) -> int:
     outliers = QUICK_OUTLIERS if args.quick else OUTLIERS
-    trials = 3 if args.quick else (args.trials or 500)
+    trials = args.trials or (3 if args.quick else 500)  # an explicit --trials wins over --quick
     t0 = time.perf_counter()
     res = stamp(compute(trials, args.n, outliers, args.noise, args.seed, args.cauchy_px), t0)
     head = (

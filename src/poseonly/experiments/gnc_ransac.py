@@ -47,6 +47,7 @@ from typing import Any
 
 import numpy as np
 
+from ..argtypes import non_negative_float, positive_float, positive_int
 from ..geometry import normalize, rotation_error_deg
 from ..sim import make_scene
 from ._common import figure_writer, finish_run, fmt, markdown_table, progress, single_thread, stamp
@@ -73,11 +74,11 @@ INITIAL = {"GNC-RANSAC", "RANSAC+5pt (OpenGV)", "OpenCV RANSAC (50 it)", "PoseLi
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--n", type=int, default=300, help="points per scene (paper: 300)")
-    p.add_argument("--noise", type=float, default=1.0, help="noise in px (paper: 1)")
+    p.add_argument("--n", type=positive_int, default=300, help="points per scene (paper: 300)")
+    p.add_argument("--noise", type=non_negative_float, default=1.0, help="noise in px (paper: 1)")
     p.add_argument("--outliers", type=float, nargs="+", default=None, help="outlier fractions (default 0 .2 .4 .5 .6 .7 .8)")
-    p.add_argument("--jobs", type=int, default=1, help="worker processes (each single-threaded)")
-    p.add_argument("--threshold-px", type=float, default=1.0, help="pixel threshold of the OpenCV/PoseLib anchors")
+    p.add_argument("--jobs", type=positive_int, default=1, help="worker processes (each single-threaded)")
+    p.add_argument("--threshold-px", type=positive_float, default=1.0, help="pixel threshold of the OpenCV/PoseLib anchors")
 
 
 def planar_twin(sc, min_angle_deg: float = 0.5, ppo_tol: float = 1e-6) -> np.ndarray | None:
@@ -317,7 +318,7 @@ def to_markdown(res: dict) -> str:
 
 def run(args: argparse.Namespace) -> int:
     outliers = tuple(args.outliers) if args.outliers else (QUICK_OUTLIERS if args.quick else OUTLIERS)
-    trials = 2 if args.quick else (args.trials or 500)
+    trials = args.trials or (2 if args.quick else 500)  # an explicit --trials wins over --quick
     t0 = time.perf_counter()
     res = stamp(compute(trials, args.n, outliers, args.noise, args.seed, max(1, min(args.jobs, os.cpu_count() or 1)), args.threshold_px), t0)
     res["jobs"] = args.jobs

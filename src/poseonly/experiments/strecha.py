@@ -48,7 +48,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..argtypes import positive_float
+from ..argtypes import non_negative_int, positive_float, positive_int
 from ..geometry import InputError, bearings_from_pixels, rotation_error_deg, translation_error_deg
 from ._common import atomic_write_text, code_version, fmt, machine, markdown_table, progress, savefig, strict_json, write_json
 
@@ -79,7 +79,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("path", nargs="?", default=os.environ.get("POSEONLY_STRECHA"), help="folder holding Strecha scene folders (or one scene folder); default $POSEONLY_STRECHA")
     p.add_argument("--scenes", nargs="+", metavar="NAME", help="only these scene folder names (default: all found)")
     p.add_argument("--cache", help="feature/match cache directory (default: <out>/cache)")
-    p.add_argument("--ratio", type=float, default=0.8, help="Lowe ratio of the SIFT matching (default 0.8)")
+    p.add_argument("--ratio", type=positive_float, default=0.8, help="Lowe ratio of the SIFT matching (default 0.8)")
     p.add_argument("--methods", nargs="+", choices=ALL_METHODS, metavar="METHOD", help=f"methods to run (default: all available): {', '.join(ALL_METHODS)}")
     p.add_argument(
         "--threshold-px",
@@ -88,16 +88,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="PX",
         help="inlier threshold(s) in pixels of our methods (default: the API default); several values run every one of our methods once per value, named METHOD@PXpx",
     )
-    p.add_argument("--noise-factor", type=float, metavar="K", help="noise_factor option of the default method (its final threshold is K robust sigmas; default: the API default)")
-    p.add_argument("--anchor-threshold-px", type=float, default=1.0, help="threshold of OpenCV and PoseLib in pixels (default 1, their defaults)")
-    p.add_argument("--opengv-threshold-px", type=float, help="threshold of RANSAC+5pt in pixels per view (default: OpenGV's own, 0.5 sqrt(2) px at f = 800)")
-    p.add_argument("--max-pairs", type=int, help="at most this many pairs per scene (in (i, j) order; for smoke tests)")
-    p.add_argument("--max-features", type=int, help="keep the strongest N SIFT features per image (default: all)")
-    p.add_argument("--min-matches", type=int, default=30, help="process pairs with MORE than this many putative matches")
-    p.add_argument("--gt-px", type=float, default=2.0, help="Sampson error (px) under the GT pose of a GT-consistent match")
-    p.add_argument("--gt-min", type=int, default=30, help="a pair truly overlaps with at least this many GT-consistent matches")
-    p.add_argument("--min-confident-inliers", type=int, default=15, help="an anchor's pose counts as confident with at least this many inliers")
-    p.add_argument("--wrong-deg", type=float, default=5.0, help="a confident pose with a larger rotation error is 'wrong'")
+    p.add_argument(
+        "--noise-factor", type=positive_float, metavar="K", help="noise_factor option of the default method (its final threshold is K robust sigmas; default: the API default)"
+    )
+    p.add_argument("--anchor-threshold-px", type=positive_float, default=1.0, help="threshold of OpenCV and PoseLib in pixels (default 1, their defaults)")
+    p.add_argument("--opengv-threshold-px", type=positive_float, help="threshold of RANSAC+5pt in pixels per view (default: OpenGV's own, 0.5 sqrt(2) px at f = 800)")
+    p.add_argument("--max-pairs", type=positive_int, help="at most this many pairs per scene (in (i, j) order; for smoke tests)")
+    p.add_argument("--max-features", type=non_negative_int, help="keep the strongest N SIFT features per image (default: all)")
+    p.add_argument("--min-matches", type=non_negative_int, default=30, help="process pairs with MORE than this many putative matches")
+    p.add_argument("--gt-px", type=positive_float, default=2.0, help="Sampson error (px) under the GT pose of a GT-consistent match")
+    p.add_argument("--gt-min", type=non_negative_int, default=30, help="a pair truly overlaps with at least this many GT-consistent matches")
+    p.add_argument("--min-confident-inliers", type=non_negative_int, default=15, help="an anchor's pose counts as confident with at least this many inliers")
+    p.add_argument("--wrong-deg", type=positive_float, default=5.0, help="a confident pose with a larger rotation error is 'wrong'")
 
 
 # ------------------------------------------------------------------------------------------------
