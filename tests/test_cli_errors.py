@@ -183,7 +183,9 @@ def test_experiments_take_trials_with_quick_write_strict_json_and_check_values(t
     """An explicit ``--trials`` wins over ``--quick`` (it was silently overridden); a report whose cells
     all failed writes strict JSON (null, not NaN); nonsense values are argument errors."""
     assert main(["experiment", "table2", "--quick", "--trials", "2", "--out", str(tmp_path / "t")]) == 0
-    assert json.loads((tmp_path / "t" / "table2.json").read_text())["trials"] == 2
+    t2 = json.loads((tmp_path / "t" / "table2.json").read_text())
+    assert t2["trials"] == 2 and t2["command"] == f"poseonly experiment table2 --quick --trials 2 --out {tmp_path / 't'}"  # provenance
+    assert t2["command"] in (tmp_path / "t" / "table2.md").read_text()
     assert main(["experiment", "chirality", "--quick", "--n", "4", "--out", str(tmp_path / "c")]) == 0  # every trial fails
     json.loads((tmp_path / "c" / "chirality.json").read_text(), parse_constant=lambda c: pytest.fail(f"non-JSON constant {c}"))
     assert main(["bench", "robust", "--quick", "--trials", "1", "--cameras", "wide", "--out", str(tmp_path / "r")]) == 0

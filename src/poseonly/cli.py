@@ -243,12 +243,24 @@ def _save_result(path: str, r) -> None:
 def cmd_experiment(args) -> int:
     from . import experiments
     from ._fileutil import new_results_dir
+    from .experiments import _common
 
     mod = experiments.load(args.name)
     if getattr(args, "out", "") is None:
         args.out = str(new_results_dir(args.name))
         print(f"writing results to {args.out}", file=sys.stderr)
-    return int(mod.run(args) or 0)
+    _common.COMMAND[:] = [_command_line(args)]
+    try:
+        return int(mod.run(args) or 0)
+    finally:
+        _common.COMMAND.clear()
+
+
+def _command_line(args) -> str:
+    """The command line that started this run (``main``'s ``argv``, or the process's)."""
+    import shlex
+
+    return "poseonly " + shlex.join(getattr(args, "argv", None) or sys.argv[1:])
 
 
 def cmd_colmap_verify(args) -> int:
@@ -359,6 +371,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    args.argv = list(argv) if argv is not None else sys.argv[1:]
     rc = 1
     try:
         rc = int(args.func(args) or 0)

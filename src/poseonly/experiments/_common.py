@@ -156,9 +156,20 @@ def finish_run(out: str | Path, name: str, header: str, res: dict, table: str, f
     write_outputs(out, name, md, res, figure)
 
 
+# the command line of the running ``poseonly experiment`` (set by the CLI): recorded in every report
+COMMAND: list[str] = []
+
+
 def write_outputs(out: str | Path, name: str, md: str, res: Any, figure=None) -> None:
     """Write ``<name>.md``, ``<name>.json`` and (with ``figure(res, path)``) ``<name>.png``
-    atomically into ``out`` and print the table."""
+    atomically into ``out`` and print the table; the command line that ran (:data:`COMMAND`, when the
+    CLI set it) goes into both reports."""
+    if COMMAND:
+        cmd = COMMAND[-1]
+        if isinstance(res, dict):
+            res = {**res, "command": res.get("command", cmd)}
+        if cmd not in md:
+            md = md.rstrip("\n") + f"\n\nCommand: `{cmd}`\n"
     out = Path(out)
     atomic_write_text(out / f"{name}.md", md)
     write_json(out / f"{name}.json", res)
