@@ -351,8 +351,10 @@ def build_parser() -> argparse.ArgumentParser:
     cv.set_defaults(func=cmd_colmap_verify)
 
     b = sub.add_parser("bench", help="benchmarks: speed, robust (synthetic) or real (real image pairs against the anchors)")
-    b.add_argument("name", choices=sorted(BENCHES), help="speed: timing against PoseLib and OpenCV; robust: synthetic accuracy; real: real image pairs against the anchors")
-    b.add_argument("rest", nargs=argparse.REMAINDER, help="options of the benchmark (see poseonly bench NAME --help)")
+    b.add_argument(
+        "name", metavar="NAME", choices=sorted(BENCHES), help="speed: timing against PoseLib and OpenCV; robust: synthetic accuracy; real: real image pairs against the anchors"
+    )
+    b.add_argument("rest", nargs=argparse.REMAINDER, metavar="OPTIONS", help="options of the benchmark (see poseonly bench NAME --help)")
     b.set_defaults(func=cmd_bench)
 
     e = sub.add_parser("experiment", help="reproduce one of the paper's experiments")

@@ -689,7 +689,7 @@ def overview_markdown(res: dict) -> str:
                     m,
                     f"{s['median_R_err']:.3f} / {s['mean_R_err']:.3f}",
                     f"{a['5']:.1f} / {a['10']:.1f} / {a['20']:.1f}",
-                    f"{s.get('median_time_ratio', float('nan')):.2f}",
+                    f"{s['median_time_ratio']:.2f}" if "median_time_ratio" in s else "-",
                     f"{s['ok_wrong']} / {s['ok']}" if "ok" in s else "-",
                     s.get("good_not_ok", "-"),
                     f"{s['ref_good_not_ok']} / {s['ref_good']}" if "ref_good" in s else "-",
