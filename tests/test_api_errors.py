@@ -191,3 +191,13 @@ def test_valid_inputs_at_the_edges_stay_accepted():
     ]
     out = {r.key: r for r in poseonly.estimate_relative_poses(pairs, seed=-1, progress=False)}
     assert all(r.error is None and r.result is not None for r in out.values()), {k: r.error for k, r in out.items()}
+
+
+def test_non_numeric_dtypes_are_refused():
+    """numpy casts strings, dates and durations to float without complaint; none of them are
+    coordinates. Object arrays of numbers stay accepted."""
+    s = sim.make_scene(50, camera="pinhole", seed=0)
+    for bad in (s.u1.astype("datetime64[s]"), s.u1.astype("timedelta64[s]"), s.u1.astype(str), s.u1.astype(bytes), np.array([[str(v) for v in row] for row in s.u1], dtype=object)):
+        with pytest.raises(InputError, match="numeric array"):
+            poseonly.estimate_relative_pose(bad, s.u2, s.K, s.K)
+    assert poseonly.estimate_relative_pose(s.u1.astype(object), s.u2, s.K, s.K).status == "ok"

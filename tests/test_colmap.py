@@ -157,16 +157,8 @@ def test_homography_dlt():
     assert homography_dlt(u1[:3], u1[:3]) is None
 
 
-def test_kill_and_resume(tmp_path):
-    path = tmp_path / "db.db"
-    make_db(path, n_images=8, n_points=120)
-    ref = tmp_path / "ref.db"
-    shutil.copy(path, ref)
-    verify_database(ref, progress=False, seed=3)
-    total = len(_rows(ref))
-    assert total == 28
-    env = {**os.environ, "PYTHONPATH": SRC}
-    cmd = [sys.executable, "-c", "import sys; from poseonly.cli import main; sys.exit(main())", "colmap", "verify", str(path), "--seed", "3", "--write-every", "2", "--no-progress"]
+def _run_until_rows(cmd, env, path, rows):
+    """Start ``cmd`` and return the process once ``path`` holds ``rows`` two-view rows (or it ended)."""
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     n = 0
     deadline = time.time() + 120
@@ -176,14 +168,37 @@ def test_kill_and_resume(tmp_path):
                 n = con.execute("SELECT COUNT(*) FROM two_view_geometries").fetchone()[0]
         except sqlite3.OperationalError:  # locked by the writer
             continue
-        if n >= 4:
+        if n >= rows:
             break
         time.sleep(0.005)
-    proc.send_signal(signal.SIGKILL)
+    return proc
+
+
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM])
+def test_kill_and_resume(tmp_path, sig):
+    """Killed (SIGKILL) or terminated (SIGTERM: a clean exit 143, no native stack dump from the
+    failure handler pycolmap's import installs) mid-run, the database is consistent and a rerun
+    completes it with the rows of an uninterrupted run."""
+    path = tmp_path / "db.db"
+    make_db(path, n_images=8, n_points=120)
+    ref = tmp_path / "ref.db"
+    shutil.copy(path, ref)
+    verify_database(ref, progress=False, seed=3)
+    total = len(_rows(ref))
+    assert total == 28
+    env = {**os.environ, "PYTHONPATH": SRC}
+    cmd = [sys.executable, "-c", "import sys; from poseonly.cli import main; sys.exit(main())", "colmap", "verify", str(path), "--seed", "3", "--write-every", "2", "--no-progress"]
+    proc = _run_until_rows(cmd, env, path, 4)
+    proc.send_signal(sig)
     proc.wait()
-    assert proc.returncode == -signal.SIGKILL, proc.stderr.read().decode()
+    err = proc.stderr.read().decode()
+    if sig == signal.SIGKILL:
+        assert proc.returncode == -signal.SIGKILL, err
+    else:
+        assert proc.returncode == 128 + signal.SIGTERM, err
+        assert "poseonly: terminated" in err and "stack trace" not in err, err
     written = len(_rows(path))
-    assert 4 <= written < total, written  # killed mid-run
+    assert 4 <= written < total, written  # stopped mid-run
     _check_consistent(path)
     rr = subprocess.run(cmd, check=False, env=env, capture_output=True, text=True, timeout=300)
     assert rr.returncode == 0, rr.stderr

@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -381,11 +383,23 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM during a command: unwinds as Ctrl-C does (writers remove their temporary files, worker
+    pools shut down), then the command exits with 128 + SIGTERM."""
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    raise Terminated
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     args.argv = list(argv) if argv is not None else sys.argv[1:]
     rc = 1
+    # (only the main thread may set handlers; pycolmap's import keeps this one: poseonly._pycolmap)
+    installed = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _on_sigterm) if installed else None
     try:
         rc = int(args.func(args) or 0)
         return rc
@@ -393,11 +407,17 @@ def main(argv: list[str] | None = None) -> int:
         print(f"poseonly: error: {exc}", file=sys.stderr)
         rc = 2
         return rc
+    except Terminated:
+        print("poseonly: terminated", file=sys.stderr)
+        rc = 128 + signal.SIGTERM
+        return rc
     except KeyboardInterrupt:
         print("poseonly: interrupted", file=sys.stderr)
         rc = 130
         return rc
     finally:
+        if installed:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
         if rc != 0:
             from ._fileutil import remove_empty_results_dirs
 

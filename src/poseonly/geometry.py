@@ -112,17 +112,22 @@ def project_to_so3(M: np.ndarray) -> np.ndarray:
 ZERO_BEARING = 1e-12
 # the lower-left entries of a calibration matrix must vanish (relative to its largest entry)
 K_ZERO_RTOL = 1e-9
+# dtype kinds that numpy would cast to float but that hold no coordinates: strings, bytes, dates,
+# durations, structured records
+NON_NUMERIC_KINDS = "USmMV"
 
 
 def as_real_array(a: object, name: str) -> np.ndarray:
-    """``a`` as a float array (any shape); complex, object, string or ragged input raises
-    :class:`InputError`."""
+    """``a`` as a float array (any shape); complex, string, date / duration, structured or ragged input
+    (and object arrays holding any of those) raises :class:`InputError`."""
     try:
         raw = np.asarray(a)
     except (TypeError, ValueError) as exc:
         raise InputError(f"{name} must be a numeric array ({exc})") from None
     if np.iscomplexobj(raw):
         raise InputError(f"{name} must be real; got a complex array (dtype {raw.dtype})")
+    if raw.dtype.kind in NON_NUMERIC_KINDS or (raw.dtype.kind == "O" and any(isinstance(x, (str, bytes, np.datetime64, np.timedelta64)) for x in raw.flat)):
+        raise InputError(f"{name} must be a numeric array, got dtype {raw.dtype}")
     if raw.dtype.kind not in "biuf":
         try:
             raw = raw.astype(float)

@@ -24,6 +24,7 @@ from typing import Any, Self
 
 import numpy as np
 
+from .._pycolmap import import_pycolmap
 from ..cameras import Camera, as_camera
 from ..geometry import InputError
 from .pair_list import parse_pair_names
@@ -63,7 +64,7 @@ class GeometryRow:
 
 def _pycolmap():
     try:
-        import pycolmap
+        pycolmap = import_pycolmap()
     except ImportError:
         raise ImportError("reading a COLMAP database needs pycolmap (pip install pycolmap)") from None
     return pycolmap

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from .._pycolmap import import_pycolmap
 from ..argtypes import non_negative_int, positive_float, positive_int
 from ..geometry import InputError
 from ..io.pair_list import parse_pair_names
@@ -249,7 +250,7 @@ def _write_model(k: int, res: Any, images: list[Path], ig: Any, out: Path, args:
     if fig is not None:
         print(f"model {k}: figure: {fig}")
     try:
-        import pycolmap  # noqa: F401
+        import_pycolmap()
     except ImportError:
         print(f"model {k}: pycolmap is not installed: COLMAP model not written (points{sfx}.ply and poses.json are)")
     else:

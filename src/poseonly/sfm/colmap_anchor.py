@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from .._pycolmap import import_pycolmap
 from .colmap_ba import poses_from_reconstruction
 from .pairwise import ImageGraph
 from .tracks import Tracks
@@ -35,7 +36,7 @@ SEED = 0
 def _camera(ig: ImageGraph, k: int, **kw: Any) -> Any:
     """Image ``k``'s ``pycolmap.Camera``: PINHOLE from ``ig.K``, or the COLMAP camera its keypoints
     were lifted through (``ig.cameras``)."""
-    import pycolmap
+    pycolmap = import_pycolmap()
 
     if ig.cameras is not None:
         c = ig.cameras[k]
@@ -45,7 +46,7 @@ def _camera(ig: ImageGraph, k: int, **kw: Any) -> Any:
 
 
 def _base_reconstruction(ig: ImageGraph, tracks: Tracks | None) -> Any:
-    import pycolmap
+    pycolmap = import_pycolmap()
 
     rec = pycolmap.Reconstruction()
     for k in range(len(ig.features)):
@@ -57,7 +58,7 @@ def _base_reconstruction(ig: ImageGraph, tracks: Tracks | None) -> Any:
 def run(ig: ImageGraph, tracks: Tracks) -> dict[str, dict[str, Any]]:
     """``{"rotation averaging + global positioning": {"rotations", "centres", "time_s"}}`` from
     pycolmap on ``ig``'s view graph and ``tracks`` (world -> camera, NaN where not posed)."""
-    import pycolmap
+    pycolmap = import_pycolmap()
 
     n = len(ig.features)
     rec = _base_reconstruction(ig, tracks)
@@ -96,7 +97,7 @@ def write_database(db_path: Path, names: Sequence[str], ig: ImageGraph) -> None:
     """A new COLMAP database at ``db_path``: one camera (PINHOLE from ``ig.K``, or ``ig.cameras``'
     model), trivial rig and frame per image (``names``), the keypoints (in the cameras' pixel
     convention) and the putative matches of ``ig``."""
-    import pycolmap
+    pycolmap = import_pycolmap()
 
     with pycolmap.Database.open(str(db_path)) as db:
         for k, name in enumerate(names):
@@ -120,7 +121,7 @@ def write_database(db_path: Path, names: Sequence[str], ig: ImageGraph) -> None:
 def run_mappers(ig: ImageGraph, image_paths: Sequence[str | os.PathLike]) -> dict[str, dict[str, Any]]:
     """``{"global mapper (GLOMAP)": ..., "incremental mapper": ...}`` with ``rotations``, ``centres``
     (NaN where not registered; the largest model) and ``time_s`` (verification included)."""
-    import pycolmap
+    pycolmap = import_pycolmap()
 
     paths = [Path(p) for p in image_paths]
     if len({p.parent for p in paths}) != 1:

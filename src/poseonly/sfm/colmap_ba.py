@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from .._pycolmap import import_pycolmap
+
 __all__ = ["bundle_adjust", "poses_from_reconstruction"]
 
 LOSS_SCALE_PX = 1.0
@@ -36,7 +38,7 @@ def poses_from_reconstruction(rec: Any, n: int) -> tuple[np.ndarray, np.ndarray]
 
 def bundle_adjust(rec: Any, max_iterations: int = 100) -> tuple[Any, float]:
     """Bundle-adjust ``rec`` in place (poses and points; intrinsics fixed); returns ``(rec, seconds)``."""
-    import pycolmap
+    pycolmap = import_pycolmap()
 
     opts = pycolmap.BundleAdjustmentOptions()
     opts.refine_focal_length = False

@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._pycolmap import import_pycolmap
 from ..features import Features, match_noise_scales
 from ..geometry import InputError
 from ..io.colmap_db import keypoint_scales, matched_pair_ids
@@ -40,7 +41,7 @@ def database_view_graph(
     ``check_names(names)``, if given, runs on the image names before any pair is estimated (e.g. that
     the images exist). A pair whose matches index keypoints its images do not have is rejected, as
     ``poseonly colmap verify`` marks it; the file is checked to be a COLMAP database and never changed."""
-    import pycolmap
+    pycolmap = import_pycolmap()
 
     p = Path(db_path)
     matched_pair_ids(p)  # an existing COLMAP database (pycolmap would add its tables to any file)

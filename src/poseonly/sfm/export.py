@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .._fileutil import publish
+from .._pycolmap import import_pycolmap
 from ..geometry import InputError
 from .tracks import Tracks
 
@@ -84,7 +85,7 @@ def build_colmap_reconstruction(
     images (world -> camera ``rotations (N, 3, 3)``, ``centres (N, 3)``; NaN rows are left out)
     with all their keypoints as 2D points, and every valid track as a 3D point over its valid
     observations (``points (T, 3)``, ``point_valid (T,)``, ``obs_valid (M,)``)."""
-    import pycolmap
+    pycolmap = import_pycolmap()
 
     n = len(names)
     rec = pycolmap.Reconstruction()
