@@ -150,7 +150,7 @@ def run_mappers(ig: ImageGraph, image_paths: Sequence[str | os.PathLike]) -> dic
             sub = work / label.split()[0]
             sub.mkdir()
             t0 = time.perf_counter()
-            recs = fn(str(db), str(paths[0].parent), str(sub), o)  # type: ignore[arg-type]
+            recs = fn(str(db), str(paths[0].parent), str(sub), o)
             dt = time.perf_counter() - t0 + t_verify
             R = np.full((n, 3, 3), np.nan)
             C = np.full((n, 3), np.nan)
