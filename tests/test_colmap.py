@@ -32,7 +32,7 @@ def _look_at(C, target=(0.0, 0.0, 8.0)):
     return np.stack([x, np.cross(z, x), z])  # rows: camera axes -> R_cw
 
 
-def make_db(path, n_images=6, n_points=150, seed=0):
+def make_db(path, n_images=6, n_points=150, seed=0, calibrated=True):
     """Images around a point cloud; image 1 is image 0 rotated in place (a pure-rotation pair)."""
     rng = np.random.default_rng(seed)
     X = rng.uniform([-3, -2, 6], [3, 2, 10], (n_points, 3))
@@ -46,7 +46,9 @@ def make_db(path, n_images=6, n_points=150, seed=0):
             R = _look_at(C)
         poses.append((R, C))
     db = pycolmap.Database.open(str(path))
-    cid = db.write_camera(pycolmap.Camera(model=CAM.model, width=640, height=480, params=list(CAM.params)))
+    cam = pycolmap.Camera(model=CAM.model, width=640, height=480, params=list(CAM.params))
+    cam.has_prior_focal_length = calibrated  # False: COLMAP's guess, as on import without calibration or EXIF
+    cid = db.write_camera(cam)
     perms, ids = [], []
     for k, (R, C) in enumerate(poses):
         iid = db.write_image(pycolmap.Image(name=f"im{k}.jpg", camera_id=cid))
@@ -281,3 +283,30 @@ def test_camera_override(tmp_path, capsys):
     assert "go together" in capsys.readouterr().err
     assert main(["colmap", "verify", str(path), "--no-progress", "--camera-model", "OPENCV", "--camera-params", "1,2"]) == 2
     assert "takes 8 parameters" in capsys.readouterr().err
+
+
+def test_guessed_focal_is_refused_unless_trusted(tmp_path, capsys):
+    """A database camera whose focal length COLMAP guessed (no prior focal length) would give
+    calibrated poses from a guess: refused before any row is written, naming the camera and the two
+    ways out; a calibration (camera=) or trust_guessed_focal=True runs as before."""
+    from poseonly import InputError
+    from poseonly.cli import main
+
+    path = tmp_path / "db.db"
+    make_db(path, n_images=4, calibrated=False)
+    with pytest.raises(InputError, match=r"guessed the focal length of 1 camera.*camera 1 \(OPENCV, 640x480, f = 600.0 px\).*--trust-guessed-focal"):
+        verify_database(path, progress=False)
+    assert _rows(path) == []
+    assert main(["colmap", "verify", str(path), "--no-progress", "--overwrite"]) == 2
+    assert "--camera-model / --camera-params" in capsys.readouterr().err
+    assert _rows(path) == []
+    assert verify_database(path, progress=False, trust_guessed_focal=True).written == 6
+    ref = _rows(path)
+    assert main(["colmap", "verify", str(path), "--no-progress", "--overwrite", "--camera-model", "OPENCV", "--camera-params", ",".join(map(repr, CAM.params))]) == 0
+    assert _rows(path) == ref  # the given calibration is the database's guess here
+    from poseonly.sfm.colmap_db import database_view_graph
+
+    with pytest.raises(InputError, match="ImageReader.camera_params"):
+        database_view_graph(path)
+    ig, names = database_view_graph(path, trust_guessed_focal=True)
+    assert len(names) == 4 and len(ig.graph) > 0

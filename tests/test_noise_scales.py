@@ -177,7 +177,9 @@ def test_colmap_database_keypoint_scales_reach_the_pairs(tmp_path):
     sizes = [np.linspace(1.0, 4.0, sc.n), np.linspace(2.0, 3.0, sc.n)]
     path = tmp_path / "db.db"
     db = pycolmap.Database.open(str(path))
-    cid = db.write_camera(pycolmap.Camera(model="PINHOLE", width=640, height=480, params=[sc.K[0, 0], sc.K[1, 1], sc.K[0, 2], sc.K[1, 2]]))
+    cam = pycolmap.Camera(model="PINHOLE", width=640, height=480, params=[sc.K[0, 0], sc.K[1, 1], sc.K[0, 2], sc.K[1, 2]])
+    cam.has_prior_focal_length = True  # a calibrated camera (a guessed focal length is refused)
+    cid = db.write_camera(cam)
     ids = []
     for k, u in enumerate((sc.u1, sc.u2)):
         iid = db.write_image(pycolmap.Image(name=f"im{k}.jpg", camera_id=cid))

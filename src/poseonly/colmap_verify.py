@@ -44,7 +44,7 @@ from .api import DEFAULT_METHOD, METHODS
 from .argtypes import jobs_int, non_negative_int, positive_float, positive_int
 from .batch import Pair, PairResult, estimate_relative_poses
 from .geometry import InputError
-from .io.colmap_db import ColmapDatabase, GeometryRow
+from .io.colmap_db import ColmapDatabase, GeometryRow, refuse_guessed_focal
 from .options import MANY_PAIRS_MAX_ITERATIONS
 
 __all__ = ["MIN_MATCHES", "STATUS_CONFIG", "VerifySummary", "add_arguments", "run_cli", "verify_database"]
@@ -186,6 +186,7 @@ def verify_database(
     progress: bool = True,
     noise_scales: bool = True,
     camera: Any = None,
+    trust_guessed_focal: bool = False,
     **options: Any,
 ) -> VerifySummary:
     """Verify the matched pairs of the COLMAP database ``path`` and write their two-view geometries
@@ -195,7 +196,11 @@ def verify_database(
     ``sqrt(s1 s2)`` of its keypoints' scales (when the database stores keypoint shapes); ``camera``:
     one camera for every image instead of the database's (anything :func:`poseonly.cameras.as_camera`
     accepts, in COLMAP's pixel convention as the database's keypoints; e.g. a calibration where the
-    database holds COLMAP's guess); ``n_jobs``,
+    database holds COLMAP's guess); ``trust_guessed_focal``: estimate pairs whose camera's focal
+    length COLMAP guessed (no prior focal length) with that guess; without it (and without ``camera``)
+    such a database is refused before any pair is estimated (:class:`InputError` naming the cameras),
+    since a calibrated pose from a guessed focal length can be degrees off and be written
+    ``CALIBRATED``; ``n_jobs``,
     ``backend`` (``"processes"`` or ``"threads"``) and ``client`` as :func:`poseonly.estimate_relative_poses`
     takes them (the database is read and written in this thread only). Returns a :class:`VerifySummary`."""
     t0 = time.perf_counter()
@@ -227,11 +232,15 @@ def verify_database(
             wanted = db.pair_ids_from_names(lines, str(pf))
             pairs = [p for p in pairs if p[0] in wanted]
         summary.selected = len(pairs)
+        todo = pairs if overwrite else [p for p in pairs if not db.has_geometry(p[1], p[2])]
+        if cam is None and not trust_guessed_focal:  # before any row is deleted or written
+            refuse_guessed_focal(
+                path,
+                (db.guessed[i] for _, i1, i2 in todo for i in (i1, i2) if i in db.guessed),
+                "Give the calibration (--camera-model / --camera-params; camera= in Python), or use the guess (--trust-guessed-focal; trust_guessed_focal=True).",
+            )
         if overwrite:
             db.delete_geometries([(i1, i2) for _, i1, i2 in pairs])
-            todo = pairs
-        else:
-            todo = [p for p in pairs if not db.has_geometry(p[1], p[2])]
         summary.skipped = len(pairs) - len(todo)
         src = _Source(db, todo, summary.errors, noise_scales)
         buf: list[GeometryRow] = []
@@ -280,6 +289,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' scales to the estimator as noise scales")
     p.add_argument("--camera-model", help="one camera for every image instead of the database's: a COLMAP model name (with --camera-params)")
     p.add_argument("--camera-params", help="its parameters in COLMAP's order and pixel convention, separated by commas or spaces")
+    p.add_argument(
+        "--trust-guessed-focal",
+        action="store_true",
+        help="estimate with the focal length COLMAP guessed for cameras imported without calibration or EXIF focal length (refused"
+        " otherwise: the poses can be degrees off and would be written CALIBRATED)",
+    )
 
 
 def run_cli(args: argparse.Namespace) -> int:
@@ -303,6 +318,7 @@ def run_cli(args: argparse.Namespace) -> int:
         progress=not args.no_progress,
         noise_scales=not args.no_noise_scales,
         camera=camera,
+        trust_guessed_focal=args.trust_guessed_focal,
         method=args.method,
         seed=args.seed,
         **({} if args.threshold is None else {"threshold_px": args.threshold}),

@@ -29,7 +29,7 @@ from ..cameras import Camera, as_camera
 from ..geometry import InputError
 from .pair_list import parse_pair_names
 
-__all__ = ["KEYPOINT_CACHE_IMAGES", "ColmapDatabase", "GeometryRow", "keypoint_scales", "matched_pair_ids"]
+__all__ = ["KEYPOINT_CACHE_IMAGES", "ColmapDatabase", "GeometryRow", "guessed_focal", "keypoint_scales", "matched_pair_ids", "refuse_guessed_focal"]
 
 KEYPOINT_CACHE_IMAGES = 512  # images whose keypoints (and bearings) are kept in memory (LRU)
 
@@ -68,6 +68,32 @@ def _pycolmap():
     except ImportError:
         raise ImportError("reading a COLMAP database needs pycolmap (pip install pycolmap)") from None
     return pycolmap
+
+
+def guessed_focal(camera: Any) -> str | None:
+    """A description of ``camera`` (a ``pycolmap.Camera``) if COLMAP guessed its focal length (no
+    ``has_prior_focal_length``: no calibration was given and no EXIF focal length was found, so COLMAP
+    took ~1.2 times the larger image side), else ``None``."""
+    if bool(getattr(camera, "has_prior_focal_length", True)):
+        return None
+    K = np.asarray(camera.calibration_matrix(), dtype=float)
+    return f"camera {int(camera.camera_id)} ({camera.model_name}, {int(camera.width)}x{int(camera.height)}, f = {0.5 * (K[0, 0] + K[1, 1]):.1f} px)"
+
+
+def refuse_guessed_focal(path: str | Path, guessed: Iterable[str], override: str) -> None:
+    """:class:`InputError` naming the cameras of the database ``path`` whose focal length COLMAP
+    guessed (``guessed``: :func:`guessed_focal`'s descriptions; nothing happens if empty). A calibrated
+    relative pose from a guessed focal length can be degrees off while it looks right, so such a
+    database is refused unless the caller gives a calibration or says to use the guess (``override``:
+    how, in the caller's terms)."""
+    names = sorted(set(guessed))
+    if names:
+        shown = "; ".join(names[:5]) + (f"; and {len(names) - 5} more" if len(names) > 5 else "")
+        raise InputError(
+            f"{path}: COLMAP guessed the focal length of {len(names)} camera(s) used by the pairs (no prior focal length: no calibration"
+            f" or EXIF focal length was given when the images were imported): {shown}. A calibrated relative pose needs the real"
+            f" focal length; with a guess its rotation can be degrees off. {override}"
+        )
 
 
 def matched_pair_ids(path: str | Path) -> list[int]:
@@ -111,8 +137,13 @@ class ColmapDatabase:
         self.image_names = {int(im.image_id): str(im.name) for im in images}
         self.cameras: dict[int, Camera] = {}
         self.unsupported: dict[int, str] = {}
+        # image id -> its camera's description where COLMAP guessed the focal length (guessed_focal)
+        self.guessed: dict[int, str] = {}
         for im in images:
             c = cams[im.camera_id]
+            g = guessed_focal(c)
+            if g is not None:
+                self.guessed[int(im.image_id)] = g
             try:
                 self.cameras[int(im.image_id)] = as_camera(c, f"camera {im.camera_id}")
             except InputError as exc:

@@ -138,7 +138,9 @@ def cmd_sfm(args: argparse.Namespace) -> int:
             if missing:
                 raise InputError(f"{len(missing)} images of the database not found in {d}: {missing[:3]}")
 
-        ig, names = database_view_graph(args.database, options=opt, cache_dir=cache, progress=prog, jobs=args.jobs, check_names=images_exist)
+        ig, names = database_view_graph(
+            args.database, options=opt, cache_dir=cache, progress=prog, jobs=args.jobs, check_names=images_exist, trust_guessed_focal=args.trust_guessed_focal
+        )
         images = [d / nm for nm in names]
         K = ig.K[0]
     else:
@@ -319,6 +321,11 @@ def add_parsers(sub: Any, esub: Any) -> None:
         "(e.g. f,cx,cy,k for SIMPLE_RADIAL; write --camera-params=... when the first value is negative)",
     )
     s.add_argument("--database", help="COLMAP database with cameras, keypoints and matches (replaces our features and matching)")
+    s.add_argument(
+        "--trust-guessed-focal",
+        action="store_true",
+        help="--database: use the focal length COLMAP guessed for cameras imported without calibration or EXIF focal length (refused otherwise)",
+    )
     s.add_argument("--out", required=True, help="output folder")
     s.add_argument("--max-features", type=non_negative_int, default=8000, help="strongest SIFT features per image (default 8000)")
     s.add_argument("--max-images", type=positive_int, help="use only the first N images (sorted by name)")

@@ -20,7 +20,7 @@ import numpy as np
 from .._pycolmap import import_pycolmap
 from ..features import Features, match_noise_scales
 from ..geometry import InputError
-from ..io.colmap_db import keypoint_scales, matched_pair_ids
+from ..io.colmap_db import guessed_focal, keypoint_scales, matched_pair_ids, refuse_guessed_focal
 from .pairwise import ImageGraph, PairwiseOptions, TwoView, map_ordered, pair_seed, two_view
 from .viewgraph import ViewGraph
 
@@ -35,12 +35,15 @@ def database_view_graph(
     progress: Callable | None = None,
     jobs: int = 1,
     check_names: Callable[[list[str]], None] | None = None,
+    trust_guessed_focal: bool = False,
 ) -> tuple[ImageGraph, list[str]]:
     """``(ImageGraph, image names)`` from the COLMAP database ``db_path``; the pairs are estimated on
     ``jobs`` threads (:func:`poseonly.sfm.pairwise.map_ordered`: the same graph for any number).
     ``check_names(names)``, if given, runs on the image names before any pair is estimated (e.g. that
     the images exist). A pair whose matches index keypoints its images do not have is rejected, as
-    ``poseonly colmap verify`` marks it; the file is checked to be a COLMAP database and never changed."""
+    ``poseonly colmap verify`` marks it; the file is checked to be a COLMAP database and never changed.
+    A database with a camera whose focal length COLMAP guessed (no prior focal length) is refused
+    (:func:`poseonly.io.colmap_db.refuse_guessed_focal`) unless ``trust_guessed_focal``."""
     pycolmap = import_pycolmap()
 
     p = Path(db_path)
@@ -55,6 +58,13 @@ def database_view_graph(
         if check_names is not None:
             check_names([im.name for im in images])
         cams = {c.camera_id: c for c in db.read_all_cameras()}
+        if not trust_guessed_focal:
+            used = {im.camera_id for im in images}
+            refuse_guessed_focal(
+                p,
+                (g for c in cams.values() if c.camera_id in used and (g := guessed_focal(c)) is not None),
+                "Import the images with their calibration (COLMAP: ImageReader.camera_params), or use the guess (--trust-guessed-focal; trust_guessed_focal=True in Python).",
+            )
         index = {im.image_id: k for k, im in enumerate(images)}
         feats, normalized, Ks, focal, cameras = [], [], [], [], []
         for im in images:
