@@ -180,3 +180,15 @@ def test_noise_above_the_threshold_is_not_ok():
     # at 1 px noise (resolved) the same scene is ok
     sc = sim.make_scene(200, "normal", camera="pinhole", noise_px=1.0, seed=312)
     assert estimate_relative_pose(sc.u1, sc.u2, sc.K).status == "ok"
+
+
+def test_too_few_inliers_has_no_covariance():
+    """A pose the status says not to trust carries no covariance: its few inliers, fitted closely,
+    gave deviations of ~1e-14 deg to a pose far off (a user's trial), an edge weight near infinity."""
+    sc = sim.make_scene(40, camera="pinhole", noise_px=0.5, seed=4)
+    rng = np.random.default_rng(4)
+    r = estimate_relative_pose(sc.u1, rng.permutation(sc.u2), sc.K, sc.K, seed=0)  # every match wrong
+    assert r.status == "too_few_inliers" and r.R is not None
+    assert r.rotation_covariance is None and r.translation_covariance is None
+    assert r.diagnostics["rotation_std_deg"] == np.inf and r.diagnostics["translation_std_deg"] == np.inf
+    assert json.loads(json.dumps(r.to_dict()))["status"] == "too_few_inliers"

@@ -106,7 +106,8 @@ class RelativePoseResult:
     ``rotation_covariance`` and ``translation_covariance`` are the pose's first-order covariance
     from the matches within the search threshold (:func:`poseonly.analysis.pose_uncertainty`: radians^2, the rotation's in the
     perturbation ``exp([d]x) R``, the unit translation's tangent to ``t``), ``None`` where no pose or
-    no finite covariance exists (for ``pure_rotation`` the rotation-only fit's, no translation's).
+    no finite covariance exists and for ``too_few_inliers`` (whose inliers do not determine the pose;
+    ``diagnostics["rotation_std_deg"]`` inf); for ``pure_rotation`` the rotation-only fit's, no translation's.
 
     Shapes: ``R (3, 3)``, ``t (3,)`` (unit), ``E (3, 3)``, ``inliers (n,)`` bool, ``weights (n,)``,
     ``residuals_px (n,)`` (NaN when undefined), ``rotation_covariance (3, 3)``,
@@ -313,6 +314,11 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
                     )
             else:
                 status, msg = "ok", f"{n_in} inliers within {thr_px:g} px (expected false alarms 10^{lnfa:.0f})"
+    if status == "too_few_inliers":
+        # inliers that chance explains, or too few to estimate their noise from, do not determine the pose
+        # (a handful fitted exactly gave deviations of 1e-14 deg to a pose 160 deg off): no covariance
+        unc = {**unc, "rotation_covariance": None, "translation_covariance": None, "rotation_std_deg": np.inf, "translation_std_deg": np.inf}
+        diag.update(rotation_std_deg=np.inf, translation_std_deg=np.inf)
     return RelativePoseResult(
         R=R,
         t=t,
