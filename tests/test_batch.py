@@ -171,3 +171,37 @@ def test_pair_scores_and_noise_scales_reach_the_estimator():
     np.testing.assert_array_equal(pr.result.R, ref.R)
     [bad] = list(poseonly.estimate_relative_poses([{"x1": sc.u1, "x2": sc.u2, "K1": sc.K, "noise_scales": -c}]))
     assert bad.result is None and "noise_scales" in bad.error
+
+
+SCRIPT = """
+import poseonly
+from poseonly import sim
+print("top", flush=True)
+pairs = []
+for s in range(4):
+    sc = sim.make_scene(60, camera="pinhole", noise_px=0.5, seed=s)
+    pairs.append({"x1": sc.u1, "x2": sc.u2, "K1": sc.K, "K2": sc.K})
+res = list(poseonly.estimate_relative_poses(pairs, n_jobs=2, progress=False))
+print("done", len(res), flush=True)
+"""
+
+
+def test_unguarded_script_gets_the_reason(tmp_path):
+    """A script that calls the process pool at its top level (no ``if __name__ == "__main__":``): the
+    workers import it and would run it again. The workers refuse at once and the caller's error says
+    why and what to do (before: BrokenProcessPool and every worker's traceback); guarded, it runs."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    env = {**__import__("os").environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
+    script = tmp_path / "script.py"
+    script.write_text(SCRIPT)
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)
+    assert r.returncode == 1 and "done" not in r.stdout
+    assert 'if __name__ == "__main__":' in r.stderr.splitlines()[-1] and "RuntimeError" in r.stderr.splitlines()[-1]
+    lines = SCRIPT.strip().splitlines()
+    guarded = "\n".join(lines[:-2] + ['if __name__ == "__main__":'] + ["    " + x for x in lines[-2:]])
+    script.write_text(guarded)
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)
+    assert r.returncode == 0 and "done 4" in r.stdout, r.stderr

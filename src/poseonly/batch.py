@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import sys
 from collections.abc import Hashable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -218,6 +219,9 @@ def estimate_relative_poses(
         raise InputError(f"client must be a dask.distributed.Client or a scheduler address, got {client!r}")
     if backend not in BACKENDS:
         raise InputError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if sys._getframe(1).f_globals.get("__name__") == "__mp_main__":
+        # a worker process of a pool is importing the caller's script, which runs this call again
+        raise RuntimeError(UNGUARDED_MAIN)
     _check_options(options)
     total = len(pairs) if hasattr(pairs, "__len__") else None  # type: ignore[arg-type]
     return _generate(pairs, int(n_jobs), backend, client, chunk_size, progress, int(retries), options, total)
@@ -250,9 +254,19 @@ def _auto_chunk(default: int, total: int | None, workers: int) -> int:
     return max(1, min(default, -(-total // (MIN_CHUNKS_PER_WORKER * workers))))
 
 
+# why a process pool's workers die at start-up when the call sits at a script's top level
+UNGUARDED_MAIN = (
+    "worker processes import the calling script's main module (multiprocessing's forkserver and spawn start"
+    " methods), and this script calls estimate_relative_poses when imported, so every worker would run it"
+    ' again: put the call under `if __name__ == "__main__":`, or pass backend="threads" (the core'
+    " releases the GIL)"
+)
+
+
 def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processes") -> Iterator[list[PairResult]]:
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, Executor, ProcessPoolExecutor, ThreadPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
     from multiprocessing.context import BaseContext
 
     ex: Executor
@@ -281,7 +295,14 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for fut in done:
-                yield fut.result()
+                try:
+                    res = fut.result()
+                except BrokenProcessPool as exc:
+                    main = sys.modules.get("__main__")
+                    if getattr(main, "__file__", None) is not None:  # a script, whose import may have killed them
+                        raise RuntimeError(f"the worker processes died ({exc}); if they did at start-up: {UNGUARDED_MAIN}") from exc
+                    raise
+                yield res
                 nxt = next(chunks, None)
                 if nxt is not None:
                     pending.add(ex.submit(_run_chunk, nxt, options))
