@@ -109,6 +109,12 @@ class RelativePoseResult:
     no finite covariance exists and for ``too_few_inliers`` (whose inliers do not determine the pose;
     ``diagnostics["rotation_std_deg"]`` inf); for ``pure_rotation`` the rotation-only fit's, no translation's.
 
+    ``inliers``, ``num_inliers`` and ``threshold_px`` are the final classification's, which need not be
+    the option ``threshold_px`` (the search's threshold): the default method's ML stage decides by the
+    noise it estimates on the matches, and ``threshold_px`` is then that decision threshold, often below
+    the option's (the search's is ``diagnostics["search_threshold_px"]``). The matches within another
+    distance ``d`` of the pose are ``residuals_px < d`` (Sampson errors in pixels).
+
     Shapes: ``R (3, 3)``, ``t (3,)`` (unit), ``E (3, 3)``, ``inliers (n,)`` bool, ``weights (n,)``,
     ``residuals_px (n,)`` (NaN when undefined), ``rotation_covariance (3, 3)``,
     ``translation_covariance (3, 3)``.
@@ -217,6 +223,7 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     ``max_rotation_std_deg`` -> ``uncertain``; else ``ok``.
     """
     tau_search = tau
+    diag["search_threshold_px"] = float(tau_search * focal)
     if "tau_effective" in diag:  # the default method's noise-matched threshold (<= the user's)
         tau = diag["tau_effective"]
         thr_px = tau * focal
