@@ -205,3 +205,16 @@ def test_unguarded_script_gets_the_reason(tmp_path):
     script.write_text(guarded)
     r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)
     assert r.returncode == 0 and "done 4" in r.stdout, r.stderr
+
+
+def test_progress_bar_only_on_a_terminal(capsys):
+    """The default progress bar is drawn only where stderr is a terminal (pytest's capture is not):
+    a pipeline's logs stay clean; progress=True forces it."""
+    pytest.importorskip("tqdm")
+    pairs = [{"x1": s.u1, "x2": s.u2, "K1": s.K, "K2": s.K} for s in (make_scene(40, camera="pinhole", noise_px=0.5, seed=k) for k in range(2))]
+    assert len(list(poseonly.estimate_relative_poses(pairs))) == 2
+    assert capsys.readouterr().err == ""
+    assert len(list(poseonly.estimate_relative_poses(pairs, progress=True))) == 2
+    assert "poseonly pairs" in capsys.readouterr().err
+    with pytest.raises(poseonly.InputError, match="progress"):
+        poseonly.estimate_relative_poses(pairs, progress="yes")

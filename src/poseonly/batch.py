@@ -175,7 +175,11 @@ def _check_options(options: dict[str, Any]) -> None:
     estimate_relative_pose(f1, f2, **{"focal_px": 800.0, **options, "seed": 0})
 
 
-def _progress(total: int | None, enabled: bool):
+def _progress(total: int | None, enabled: bool | None):
+    """A tqdm bar on stderr (``enabled`` None: only where stderr is a terminal, so that logs stay clean),
+    or None (``False``, or tqdm not installed)."""
+    if enabled is None:
+        enabled = sys.stderr is not None and sys.stderr.isatty()
     if enabled:
         try:
             from tqdm.auto import tqdm
@@ -193,7 +197,7 @@ def estimate_relative_poses(
     backend: str = "processes",
     client: Any = None,
     chunk_size: int | None = None,
-    progress: bool = True,
+    progress: bool | None = None,
     retries: int = DASK_RETRIES,
     **options: Any,
 ) -> Iterator[PairResult]:
@@ -206,7 +210,8 @@ def estimate_relative_poses(
     ``n_jobs > 1`` (the same results either way; not used with ``n_jobs = 1`` or a ``client``); ``client``: a ``dask.distributed.Client`` or a scheduler
     address (then ``n_jobs`` is ignored). ``options``: those of
     :func:`poseonly.estimate_relative_pose` (``method``, ``threshold_px``, ...); ``seed`` is the base
-    seed of :func:`pair_seed`. ``progress``: a tqdm bar (if tqdm is installed)."""
+    seed of :func:`pair_seed`. ``progress``: a tqdm bar on stderr (if tqdm is installed; the default ``None``: only where stderr is a
+    terminal, ``True`` always, ``False`` never)."""
     if not isinstance(n_jobs, (int, np.integer)) or isinstance(n_jobs, bool) or n_jobs == 0 or n_jobs < -1:
         raise InputError(f"n_jobs must be a positive int or -1 (all cores), got {n_jobs!r}")
     if chunk_size is not None and (not isinstance(chunk_size, (int, np.integer)) or isinstance(chunk_size, bool) or chunk_size < 1):
@@ -219,6 +224,8 @@ def estimate_relative_poses(
         raise InputError(f"client must be a dask.distributed.Client or a scheduler address, got {client!r}")
     if backend not in BACKENDS:
         raise InputError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if progress is not None and not isinstance(progress, (bool, np.bool_)):
+        raise InputError(f"progress must be True, False or None (a bar where stderr is a terminal), got {progress!r}")
     if sys._getframe(1).f_globals.get("__name__") == "__mp_main__":
         # a worker process of a pool is importing the caller's script, which runs this call again
         raise RuntimeError(UNGUARDED_MAIN)

@@ -183,7 +183,7 @@ def verify_database(
     client: Any = None,
     chunk_size: int | None = None,
     write_every: int = WRITE_EVERY,
-    progress: bool = True,
+    progress: bool | None = None,
     noise_scales: bool = True,
     camera: Any = None,
     trust_guessed_focal: bool = False,
@@ -271,7 +271,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="replace the selected pairs' existing two-view geometries (default: keep them and verify only the others, which also resumes an interrupted run)",
     )
-    p.add_argument("--threshold", type=positive_float, default=None, help="inlier threshold in pixels (default: the method's, 1 px for the default method)")
+    p.add_argument(
+        "--threshold-px",
+        "--threshold",
+        dest="threshold",
+        metavar="PX",
+        type=positive_float,
+        default=None,
+        help="inlier threshold in pixels (default: the method's, 1 px for the default method)",
+    )
     p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"estimation method (default {DEFAULT_METHOD})")
     p.add_argument("--seed", type=non_negative_int, default=0, help="base seed; each pair's seed derives from it and the pair id")
     p.add_argument(
@@ -285,7 +293,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS instead of local processes")
     p.add_argument("--chunk", type=positive_int, default=None, help="pairs per task (default 16 local, 256 on Dask)")
     p.add_argument("--write-every", type=positive_int, default=WRITE_EVERY, help=f"pairs per database transaction (default {WRITE_EVERY})")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar (there is one only where stderr is a terminal)")
     p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' scales to the estimator as noise scales")
     p.add_argument("--camera-model", help="one camera for every image instead of the database's: a COLMAP model name (with --camera-params)")
     p.add_argument("--camera-params", help="its parameters in COLMAP's order and pixel convention, separated by commas or spaces")
@@ -315,7 +323,7 @@ def run_cli(args: argparse.Namespace) -> int:
         client=args.dask,
         chunk_size=args.chunk,
         write_every=args.write_every,
-        progress=not args.no_progress,
+        progress=False if args.no_progress else None,  # a bar where stderr is a terminal
         noise_scales=not args.no_noise_scales,
         camera=camera,
         trust_guessed_focal=args.trust_guessed_focal,
