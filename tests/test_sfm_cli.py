@@ -172,6 +172,7 @@ def test_sfm_command_with_a_distorted_camera(distorted_images, tmp_path):
     assert main(["sfm", str(d), "--camera-model", "opencv", "--camera-params", params, "--out", str(out), "--max-features", "2000", "--no-progress"]) == 0
     rec = pycolmap.Reconstruction(str(out / "sparse" / "0"))
     assert rec.num_reg_images() == N_IMAGES and rec.num_points3D() > 100
+    assert len(rec.cameras) == 1  # the images share their calibration, as in a COLMAP database
     for c in rec.cameras.values():
         assert c.model_name == "OPENCV" and (c.width, c.height) == (cam["width"], cam["height"])
         np.testing.assert_allclose(c.params, cam["params"])

@@ -79,7 +79,8 @@ def build_colmap_reconstruction(
     colors: np.ndarray | None = None,
     cameras: Sequence[Mapping[str, Any]] | None = None,
 ) -> Any:
-    """A ``pycolmap.Reconstruction``: one camera per image, PINHOLE from ``K (N, 3, 3)`` or the COLMAP
+    """A ``pycolmap.Reconstruction``: one camera per distinct calibration (images that share one share
+    the camera, as in a COLMAP database), PINHOLE from ``K (N, 3, 3)`` or the COLMAP
     camera ``cameras[k]`` (``{"model", "width", "height", "params"}``: the model the keypoints
     were lifted through, so the model's reprojections are those of its distorted keypoints), the posed
     images (world -> camera ``rotations (N, 3, 3)``, ``centres (N, 3)``; NaN rows are left out)
@@ -90,16 +91,18 @@ def build_colmap_reconstruction(
     n = len(names)
     rec = pycolmap.Reconstruction()
     posed = np.all(np.isfinite(rotations), axis=(1, 2)) & np.all(np.isfinite(centres), axis=1)
+    ids: dict[tuple[Any, ...], int] = {}  # one camera (and rig) per distinct calibration, as COLMAP shares them
     for k in range(n):
         w, h = image_sizes[k]
         if cameras is not None:
             c = cameras[k]
-            cam = pycolmap.Camera(model=str(c["model"]), width=int(c["width"]), height=int(c["height"]), params=[float(v) for v in c["params"]], camera_id=k + 1)
+            key: tuple[Any, ...] = (str(c["model"]), int(c["width"]), int(c["height"]), *[float(v) for v in c["params"]])
         else:
-            fx, fy, cx, cy = K[k][0, 0], K[k][1, 1], K[k][0, 2], K[k][1, 2]
-            cam = pycolmap.Camera(model="PINHOLE", width=int(w), height=int(h), params=[fx, fy, cx, cy], camera_id=k + 1)
-        rec.add_camera_with_trivial_rig(cam)
-        img = pycolmap.Image(name=str(names[k]), keypoints=np.asarray(keypoints[k], dtype=np.float64), camera_id=k + 1, image_id=k + 1)
+            key = ("PINHOLE", int(w), int(h), float(K[k][0, 0]), float(K[k][1, 1]), float(K[k][0, 2]), float(K[k][1, 2]))
+        if key not in ids:
+            ids[key] = len(ids) + 1
+            rec.add_camera_with_trivial_rig(pycolmap.Camera(model=key[0], width=key[1], height=key[2], params=list(key[3:]), camera_id=ids[key]))
+        img = pycolmap.Image(name=str(names[k]), keypoints=np.asarray(keypoints[k], dtype=np.float64), camera_id=ids[key], image_id=k + 1)
         if posed[k]:
             R = rotations[k]
             pose = pycolmap.Rigid3d(np.concatenate([R, (-R @ centres[k])[:, None]], axis=1))
