@@ -108,7 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--stages", nargs="+", default=["rotation_averaging", "ligt"], choices=("rotation_averaging", "ligt", "ligt_averaged", "pipeline"))
     p.add_argument("--normalization", default="noise", choices=("noise", "unit"), help="LiGT's scale normalisation (ligt_positions)")
     p.add_argument("--reweight", type=int, default=LIGT_REWEIGHT, help="LiGT's reweighting rounds (ligt_positions' reweight_iterations; GlobalOptions.ligt_reweight)")
-    p.add_argument("--out", default="docs/results/sfm_scale.json")
+    p.add_argument("--out", default="sfm_scale.json", help="JSON report (default sfm_scale.json in the working directory; the committed ones are under docs/results/)")
     p.add_argument("--child", nargs=2, metavar=("STAGE", "VIEWS"), help=argparse.SUPPRESS)
     a = p.parse_args(argv)
     if a.child:

@@ -383,8 +383,6 @@ def add_parsers(sub: Any, esub: Any) -> None:
     from ..experiments import global_sfm
 
     e = esub.add_parser("global", help="global SfM on Strecha scenes against the ground truth")
-    e.add_argument("--trials", type=int, default=None, help=argparse.SUPPRESS)
-    e.add_argument("--quick", action="store_true", help=argparse.SUPPRESS)
     e.add_argument("--out", default=None, help="output folder (default: a new folder poseonly-global-<date>-<time> under the working directory)")
     e.add_argument("--seed", type=non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     global_sfm.add_arguments(e)
