@@ -257,7 +257,8 @@ def _raise_unconverged(ok: np.ndarray, uv: np.ndarray, model: str) -> None:
         raise InputError(
             f"undistortion ({model}) did not converge for {len(bad)} of {len(uv)} points (first: index "
             f"{bad[0]}, pixel {uv[bad[0]].tolist()}): the points lie outside the region where the "
-            "distortion model is invertible"
+            "distortion model is invertible (leave such matches out first: np.isfinite(camera.unproject(uv, "
+            "invalid='nan')).all(axis=1) marks the points it can lift, as poseonly relpose does)"
         )
 
 
