@@ -201,3 +201,31 @@ def test_non_numeric_dtypes_are_refused():
         with pytest.raises(InputError, match="numeric array"):
             poseonly.estimate_relative_pose(bad, s.u2, s.K, s.K)
     assert poseonly.estimate_relative_pose(s.u1.astype(object), s.u2, s.K, s.K).status == "ok"
+
+
+def test_residuals_any_finite_t_and_no_hidden_nan():
+    """The residuals normalise t, so its scale does not matter, up to 1e+-160 (its square overflowed to
+    zeros, or underflowed); NaN or inf in any argument is an error (some residuals returned finite
+    values for a NaN bearing)."""
+    s = sim.make_scene(50, camera="pinhole", noise_px=0.5, seed=1)
+    for name in ("v_E", "v_BA", "v_PPO", "v_LiGT", "v_OpenGV"):
+        fn = getattr(poseonly, name)
+        base = fn(s.R, s.t, s.f1, s.f2)
+        for scale in (1e160, 1e-160):
+            np.testing.assert_allclose(fn(s.R, s.t * scale, s.f1, s.f2), base, rtol=1e-9, atol=1e-15)
+            np.testing.assert_allclose(fn(s.R[None], (s.t * scale)[None], s.f1, s.f2)[0], base, rtol=1e-9, atol=1e-15)
+        f = s.f1.copy()
+        f[3] = np.nan
+        with pytest.raises(InputError, match="f1 contains NaN"):
+            fn(s.R, s.t, f, s.f2)
+        with pytest.raises(InputError, match="t contains NaN or inf"):
+            fn(s.R, np.array([np.inf, 0.0, 0.0]), s.f1, s.f2)
+
+
+def test_lirp_result_to_dict_is_strict_json():
+    import json
+
+    s = sim.make_scene(30, seed=1)
+    d = poseonly.lirp(s.f1, s.f2).to_dict()
+    assert json.loads(json.dumps(d, allow_nan=False))["status"] == "ok"
+    assert np.shape(d["candidates_E"]) == (18, 3, 3) and isinstance(d["candidate_valid"][0], bool)

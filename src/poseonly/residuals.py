@@ -71,6 +71,16 @@ def _checked_args(R: object, t: object, f1: object, f2: object) -> tuple[np.ndar
     return Ra, ta, g1, g2
 
 
+# |t| within these bounds is normalised directly (its square neither over- nor underflows)
+T_NORM_SAFE = (1e-150, 1e150)
+
+
+def _check_finite(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> None:
+    for name, a in (("R", R), ("t", t), ("f1", f1), ("f2", f2)):
+        if not np.isfinite(a).all():
+            raise InputError(f"{name} contains NaN or inf values")
+
+
 @dataclass(frozen=True)
 class Residual:
     """One residual of the core's table: its ``name`` and the core's ``code`` (its index in
@@ -83,11 +93,17 @@ class Residual:
         if _one_pose(R, t, f1, f2):
             # one pose on one point set, already float64 and C-contiguous (the library's own calls):
             # the same core call with t normalised as :func:`normalize` does it, without its broadcasting
+            _check_finite(R, t, f1, f2)
             tn = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
+            if not T_NORM_SAFE[0] < tn < T_NORM_SAFE[1]:  # (its square over- or underflowed)
+                t = t / np.max(np.abs(t)) if tn > 0 else t
+                tn = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
             tk = t / tn if tn > 0 else t
             return _core.residual_matrix(self.code, R.reshape(1, 3, 3), tk.reshape(1, 3), f1, f2)[0]
         R, t, f1, f2 = _checked_args(R, t, f1, f2)
-        t = normalize(t)
+        _check_finite(R, t, f1, f2)
+        m = np.max(np.abs(t), axis=-1, keepdims=True)
+        t = normalize(np.where(m > 0, t / np.where(m > 0, m, 1.0), t))  # scaled first: any finite t
         lead = R.shape[:-2]
         if f1.ndim == 2 and f2.ndim == 2:
             Rk = np.ascontiguousarray(R.reshape(-1, 3, 3))

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from ._json import json_array, json_float
 from .analysis import (
     NFA_MAX,
     ROTATION_THRESHOLD_FACTOR,
@@ -41,19 +42,8 @@ ORTHO_TOL = 1e-6
 POSE_DOF = 5
 
 
-def _json_float(x: Any) -> float | None:
-    x = float(x)
-    return x if np.isfinite(x) else None
-
-
-def _json_array(a: np.ndarray | None) -> list | None:
-    """Nested lists with ``None`` for non-finite entries."""
-    if a is None:
-        return None
-    a = np.asarray(a, float)
-    obj = a.astype(object)
-    obj[~np.isfinite(a)] = None
-    return obj.tolist()
+_json_float = json_float
+_json_array = json_array
 
 
 def _json_value(v: Any) -> Any:

@@ -29,11 +29,13 @@ and PPO cannot break that tie (notes section 5): the status analysis of :mod:`po
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
 
 from .. import _core
+from .._json import json_array, json_float
 from ..geometry import check_correspondences
 
 __all__ = ["lirp", "lirp_batch", "lirp_checked", "LiRPResult", "lirp_candidates", "NUM_CANDIDATES", "RANK_TOL"]
@@ -100,6 +102,23 @@ class LiRPResult:
     @property
     def ok(self) -> bool:
         return self.status == "ok"
+
+    def to_dict(self) -> dict[str, Any]:
+        """Every field as strict JSON (nested lists, ``None`` where a value is not finite)."""
+        d: dict[str, Any] = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, np.ndarray):
+                d[f.name] = v.astype(bool).tolist() if v.dtype == bool else json_array(v)
+            elif isinstance(v, (float, np.floating)):
+                d[f.name] = json_float(v)
+            elif isinstance(v, (bool, np.bool_)):
+                d[f.name] = bool(v)
+            elif isinstance(v, (int, np.integer)):
+                d[f.name] = int(v)
+            else:
+                d[f.name] = v
+        return d
 
 
 def lirp(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, rank_tol: float = RANK_TOL) -> LiRPResult:
