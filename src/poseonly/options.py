@@ -285,6 +285,14 @@ class PoseonlyOptions(CommonOptions):
         " consistency_rule='expected' it halves that rule's confident wrong poses on sparse second-motion scenes (9 -> 5 of 20,"
         " the default's 4), not enough to make the pair the default (docs/RESULTS_real.md, 'Hard pairs')",
     )
+    prosac_remainder: bool = _opt(
+        False,
+        "bool",
+        "with `scores`: a search that PROSAC's rule ends (before the classical rule on its inlier share would have) is followed"
+        " by one more in the score order of the matches outside its model's band, for as many samples; its model replaces the"
+        " result if it costs less on all the matches, and is the uniqueness test's rival if it is close: scores that rank a"
+        " repeated structure first end PROSAC on its geometry",
+    )
     consistency_min_matches: int = _opt(
         20,
         "int",
@@ -435,7 +443,8 @@ def check_angle(name: str, tau: float, how: str = "") -> float:
     derived (for the message)."""
     if not (math.isfinite(tau) and MIN_ANGLE <= tau <= MAX_ANGLE):
         raise InputError(
-            f"{name} = {tau:.3g} rad{how} must lie in [{MIN_ANGLE:g}, {MAX_ANGLE:g}] rad (a smaller angle is below double precision, a larger one makes every match an inlier)"
+            f"{name} = {tau:.17g} rad{how} must lie in [{MIN_ANGLE:g}, {MAX_ANGLE:g}] rad"
+            f" ({'below' if tau < MIN_ANGLE else 'above'} it: a smaller angle is below double precision, a larger one makes every match an inlier)"
         )
     return float(tau)
 

@@ -278,6 +278,9 @@ METHODS: dict[str, MethodFn] = {
     # that rule in the consistency fallback's second stage only (fourth session of 2026-12-06, not adopted)
     "poseonly-consistencyexpected": ours(use_scores=True, use_scales=True, consistency_rule="expected"),
     "poseonly-remainder": ours(use_scores=True, use_scales=True, consistency_rule="expected", consistency_remainder=True),
+    # a search that PROSAC's rule ended followed by one in the score order of the matches outside its band
+    # (prosac_remainder, eleventh session of 2026-12-06)
+    "poseonly-prosacremainder": ours(use_scores=True, use_scales=True, prosac_remainder=True),
 }
 DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")
 # the library each method needs (a missing one skips the method with a note)

@@ -222,7 +222,9 @@ def _combined(a: RansacResult, b: RansacResult, rival_distance: float) -> Ransac
     return dataclasses.replace(r, num_iterations=a.num_iterations + b.num_iterations, num_lo=a.num_lo + b.num_lo, num_scored=a.num_scored + b.num_scored, stats=stats)
 
 
-def _with_remainder(r: RansacResult, budget: int, f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scores: np.ndarray | None) -> RansacResult:
+def _with_remainder(
+    r: RansacResult, budget: int, f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, scores: np.ndarray | None, by_scores: bool = False
+) -> RansacResult:
     """``o.consistency_remainder``: a search ``r`` in the consistency order that its progressive rule
     ended (before its ``budget``, and before the classical rule on its inlier share would have: the
     core's ``stats["classical_needed"]``) is followed by a second one in the consistency order of the matches
@@ -234,16 +236,22 @@ def _with_remainder(r: RansacResult, budget: int, f1: np.ndarray, f2: np.ndarray
     object) has the most consistent neighbourhoods and tops the order; a rule that trusts the order ends
     on it, and the scene's own matches are left in the remainder, where they come first."""
     left = budget - r.num_iterations
-    if not (o.consistency_remainder and o.chiral_scoring and left > 0):
+    if not ((o.prosac_remainder if by_scores else o.consistency_remainder) and o.chiral_scoring and left > 0):
         return r
     if r.num_iterations >= float(r.stats.get("classical_needed", np.inf)):
         return r
     rest = np.flatnonzero(~r.inliers)
-    if len(rest) < o.consistency_min_matches * o.consistency_k:
-        return r
-    g1, g2 = f1[rest], f2[rest]
-    order = consistency_order_scores(g1, g2, None if scores is None else scores[rest], o.consistency_k)
-    s = _search(g1, g2, tau, o, order, True, min(left, max(o.consistency_min_draws, r.num_iterations)))
+    if by_scores:
+        if scores is None or len(rest) < 5:
+            return r
+        g1, g2 = f1[rest], f2[rest]
+        s = _search(g1, g2, tau, o, scores[rest], False, min(left, r.num_iterations))
+    else:
+        if len(rest) < o.consistency_min_matches * o.consistency_k:
+            return r
+        g1, g2 = f1[rest], f2[rest]
+        order = consistency_order_scores(g1, g2, None if scores is None else scores[rest], o.consistency_k)
+        s = _search(g1, g2, tau, o, order, True, min(left, max(o.consistency_min_draws, r.num_iterations)))
     if not (np.all(np.isfinite(s.R)) and np.all(np.isfinite(s.t))):
         return r
     cost, inl = search_cost(s.R, s.t, f1, f2, tau, scoring=o.scoring, keypoint_once=o.keypoint_once)
@@ -271,11 +279,11 @@ def search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, score
         return _with_remainder(r, o.max_iterations, f1, f2, tau, o, scores), {"consistency": "always"}
     # (a first stage shorter than the sample floor would not be the plain search's prefix)
     if not (usable and o.consistency == "fallback" and o.min_iterations <= o.consistency_after < o.max_iterations):
-        return _search(f1, f2, tau, o, scores), {}
+        return _with_remainder(_search(f1, f2, tau, o, scores), o.max_iterations, f1, f2, tau, o, scores, by_scores=True), {}
     first = _search(f1, f2, tau, o, scores, max_iterations=o.consistency_after)
     needed = float(first.stats.get("needed", np.inf))
     if first.num_iterations < o.consistency_after or needed <= o.consistency_after:  # converged in the first stage
-        return first, {}
+        return _with_remainder(first, o.max_iterations, f1, f2, tau, o, scores, by_scores=True), {}
     # the second search's budget: the rest of max_iterations, but not past the draws the first search's
     # stopping rule asked for (the plain search would have ended there unless it found a better model)
     budget = o.max_iterations - o.consistency_after
