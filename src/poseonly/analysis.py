@@ -408,6 +408,30 @@ def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float, np.ndarray
     return float(ratio), float(noise), R
 
 
+# the translation's support counts an extra inlier (a pose inlier clearly off the rotation) only where at
+# least LOCAL_SUPPORT_MIN of its LOCAL_SUPPORT_K nearest matches in view 1 are extra inliers too: a
+# surface near enough to show parallax shows it over a neighbourhood (depth is piecewise smooth), while
+# a repeated structure's wrong matches, displaced by its period along one direction that a translation's
+# epipole at infinity collects, sit alone among matches the rotation explains
+LOCAL_SUPPORT_K = 10
+LOCAL_SUPPORT_MIN = 2
+
+
+def _locally_supported(f1: np.ndarray, extra: np.ndarray, explained: np.ndarray) -> np.ndarray:
+    """``extra (n,)`` bool restricted to the matches with at least :data:`LOCAL_SUPPORT_MIN` of their
+    :data:`LOCAL_SUPPORT_K` nearest ``explained`` matches in view 1 (chord distance on the bearings; the
+    matches the pose or the rotation explains: outliers of both say nothing about depth) in ``extra``."""
+    idx = np.flatnonzero(explained | extra)
+    k = min(LOCAL_SUPPORT_K, len(idx) - 1)
+    if k < 1:
+        return extra
+    nb = _core.nearest_neighbours(np.ascontiguousarray(f1[idx], dtype=float), k)
+    sub = extra[idx]
+    out = np.zeros_like(extra)
+    out[idx] = sub & (np.count_nonzero(sub[nb], axis=1) >= min(LOCAL_SUPPORT_MIN, k))
+    return out
+
+
 def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) -> dict[str, Any]:
     """Does a rotation without translation explain the data as well as the pose?
 
@@ -438,7 +462,10 @@ def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) ->
     # threshold: matches in the noise tail of the rotation are not evidence of a translation),
     # among the matches that far off (s = 0: they are in no sample)
     far = ~_rotation_inliers(Rr[None], f1, f2, far_angle(v_pose, tau))[0]
-    extra = int(np.count_nonzero(inl & far))
+    ext = inl & far
+    extra_all = int(np.count_nonzero(ext))
+    ext = _locally_supported(f1, ext, inl | rin) if extra_all and nfa_rot < np.log10(NFA_MAX) else ext
+    extra = int(np.count_nonzero(ext))
     nfa_tr = log10_nfa(extra, int(far.sum()), p_pose, num_pose_tests, 0)
     frac = float(np.count_nonzero(inl & rin) / max(int(inl.sum()), 1))
     ratio, noise, R_fit = parallax_ratio(Rr, f1, f2, v_pose, tau) if v_pose is not None else (float("nan"), float("nan"), None)

@@ -202,6 +202,16 @@ def _rotation_angles(R, f1, f2) -> np.ndarray:
     return np.arccos(c)
 
 
+def _with_model_spread(unc: dict[str, Any], delta: float) -> dict[str, Any]:
+    """``unc`` (:func:`poseonly.analysis.pose_uncertainty`'s) with ``delta**2`` (radians^2) added to the
+    rotation covariance on every axis and to the reported deviation: the spread between two models of
+    the same data that the matches do not tell apart."""
+    if unc["rotation_covariance"] is None or not np.isfinite(delta):
+        return unc
+    C = unc["rotation_covariance"] + delta**2 * np.eye(3)
+    return {**unc, "rotation_covariance": C, "rotation_std_deg": float(np.degrees(np.sqrt(max(float(np.linalg.eigvalsh(C)[-1]), 0.0))))}
+
+
 def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inliers=15, max_rotation_std_deg=MAX_ROTATION_STD_DEG) -> RelativePoseResult:
     """Inliers, residuals, analysis and status of a method's final model ``(R, t)``.
 
@@ -251,18 +261,33 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     diag.update(rotation_std_deg=unc["rotation_std_deg"], translation_std_deg=unc["translation_std_deg"], noise_sigma_px=unc["noise_sigma"] * focal)
     if rot_inl is not None:
         status = "pure_rotation"
+        # the rotation-only fit absorbs whatever parallax the matches cannot resolve, and the pose's R
+        # absorbs it differently: their difference is part of R's uncertainty (a 0.03 baseline at depths
+        # 4-10: the fit 0.2 deg off, its noise-only deviation 0.02 deg, the difference 0.39 deg)
+        delta = float(np.radians(rotation_error_deg(R, R_rot)))
         R = R_rot  # the robust rotation-only fit is the estimate of R here
+        unc = _with_model_spread(unc, delta)
+        diag.update(rotation_std_deg=unc["rotation_std_deg"], rotation_model_spread_deg=float(np.degrees(delta)))
         ang = _rotation_angles(R, f1, f2)
         inl = rot_inl
         n_in = int(inl.sum())
         weights = inl.astype(float)
         residuals = ang * focal
         par = parallax_deg(R, f1, f2, inl)
-        msg = (
-            f"a rotation without translation explains {n_in} matches within {2 * tau_rot * focal:g} px and the pose's "
-            f"other inliers are no more than chance (median parallax {par:.3f} deg): R is reliable, the "
-            "translation direction is not"
-        )
+        if np.isfinite(unc["rotation_std_deg"]) and unc["rotation_std_deg"] > max_rotation_std_deg:
+            status = "uncertain"
+            msg = (
+                f"a rotation without translation explains {n_in} matches within {2 * tau_rot * focal:g} px, but it determines R only "
+                f"to {unc['rotation_std_deg']:.2f} deg (the pose's R is {np.degrees(delta):.2f} deg from it; max_rotation_std_deg = "
+                f"{max_rotation_std_deg:g}): neither R nor the translation direction is reliable"
+            )
+        else:
+            msg = (
+                f"a rotation without translation explains {n_in} matches within {2 * tau_rot * focal:g} px and the pose's "
+                f"other inliers are no more than chance (median parallax {par:.3f} deg): R is reliable"
+                + (f" to {unc['rotation_std_deg']:.3g} deg (one standard deviation)" if np.isfinite(unc["rotation_std_deg"]) else "")
+                + ", the translation direction is not"
+            )
     elif n_in < needed or lnfa >= np.log10(NFA_MAX):
         status = "too_few_inliers"
         msg = (
