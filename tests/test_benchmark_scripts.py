@@ -153,3 +153,19 @@ def test_sfm_scale_runs(tmp_path: Path):
             assert x["views_posed"] == x["views"] and x["pos_mean_frac"] < 0.01 and x["points_valid"] > 0
         else:
             assert x["normalization"] == "noise" and x["pos_mean_frac"] < 0.01
+
+
+def test_warped_statuses_runs(capsys):
+    """benchmarks/warped_statuses.py end to end on the embedded demo image, one seed: every pure rotation
+    and the shift `pure_rotation`, the sideways plane `ok` with its true rotation."""
+    pytest.importorskip("cv2")
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    try:
+        import warped_statuses
+    finally:
+        sys.path.pop(0)
+    assert warped_statuses.main(["--seeds", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "ok (a made-up translation) 0 of 5" in out, out
+    line = next(x for x in out.splitlines() if "t = 0.2 d sideways" in x)
+    assert "{'ok': 1}" in line and float(line.split("error ")[1].split()[0]) < 0.05
