@@ -279,8 +279,9 @@ METHODS: dict[str, MethodFn] = {
     "poseonly-consistencyexpected": ours(use_scores=True, use_scales=True, consistency_rule="expected"),
     "poseonly-remainder": ours(use_scores=True, use_scales=True, consistency_rule="expected", consistency_remainder=True),
     # a search that PROSAC's rule ended followed by one in the score order of the matches outside its band
-    # (prosac_remainder, eleventh session of 2026-12-06)
+    # (prosac_remainder, the default since the eleventh session of 2026-12-06), and the default before it
     "poseonly-prosacremainder": ours(use_scores=True, use_scales=True, prosac_remainder=True),
+    "poseonly-noprosacremainder": ours(use_scores=True, use_scales=True, prosac_remainder=False),
 }
 DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")
 # the library each method needs (a missing one skips the method with a note)
