@@ -66,8 +66,9 @@ RESIDENT_IMAGES = 256
 # stages' rivals merged, ties of the scores in input order; 24-25: the ML stage's inlier share bounded by the
 # matches just outside its band; 26: the status uncertain, the pure-rotation precision test at noise up to the
 # threshold; 27: its noise check; 28: the stopping rule assumes min_inliers inliers; 29: that rule
-# without replacement and, with scores, on PROSAC's uniform draws only; 30: PAIRWISE_MAX_ITERATIONS)
-TWO_VIEW_CACHE_TAG = 30
+# without replacement and, with scores, on PROSAC's uniform draws only; 30: PAIRWISE_MAX_ITERATIONS; 31: the
+# pure-rotation test's locally supported translation, PROSAC's remainder search)
+TWO_VIEW_CACHE_TAG = 31
 # the default method's sample cap in the pairwise stage (``max_iterations``; an ``estimator_options``
 # entry overrides it): COLMAP's two-view cap, as ``poseonly colmap verify`` (options.MANY_PAIRS_MAX_ITERATIONS)
 PAIRWISE_MAX_ITERATIONS = MANY_PAIRS_MAX_ITERATIONS
