@@ -205,6 +205,26 @@ def test_unguarded_script_gets_the_reason(tmp_path):
     script.write_text(guarded)
     r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)
     assert r.returncode == 0 and "done 4" in r.stdout, r.stderr
+    # a guarded script's own worker (its function, in its module __mp_main__) may call the batch
+    script.write_text(OWN_POOL)
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)
+    assert r.returncode == 0 and "['ok', 'ok']" in r.stdout, r.stderr
+
+
+OWN_POOL = """
+import multiprocessing as mp
+import poseonly
+from poseonly import sim
+
+def work(seed):
+    sc = sim.make_scene(60, camera="pinhole", noise_px=0.5, seed=seed)
+    pairs = [{"x1": sc.u1, "x2": sc.u2, "K1": sc.K, "K2": sc.K}]
+    return [r.result.status for r in poseonly.estimate_relative_poses(pairs, progress=False)][0]
+
+if __name__ == "__main__":
+    with mp.get_context("spawn").Pool(1) as p:
+        print(p.map(work, [0, 1]))
+"""
 
 
 def test_progress_bar_only_on_a_terminal(capsys):

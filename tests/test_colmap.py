@@ -297,11 +297,14 @@ def test_guessed_focal_is_refused_unless_trusted(tmp_path, capsys):
     with pytest.raises(InputError, match=r"guessed the focal length of 1 camera.*camera 1 \(OPENCV, 640x480, f = 600.0 px\).*--trust-guessed-focal"):
         verify_database(path, progress=False)
     assert _rows(path) == []
-    assert main(["colmap", "verify", str(path), "--no-progress", "--overwrite"]) == 2
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 2
     assert "--camera-model / --camera-params" in capsys.readouterr().err
     assert _rows(path) == []
     assert verify_database(path, progress=False, trust_guessed_focal=True).written == 6
     ref = _rows(path)
+    # --overwrite is refused before any row is deleted
+    assert main(["colmap", "verify", str(path), "--no-progress", "--overwrite"]) == 2
+    assert _rows(path) == ref
     assert main(["colmap", "verify", str(path), "--no-progress", "--overwrite", "--camera-model", "OPENCV", "--camera-params", ",".join(map(repr, CAM.params))]) == 0
     assert _rows(path) == ref  # the given calibration is the database's guess here
     from poseonly.sfm.colmap_db import database_view_graph

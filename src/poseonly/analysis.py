@@ -425,10 +425,14 @@ def _locally_supported(f1: np.ndarray, extra: np.ndarray, explained: np.ndarray)
     k = min(LOCAL_SUPPORT_K, len(idx) - 1)
     if k < 1:
         return extra
-    nb = _core.nearest_neighbours(np.ascontiguousarray(f1[idx], dtype=float), k)
+    g = np.ascontiguousarray(f1[idx], dtype=float)
+    nb = _core.nearest_neighbours(g, k)
     sub = extra[idx]
+    # a neighbour at the same view-1 bearing is the same keypoint matched again (a non-mutual matcher,
+    # several orientations of one SIFT keypoint), not a second point of the surface
+    other = np.any(g[nb] != g[:, None, :], axis=2)
     out = np.zeros_like(extra)
-    out[idx] = sub & (np.count_nonzero(sub[nb], axis=1) >= min(LOCAL_SUPPORT_MIN, k))
+    out[idx] = sub & (np.count_nonzero(sub[nb] & other, axis=1) >= min(LOCAL_SUPPORT_MIN, k))
     return out
 
 

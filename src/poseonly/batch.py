@@ -27,6 +27,7 @@ import os
 import sys
 from collections.abc import Hashable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
+from types import FrameType
 from typing import Any
 
 import numpy as np
@@ -226,7 +227,7 @@ def estimate_relative_poses(
         raise InputError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if progress is not None and not isinstance(progress, (bool, np.bool_)):
         raise InputError(f"progress must be True, False or None (a bar where stderr is a terminal), got {progress!r}")
-    if sys._getframe(1).f_globals.get("__name__") == "__mp_main__":
+    if client is None and n_jobs != 1 and backend == "processes" and _importing_main():
         # a worker process of a pool is importing the caller's script, which runs this call again
         raise RuntimeError(UNGUARDED_MAIN)
     _check_options(options)
@@ -270,6 +271,17 @@ UNGUARDED_MAIN = (
 )
 
 
+def _importing_main() -> bool:
+    """Is this process a spawned or forkserver worker still importing the parent's main module (whose
+    top-level code is running this call)? multiprocessing runs that import in ``spawn.prepare``."""
+    f: FrameType | None = sys._getframe(1)
+    while f is not None:
+        if f.f_code.co_filename.endswith(("multiprocessing/spawn.py", "multiprocessing\\spawn.py")) and f.f_code.co_name in ("_fixup_main_from_path", "_fixup_main_from_name"):
+            return True
+        f = f.f_back
+    return False
+
+
 def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processes") -> Iterator[list[PairResult]]:
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, Executor, ProcessPoolExecutor, ThreadPoolExecutor, wait
@@ -299,6 +311,7 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
             pending.add(ex.submit(_run_chunk, c, options))
             if len(pending) >= limit:
                 break
+        started = False  # a chunk finished: the workers got past their start-up
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for fut in done:
@@ -306,9 +319,10 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
                     res = fut.result()
                 except BrokenProcessPool as exc:
                     main = sys.modules.get("__main__")
-                    if getattr(main, "__file__", None) is not None:  # a script, whose import may have killed them
-                        raise RuntimeError(f"the worker processes died ({exc}); if they did at start-up: {UNGUARDED_MAIN}") from exc
+                    if not started and getattr(main, "__file__", None) is not None:  # a script, whose import may have killed them
+                        raise RuntimeError(f"the worker processes died before any pair was done ({exc}); if at start-up: {UNGUARDED_MAIN}") from exc
                     raise
+                started = True
                 yield res
                 nxt = next(chunks, None)
                 if nxt is not None:

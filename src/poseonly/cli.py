@@ -205,7 +205,8 @@ def cmd_relpose(args) -> int:
             print(f"left out: {pr.dropped} matches with a keypoint the camera model cannot undistort")
         if r.rotation_covariance is not None:
             std_t = r.diagnostics.get("translation_std_deg", float("nan"))
-            print(f"deviation from the matches' noise alone (1 sigma, first order): rotation {r.diagnostics['rotation_std_deg']:.3g} deg, translation direction {std_t:.3g} deg")
+            what = "the matches' noise and the rotation-only fit's distance from the pose's R" if r.status == "pure_rotation" else "the matches' noise alone"
+            print(f"deviation from {what} (1 sigma, first order): rotation {r.diagnostics['rotation_std_deg']:.3g} deg, translation direction {std_t:.3g} deg")
         print(f"status: {r.status}: {r.message}")
         print(f"time: features+matching {pr.time_features_s:.2f} s, estimation {pr.time_estimate_s * 1e3:.1f} ms")
     return exit_code(r.status)

@@ -94,10 +94,13 @@ class Residual:
             # one pose on one point set, already float64 and C-contiguous (the library's own calls):
             # the same core call with t normalised as :func:`normalize` does it, without its broadcasting
             _check_finite(R, t, f1, f2)
-            tn = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
-            if not T_NORM_SAFE[0] < tn < T_NORM_SAFE[1]:  # (its square over- or underflowed)
-                t = t / np.max(np.abs(t)) if tn > 0 else t
-                tn = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
+            a, b, c = float(t[0]), float(t[1]), float(t[2])  # Python floats: overflow without a warning
+            tn = math.sqrt(a * a + b * b + c * c)
+            if not T_NORM_SAFE[0] < tn < T_NORM_SAFE[1]:  # (scaled first where its square would over- or underflow)
+                m = float(np.max(np.abs(t)))
+                if m > 0:
+                    t = t / m
+                    tn = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
             tk = t / tn if tn > 0 else t
             return _core.residual_matrix(self.code, R.reshape(1, 3, 3), tk.reshape(1, 3), f1, f2)[0]
         R, t, f1, f2 = _checked_args(R, t, f1, f2)

@@ -85,11 +85,14 @@ class RelativePoseResult:
     * ``"pure_rotation"`` -- a rotation without translation explains the matches, the pose's
       extra inliers are no more than chance and the rotation leaves no parallax above the noise on
       the matches both explain (``diagnostics["parallax_ratio"]``, see
-      :func:`poseonly.analysis.parallax_ratio`): ``R`` is the robust rotation-only fit and reliable,
-      ``t`` (a unit vector, the epipolar fit's) is not; ``inliers`` are the rotation's;
+      :func:`poseonly.analysis.parallax_ratio`): ``R`` is the robust rotation-only fit and reliable
+      to ``diagnostics["rotation_std_deg"]`` (which includes its distance from the pose's R,
+      ``diagnostics["rotation_model_spread_deg"]``), ``t`` (a unit vector, the epipolar fit's) is not;
+      ``inliers`` are the rotation's;
     * ``"too_few_inliers"`` -- fewer than ``min_inliers`` inliers, or not significantly more than
-      randomly re-paired matches give the same model over all hypotheses tried; ``R, t`` are the
-      best guess and must not be trusted;
+      randomly re-paired matches give the same model over all hypotheses tried, or a rotation that
+      would be a pure rotation but whose fit is more than ``max_rotation_std_deg`` from the pose's R
+      (neither is determined); ``R, t`` are the best guess and must not be trusted;
     * ``"degenerate"`` -- the correspondences do not determine a pose (e.g. all points identical)
       or the method found no valid model: ``R``, ``t`` and ``E`` are ``None``.
 
@@ -216,7 +219,8 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     """Inliers, residuals, analysis and status of a method's final model ``(R, t)``.
 
     Order of the decision: no valid model -> ``degenerate``; a significant rotation-only model
-    and no significant translation -> ``pure_rotation``; too few inliers or an NFA above
+    and no significant translation -> ``pure_rotation`` (``too_few_inliers`` where that rotation is
+    more than ``max_rotation_std_deg`` from the pose's R, or its deviation exceeds it); too few inliers or an NFA above
     :data:`poseonly.analysis.NFA_MAX` -> ``too_few_inliers``; a planar twin -> ``planar_ambiguous``;
     a rival pose (``diag["rival_R"]``, the default method's uniqueness test) that explains as many
     matches of its own -> ``ambiguous``; a rotation standard deviation above
@@ -274,11 +278,15 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
         weights = inl.astype(float)
         residuals = ang * focal
         par = parallax_deg(R, f1, f2, inl)
-        if np.isfinite(unc["rotation_std_deg"]) and unc["rotation_std_deg"] > max_rotation_std_deg:
-            status = "uncertain"
+        spread = float(np.degrees(delta))
+        if spread > max_rotation_std_deg or (np.isfinite(unc["rotation_std_deg"]) and unc["rotation_std_deg"] > max_rotation_std_deg):
+            # the pose's translation has no support beyond chance and the rotation-only fit is not
+            # determined either (a poor pose of the paper's methods: 125-150 deg off, the fit 5 deg off):
+            # nothing here is reliable, and E = [t]x R would mix the two models
+            status = "too_few_inliers"
             msg = (
-                f"a rotation without translation explains {n_in} matches within {2 * tau_rot * focal:g} px, but it determines R only "
-                f"to {unc['rotation_std_deg']:.2f} deg (the pose's R is {np.degrees(delta):.2f} deg from it; max_rotation_std_deg = "
+                f"a rotation without translation explains {n_in} matches within {2 * tau_rot * focal:g} px and the pose's other "
+                f"inliers are no more than chance, but the rotation-only fit is {spread:.2f} deg from the pose's R (max_rotation_std_deg = "
                 f"{max_rotation_std_deg:g}): neither R nor the translation direction is reliable"
             )
         else:

@@ -229,7 +229,10 @@ def _with_remainder(
     ended (before its ``budget``, and before the classical rule on its inlier share would have: the
     core's ``stats["classical_needed"]``) is followed by a second one in the consistency order of the matches
     outside ``r``'s band (Sampson error at least ``tau``), for as many draws as ``r`` took (at least
-    ``consistency_min_draws``, at most what is left of ``budget``). Its model, scored on all the matches
+    ``consistency_min_draws``, at most what is left of ``budget``). ``by_scores`` (``o.prosac_remainder``):
+    the same after a search in the order of ``scores`` (PROSAC), the second one in the ``scores`` order of
+    the remainder, for as many draws as ``r`` took (scores that rank a repeated structure first end
+    PROSAC on its geometry; the truth's matches are then first in the remainder). Its model, scored on all the matches
     by the search's objective (:func:`search_cost`, cheirality-aware: with ``chiral_scoring`` off the
     two costs would differ, and the step is skipped), replaces ``r`` if it costs less and is offered as
     the uniqueness test's rival otherwise (:func:`_combined`). Why: a compact second motion (a moving
@@ -252,7 +255,7 @@ def _with_remainder(
         g1, g2 = f1[rest], f2[rest]
         order = consistency_order_scores(g1, g2, None if scores is None else scores[rest], o.consistency_k)
         s = _search(g1, g2, tau, o, order, True, min(left, max(o.consistency_min_draws, r.num_iterations)))
-    if not (np.all(np.isfinite(s.R)) and np.all(np.isfinite(s.t))):
+    if not s.num_scored or not (np.all(np.isfinite(s.R)) and np.all(np.isfinite(s.t))):  # no model (the core's (I, 0))
         return r
     cost, inl = search_cost(s.R, s.t, f1, f2, tau, scoring=o.scoring, keypoint_once=o.keypoint_once)
     v = v_sampson(s.R, s.t, f1, f2)
@@ -271,8 +274,9 @@ def search(f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions, score
     not converged, a second search in the consistency order for the rest of the budget (at most the
     draws the first search's stopping rule still asked for, at least ``consistency_min_draws``), the
     better of the two kept (``"fallback"``: a search that ends within the first stage is the plain search's, draw
-    for draw). Returns the result (iterations, LO runs and scored models of both stages) and
-    diagnostics (``consistency``: the order that produced the result)."""
+    for draw). A search in the ``scores`` order that PROSAC's rule ended early is followed by one in the
+    remainder (:func:`_with_remainder`, ``o.prosac_remainder``). Returns the result (iterations, LO runs
+    and scored models of all stages) and diagnostics (``consistency``: the order that produced the result)."""
     usable = o.consistency != "off" and len(f1) >= o.consistency_min_matches * o.consistency_k
     if usable and o.consistency == "always":
         r = _search(f1, f2, tau, o, consistency_order_scores(f1, f2, scores, o.consistency_k), True)
