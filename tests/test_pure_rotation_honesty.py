@@ -5,7 +5,7 @@ displaced along one direction, and a translation with its epipole at infinity th
 pose is then `ok` with a made-up translation unless the translation's support must show parallax over a
 neighbourhood (``poseonly.analysis.LOCAL_SUPPORT_MIN``). Measured with
 ``python benchmarks/warped_statuses.py`` (docs/results/warped_statuses/): 39 of 200 pure rotations and
-shifts `ok` before, 2 after."""
+shifts `ok` before, 1 after."""
 
 from __future__ import annotations
 
