@@ -192,3 +192,14 @@ def test_too_few_inliers_has_no_covariance():
     assert r.rotation_covariance is None and r.translation_covariance is None
     assert r.diagnostics["rotation_std_deg"] == np.inf and r.diagnostics["translation_std_deg"] == np.inf
     assert json.loads(json.dumps(r.to_dict()))["status"] == "too_few_inliers"
+
+
+def test_duplicated_matches_are_one_observation():
+    """Every match given twice (a matcher's repeated rows; SIFT's orientation duplicates repeat 6-10 %
+    of the real benchmark's matches) must not shrink the deviation by sqrt(2)."""
+    sc = sim.make_scene(300, camera="pinhole", noise_px=0.5, outlier_fraction=0.3, seed=2)
+    r1 = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=0)
+    r2 = estimate_relative_pose(np.r_[sc.u1, sc.u1], np.r_[sc.u2, sc.u2], sc.K, sc.K, seed=0)
+    assert r1.status == r2.status == "ok" and rotation_error_deg(r1.R, r2.R) < 1e-6
+    assert r2.diagnostics["rotation_std_deg"] == pytest.approx(r1.diagnostics["rotation_std_deg"], rel=1e-6)
+    np.testing.assert_allclose(r2.rotation_covariance, r1.rotation_covariance, rtol=1e-5, atol=1e-15)

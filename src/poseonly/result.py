@@ -205,6 +205,14 @@ def _rotation_angles(R, f1, f2) -> np.ndarray:
     return np.arccos(c)
 
 
+def distinct_rows(f1: np.ndarray, f2: np.ndarray) -> np.ndarray | None:
+    """Indices (ascending) of the first of each group of matches with identical ``f1, f2 (n, 3)`` rows,
+    or ``None`` where every match is distinct."""
+    X = np.ascontiguousarray(np.concatenate([f1, f2], axis=1), dtype=float)
+    _, first = np.unique(X.view(np.dtype((np.void, X.dtype.itemsize * X.shape[1]))).ravel(), return_index=True)
+    return None if len(first) == len(X) else np.sort(first)
+
+
 def _with_model_spread(unc: dict[str, Any], delta: float) -> dict[str, Any]:
     """``unc`` (:func:`poseonly.analysis.pose_uncertainty`'s) with ``delta**2`` (radians^2) added to the
     rotation covariance on every axis and to the reported deviation: the spread between two models of
@@ -258,10 +266,14 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     # on the matches within the search threshold (a decision threshold shrunk by the ML stage would truncate
     # the inliers' noise and leave the pose's precision to a few matches)
     rot_inl = _rotation_inliers_mask(R_rot, f1, f2, tau_rot) if rot["pure_rotation"] else None
+    # a match given twice (the same coordinates in both views: SIFT's orientation duplicates, 6-10 % of
+    # the real benchmark's matches; a matcher's repeated rows) is one observation of the noise, not two
+    once = distinct_rows(f1, f2)
+    g1, g2 = (f1, f2) if once is None else (f1[once], f2[once])
     if rot_inl is None:
-        unc = pose_uncertainty(R, t, f1, f2, v < tau_rot, tau_rot)
+        unc = pose_uncertainty(R, t, g1, g2, (v < tau_rot) if once is None else (v < tau_rot)[once], tau_rot)
     else:
-        unc = pose_uncertainty(R_rot, None, f1, f2, rot_inl, _rotation_chord(tau_rot))
+        unc = pose_uncertainty(R_rot, None, g1, g2, rot_inl if once is None else rot_inl[once], _rotation_chord(tau_rot))
     diag.update(rotation_std_deg=unc["rotation_std_deg"], translation_std_deg=unc["translation_std_deg"], noise_sigma_px=unc["noise_sigma"] * focal)
     if rot_inl is not None:
         status = "pure_rotation"
