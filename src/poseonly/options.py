@@ -220,7 +220,8 @@ class PoseonlyOptions(CommonOptions):
     weakly constrained pose) and 100 where it has 3 degrees or more, Sampson-LM local optimisation, four
     challengers (the best models of other basins optimised at the end of the search), the ML final
     refinement on inliers cross-fitted over five folds; a search that has not converged after 3000
-    samples continues in the neighbour-consistency order (``consistency="fallback"``)."""
+    samples continues in the neighbour-consistency order (``consistency="fallback"``), and one that PROSAC's
+    rule ended early is followed by a search of the matches outside its model's band (``prosac_remainder``)."""
 
     threshold_px: float = _opt(1.0, "real", "inlier threshold in pixels", lo=0.0, lo_open=True)
     max_iterations: int = _opt(100000, "int", lo=1)
