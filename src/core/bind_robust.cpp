@@ -25,25 +25,25 @@ static_assert(HasPlainCost<ChiralScorer<MultiMsacScorer>>::value && !HasPlainCos
 
 template <class Est, class Sampler, class Model>
 RansacStats run_scored(Est& est, Scoring scoring, double thr, Sampler& sampler, const RansacOptions& ro, Model* best, Model* rival,
-                       bool chiral = false, const KeypointConflicts* K = nullptr) {
+                       bool chiral = false, const KeypointConflicts* K = nullptr, std::vector<std::pair<Model, double>>* others = nullptr) {
   if (chiral && K && !K->empty()) {
     switch (scoring) {
-      case Scoring::Msac: return ransac(est, KeypointOnceScorer<ChiralScorer<MsacScorer>>{{{thr}}, K}, sampler, ro, best, rival);
-      case Scoring::MultiMsac: return ransac(est, KeypointOnceScorer<ChiralScorer<MultiMsacScorer>>{{{thr}}, K}, sampler, ro, best, rival);
-      case Scoring::Count: return ransac(est, KeypointOnceScorer<ChiralScorer<CountScorer>>{{{thr}}, K}, sampler, ro, best, rival);
+      case Scoring::Msac: return ransac(est, KeypointOnceScorer<ChiralScorer<MsacScorer>>{{{thr}}, K}, sampler, ro, best, rival, others);
+      case Scoring::MultiMsac: return ransac(est, KeypointOnceScorer<ChiralScorer<MultiMsacScorer>>{{{thr}}, K}, sampler, ro, best, rival, others);
+      case Scoring::Count: return ransac(est, KeypointOnceScorer<ChiralScorer<CountScorer>>{{{thr}}, K}, sampler, ro, best, rival, others);
     }
   }
   if (chiral) {
     switch (scoring) {
-      case Scoring::Msac: return ransac(est, ChiralScorer<MsacScorer>{{thr}}, sampler, ro, best, rival);
-      case Scoring::MultiMsac: return ransac(est, ChiralScorer<MultiMsacScorer>{{thr}}, sampler, ro, best, rival);
-      case Scoring::Count: return ransac(est, ChiralScorer<CountScorer>{{thr}}, sampler, ro, best, rival);
+      case Scoring::Msac: return ransac(est, ChiralScorer<MsacScorer>{{thr}}, sampler, ro, best, rival, others);
+      case Scoring::MultiMsac: return ransac(est, ChiralScorer<MultiMsacScorer>{{thr}}, sampler, ro, best, rival, others);
+      case Scoring::Count: return ransac(est, ChiralScorer<CountScorer>{{thr}}, sampler, ro, best, rival, others);
     }
   }
   switch (scoring) {
-    case Scoring::Msac: return ransac(est, MsacScorer{thr}, sampler, ro, best, rival);
-    case Scoring::MultiMsac: return ransac(est, MultiMsacScorer{thr}, sampler, ro, best, rival);
-    case Scoring::Count: return ransac(est, CountScorer{thr}, sampler, ro, best, rival);
+    case Scoring::Msac: return ransac(est, MsacScorer{thr}, sampler, ro, best, rival, others);
+    case Scoring::MultiMsac: return ransac(est, MultiMsacScorer{thr}, sampler, ro, best, rival, others);
+    case Scoring::Count: return ransac(est, CountScorer{thr}, sampler, ro, best, rival, others);
   }
   throw std::invalid_argument("unknown scoring");
 }
@@ -52,13 +52,13 @@ RansacStats run_scored(Est& est, Scoring scoring, double thr, Sampler& sampler, 
 template <class Est, class Model>
 RansacStats run_sampled(Est& est, Scoring scoring, double thr, const std::vector<int>& order, uint64_t seed,
                         const RansacOptions& ro, Model* best, Model* rival = nullptr, bool chiral = false,
-                        const KeypointConflicts* K = nullptr) {
+                        const KeypointConflicts* K = nullptr, std::vector<std::pair<Model, double>>* others = nullptr) {
   if (order.empty()) {
     UniformSampler s(est.num_data(), est.sample_size(), seed);
-    return run_scored(est, scoring, thr, s, ro, best, rival, chiral, K);
+    return run_scored(est, scoring, thr, s, ro, best, rival, chiral, K, others);
   }
   ProsacSampler s(order, est.sample_size(), ro.prosac_trials > 0 ? ro.prosac_trials : ro.max_iterations, seed);
-  return run_scored(est, scoring, thr, s, ro, best, rival, chiral, K);
+  return run_scored(est, scoring, thr, s, ro, best, rival, chiral, K, others);
 }
 
 std::vector<int> order_of(const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order, int n) {
@@ -147,6 +147,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   eo.lo_max_points = lo_max_points;
   const std::vector<int> ord = order_of(order, P.n);
   Pose best, rival;
+  std::vector<std::pair<Pose, double>> others;
   RansacStats st;
   int d_groups = 0;
   {
@@ -154,7 +155,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
     RelativePoseEstimator est(P, eo);
     // matches sharing a keypoint count once (conflicts.h); with the cheirality-aware scorers only
     const KeypointConflicts K = keypoint_once && chiral ? keypoint_conflicts(P) : KeypointConflicts{};
-    st = run_sampled(est, static_cast<Scoring>(scoring), threshold, ord, seed, ro, &best, &rival, chiral, &K);
+    st = run_sampled(est, static_cast<Scoring>(scoring), threshold, ord, seed, ro, &best, &rival, chiral, &K, &others);
     d_groups = K.num_groups();
   }
   std::vector<double> R(9), t(3), Rr(9), tr(3);
@@ -164,6 +165,16 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   d["rival_R"] = to_numpy(std::move(Rr), {3, 3});
   d["rival_t"] = to_numpy(std::move(tr), {3});
   d["keypoint_groups"] = d_groups;
+  // the optimised challengers that lost (ransac(): `others`), with their exact costs
+  const size_t k = others.size();
+  std::vector<double> oR(9 * k), ot(3 * k), oc(k);
+  for (size_t i = 0; i < k; ++i) {
+    put_pose(others[i].first, oR.data() + 9 * i, ot.data() + 3 * i);
+    oc[i] = others[i].second;
+  }
+  d["others_R"] = to_numpy(std::move(oR), {k, 3, 3});
+  d["others_t"] = to_numpy(std::move(ot), {k, 3});
+  d["others_cost"] = to_numpy(std::move(oc), {k});
   return nb::make_tuple(to_numpy(std::move(R), {3, 3}), to_numpy(std::move(t), {3}), d);
 }
 

@@ -486,7 +486,8 @@ double expected_needed(const Est& est, const Sampler& sampler, const std::vector
 }
 
 template <class Est, class Scorer, class Sampler, class Model>
-RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const RansacOptions& opt, Model* best, Model* rival = nullptr) {
+RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const RansacOptions& opt, Model* best, Model* rival = nullptr,
+                   std::vector<std::pair<Model, double>>* others = nullptr) {
   RansacStats st;
   const int n = est.num_data();
   const bool track = opt.rival_distance > 0.0 && rival != nullptr;
@@ -666,6 +667,7 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
         *rival = e.first;
         st.rival_cost = e.second;
       }
+  if (others) *others = have ? std::move(optimised) : std::vector<std::pair<Model, double>>{};
   if (!have) st.num_inliers = 0;
   return st;
 }

@@ -403,6 +403,14 @@ class PoseonlyOptions(CommonOptions):
         lo=0.0,
         hi=180.0,
     )
+    rivals: int = _opt(
+        8,
+        "int",
+        "uniqueness test: the pose is compared with at most this many of the models the search kept rival_distance or more"
+        " away, one per basin, best first (its best rival and the other basins it optimised; 1: the best rival alone)",
+        lo=1,
+        hi=64,
+    )
 
 
 @dataclass(frozen=True)

@@ -327,10 +327,18 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
             )
         else:
             amb = None
-            if diag.get("rival_R") is not None:
-                # compared at the search threshold, as the search scored both
-                amb = rival_test(R, t, diag["rival_R"], _unit(diag["rival_t"]), f1, f2, tau_search, diag["rival_distance"])
-                diag.update(amb)
+            rivals = diag.pop("rivals", None)
+            if rivals is None and diag.get("rival_R") is not None:
+                rivals = [(diag["rival_R"], diag["rival_t"])]
+            for k, (Rv, tv) in enumerate(rivals or []):
+                # compared at the search threshold, as the search scored both; the first rival that
+                # the pose does not beat decides (reported as rival_R, rival_t), else the best one
+                test = rival_test(R, t, Rv, _unit(tv), f1, f2, tau_search, diag["rival_distance"])
+                if amb is None or test["ambiguous"]:
+                    amb = test
+                    diag.update(test, rival_R=Rv, rival_t=tv, rivals_tested=k + 1)
+                if test["ambiguous"]:
+                    break
             if amb is not None and amb["ambiguous"]:
                 status = "ambiguous"
                 msg = (

@@ -282,6 +282,10 @@ METHODS: dict[str, MethodFn] = {
     # (prosac_remainder, the default since the eleventh session of 2026-12-06), and the default before it
     "poseonly-prosacremainder": ours(use_scores=True, use_scales=True, prosac_remainder=True),
     "poseonly-noprosacremainder": ours(use_scores=True, use_scales=True, prosac_remainder=False),
+    # the uniqueness test against the search's best rival alone (the default before the twelfth session
+    # of 2026-12-06), and against every basin it kept (rivals=8, the default since)
+    "poseonly-onerival": ours(use_scores=True, use_scales=True, rivals=1),
+    "poseonly-allrivals": ours(use_scores=True, use_scales=True, rivals=8),
 }
 DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")
 # the library each method needs (a missing one skips the method with a note)

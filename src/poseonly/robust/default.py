@@ -199,6 +199,29 @@ def _pose_distance_deg(R1: np.ndarray, t1: np.ndarray, R2: np.ndarray, t2: np.nd
 
 
 RIVAL_COST_FACTOR = 1.5  # ransac.h kRivalCostFactor: a rival is scored up to this times the best cost
+SAME_BASIN_DEG = 1.0  # ransac.h challenger_distance: two models this close are one basin
+
+
+def rival_candidates(r: RansacResult, rival_distance: float) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The models the uniqueness test compares the result with, best first: the search's rival
+    (``stats["rival_R"]``, its best model at least ``rival_distance`` from the result), then the
+    challengers it optimised and that lost (``stats["others_R"]``: the best models of other basins)
+    as far from the result and within ``RIVAL_COST_FACTOR`` of its cost, one per basin. Why more
+    than one: refined, the best rival can fall back into the result's basin (a broad wrong basin
+    holds several of the search's models), while a costlier basin the search also kept is the
+    truth's (ORB on KITTI, docs/RELIABILITY.md "Every rival the search kept")."""
+    if not (rival_distance > 0 and np.isfinite(float(r.stats.get("rival_cost", np.inf)))):
+        return []
+    out = [(np.asarray(r.stats["rival_R"]), np.asarray(r.stats["rival_t"]))]
+    costs = np.asarray(r.stats.get("others_cost", np.empty(0)), float)
+    Rs, ts = np.asarray(r.stats.get("others_R", np.empty((0, 3, 3)))), np.asarray(r.stats.get("others_t", np.empty((0, 3))))
+    for k in np.argsort(costs, kind="stable"):
+        Rv, tv = Rs[k], ts[k]
+        if not (costs[k] <= RIVAL_COST_FACTOR * r.score and _pose_distance_deg(r.R, r.t, Rv, tv) > rival_distance):
+            continue
+        if all(_pose_distance_deg(Ru, tu, Rv, tv) > SAME_BASIN_DEG for Ru, tu in out):
+            out.append((Rv, tv))
+    return out
 
 
 def _combined(a: RansacResult, b: RansacResult, rival_distance: float) -> RansacResult:
@@ -219,6 +242,11 @@ def _combined(a: RansacResult, b: RansacResult, rival_distance: float) -> Ransac
             if far and cost <= RIVAL_COST_FACTOR * r.score and cost < best_cost:
                 stats.update(rival_R=Rv, rival_t=tv, rival_cost=cost)
                 best_cost = cost
+        # the other basins both searches optimised and the loser's offers (scored on the same matches)
+        Rs = [np.asarray(x.stats.get("others_R", np.empty((0, 3, 3))), float) for x in (r, other)] + [np.asarray([Rv]) for Rv, _, _ in offers]
+        ts = [np.asarray(x.stats.get("others_t", np.empty((0, 3))), float) for x in (r, other)] + [np.asarray([tv]) for _, tv, _ in offers]
+        cs = [np.asarray(x.stats.get("others_cost", np.empty(0)), float) for x in (r, other)] + [np.asarray([c]) for _, _, c in offers]
+        stats.update(others_R=np.concatenate(Rs), others_t=np.concatenate(ts), others_cost=np.concatenate(cs))
     return dataclasses.replace(r, num_iterations=a.num_iterations + b.num_iterations, num_lo=a.num_lo + b.num_lo, num_scored=a.num_scored + b.num_scored, stats=stats)
 
 
@@ -260,7 +288,7 @@ def _with_remainder(
     cost, inl = search_cost(s.R, s.t, f1, f2, tau, scoring=o.scoring, keypoint_once=o.keypoint_once)
     v = v_sampson(s.R, s.t, f1, f2)
     # its counts on all the matches (the first search's keypoint groups; no rival of its own)
-    stats = {k: x for k, x in r.stats.items() if not k.startswith("rival_")}
+    stats = {k: x for k, x in r.stats.items() if not k.startswith(("rival_", "others_"))}
     stats.update(cost=float(cost), num_inliers=len(inl), rival_cost=np.inf, needed=np.inf)
     stats.update(num_challenger_lo=s.stats.get("num_challenger_lo", 0), challenger_won=s.stats.get("challenger_won", 0))
     whole = dataclasses.replace(s, inliers=v < tau, residuals=v, score=float(cost), stats=stats)
@@ -513,11 +541,12 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
         diag.update(num_challenger_lo=int(r.stats["num_challenger_lo"]), challenger_won=bool(r.stats["challenger_won"]))
         diag["num_hypotheses"] += int(r.stats["num_challenger_lo"])
     if o.rival_distance > 0 and np.isfinite(float(r.stats.get("rival_cost", np.inf))):
-        # the uniqueness test's rival (decided in poseonly.result.finish): the best model the search
-        # scored rival_distance or more from its result, refined as the result was
+        # the uniqueness test's rivals (decided in poseonly.result.finish): the best model the search
+        # scored rival_distance or more from its result and the other basins it optimised, each
+        # refined as the result was
         diag["rival_support_ratio"] = rival_support_ratio(r, len(f1), tau, o.scoring)
-        Rv, tv = local_optimization(np.asarray(r.stats["rival_R"]), np.asarray(r.stats["rival_t"]), f1, f2, tau, o)
-        diag.update(rival_R=Rv, rival_t=tv, rival_distance=float(o.rival_distance))
+        rivals = [local_optimization(Rv, tv, f1, f2, tau, o) for Rv, tv in rival_candidates(r, o.rival_distance)[: o.rivals]]
+        diag.update(rival_R=rivals[0][0], rival_t=rivals[0][1], rival_distance=float(o.rival_distance), rivals=rivals)
     R, t = select_by_support(r.R, r.t, f1, f2, tau)
     if o.final == "cauchy":
         diag["tau_effective"] = tau
