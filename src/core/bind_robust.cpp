@@ -468,7 +468,7 @@ POSEONLY_BIND(robust) {
         "whose point is behind either camera scores as an outlier; rival_distance > 0 (degrees) also returns the best model that far "
         "from the result (rival_R, rival_t, rival_cost in stats); min_hits: adaptive stopping waits for that many all-inlier samples at `confidence`; challengers in [0, 64]: the best "
         "models of that many other basins (challenger_distance degrees apart) are locally optimised after the loop and replace the result "
-        "if they beat it (num_challenger_lo, challenger_won in stats); lo_max_points > 0: each LO runs on an evenly strided subset of at most that many of its window's points; keypoint_once (with chiral): "
+        "if they beat it (num_challenger_lo, challenger_won in stats; those that lost: others_R (k, 3, 3), others_t (k, 3), others_cost (k,)); lo_max_points > 0: each LO runs on an evenly strided subset of at most that many of its window's points; keypoint_once (with chiral): "
         "of the matches that share a keypoint (identical bearings) only the best correspondence scores and is an inlier (conflicts.h; "
         "keypoint_groups in stats); progressive_stop (with order): also stop by PROSAC's rule (ransac.h progressive_needed; not before progressive_min_draws draws), or with progressive_expected where the "
         "expected all-inlier draws of the sampler's schedule reach the confidence (ransac.h expected_needed); floor_parallax > 0 (radians): while the best model's "

@@ -41,7 +41,8 @@ struct RansacOptions {
   // the best cost) that never became the best; after the loop each is locally optimised until its
   // cost stops improving and replaces the best if it beats it. A raw minimal model of the right
   // basin often scores worse than a locally optimised model of a wrong one, and LO runs only on new
-  // bests, so without them the search can end on the consensus it optimised first.
+  // bests, so without them the search can end on the consensus it optimised first. ransac()'s
+  // `others` receives the optimised challengers that lost, with their exact costs.
   int challengers = 0;
   double challenger_distance = 1.0;
   // with a progressive (PROSAC) sampler: also stop by PROSAC's rule (progressive_needed), or with

@@ -73,8 +73,9 @@ class RelativePoseResult:
     * ``"planar_ambiguous"`` -- the inliers are (near) planar and the homography twin (``R_twin``,
       ``t_twin``) explains them about as well; the caller must decide (e.g. with a third view);
     * ``"ambiguous"`` -- a second pose far from this one (``diagnostics["rival_R"]``,
-      ``["rival_t"]``, at least ``rival_distance`` degrees of rotation away) explains at least as
-      many matches of its own: the two views do not single out the pose;
+      ``["rival_t"]``, at least ``rival_distance`` degrees of rotation away: one of the models the
+      search kept in other basins, ``diagnostics["rivals_tested"]`` of them compared) explains at
+      least as many matches of its own: the two views do not single out the pose;
     * ``"uncertain"`` -- the inliers single out the pose but do not pin its rotation down: its
       first-order standard deviation (``diagnostics["rotation_std_deg"]``, the least constrained
       axis, translation direction marginalised) exceeds ``max_rotation_std_deg`` (5/3 deg by default;
@@ -230,12 +231,18 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     and no significant translation -> ``pure_rotation`` (``too_few_inliers`` where that rotation is
     more than ``max_rotation_std_deg`` from the pose's R, or its deviation exceeds it); too few inliers or an NFA above
     :data:`poseonly.analysis.NFA_MAX` -> ``too_few_inliers``; a planar twin -> ``planar_ambiguous``;
-    a rival pose (``diag["rival_R"]``, the default method's uniqueness test) that explains as many
-    matches of its own -> ``ambiguous``; a rotation standard deviation above
+    a rival pose (``diag["rivals"]``, the default method's uniqueness test: the refined models the
+    search kept in other basins, best first; or ``diag["rival_R"]``) that explains as many matches of
+    its own -> ``ambiguous``; a rotation standard deviation above
     ``max_rotation_std_deg`` -> ``uncertain``; else ``ok``.
     """
     tau_search = tau
     diag["search_threshold_px"] = float(tau_search * focal)
+    # the uniqueness test's refined rivals, best first (the default method's; diag["rival_R"] alone
+    # from a caller that gives one)
+    rivals = diag.pop("rivals", None)
+    if rivals is None:
+        rivals = [] if diag.get("rival_R") is None else [(diag["rival_R"], diag["rival_t"])]
     if "tau_effective" in diag:  # the default method's noise-matched threshold (<= the user's)
         tau = diag["tau_effective"]
         thr_px = tau * focal
@@ -327,16 +334,14 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
             )
         else:
             amb = None
-            rivals = diag.pop("rivals", None)
-            if rivals is None and diag.get("rival_R") is not None:
-                rivals = [(diag["rival_R"], diag["rival_t"])]
-            for k, (Rv, tv) in enumerate(rivals or []):
+            for k, (Rv, tv) in enumerate(rivals):
                 # compared at the search threshold, as the search scored both; the first rival that
                 # the pose does not beat decides (reported as rival_R, rival_t), else the best one
                 test = rival_test(R, t, Rv, _unit(tv), f1, f2, tau_search, diag["rival_distance"])
+                diag["rivals_tested"] = k + 1
                 if amb is None or test["ambiguous"]:
                     amb = test
-                    diag.update(test, rival_R=Rv, rival_t=tv, rivals_tested=k + 1)
+                    diag.update(test, rival_R=Rv, rival_t=tv)
                 if test["ambiguous"]:
                     break
             if amb is not None and amb["ambiguous"]:

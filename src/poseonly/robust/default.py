@@ -209,7 +209,7 @@ def rival_candidates(r: RansacResult, rival_distance: float) -> list[tuple[np.nd
     as far from the result and within ``RIVAL_COST_FACTOR`` of its cost, one per basin. Why more
     than one: refined, the best rival can fall back into the result's basin (a broad wrong basin
     holds several of the search's models), while a costlier basin the search also kept is the
-    truth's (ORB on KITTI, docs/RELIABILITY.md "Every rival the search kept")."""
+    truth's (ORB on KITTI: docs/RESULTS_real.md, "Every basin the search kept")."""
     if not (rival_distance > 0 and np.isfinite(float(r.stats.get("rival_cost", np.inf)))):
         return []
     out = [(np.asarray(r.stats["rival_R"]), np.asarray(r.stats["rival_t"]))]

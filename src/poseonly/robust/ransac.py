@@ -130,7 +130,8 @@ def ransac_relpose(
     the best models of that many other basins (``challenger_distance`` degrees from the best and
     from each other, scored up to 1.5x the best cost) are kept during the search and locally
     optimised after it until their cost stops improving; one that beats the best replaces it
-    (``stats["challenger_won"]``): LO runs only on new bests, and a raw minimal model of the right
+    (``stats["challenger_won"]``), those that lost are ``stats["others_R"] (k, 3, 3)``,
+    ``["others_t"] (k, 3)`` and ``["others_cost"] (k,)``: LO runs only on new bests, and a raw minimal model of the right
     basin can score worse than a locally optimised model of a wrong one. A challenger is kept only
     while the largest support gain of an LO step in this search could make it the best, so with
     ``max_lo=0`` (or no LO that improved a model) none is kept. ``challenger_distance`` must be finite
