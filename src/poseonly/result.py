@@ -67,7 +67,8 @@ class RelativePoseResult:
 
     ``status`` is one of
 
-    * ``"ok"`` -- a confident calibrated pose: enough inliers (``min_inliers``), far more than
+    * ``"ok"`` -- a confident calibrated pose: enough inliers (``min_inliers``; a match given twice,
+      the same coordinates in both views, counts once: ``diagnostics["distinct_inliers"]``), far more than
       chance allows (a-contrario test, ``diagnostics["log10_nfa"] < -3``), no pure rotation, no
       planar twin;
     * ``"planar_ambiguous"`` -- the inliers are (near) planar and the homography twin (``R_twin``,
@@ -256,8 +257,13 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     weights = inl.astype(float) if w is None else np.asarray(w, float)
     num_tests = float(diag.get("num_hypotheses", 1))
     p_pose = chance_rate(R, t, f1, f2, tau)
-    lnfa = log10_nfa(n_in, n, p_pose, num_tests, POSE_DOF)
-    diag.update(chance_inliers=n * p_pose, chance_rate=p_pose, log10_nfa=lnfa)
+    # a match given twice (the same coordinates in both views: SIFT's orientation duplicates, 6-10 % of
+    # the real benchmark's matches; a matcher's repeated rows) is one observation, not two: the
+    # significance, the inlier count the status needs and the covariance count it once
+    once = distinct_rows(f1, f2)
+    n_once, n_in_once = (n, n_in) if once is None else (len(once), int(np.count_nonzero(inl[once])))
+    lnfa = log10_nfa(n_in_once, n_once, p_pose, num_tests, POSE_DOF)
+    diag.update(chance_inliers=n * p_pose, chance_rate=p_pose, log10_nfa=lnfa, distinct_inliers=n_in_once)
     # the rotation-only alternative is fitted at the search threshold at least: at a decision threshold
     # the pose itself shrank (an ML fit to a tight subset) a rotation would miss its own noisy inliers
     tau_rot = max(tau, tau_search)
@@ -273,9 +279,6 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     # on the matches within the search threshold (a decision threshold shrunk by the ML stage would truncate
     # the inliers' noise and leave the pose's precision to a few matches)
     rot_inl = _rotation_inliers_mask(R_rot, f1, f2, tau_rot) if rot["pure_rotation"] else None
-    # a match given twice (the same coordinates in both views: SIFT's orientation duplicates, 6-10 % of
-    # the real benchmark's matches; a matcher's repeated rows) is one observation of the noise, not two
-    once = distinct_rows(f1, f2)
     g1, g2 = (f1, f2) if once is None else (f1[once], f2[once])
     if rot_inl is None:
         unc = pose_uncertainty(R, t, g1, g2, (v < tau_rot) if once is None else (v < tau_rot)[once], tau_rot)
@@ -315,10 +318,11 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
                 + (f" to {unc['rotation_std_deg']:.3g} deg (one standard deviation)" if np.isfinite(unc["rotation_std_deg"]) else "")
                 + ", the translation direction is not"
             )
-    elif n_in < needed or lnfa >= np.log10(NFA_MAX):
+    elif n_in_once < needed or lnfa >= np.log10(NFA_MAX):
         status = "too_few_inliers"
+        distinct = "" if n_in_once == n_in else f" ({n_in_once} distinct)"
         msg = (
-            f"{n_in} inliers within {thr_px:g} px (needed {needed}); randomly re-paired matches give the same model "
+            f"{n_in} inliers{distinct} within {thr_px:g} px (needed {needed}); randomly re-paired matches give the same model "
             f"{n * p_pose:.1f} inliers, and over the {num_tests:.3g} hypotheses tried chance explains this support "
             f"(expected false alarms 10^{lnfa:.1f} >= {NFA_MAX:g}): the pose is not reliable"
         )
