@@ -161,9 +161,20 @@ def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, i
     lp = sign_test(only_pose, only_twin)
     sep = rotation_error_deg(R, Rt)
     info.update(support=int(sup_pose), twin_support=int(sup_twin), twin_log10_p=lp, twin_separation_deg=sep)
-    if sup_twin >= TWIN_SUPPORT_RATIO * sup_pose and lp >= np.log10(AMBIGUITY_LEVEL) and sep > TWIN_MIN_SEPARATION_DEG:
+    ct = float(np.dot(tt, t)) / max(float(np.linalg.norm(tt) * np.linalg.norm(t)), 1e-300)
+    info["twin_translation_separation_deg"] = float(np.degrees(np.arccos(np.clip(ct, -1.0, 1.0))))
+    if equally_supported_twin(info) and sep > TWIN_MIN_SEPARATION_DEG:
         return (Rt, tt, int(sup_twin)), info
     return None, info
+
+
+def equally_supported_twin(info: dict[str, Any]) -> bool:
+    """Did :func:`planar_twin` (``info``) find a twin that explains the matches as well as the pose: its
+    support at least :data:`TWIN_SUPPORT_RATIO` of the pose's and the sign test not preferring the pose
+    at :data:`AMBIGUITY_LEVEL`, whatever its separation?"""
+    if "twin_support" not in info:
+        return False
+    return bool(info["twin_support"] >= TWIN_SUPPORT_RATIO * info["support"] and info["twin_log10_p"] >= np.log10(AMBIGUITY_LEVEL))
 
 
 def rival_test(R, t, R_rival, t_rival, f1, f2, tau, min_separation_deg) -> dict[str, Any]:

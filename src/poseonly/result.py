@@ -19,6 +19,7 @@ from .analysis import (
     NFA_MAX,
     ROTATION_THRESHOLD_FACTOR,
     chance_rate,
+    equally_supported_twin,
     log10_nfa,
     parallax_deg,
     planar_twin,
@@ -215,14 +216,20 @@ def distinct_rows(f1: np.ndarray, f2: np.ndarray) -> np.ndarray | None:
     return None if len(first) == len(X) else np.sort(first)
 
 
-def _with_model_spread(unc: dict[str, Any], delta: float) -> dict[str, Any]:
+def _with_model_spread(unc: dict[str, Any], delta: float, delta_t: float = 0.0, t: np.ndarray | None = None) -> dict[str, Any]:
     """``unc`` (:func:`poseonly.analysis.pose_uncertainty`'s) with ``delta**2`` (radians^2) added to the
-    rotation covariance on every axis and to the reported deviation: the spread between two models of
-    the same data that the matches do not tell apart."""
+    rotation covariance on every axis and to the reported deviation, and ``delta_t**2`` to the unit
+    translation's on its tangent plane at ``t``: the spread between two models of the same data that
+    the matches do not tell apart."""
     if unc["rotation_covariance"] is None or not np.isfinite(delta):
         return unc
     C = unc["rotation_covariance"] + delta**2 * np.eye(3)
-    return {**unc, "rotation_covariance": C, "rotation_std_deg": float(np.degrees(np.sqrt(max(float(np.linalg.eigvalsh(C)[-1]), 0.0))))}
+    out = {**unc, "rotation_covariance": C, "rotation_std_deg": float(np.degrees(np.sqrt(max(float(np.linalg.eigvalsh(C)[-1]), 0.0))))}
+    if delta_t > 0 and t is not None and unc["translation_covariance"] is not None and np.isfinite(delta_t):
+        u = _unit(t)
+        Ct = unc["translation_covariance"] + delta_t**2 * (np.eye(3) - np.outer(u, u))
+        out.update(translation_covariance=Ct, translation_std_deg=float(np.degrees(np.sqrt(max(float(np.linalg.eigvalsh(Ct)[-1]), 0.0)))))
+    return out
 
 
 def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inliers=15, max_rotation_std_deg=MAX_ROTATION_STD_DEG) -> RelativePoseResult:
@@ -329,6 +336,13 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     else:
         twin, info = planar_twin(R, t, f1, f2, tau, inl)
         diag.update(info)
+        if equally_supported_twin(info):
+            # a planar scene's twin that explains the matches as well as the pose: the matches do not tell
+            # the two apart, so their distance is part of the pose's uncertainty. Forward motion towards a
+            # plane merges the twins into a flat valley the first-order covariance does not see (twins 0.9
+            # deg apart, the pose 0.7 deg off, its first-order deviation 0.08 deg)
+            unc = _with_model_spread(unc, float(np.radians(info["twin_separation_deg"])), float(np.radians(info["twin_translation_separation_deg"])), t)
+            diag.update(rotation_std_deg=unc["rotation_std_deg"], translation_std_deg=unc["translation_std_deg"], twin_spread_deg=float(info["twin_separation_deg"]))
         if twin is not None:
             status = "planar_ambiguous"
             R_twin, t_twin, twin_n = twin

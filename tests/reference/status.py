@@ -65,6 +65,8 @@ def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, i
         lp = sign_test(only_pose, only_twin)
         sep = rotation_error_deg(R, Rt)
         info.update(support=int(sup[0]), twin_support=int(sup[1]), twin_log10_p=lp, twin_separation_deg=sep)
+        ct = float(np.dot(tt, t)) / (np.linalg.norm(tt) * np.linalg.norm(t))
+        info["twin_translation_separation_deg"] = float(np.degrees(np.arccos(np.clip(ct, -1.0, 1.0))))
         if sup[1] >= TWIN_SUPPORT_RATIO * sup[0] and lp >= np.log10(AMBIGUITY_LEVEL) and sep > TWIN_MIN_SEPARATION_DEG:
             twin = (Rt, tt, int(sup[1]))
     return twin, info
