@@ -398,8 +398,9 @@ class PoseonlyOptions(CommonOptions):
     rival_distance: float = _opt(
         5.0,
         "real",
-        "uniqueness test: the search keeps its best model this many degrees from the result, refines it, and the status is"
-        " 'ambiguous' when it explains as many matches of its own as the result (0: no test)",
+        "uniqueness test: the search keeps its best model this many degrees from the result and the other basins it optimised"
+        " (at most `rivals`), refines them, and the status is 'ambiguous' when one of them, still this far in rotation, explains"
+        " as many matches of its own as the result (0: no test)",
         lo=0.0,
         hi=180.0,
     )

@@ -266,15 +266,21 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     p_pose = chance_rate(R, t, f1, f2, tau)
     # a match given twice (the same coordinates in both views: SIFT's orientation duplicates, 6-10 % of
     # the real benchmark's matches; a matcher's repeated rows) is one observation, not two: the
-    # significance, the inlier count the status needs and the covariance count it once
+    # significance, the inlier count the status needs, the support counts of the pure-rotation, twin and
+    # uniqueness tests and the covariance count it once
     once = distinct_rows(f1, f2)
-    n_once, n_in_once = (n, n_in) if once is None else (len(once), int(np.count_nonzero(inl[once])))
+
+    def distinct(x: np.ndarray) -> np.ndarray:
+        return x if once is None else x[once]
+
+    g1, g2 = distinct(f1), distinct(f2)
+    n_once, n_in_once = len(g1), int(np.count_nonzero(distinct(inl)))
     lnfa = log10_nfa(n_in_once, n_once, p_pose, num_tests, POSE_DOF)
     diag.update(chance_inliers=n * p_pose, chance_rate=p_pose, log10_nfa=lnfa, distinct_inliers=n_in_once)
     # the rotation-only alternative is fitted at the search threshold at least: at a decision threshold
     # the pose itself shrank (an ML fit to a tight subset) a rotation would miss its own noisy inliers
     tau_rot = max(tau, tau_search)
-    rot = pure_rotation_test(f1, f2, tau_rot, inl, p_pose, num_tests, v_pose=v)
+    rot = pure_rotation_test(g1, g2, tau_rot, distinct(inl), p_pose, num_tests, v_pose=distinct(v))
     R_rot = rot.pop("R_rotation_only")
     diag.update(rot)
     R_twin = t_twin = None
@@ -286,11 +292,11 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     # on the matches within the search threshold (a decision threshold shrunk by the ML stage would truncate
     # the inliers' noise and leave the pose's precision to a few matches)
     rot_inl = _rotation_inliers_mask(R_rot, f1, f2, tau_rot) if rot["pure_rotation"] else None
-    g1, g2 = (f1, f2) if once is None else (f1[once], f2[once])
     if rot_inl is None:
-        unc = pose_uncertainty(R, t, g1, g2, (v < tau_rot) if once is None else (v < tau_rot)[once], tau_rot)
+        unc = pose_uncertainty(R, t, g1, g2, distinct(v < tau_rot), tau_rot)
     else:
-        unc = pose_uncertainty(R_rot, None, g1, g2, rot_inl if once is None else rot_inl[once], _rotation_chord(tau_rot))
+        unc = pose_uncertainty(R_rot, None, g1, g2, distinct(rot_inl), _rotation_chord(tau_rot))
+        diag["distinct_inliers"] = int(np.count_nonzero(distinct(rot_inl)))
     diag.update(rotation_std_deg=unc["rotation_std_deg"], translation_std_deg=unc["translation_std_deg"], noise_sigma_px=unc["noise_sigma"] * focal)
     if rot_inl is not None:
         status = "pure_rotation"
@@ -327,14 +333,17 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
             )
     elif n_in_once < needed or lnfa >= np.log10(NFA_MAX):
         status = "too_few_inliers"
-        distinct = "" if n_in_once == n_in else f" ({n_in_once} distinct)"
-        msg = (
-            f"{n_in} inliers{distinct} within {thr_px:g} px (needed {needed}); randomly re-paired matches give the same model "
-            f"{n * p_pose:.1f} inliers, and over the {num_tests:.3g} hypotheses tried chance explains this support "
-            f"(expected false alarms 10^{lnfa:.1f} >= {NFA_MAX:g}): the pose is not reliable"
-        )
+        counted = f"{n_in} inliers" + ("" if n_in_once == n_in else f" ({n_in_once} distinct)") + f" within {thr_px:g} px"
+        if n_in_once < needed:
+            msg = f"{counted}, {needed} needed (min_inliers): the pose is not reliable"
+        else:
+            msg = (
+                f"{counted}; randomly re-paired matches give the same model {n * p_pose:.1f} inliers, and over the "
+                f"{num_tests:.3g} hypotheses tried chance explains this support (expected false alarms 10^{lnfa:.1f} >= "
+                f"{NFA_MAX:g}): the pose is not reliable"
+            )
     else:
-        twin, info = planar_twin(R, t, f1, f2, tau, inl)
+        twin, info = planar_twin(R, t, g1, g2, tau, distinct(inl))
         diag.update(info)
         if equally_supported_twin(info):
             # a planar scene's twin that explains the matches as well as the pose: the matches do not tell
@@ -355,7 +364,7 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
             for k, (Rv, tv) in enumerate(rivals):
                 # compared at the search threshold, as the search scored both; the first rival that
                 # the pose does not beat decides (reported as rival_R, rival_t), else the best one
-                test = rival_test(R, t, Rv, _unit(tv), f1, f2, tau_search, diag["rival_distance"])
+                test = rival_test(R, t, Rv, _unit(tv), g1, g2, tau_search, diag["rival_distance"])
                 diag["rivals_tested"] = k + 1
                 if amb is None or test["ambiguous"]:
                     amb = test

@@ -226,27 +226,34 @@ def rival_candidates(r: RansacResult, rival_distance: float) -> list[tuple[np.nd
 
 def _combined(a: RansacResult, b: RansacResult, rival_distance: float) -> RansacResult:
     """The better of two searches' results (the lower cost; ``a`` on ties) with both searches' counts
-    (iterations, LO runs, scored models, challenger LO runs). The rival (the uniqueness test's best
-    model at least ``rival_distance`` from the result, within ``RIVAL_COST_FACTOR`` of its cost) is
-    the better of the winner's and the loser's best model or rival, as one search would have kept it."""
+    (iterations, LO runs, scored models, challenger LO runs). Every model either search kept outside
+    its result (rivals, optimised challengers, the loser's best) is one of the merged ``others``; the
+    rival (the uniqueness test's best model at least ``rival_distance`` from the result, within
+    ``RIVAL_COST_FACTOR`` of its cost) is the cheapest of them, as one search would have kept it
+    (the winner's own rival on ties)."""
     r, other = (b, a) if b.score < a.score else (a, b)
     stats = dict(r.stats)
     stats["num_challenger_lo"] = int(a.stats.get("num_challenger_lo", 0)) + int(b.stats.get("num_challenger_lo", 0))
     if rival_distance > 0:
-        best_cost = float(stats.get("rival_cost", np.inf))
-        offers = [(other.R, other.t, float(other.score))]
-        if np.isfinite(float(other.stats.get("rival_cost", np.inf))):
-            offers.append((np.asarray(other.stats["rival_R"]), np.asarray(other.stats["rival_t"]), float(other.stats["rival_cost"])))
-        for Rv, tv, cost in offers:
-            far = _pose_distance_deg(r.R, r.t, Rv, tv) > rival_distance
-            if far and cost <= RIVAL_COST_FACTOR * r.score and cost < best_cost:
-                stats.update(rival_R=Rv, rival_t=tv, rival_cost=cost)
-                best_cost = cost
-        # the other basins both searches optimised and the loser's offers (scored on the same matches)
-        Rs = [np.asarray(x.stats.get("others_R", np.empty((0, 3, 3))), float) for x in (r, other)] + [np.asarray([Rv]) for Rv, _, _ in offers]
-        ts = [np.asarray(x.stats.get("others_t", np.empty((0, 3))), float) for x in (r, other)] + [np.asarray([tv]) for _, tv, _ in offers]
-        cs = [np.asarray(x.stats.get("others_cost", np.empty(0)), float) for x in (r, other)] + [np.asarray([c]) for _, _, c in offers]
-        stats.update(others_R=np.concatenate(Rs), others_t=np.concatenate(ts), others_cost=np.concatenate(cs))
+        pool: list[tuple[np.ndarray, np.ndarray, float]] = []  # (R, t, cost) on the same matches
+        for x in (r, other):
+            if np.isfinite(float(x.stats.get("rival_cost", np.inf))):
+                pool.append((np.asarray(x.stats["rival_R"], float), np.asarray(x.stats["rival_t"], float), float(x.stats["rival_cost"])))
+            Rs = np.asarray(x.stats.get("others_R", np.empty((0, 3, 3))), float)
+            ts = np.asarray(x.stats.get("others_t", np.empty((0, 3))), float)
+            pool += [(Rs[k], ts[k], float(c)) for k, c in enumerate(np.asarray(x.stats.get("others_cost", np.empty(0)), float))]
+        pool.append((np.asarray(other.R, float), np.asarray(other.t, float), float(other.score)))
+        far = [m for m in pool if m[2] <= RIVAL_COST_FACTOR * r.score and _pose_distance_deg(r.R, r.t, m[0], m[1]) > rival_distance]
+        if far:
+            Rv, tv, cost = min(far, key=lambda m: m[2])
+            stats.update(rival_R=Rv, rival_t=tv, rival_cost=cost)
+        else:
+            stats["rival_cost"] = np.inf
+        stats.update(
+            others_R=np.array([m[0] for m in pool]).reshape(-1, 3, 3),
+            others_t=np.array([m[1] for m in pool]).reshape(-1, 3),
+            others_cost=np.array([m[2] for m in pool], float),
+        )
     return dataclasses.replace(r, num_iterations=a.num_iterations + b.num_iterations, num_lo=a.num_lo + b.num_lo, num_scored=a.num_scored + b.num_scored, stats=stats)
 
 
