@@ -11,7 +11,7 @@ from poseonly.analysis import ROTATION_THRESHOLD_FACTOR, _permutations, chance_r
 from poseonly.geometry import rotation_error_deg, translation_error_deg
 from poseonly.residuals import v_sampson
 from poseonly.sim import make_scene
-from poseonly.twin import decompose_homography, homography_twin
+from poseonly.twin import decompose_homography, homography_twin, homography_twin_dlt
 from reference import twin as ref_twin
 
 
@@ -51,6 +51,36 @@ def test_homography_twin_matches_the_reference(camera):
         assert rotation_error_deg(a[0], b[0]) < 1e-7 and translation_error_deg(a[1], b[1]) < 1e-7, seed
         assert abs(a[2] - b[2]) < 1e-9 * max(1.0, b[2])
     assert found >= 10
+
+
+@pytest.mark.parametrize("camera", ["wide", "pinhole"])
+def test_homography_twin_dlt_matches_the_reference(camera):
+    found = 0
+    for seed in range(30):
+        sc = make_scene(120, kind="planar", camera=camera, noise_px=0.3 * (seed % 3), seed=seed)
+        a = homography_twin_dlt(sc.R, sc.t, sc.f1, sc.f2)
+        b = ref_twin.homography_twin_dlt(sc.R, sc.t, sc.f1, sc.f2)
+        assert (a is None) == (b is None), seed
+        if a is None:
+            continue
+        found += 1
+        assert rotation_error_deg(a[0], b[0]) < 1e-7 and translation_error_deg(a[1], b[1]) < 1e-7, seed
+    assert found >= 10
+    assert homography_twin_dlt(sc.R, sc.t, sc.f1[:3], sc.f2[:3]) is None  # fewer than 4 matches
+
+
+def test_homography_twin_dlt_is_exact_on_a_noise_free_plane():
+    """Noise-free planar scene: the directly fitted homography's twin reproduces the plane's
+    correspondences exactly, and it is the triangulated plane's twin."""
+    for seed in range(20):
+        sc = make_scene(60, kind="planar", camera="pinhole", noise_px=0.0, seed=seed)
+        tw, tri = homography_twin_dlt(sc.R, sc.t, sc.f1, sc.f2), homography_twin(sc.R, sc.t, sc.f1, sc.f2)
+        if tw is None or tri is None:
+            continue
+        assert np.max(v_sampson(tw[0], tw[1], sc.f1, sc.f2)) < 1e-9
+        assert rotation_error_deg(tw[0], tri[0]) < 1e-6 and rotation_error_deg(sc.R, tw[0]) > 1e-3
+        return
+    pytest.fail("no scene gave a twin")
 
 
 def test_homography_twin_is_exact_on_a_noise_free_plane():

@@ -89,6 +89,42 @@ bool decompose_homography(const Mat3& H0, HomographyDecomposition* out) {
   return true;
 }
 
+namespace {
+
+// The decomposition of H other than (R, t) itself: of the physically valid ones (more than half of the
+// matches P in front of camera 1 on the plane's side), the closest to the pose is the pose; the next
+// is the twin (homography_twin, homography_twin_dlt).
+bool twin_of_homography(const Pose& pose, const Mat3& H, const Points& P, Pose* twin) {
+  const Mat3& R = pose.R;
+  const Vec3 t = pose.t.norm() > 0.0 ? Vec3(pose.t.normalized()) : pose.t;
+  HomographyDecomposition dec;
+  if (!decompose_homography(H, &dec)) return false;
+  // physically valid: more than half of the inliers in front of camera 1 on the plane's side
+  std::array<int, 4> cand{};
+  int nc = 0;
+  for (int j = 0; j < 4; ++j) {
+    int front = 0;
+    for (int i = 0; i < P.n; ++i) front += P.a(i).dot(dec.N[j]) > 0.0;
+    if (2 * front > P.n && dec.T[j].norm() > 1e-12) cand[nc++] = j;
+  }
+  if (nc < 2) return false;
+  // the decomposition closest to (R, t) is the pose itself; the other valid one is the twin
+  std::array<double, 4> err{};
+  for (int k = 0; k < nc; ++k) {
+    const Vec3 tn = dec.T[cand[k]].normalized();
+    err[k] = rotation_error_deg(R, dec.R[cand[k]]) + 57.29577951308232 * std::acos(std::clamp(tn.dot(t), -1.0, 1.0));
+  }
+  std::array<int, 4> order{};
+  std::iota(order.begin(), order.begin() + nc, 0);
+  std::stable_sort(order.begin(), order.begin() + nc, [&](int x, int y) { return err[x] < err[y]; });
+  const int j = cand[order[1]];
+  twin->R = dec.R[j];
+  twin->t = dec.T[j].normalized();
+  return true;
+}
+
+}  // namespace
+
 bool homography_twin(const Pose& pose, const Points& P, Pose* twin, double* planarity) {
   const Mat3& R = pose.R;
   const Vec3 t = pose.t.norm() > 0.0 ? Vec3(pose.t.normalized()) : pose.t;
@@ -122,31 +158,43 @@ bool homography_twin(const Pose& pose, const Points& P, Pose* twin, double* plan
   }
   *planarity = svd.singularValues()(2) / std::max(svd.singularValues()(1), kTiny);
   if (!(d > 0.0 && std::isfinite(d))) return false;
-  const Mat3 H = R + t * n.transpose() / d;
-  HomographyDecomposition dec;
-  if (!decompose_homography(H, &dec)) return false;
-  // physically valid: more than half of the inliers in front of camera 1 on the plane's side
-  std::array<int, 4> cand{};
-  int nc = 0;
-  for (int j = 0; j < 4; ++j) {
-    int front = 0;
-    for (int i = 0; i < P.n; ++i) front += P.a(i).dot(dec.N[j]) > 0.0;
-    if (2 * front > P.n && dec.T[j].norm() > 1e-12) cand[nc++] = j;
+  return twin_of_homography(pose, R + t * n.transpose() / d, P, twin);
+}
+
+namespace {
+
+// The sign-fixed homography of the matches P fitted directly: the unit H minimising sum |f2 x H f1|^2
+// (DLT on the bearings, all three rows of each cross product; the eigenvector of the smallest
+// eigenvalue of the 9 x 9 normal matrix), signed so that H f1 points along f2 for most matches.
+bool fit_homography(const Points& P, Mat3* H) {
+  if (P.n < 4) return false;
+  Eigen::Matrix<double, 9, 9> M = Eigen::Matrix<double, 9, 9>::Zero();
+  for (int i = 0; i < P.n; ++i) {
+    const Vec3 a = P.a(i), b = P.b(i);
+    // rows of [b]x (I kron a^T): (b x H a)_k = sum_j c_kj (H a)_j, with h = vec(H) row-major
+    const Mat3 B = skew(b);
+    Eigen::Matrix<double, 3, 9> A;
+    for (int k = 0; k < 3; ++k)
+      for (int r = 0; r < 3; ++r) A.block<1, 3>(k, 3 * r) = B(k, r) * a.transpose();
+    M.noalias() += A.transpose() * A;
   }
-  if (nc < 2) return false;
-  // the decomposition closest to (R, t) is the pose itself; the other valid one is the twin
-  std::array<double, 4> err{};
-  for (int k = 0; k < nc; ++k) {
-    const Vec3 tn = dec.T[cand[k]].normalized();
-    err[k] = rotation_error_deg(R, dec.R[cand[k]]) + 57.29577951308232 * std::acos(std::clamp(tn.dot(t), -1.0, 1.0));
-  }
-  std::array<int, 4> order{};
-  std::iota(order.begin(), order.begin() + nc, 0);
-  std::stable_sort(order.begin(), order.begin() + nc, [&](int x, int y) { return err[x] < err[y]; });
-  const int j = cand[order[1]];
-  twin->R = dec.R[j];
-  twin->t = dec.T[j].normalized();
-  return true;
+  if (!M.allFinite()) return false;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> es(M);
+  if (es.info() != Eigen::Success) return false;
+  const Eigen::Matrix<double, 9, 1> h = es.eigenvectors().col(0);
+  for (int r = 0; r < 3; ++r) H->row(r) = h.segment<3>(3 * r).transpose();
+  int along = 0;
+  for (int i = 0; i < P.n; ++i) along += (*H * P.a(i)).dot(P.b(i)) > 0.0;
+  if (2 * along < P.n) *H = -*H;
+  return H->allFinite();
+}
+
+}  // namespace
+
+bool homography_twin_dlt(const Pose& pose, const Points& P, Pose* twin) {
+  Mat3 H;
+  if (!fit_homography(P, &H)) return false;
+  return twin_of_homography(pose, H, P, twin);
 }
 
 int support_count(const Pose& pose, const Points& P, double thr) {
@@ -240,16 +288,21 @@ struct ScreenedTwin {
   Pose twin;
 };
 
+// the screen and polish of a twin candidate `tw` (ScreenedTwin::passed, twin)
+void screen_twin(const Pose& pose, const Pose& tw, const Points& P, double tau, ScreenedTwin* out) {
+  const double thr_s = std::min(kPolishWindow * tau, kMaxSupportThreshold);
+  const int s0 = support_count(pose, P, thr_s), s1 = support_count(tw, P, thr_s);
+  if (!(s1 >= kTwinSupportScreen * std::max(s0, 1))) return;
+  out->passed = true;
+  out->twin = polish_candidate(tw, P, tau);
+}
+
 ScreenedTwin screened_twin(const Pose& pose, const Points& source, const Points& P, double tau) {
   ScreenedTwin out;
   Pose tw;
   if (!homography_twin(pose, source, &tw, &out.planarity)) return out;
   out.found = true;
-  const double thr_s = std::min(kPolishWindow * tau, kMaxSupportThreshold);
-  const int s0 = support_count(pose, P, thr_s), s1 = support_count(tw, P, thr_s);
-  if (!(s1 >= kTwinSupportScreen * std::max(s0, 1))) return out;
-  out.passed = true;
-  out.twin = polish_candidate(tw, P, tau);
+  screen_twin(pose, tw, P, tau, &out);
   return out;
 }
 
@@ -261,9 +314,16 @@ TwinAnalysis analyse_twin(const Pose& pose, const Points& P, const uint8_t* mask
   for (int i = 0; i < P.n; ++i)
     if (mask[i]) sel.push(P.f1 + 3 * i, P.f2 + 3 * i);
   if (sel.view().n < kTwinMinInliers) return out;
-  const ScreenedTwin st = screened_twin(unit_pose(pose), sel.view(), P, tau);
+  ScreenedTwin st = screened_twin(unit_pose(pose), sel.view(), P, tau);
   out.found = st.found;
   out.planarity = st.planarity;
+  if (!st.passed) {
+    // the homography fitted to the inliers directly: where the plane through the triangulated inliers
+    // misses it (forward motion triangulates the points near the focus of expansion poorly, and towards
+    // a plane the twins nearly merge: the first-order covariance then misses their valley)
+    Pose tw;
+    if (homography_twin_dlt(unit_pose(pose), sel.view(), &tw)) screen_twin(unit_pose(pose), tw, P, tau, &st);
+  }
   if (!st.passed) return out;
   out.compared = true;
   out.twin = st.twin;

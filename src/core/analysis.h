@@ -34,6 +34,10 @@ bool decompose_homography(const Mat3& H, HomographyDecomposition* out);
 // cameras, the plane or the decomposition is degenerate, or fewer than two decompositions are valid.
 bool homography_twin(const Pose& pose, const Points& P, Pose* twin, double* planarity);
 
+// The same from the homography fitted to the matches `P` directly (DLT on the bearings, signed so that H
+// f1 points along f2 for most of them): analyse_twin's fallback where the triangulated plane's twin fails.
+bool homography_twin_dlt(const Pose& pose, const Points& P, Pose* twin);
+
 // Cheirality-consistent support: matches with sampson_chiral < thr (pose with unit t).
 int support_count(const Pose& pose, const Points& P, double thr);
 
@@ -49,7 +53,9 @@ SupportComparison compare_support(const Pose& a, const Pose& b, const Points& P,
 // Python from these counts): the homography twin of `pose` from the matches with mask[i] != 0 (its
 // inliers; none below 6 of them), screened as select_by_support screens it (support at min(1.5 tau,
 // 0.5) at least 30 % of the pose's), polished (polish_candidate) and compared with the pose at
-// min(tau, 0.5). `found`: a twin decomposition exists (planarity set); `compared`: it passed the screen.
+// min(tau, 0.5); where that twin is not found or fails the screen, the twin of the homography fitted to
+// those inliers directly (homography_twin_dlt) is screened instead. `found`: the triangulated plane's
+// twin decomposition exists (planarity set); `compared`: a twin passed the screen.
 struct TwinAnalysis {
   bool found = false;
   bool compared = false;

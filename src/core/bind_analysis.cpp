@@ -52,6 +52,20 @@ static nb::object homography_twin_py(const ArrayIn& R, const ArrayIn& t, const B
   return nb::make_tuple(Ro, to, planarity);
 }
 
+static nb::object homography_twin_dlt_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2) {
+  const Points P = points_of(f1, f2);
+  const Pose pose = pose_of(R, t);
+  Pose tw;
+  bool ok;
+  {
+    nb::gil_scoped_release release;
+    ok = homography_twin_dlt(pose, P, &tw);
+  }
+  if (!ok) return nb::none();
+  auto [Ro, to] = pose_arrays(tw);
+  return nb::make_tuple(Ro, to);
+}
+
 static nb::object decompose_homography_py(const ArrayIn& H) {
   if (H.size() != 9) throw std::invalid_argument("H must be (3, 3)");
   Mat3 M;
@@ -173,6 +187,8 @@ POSEONLY_BIND(analysis) {
         nb::arg("chord2"), "Re-paired matches with |R f1[i] - f2[perm[r, i]]|^2 < chord2; perm (reps, n) int64.");
   m.def("homography_twin", &homography_twin_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
         "The homography twin of (R, t) on its inliers f1, f2 (n, 3): (R_twin (3, 3), unit t_twin (3,), planarity) or None.");
+  m.def("homography_twin_dlt", &homography_twin_dlt_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
+        "The twin of (R, t) from the homography fitted to its inliers f1, f2 (n, 3) directly (DLT): (R_twin (3, 3), unit t_twin (3,)) or None.");
   m.def("select_by_support", &select_by_support_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("tau"),
         "The default method's pose-only choice (poseonly.robust.default.select_by_support): (R, t).");
   m.def(

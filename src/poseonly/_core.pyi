@@ -203,6 +203,9 @@ def rotation_chance_count(R: NDArray[np.float64], f1: NDArray[np.float64], f2: N
 def homography_twin(
     R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float] | None: ...
+def homography_twin_dlt(
+    R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None: ...
 def log_binom_sf(k: int, n: int, p: float) -> float: ...
 def compare_support(
     R_a: NDArray[np.float64], t_a: NDArray[np.float64], R_b: NDArray[np.float64], t_b: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], thr: float

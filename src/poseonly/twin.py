@@ -15,7 +15,7 @@ import numpy as np
 
 from . import _core
 
-__all__ = ["decompose_homography", "homography_twin"]
+__all__ = ["decompose_homography", "homography_twin", "homography_twin_dlt"]
 
 
 def _c(a: np.ndarray) -> np.ndarray:
@@ -47,3 +47,13 @@ def homography_twin(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray
     points triangulate in front of the cameras or the plane fit / decomposition is degenerate.
     """
     return _core.homography_twin(_c(R), _c(t), _c(f1), _c(f2))
+
+
+def homography_twin_dlt(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The other physically valid decomposition of the homography fitted to the inliers ``f1, f2 (m, 3)``
+    of ``(R (3, 3), t (3,))`` directly (DLT on the bearings, ``f2 x H f1 = 0``, ``H`` signed so that
+    ``H f1`` points along ``f2`` for most matches): ``(R_twin, t_twin (unit))`` or ``None`` (fewer than 4
+    matches, a degenerate fit or decomposition, fewer than two valid decompositions). The status
+    analysis's fallback where :func:`homography_twin`'s triangulated plane misses the twin (forward
+    motion triangulates the points near the focus of expansion poorly)."""
+    return _core.homography_twin_dlt(_c(R), _c(t), _c(f1), _c(f2))

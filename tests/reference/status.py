@@ -15,7 +15,7 @@ from poseonly.analysis import AMBIGUITY_LEVEL, TWIN_MIN_SEPARATION_DEG, TWIN_SUP
 from poseonly.geometry import rotation_error_deg
 from poseonly.median import median
 from poseonly.residuals import v_sampson
-from poseonly.twin import homography_twin
+from poseonly.twin import homography_twin, homography_twin_dlt
 
 POLISH_ITERATIONS = 20
 POLISH_TOL = 1e-12
@@ -57,6 +57,10 @@ def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, i
     tw = homography_twin(R, t, f1[sel], f2[sel]) if len(sel) >= 6 else None
     if tw is not None:
         info["planarity"] = tw[2]
+    if (tw is None or not plausible_twin(R, t, tw, f1, f2, tau)) and len(sel) >= 6:
+        # the core's fallback: the twin of the homography fitted to the inliers directly
+        dlt = homography_twin_dlt(R, t, f1[sel], f2[sel])
+        tw = None if dlt is None else (*dlt, info.get("planarity"))
     if tw is not None and plausible_twin(R, t, tw, f1, f2, tau):
         Rt, tt = polish(tw[0], tw[1], f1, f2, tau)
         S = support(np.stack([R, Rt]), np.stack([t, tt]), f1, f2, tau)

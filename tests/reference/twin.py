@@ -14,7 +14,7 @@ import numpy as np
 
 from poseonly.geometry import cross, normalize, project_to_so3, rotation_error_deg, triangulate_midpoint
 
-__all__ = ["decompose_homography", "homography_twin", "fit_plane"]
+__all__ = ["decompose_homography", "homography_twin", "homography_twin_dlt", "fit_plane"]
 
 
 def decompose_homography(H: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -84,6 +84,12 @@ def homography_twin(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray
         Rs, Ts, Ns = decompose_homography(H)
     except np.linalg.LinAlgError:  # numerically degenerate inliers (e.g. bearings near 90 deg off-axis)
         return None
+    tw = _twin_of(R, t, Rs, Ts, Ns, f1)
+    return None if tw is None else (*tw, planarity)
+
+
+def _twin_of(R, t, Rs, Ts, Ns, f1) -> tuple[np.ndarray, np.ndarray] | None:
+    """Of a homography's decompositions, the valid one next closest to ``(R, unit t)``."""
     # physically valid: the inliers lie in front of camera 1 on the plane side (n . f1 > 0)
     front = np.mean(f1 @ Ns.T > 0, axis=0)
     cand = np.nonzero((front > 0.5) & (np.linalg.norm(Ts, axis=1) > 1e-12))[0]
@@ -93,4 +99,25 @@ def homography_twin(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray
     errs = rotation_error_deg(R, Rs[cand]) + np.degrees(np.arccos(np.clip(Tn @ t, -1, 1)))
     # the decomposition closest to (R, t) is the pose itself; the other valid one is the twin
     k = int(np.argsort(errs, kind="stable")[1])
-    return Rs[cand[k]], Tn[k], planarity
+    return Rs[cand[k]], Tn[k]
+
+
+def homography_twin_dlt(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """The same from the homography fitted to the matches directly: the unit ``H`` minimising
+    ``sum |f2 x H f1|^2`` (the right singular vector of the stacked cross-product rows), signed so that
+    ``H f1`` points along ``f2`` for most matches."""
+    t = normalize(np.asarray(t, float))
+    if len(f1) < 4:
+        return None
+    # (f2 x H f1)_k = sum_r [f2]x[k, r] (H f1)_r: the row for h = vec(H) (row-major) is [f2]x[k, r] f1^T
+    B = np.zeros((len(f1), 3, 3))
+    B[:, 0, 1], B[:, 0, 2], B[:, 1, 0], B[:, 1, 2], B[:, 2, 0], B[:, 2, 1] = -f2[:, 2], f2[:, 1], f2[:, 2], -f2[:, 0], -f2[:, 1], f2[:, 0]
+    A = np.einsum("ikr,ij->ikrj", B, f1).reshape(-1, 9)
+    H = np.linalg.svd(A)[2][-1].reshape(3, 3)
+    if 2 * np.count_nonzero(np.einsum("ij,ij->i", f1 @ H.T, f2) > 0) < len(f1):
+        H = -H
+    try:
+        Rs, Ts, Ns = decompose_homography(H)
+    except np.linalg.LinAlgError:
+        return None
+    return _twin_of(R, t, Rs, Ts, Ns, f1)
