@@ -6,7 +6,7 @@ import pytest
 
 from poseonly import estimate_relative_pose, rotation_error_deg
 from poseonly.cameras import MODELS, Camera, as_camera, from_opencv
-from poseonly.geometry import InputError
+from poseonly.geometry import InputError, rotation_from_rotvec
 from poseonly.sim import default_K, make_scene
 
 PARAMS = {
@@ -108,6 +108,57 @@ def test_bad_points_and_non_invertible():
         cam.unproject(np.array([[320.0, 240.0], [620.0, 240.0]]))
 
 
+def test_points_past_the_first_fold_or_180_degrees_are_refused():
+    """A root on a later rising branch of the distortion (after the map folds back) or a fisheye angle
+    past 180 deg is not the point's preimage (a user trial: 181-400 deg came back as 179-40 deg, and a
+    polynomial that rises, falls and rises again gave 102 deg where its physical branch ends at 49)."""
+    fe = Camera("OPENCV_FISHEYE", 2000, 2000, (300.0, 300.0, 1000.0, 1000.0, 0.0, 0.0, 0.0, 0.0))
+    deg = np.array([45.0, 179.0, 181.0, 270.0, 400.0])
+    uv = np.column_stack([1000.0 + 300.0 * np.radians(deg), np.full(5, 1000.0)])
+    ok = np.isfinite(fe.unproject(uv, invalid="nan")[:, 0])
+    assert ok.tolist() == [True, True, False, False, False]
+    folded = Camera("OPENCV_FISHEYE", 2000, 2000, (300.0, 300.0, 1000.0, 1000.0, -0.6, 0.12, 0.0, 0.0))
+    # theta (1 - 0.6 theta^2 + 0.12 theta^4) peaks at 0.5348 (49.2 deg), dips, then rises again
+    rd = np.array([0.50, 0.53, 0.54, 0.6])
+    assert np.isfinite(folded.unproject(np.column_stack([1000.0 + 300.0 * rd, np.full(4, 1000.0)]), invalid="nan")[:, 0]).tolist() == [True, True, False, False]
+    radial = Camera("RADIAL", 2000, 2000, (300.0, 1000.0, 1000.0, -0.6, 0.12))
+    assert np.isfinite(radial.unproject(np.column_stack([1000.0 + 300.0 * rd, np.full(4, 1000.0)]), invalid="nan")[:, 0]).tolist() == [True, True, False, False]
+
+
+def test_unknown_camera_keys_and_flags_are_refused():
+    """A distortion given beside a COLMAP model's params, or a fisheye flag that is not a bool, was
+    silently ignored or read as true (a user trial: ok 11.7 deg off; ambiguous 18.7 deg off)."""
+    with pytest.raises(InputError, match="unknown keys"):
+        as_camera({"model": "PINHOLE", "width": 640, "height": 480, "params": [800, 800, 320, 240], "dist": [-0.28, 0.1, 0, 0]})
+    with pytest.raises(InputError, match="fisheye must be True or False"):
+        as_camera({"K": default_K(), "dist": [0.1, 0.0, 0.0, 0.0], "fisheye": "no"})
+    assert as_camera({"K": default_K(), "dist": [0.1, 0.0, 0.0, 0.0], "fisheye": np.bool_(True)}).model == "OPENCV_FISHEYE"
+
+
+def test_two_focal_lengths_share_one_threshold_by_their_noise():
+    """A 300 px view beside a 3000 px one: the threshold's angle is the root mean square of the two
+    views' (pair_focal), not the mean focal's, which put the short lens's 0.5 px noise outside 1 px."""
+    from poseonly.geometry import pair_focal
+
+    assert pair_focal(800.0, 800.0) == 800.0 and pair_focal(300.0, 3000.0) == pytest.approx(300.0 * np.sqrt(2.0 / 1.01))
+    assert pair_focal(3000.0, 300.0) == pair_focal(300.0, 3000.0)
+    rng = np.random.default_rng(1)
+    X = np.column_stack([rng.uniform(-1, 1, 300), rng.uniform(-0.8, 0.8, 300), rng.uniform(6, 14, 300)])
+    K1 = np.array([[300.0, 0, 320], [0, 300, 240], [0, 0, 1]])
+    K2 = np.array([[3000.0, 0, 320], [0, 3000, 240], [0, 0, 1]])
+    R = rotation_from_rotvec(np.radians([0.5, -1.0, 0.5]))
+    C = np.array([1.0, 0.1, 0.2])
+
+    def project(K: np.ndarray, Y: np.ndarray) -> np.ndarray:
+        return (Y[:, :2] / Y[:, 2:]) * K[0, 0] + K[:2, 2] + rng.normal(0, 0.5, (len(Y), 2))
+
+    u1, u2 = project(K1, X), project(K2, (X - C) @ R.T)
+    r = estimate_relative_pose(u1, u2, K1, K2, seed=0)
+    assert r.focal_px == pytest.approx(pair_focal(300.0, 3000.0))
+    assert r.status == "ok" and r.num_inliers >= 0.95 * 300, r.message
+    assert estimate_relative_pose(u1, u2, K1, K2, seed=0, focal_px=1650.0).num_inliers < 0.7 * 300  # the mean focal
+
+
 def test_api_camera_arguments():
     sc = make_scene(100, camera="pinhole", noise_px=0.5, seed=4)
     cam = Camera("PINHOLE", 640, 480, (800.0, 800.0, 320.0, 240.0))
@@ -198,3 +249,21 @@ def test_as_colmap_camera_converts_opencv_descriptions_only():
         np.testing.assert_allclose(cam.unproject(u + OPENCV_TO_COLMAP_PX), as_camera(spec).unproject(u), atol=1e-12)
     colmap = {"model": "SIMPLE_RADIAL", "width": 640, "height": 480, "params": [800.0, 320.0, 240.0, -0.1]}
     assert as_colmap_camera(colmap) == as_camera(colmap)
+
+
+def test_relpose_matches_leaves_out_what_the_camera_cannot_lift():
+    """Matches given as pixels with a camera model: a keypoint the model cannot undistort leaves its
+    match out and counted, as with images (a user trial: the whole call failed on 3 corners of 303)."""
+    from poseonly.pipeline import relpose_matches
+
+    cam = Camera("OPENCV_FISHEYE", 2000, 2000, (300.0, 300.0, 1000.0, 1000.0, 0.0, 0.0, 0.0, 0.0))
+    sc = make_scene(200, camera="pinhole", noise_px=0.0, seed=2)
+    u1, u2 = cam.project(sc.f1), cam.project(sc.f2)
+    past = np.array([[1000.0 + 300.0 * np.radians(200.0), 1000.0]] * 3)  # 200 deg off-axis
+    x1, x2 = np.r_[u1, past], np.r_[u2, u2[:3]]
+    scores = np.linspace(1.0, 0.0, len(x1))
+    pr = relpose_matches(x1, x2, None, None, camera1=cam, scores=scores, seed=0)
+    assert pr.dropped == 3 and len(pr.u1) == 200
+    assert pr.result.status == "ok" and rotation_error_deg(sc.R, pr.result.R) < 1e-6
+    with pytest.raises(InputError, match="did not converge for 3 of 203"):
+        estimate_relative_pose(x1, x2, camera1=cam)

@@ -10,13 +10,15 @@ namespace poseonly {
 
 // Brown-Conrady (COLMAP's SIMPLE_RADIAL ... FULL_OPENCV): k = (k1, k2, p1, p2, k3, k4, k5, k6). For each
 // of the n points (xd, yd): the undistorted (u, v) and ok = converged, finite, locally invertible with
-// preserved orientation at the root (det J > 0, radial factor > 0) and reproducing (xd, yd) to 1e-9
-// (relative). n must fit an int (the binding checks).
+// preserved orientation at the root (det J > 0, radial factor > 0), inside the radial map's first fold
+// (r -> r rad(r^2) increasing from 0 to |(u, v)|; checked up to r = 573, 89.9 deg off-axis) and
+// reproducing (xd, yd) to 1e-9 (relative). n must fit an int (the binding checks).
 void undistort_brown(const double* xd, const double* yd, int n, const double k[8], double tol, int max_iter, double* u, double* v,
                      uint8_t* ok);
 
 // OpenCV fisheye: theta with theta (1 + k1 t^2 + k2 t^4 + k3 t^6 + k4 t^8) = rd, k = (k1, k2, k3, k4);
-// ok = converged, finite, theta >= 0, an increasing map there and reproducing rd to 1e-9 (relative).
+// ok = converged, finite, 0 <= theta < pi, before the polynomial's first fold (the map increasing from 0
+// to theta) and reproducing rd to 1e-9 (relative).
 void undistort_fisheye(const double* rd, int n, const double k[4], double tol, int max_iter, double* theta, uint8_t* ok);
 
 }  // namespace poseonly

@@ -34,7 +34,8 @@ and :mod:`poseonly.robust.methods`; the result type and the status decision in
 ``[1e-12, 1]`` rad (:func:`poseonly.options.check_angle`).
 
 Threshold conversion: ``threshold_px`` pixels at focal ``f`` is the angle ``tau = threshold_px / f``
-(``f`` = mean of the focal lengths of ``K1`` and ``K2``, or ``focal_px``). The Sampson residual on
+(``f`` = :func:`poseonly.geometry.pair_focal` of the focal lengths of ``K1`` and ``K2``: their value
+when equal; or ``focal_px``). The Sampson residual on
 the sphere is compared with ``tau`` directly. For ``v_LiGT`` (unit baseline) the identity
 ``v_LiGT = theta^2 ||f2 x (z1 R f1 + t)|| = sin(parallax) sin(alpha) * d2 * |angle error| / d2``
 bounds ``v_LiGT <= sin(parallax) * |angle error| <= |angle error|`` (law of sines in the epipolar
@@ -56,7 +57,7 @@ import numpy as np
 from . import _core
 from .analysis import REFINE_SOLVER
 from .estimator import lirp_estimator
-from .geometry import InputError, as_bearings, check_correspondences, check_intrinsics
+from .geometry import InputError, as_bearings, check_correspondences, check_intrinsics, pair_focal
 from .options import OPTIONS, PoseonlyOptions, Spec, check_angle, check_value, parse_options
 from .result import RelativePoseResult, degenerate_result, finish
 from .robust.default import make_rng, run_poseonly
@@ -132,7 +133,7 @@ def _focal(K1, K2, focal_px):
     if focal_px is not None:
         return float(focal_px)
     fs = [0.5 * float(K[0, 0]) + 0.5 * float(K[1, 1]) for K in (K1, K2) if K is not None]  # no overflow
-    return float(sum(f / len(fs) for f in fs))
+    return pair_focal(fs[0], fs[-1])
 
 
 def _check_scores(scores: Any, n: int) -> np.ndarray | None:
@@ -195,7 +196,7 @@ def estimate_relative_pose(
     True). ``camera1``/``camera2`` (instead of ``K1``/``K2``; ``camera2`` defaults to ``camera1``): any
     camera of :func:`poseonly.cameras.as_camera` (pycolmap.Camera, ``{"model", "width", "height",
     "params"}``, ``(K, dist)``); pixels are lifted through the distortion model and the threshold uses
-    the cameras' mean focal length. ``scores (n,)``: match quality, higher is better (e.g. ``1 - ratio``
+    the cameras' focal length (:func:`poseonly.geometry.pair_focal` of the two). ``scores (n,)``: match quality, higher is better (e.g. ``1 - ratio``
     of the ratio test, or a matcher's confidence); the default method then samples PROSAC-style, best
     matches first (PoseLib's ``progressive_sampling``, OpenCV's ``SAMPLING_PROSAC``).
     ``noise_scales (n,)``: each match's relative localisation scale (> 0; only ratios matter), e.g.

@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from . import _core
-from .geometry import InputError
+from .geometry import InputError, pair_focal
 
 __all__ = ["MODELS", "NEWTON_TOL", "OPENCV_TO_COLMAP_PX", "Camera", "as_camera", "as_colmap_camera", "camera_from_text", "from_opencv", "lift_pair"]
 
@@ -258,7 +258,8 @@ def _raise_unconverged(ok: np.ndarray, uv: np.ndarray, model: str) -> None:
             f"undistortion ({model}) did not converge for {len(bad)} of {len(uv)} points (first: index "
             f"{bad[0]}, pixel {uv[bad[0]].tolist()}): the points lie outside the region where the "
             "distortion model is invertible (leave such matches out first: np.isfinite(camera.unproject(uv, "
-            "invalid='nan')).all(axis=1) marks the points it can lift, as poseonly relpose does)"
+            "invalid='nan')).all(axis=1) marks the points it can lift; poseonly relpose and poseonly.pipeline.relpose_matches "
+            "leave such matches out and count them)"
         )
 
 
@@ -312,10 +313,16 @@ def as_camera(spec: Any, name: str = "camera") -> Camera:
             extra = set(spec) - {"K", "dist", "width", "height", "fisheye"}
             if extra:
                 raise InputError(f"{name}: unknown keys {sorted(extra)} (K-style camera keys: K, dist, width, height, fisheye)")
-            return from_opencv(spec["K"], spec.get("dist"), spec.get("width", 0), spec.get("height", 0), fisheye=bool(spec.get("fisheye", False)))
+            fisheye = spec.get("fisheye", False)
+            if not isinstance(fisheye, (bool, np.bool_)):
+                raise InputError(f"{name}: fisheye must be True or False, got {fisheye!r}")
+            return from_opencv(spec["K"], spec.get("dist"), spec.get("width", 0), spec.get("height", 0), fisheye=bool(fisheye))
         missing = {"model", "params"} - set(spec)
         if missing:
             raise InputError(f"{name}: a camera dict needs keys model, width, height, params (or K, dist); missing {sorted(missing)}")
+        extra = set(spec) - {"model", "width", "height", "params"}
+        if extra:
+            raise InputError(f"{name}: unknown keys {sorted(extra)} (COLMAP-style camera keys: model, width, height, params; the distortion is in params)")
         model = spec["model"]
         if not isinstance(model, str):
             raise InputError(f"{name}: camera model must be a string, got {type(model).__name__}")
@@ -369,12 +376,13 @@ def camera_from_text(model: str, params: str, width: int = 0, height: int = 0, n
 
 
 def lift_pair(x1: Any, x2: Any, camera1: Any, camera2: Any = None) -> tuple[np.ndarray, np.ndarray, float]:
-    """Pixels ``(n, 2)`` of two views -> bearings ``(n, 3), (n, 3)`` and the mean focal length (pixels)
-    of the two cameras for the threshold conversion. ``camera2`` defaults to ``camera1``."""
+    """Pixels ``(n, 2)`` of two views -> bearings ``(n, 3), (n, 3)`` and the focal length (pixels) for
+    the threshold conversion (:func:`poseonly.geometry.pair_focal` of the two cameras'). ``camera2``
+    defaults to ``camera1``."""
     c1 = as_camera(camera1, "camera1")
     c2 = c1 if camera2 is None else as_camera(camera2, "camera2")
     for x, nm in ((x1, "x1"), (x2, "x2")):
         a = np.asarray(x)
         if a.ndim == 2 and a.shape[1] == 3:
             raise InputError(f"{nm} has shape (n, 3) (bearing vectors) but a camera was given; pass pixels (n, 2)")
-    return c1.unproject(x1), c2.unproject(x2), 0.5 * (c1.focal_px + c2.focal_px)
+    return c1.unproject(x1), c2.unproject(x2), pair_focal(c1.focal_px, c2.focal_px)

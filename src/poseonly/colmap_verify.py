@@ -43,7 +43,7 @@ import numpy as np
 from .api import DEFAULT_METHOD, METHODS
 from .argtypes import jobs_int, non_negative_int, positive_float, positive_int
 from .batch import Pair, PairResult, estimate_relative_poses
-from .geometry import InputError
+from .geometry import InputError, pair_focal
 from .io.colmap_db import ColmapDatabase, GeometryRow, refuse_guessed_focal
 from .options import MANY_PAIRS_MAX_ITERATIONS
 
@@ -142,7 +142,7 @@ class _Source:
                 continue
             self.pending[pid] = (i1, i2, m)
             c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
-            opts: dict[str, Any] = {"focal_px": 0.5 * (c1.focal_px + c2.focal_px)}
+            opts: dict[str, Any] = {"focal_px": pair_focal(c1.focal_px, c2.focal_px)}
             s1, s2 = (self.db.keypoint_scales(i1), self.db.keypoint_scales(i2)) if self.noise_scales else (None, None)
             if s1 is not None and s2 is not None:
                 opts["noise_scales"] = np.sqrt(s1[m[:, 0]] * s2[m[:, 1]])  # the keypoints' scales weight the ML refinement

@@ -20,7 +20,7 @@ __all__ = ["relpose_images", "relpose_matches", "draw_matches", "run_demo", "Pai
 class PairResult:
     """A pair's result with its matches ``u1, u2 (k, 2)`` in the images' pixels (OpenCV's convention
     for our own features), the stage times and ``dropped``: matches left out because a camera model
-    could not undistort a keypoint of theirs (images with ``camera1/camera2``)."""
+    could not undistort a keypoint of theirs (with ``camera1/camera2``)."""
 
     result: RelativePoseResult
     u1: np.ndarray
@@ -30,15 +30,42 @@ class PairResult:
     dropped: int = 0
 
 
+def _liftable(u1: np.ndarray, u2: np.ndarray, options: dict[str, Any], shift: float = 0.0) -> tuple[np.ndarray, dict[str, Any]]:
+    """With ``camera1`` (/ ``camera2``) in ``options``: the mask of the matches ``(k, 2)`` whose two
+    keypoints (plus ``shift`` pixels) the camera models can undistort, and the options with the cameras
+    converted (:func:`poseonly.cameras.as_camera`); all True and ``options`` unchanged without them."""
+    if options.get("camera1") is None or not len(u1):
+        return np.ones(len(u1), bool), options
+    from .cameras import as_camera
+
+    c1 = as_camera(options["camera1"], "camera1")
+    c2 = c1 if options.get("camera2") is None else as_camera(options["camera2"], "camera2")
+    ok = np.isfinite(c1.unproject(u1 + shift, invalid="nan")[:, 0]) & np.isfinite(c2.unproject(u2 + shift, invalid="nan")[:, 0])
+    return ok, {**options, "camera1": c1, "camera2": c2}
+
+
 def relpose_matches(u1, u2, K1, K2, **options: Any) -> PairResult:
-    """Robust relative pose from pixel matches (validated; ``ValueError`` below 6 matches)."""
+    """Robust relative pose from pixel matches (validated; ``ValueError`` below 6 matches). With
+    ``camera1`` (/ ``camera2``) options, matches with a keypoint the model cannot undistort are left out
+    (``PairResult.dropped``; their ``scores`` and ``noise_scales`` with them)."""
     u1 = np.asarray(u1, float)
     u2 = np.asarray(u2, float)
+    dropped = 0
+    if u1.ndim == 2 and u1.shape == u2.shape and u1.shape[1] == 2 and np.isfinite(u1).all() and np.isfinite(u2).all():
+        ok, options = _liftable(u1, u2, options)
+        dropped = int(np.count_nonzero(~ok))
+        if dropped:
+            u1, u2 = u1[ok], u2[ok]
+            for key in ("scores", "noise_scales"):
+                v = options.get(key)
+                if v is not None and np.ndim(v) == 1 and len(v) == len(ok):
+                    options = {**options, key: np.asarray(v)[ok]}
     if len(u1) < 6:
-        raise InputError(f"only {len(u1)} matches: at least 6 are needed for a relative pose")
+        why = f" ({dropped} left out: a camera model could not undistort a keypoint)" if dropped else ""
+        raise InputError(f"only {len(u1)} matches{why}: at least 6 are needed for a relative pose")
     t0 = time.perf_counter()
     r = estimate_relative_pose(u1, u2, K1, K2, **options)
-    return PairResult(r, u1, u2, 0.0, time.perf_counter() - t0)
+    return PairResult(r, u1, u2, 0.0, time.perf_counter() - t0, dropped)
 
 
 def relpose_images(img1, img2, K1, K2=None, *, ratio: float = 0.8, mutual: bool = False, cache_dir=None, **options: Any) -> PairResult:
@@ -59,10 +86,7 @@ def relpose_images(img1, img2, K1, K2=None, *, ratio: float = 0.8, mutual: bool 
 
         c1 = as_colmap_camera(options["camera1"], "camera1")
         c2 = c1 if options.get("camera2") is None else as_colmap_camera(options["camera2"], "camera2")
-        options = {**options, "camera1": c1, "camera2": c2}
-        ok = np.ones(len(u1), bool)
-        if len(u1):
-            ok = np.isfinite(c1.unproject(u1 + OPENCV_TO_COLMAP_PX, invalid="nan")[:, 0]) & np.isfinite(c2.unproject(u2 + OPENCV_TO_COLMAP_PX, invalid="nan")[:, 0])
+        ok, options = _liftable(u1, u2, {**options, "camera1": c1, "camera2": c2}, OPENCV_TO_COLMAP_PX)
         dropped = int(np.count_nonzero(~ok))
         u1, u2 = u1[ok], u2[ok]
         scores = None if scores is None else scores[ok]

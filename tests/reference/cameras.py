@@ -71,9 +71,47 @@ def undistort_brown(xd, yd, k):
     ok = done & np.isfinite(u) & np.isfinite(v)
     rad, det = fold_terms(u, v, k)  # at the root (the loop's last values are at the last step's start)
     ok &= (rad > 0) & (det > 0)
+    r_fold = brown_fold(k)
+    ok &= (r_fold >= BROWN_FOLD_MAX_RADIUS) | (np.hypot(u, v) < r_fold)
     ru, rv = distort_brown(u, v, k)
     ok &= np.hypot(ru - xd, rv - yd) <= 1e-9 * np.maximum(1.0, np.hypot(xd, yd))
     return u, v, ok
+
+
+FOLD_STEPS, FOLD_BISECTIONS, BROWN_FOLD_MAX_RADIUS = 1024, 60, 573.0
+
+
+def first_fold(dh, hi: float) -> float:
+    """The first x in (0, hi] where the increasing map with derivative ``dh`` stops increasing (a
+    quadratically spaced grid, then bisection to the last increasing x); ``hi`` without a fold."""
+    x = hi * (np.arange(1, FOLD_STEPS + 1) / FOLD_STEPS) ** 2
+    with np.errstate(all="ignore"):
+        bad = np.flatnonzero(~(dh(x) > 0))
+    if not len(bad):
+        return hi
+    s = int(bad[0]) + 1
+    a, b = hi * ((s - 1) / FOLD_STEPS) ** 2, float(x[s - 1])
+    for _ in range(FOLD_BISECTIONS):
+        m = 0.5 * (a + b)
+        with np.errstate(all="ignore"):
+            up = float(dh(np.array([m]))[0]) > 0
+        a, b = (m, b) if up else (a, m)
+    return a
+
+
+def brown_fold(k) -> float:
+    """The first fold of the radial map ``r -> r rad(r^2)`` (up to BROWN_FOLD_MAX_RADIUS)."""
+    k1, k2, _, _, k3, k4, k5, k6 = k
+
+    def dh(r):
+        r2 = r * r
+        num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+        dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
+        dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
+        return num / den + 2.0 * r2 * (dnum * den - num * dden) / (den * den)
+
+    return first_fold(dh, BROWN_FOLD_MAX_RADIUS)
 
 
 def fisheye_poly(theta, k):
@@ -97,5 +135,6 @@ def undistort_fisheye(rd, k):
         if done.all():
             break
     g, dg = fisheye_poly(theta, k)
-    ok = done & np.isfinite(theta) & (theta >= 0) & (dg > 0) & (np.abs(g - rd) <= 1e-9 * np.maximum(1.0, rd))
+    th_max = first_fold(lambda th: fisheye_poly(th, k)[1], np.pi)
+    ok = done & np.isfinite(theta) & (theta >= 0) & (theta < th_max) & (dg > 0) & (np.abs(g - rd) <= 1e-9 * np.maximum(1.0, rd))
     return theta, ok

@@ -4,7 +4,7 @@ Read: cameras (any COLMAP model; keypoints are undistorted to normalized coordin
 ``Camera.cam_from_img``), images (sorted by name; view ``k`` is the ``k``-th name), keypoints and
 the putative ``matches`` table. Every pair with at least ``min_matches`` matches is estimated by
 :func:`poseonly.estimate_relative_pose` on the normalized coordinates (threshold in pixels at the
-mean focal of the two cameras); COLMAP's own two-view geometries are not used. The exported
+focal of the two cameras, :func:`poseonly.geometry.pair_focal`); COLMAP's own two-view geometries are not used. The exported
 COLMAP model keeps the database's camera models and parameters.
 """
 
@@ -19,7 +19,7 @@ import numpy as np
 
 from .._pycolmap import import_pycolmap
 from ..features import Features, match_noise_scales
-from ..geometry import InputError
+from ..geometry import InputError, pair_focal
 from ..io.colmap_db import guessed_focal, keypoint_scales, matched_pair_ids, refuse_guessed_focal
 from .pairwise import ImageGraph, PairwiseOptions, TwoView, map_ordered, pair_seed, two_view
 from .viewgraph import ViewGraph
@@ -115,7 +115,7 @@ def database_view_graph(
             return m, None
         ns = match_noise_scales(feats[i], feats[j], m)
         seed = pair_seed(opt.seed, i, j, len(images))
-        return m, two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, seed, cache, focal_px=0.5 * (focal[i] + focal[j]), noise_scales=ns)
+        return m, two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, seed, cache, focal_px=pair_focal(focal[i], focal[j]), noise_scales=ns)
 
     for (i, j, _), (pm, r) in zip(pairs, wrap(map_ordered(pair_job, enumerate(pairs), jobs), desc="pairs", total=len(pairs)), strict=True):
         putative[(i, j)] = pm

@@ -29,7 +29,7 @@ from .._fileutil import atomic_savez
 from ..api import estimate_relative_pose
 from ..cameras import OPENCV_TO_COLMAP_PX
 from ..features import Features, extract_features, match_features, match_noise_scales, unreadable_images
-from ..geometry import InputError, bearings_from_normalized, bearings_from_pixels
+from ..geometry import InputError, bearings_from_normalized, bearings_from_pixels, pair_focal
 from ..options import MANY_PAIRS_MAX_ITERATIONS
 from .inputs import checked_pairs
 from .tracks import Tracks
@@ -500,7 +500,7 @@ def image_view_graph(
         if cams is None:
             r = two_view(ba.keypoints[idx[:, 0]], bb.keypoints[idx[:, 1]], Ks[i], Ks[j], opt, seed, cache, scores=scores, noise_scales=ns)
         else:
-            focal = 0.5 * (cams[i].focal_px + cams[j].focal_px)
+            focal = pair_focal(cams[i].focal_px, cams[j].focal_px)
             r = two_view(lift(i)[idx[:, 0]], lift(j)[idx[:, 1]], None, None, opt, seed, cache, focal_px=focal, scores=scores, noise_scales=ns)
         return idx, r, t2 - t1, time.perf_counter() - t2
 
