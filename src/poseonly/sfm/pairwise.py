@@ -68,7 +68,8 @@ RESIDENT_IMAGES = 256
 # threshold; 27: its noise check; 28: the stopping rule assumes min_inliers inliers; 29: that rule
 # without replacement and, with scores, on PROSAC's uniform draws only; 30: PAIRWISE_MAX_ITERATIONS; 31: the
 # pure-rotation test's locally supported translation, PROSAC's remainder search; 32: the
-# uniqueness test against every basin the search kept, a duplicated match counted once in the status)
+# uniqueness test against every basin the search kept, a duplicated match counted once in the status, the
+# planar twin's spread in the covariance and its DLT fallback, pair_focal for two focal lengths)
 TWO_VIEW_CACHE_TAG = 32
 # the default method's sample cap in the pairwise stage (``max_iterations``; an ``estimator_options``
 # entry overrides it): COLMAP's two-view cap, as ``poseonly colmap verify`` (options.MANY_PAIRS_MAX_ITERATIONS)
