@@ -267,3 +267,22 @@ def test_relpose_matches_leaves_out_what_the_camera_cannot_lift():
     assert pr.result.status == "ok" and rotation_error_deg(sc.R, pr.result.R) < 1e-6
     with pytest.raises(InputError, match="did not converge for 3 of 203"):
         estimate_relative_pose(x1, x2, camera1=cam)
+
+
+def test_relpose_cli_reports_inliers_as_the_files_rows(tmp_path, capsys):
+    """`relpose --matches` with a camera: rows left out keep the reported inliers (--json indices,
+    --save mask) in the file's numbering (a review: indices 0-119 for file rows 10-129)."""
+    import json
+
+    from poseonly.cli import main
+
+    cam = Camera("SIMPLE_RADIAL", 640, 480, (800.0, 320.0, 240.0, -0.5))  # no preimage beyond 0.544 (435 px)
+    sc = make_scene(120, camera="pinhole", noise_px=0.3, seed=1)
+    bad = np.tile([[920.0, 240.0]], (10, 1))
+    np.savez(tmp_path / "m.npz", u1=np.r_[bad, cam.project(sc.f1)], u2=np.r_[bad, cam.project(sc.f2)])
+    args = ["relpose", "--matches", str(tmp_path / "m.npz"), "--camera-model", "SIMPLE_RADIAL", "--camera-params", "800,320,240,-0.5"]
+    assert main([*args, "--json", "--save", str(tmp_path / "out.npz")]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["num_dropped"] == 10 and min(d["inliers"]) >= 10 and len(d["inliers"]) >= 110
+    saved = np.load(tmp_path / "out.npz")["inliers"]
+    assert saved.shape == (130,) and not saved[:10].any() and np.flatnonzero(saved).tolist() == d["inliers"]

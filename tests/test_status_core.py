@@ -37,7 +37,9 @@ def test_planar_twin_rival_and_parallax_match_the_reference(kind, camera, frac, 
     assert (twin is None) == (twin_ref is None)
     assert set(info) == set(info_ref)
     for k in info:
-        assert info[k] == pytest.approx(info_ref[k], rel=1e-9, abs=1e-12), k
+        # the cost excess is a difference of sums over the noise variance: it amplifies the polished twins'
+        # rounding-level differences
+        assert info[k] == pytest.approx(info_ref[k], rel=1e-6 if k == "twin_cost_excess" else 1e-9, abs=1e-12), k
     if twin is not None:
         assert rotation_error_deg(twin[0], twin_ref[0]) < 1e-9 and twin[2] == twin_ref[2]
         np.testing.assert_allclose(twin[1], twin_ref[1], atol=1e-11)

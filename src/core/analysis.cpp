@@ -163,6 +163,8 @@ bool homography_twin(const Pose& pose, const Points& P, Pose* twin, double* plan
 
 namespace {
 
+constexpr double kDltPlanarShare = 0.9;  // homography_twin_dlt: the share of matches H must carry (TWIN_SUPPORT_RATIO)
+
 // The sign-fixed homography of the matches P fitted directly: the unit H minimising sum |f2 x H f1|^2
 // (DLT on the bearings, all three rows of each cross product; the eigenvector of the smallest
 // eigenvalue of the 9 x 9 normal matrix), signed so that H f1 points along f2 for most matches.
@@ -191,9 +193,17 @@ bool fit_homography(const Points& P, Mat3* H) {
 
 }  // namespace
 
-bool homography_twin_dlt(const Pose& pose, const Points& P, Pose* twin) {
+bool homography_twin_dlt(const Pose& pose, const Points& P, double max_transfer, Pose* twin) {
   Mat3 H;
   if (!fit_homography(P, &H)) return false;
+  // planar in the images: H carries kDltPlanarShare of the matches to within max_transfer (a low-parallax
+  // scene of depth is not: its H misses the parallax, and a twin from it is an artefact of the fit)
+  int near = 0;
+  for (int i = 0; i < P.n; ++i) {
+    const Vec3 h = H * P.a(i), b = P.b(i);
+    near += std::atan2(h.cross(b).norm(), h.dot(b)) < max_transfer;
+  }
+  if (!(near >= kDltPlanarShare * P.n)) return false;
   return twin_of_homography(pose, H, P, twin);
 }
 
@@ -213,6 +223,9 @@ constexpr double kPolishTol = 1e-12;
 constexpr int kLigtAngular = 2;             // refine_ligt normalization code of "angular"
 constexpr double kMaxSupportThreshold = 0.5;
 constexpr int kTwinMinInliers = 6;  // analysis.planar_twin: no twin from fewer inliers
+// analyse_twin's DLT fallback: the transfer angle within which the homography must carry the inliers,
+// in units of tau (two views' errors, as the rotation-only model's 2 tau in pure_rotation_test)
+constexpr double kDltTransferFactor = 2.0;
 // select_by_support: a candidate this close to the search's pose (pose_distance_deg; the challengers'
 // distinct-basin distance, RansacOptions::challenger_distance) is another estimate of the same pose,
 // not an alternative: a support count cannot rank two estimates of one pose (a noisier linear solve
@@ -322,7 +335,7 @@ TwinAnalysis analyse_twin(const Pose& pose, const Points& P, const uint8_t* mask
     // misses it (forward motion triangulates the points near the focus of expansion poorly, and towards
     // a plane the twins nearly merge: the first-order covariance then misses their valley)
     Pose tw;
-    if (homography_twin_dlt(unit_pose(pose), sel.view(), &tw)) screen_twin(unit_pose(pose), tw, P, tau, &st);
+    if (homography_twin_dlt(unit_pose(pose), sel.view(), kDltTransferFactor * tau, &tw)) screen_twin(unit_pose(pose), tw, P, tau, &st);
   }
   if (!st.passed) return out;
   out.compared = true;

@@ -35,8 +35,10 @@ bool decompose_homography(const Mat3& H, HomographyDecomposition* out);
 bool homography_twin(const Pose& pose, const Points& P, Pose* twin, double* planarity);
 
 // The same from the homography fitted to the matches `P` directly (DLT on the bearings, signed so that H
-// f1 points along f2 for most of them): analyse_twin's fallback where the triangulated plane's twin fails.
-bool homography_twin_dlt(const Pose& pose, const Points& P, Pose* twin);
+// f1 points along f2 for most of them), when it carries at least 90 % of them to within max_transfer
+// radians (the angle between H f1 and f2; the matches are planar in the images): analyse_twin's fallback
+// (at 2 tau) where the triangulated plane's twin fails.
+bool homography_twin_dlt(const Pose& pose, const Points& P, double max_transfer, Pose* twin);
 
 // Cheirality-consistent support: matches with sampson_chiral < thr (pose with unit t).
 int support_count(const Pose& pose, const Points& P, double thr);

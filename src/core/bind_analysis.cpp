@@ -52,14 +52,14 @@ static nb::object homography_twin_py(const ArrayIn& R, const ArrayIn& t, const B
   return nb::make_tuple(Ro, to, planarity);
 }
 
-static nb::object homography_twin_dlt_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2) {
+static nb::object homography_twin_dlt_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double max_transfer) {
   const Points P = points_of(f1, f2);
   const Pose pose = pose_of(R, t);
   Pose tw;
   bool ok;
   {
     nb::gil_scoped_release release;
-    ok = homography_twin_dlt(pose, P, &tw);
+    ok = homography_twin_dlt(pose, P, max_transfer, &tw);
   }
   if (!ok) return nb::none();
   auto [Ro, to] = pose_arrays(tw);
@@ -160,10 +160,12 @@ static nb::object analyse_twin_py(const ArrayIn& R, const ArrayIn& t, const Bear
     nb::gil_scoped_release release;
     r = analyse_twin(pose, P, m, tau);
   }
-  if (!r.found) return nb::none();
-  if (!r.compared) return nb::make_tuple(r.planarity, nb::none());
+  if (!r.found && !r.compared) return nb::none();
+  // planarity: the triangulated plane's (None where only the DLT fallback found the twin)
+  nb::object planarity = r.found ? nb::object(nb::float_(r.planarity)) : nb::none();
+  if (!r.compared) return nb::make_tuple(planarity, nb::none());
   auto [Ro, to] = pose_arrays(r.twin);
-  return nb::make_tuple(r.planarity, nb::make_tuple(Ro, to, counts_of(r.support)));
+  return nb::make_tuple(planarity, nb::make_tuple(Ro, to, counts_of(r.support)));
 }
 
 static double median_rotation_angle_py(const ArrayIn& R, const BearingsIn& f1, const BearingsIn& f2, const MaskIn& mask) {
@@ -187,8 +189,9 @@ POSEONLY_BIND(analysis) {
         nb::arg("chord2"), "Re-paired matches with |R f1[i] - f2[perm[r, i]]|^2 < chord2; perm (reps, n) int64.");
   m.def("homography_twin", &homography_twin_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
         "The homography twin of (R, t) on its inliers f1, f2 (n, 3): (R_twin (3, 3), unit t_twin (3,), planarity) or None.");
-  m.def("homography_twin_dlt", &homography_twin_dlt_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
-        "The twin of (R, t) from the homography fitted to its inliers f1, f2 (n, 3) directly (DLT): (R_twin (3, 3), unit t_twin (3,)) or None.");
+  m.def("homography_twin_dlt", &homography_twin_dlt_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("max_transfer"),
+        "The twin of (R, t) from the homography fitted to its inliers f1, f2 (n, 3) directly (DLT), if it carries 90 % of them to within "
+        "max_transfer radians: (R_twin (3, 3), unit t_twin (3,)) or None.");
   m.def("select_by_support", &select_by_support_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("tau"),
         "The default method's pose-only choice (poseonly.robust.default.select_by_support): (R, t).");
   m.def(

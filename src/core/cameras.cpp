@@ -79,6 +79,7 @@ void undistort_brown(const double* xd, const double* yd, int n, const double k[8
         const double den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
         const double dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2);
         const double dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2);
+        if (!(den > 0.0)) return -1.0;  // the rational model's pole: the map's branch ends there
         return num / den + 2.0 * r2 * (dnum * den - num * dden) / (den * den);
       },
       kBrownFoldMaxRadius);

@@ -52,6 +52,10 @@ TWIN_SUPPORT_RATIO = 0.9
 # a twin this close to the pose does not make the pose ambiguous (whichever is right, the rotation is
 # known to this accuracy); measured on temple's ring pairs 24-27: twins 0.3-2.1 deg off, poses 0.01-0.4
 TWIN_MIN_SEPARATION_DEG = 1.0
+# a twin as well supported whose summed squared errors exceed the pose's by at most this many noise
+# variances (twin_cost_excess; chi-square with 5 degrees of freedom at 95 %) fits as well: its distance
+# is part of the pose's uncertainty (poseonly.result.finish)
+TWIN_SPREAD_CHI2 = 11.07
 CHANCE_SEED = 20240611
 # support counts cap the threshold here (radians; v_sampson_chiral is 1 where a depth is not positive)
 MAX_SUPPORT_THRESHOLD = 0.5
@@ -154,7 +158,8 @@ def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, i
     r = _core.analyse_twin(_c(R), _c(t), _c(f1), _c(f2), np.ascontiguousarray(inl, dtype=bool), float(tau))
     if r is None:
         return None, info
-    info["planarity"] = float(r[0])
+    if r[0] is not None:
+        info["planarity"] = float(r[0])
     if r[1] is None:
         return None, info
     Rt, tt, (sup_pose, sup_twin, only_pose, only_twin) = r[1]
@@ -163,9 +168,25 @@ def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, i
     info.update(support=int(sup_pose), twin_support=int(sup_twin), twin_log10_p=lp, twin_separation_deg=sep)
     ct = float(np.dot(tt, t)) / max(float(np.linalg.norm(tt) * np.linalg.norm(t)), 1e-300)
     info["twin_translation_separation_deg"] = float(np.degrees(np.arccos(np.clip(ct, -1.0, 1.0))))
+    info["twin_cost_excess"] = twin_cost_excess(R, t, Rt, tt, f1[inl], f2[inl])
     if equally_supported_twin(info) and sep > TWIN_MIN_SEPARATION_DEG:
         return (Rt, tt, int(sup_twin)), info
     return None, info
+
+
+def twin_cost_excess(R, t, R_twin, t_twin, f1: np.ndarray, f2: np.ndarray) -> float:
+    """How much worse the twin fits the pose's inliers ``f1, f2 (k, 3)``: the difference of their summed
+    squared Sampson errors over the noise variance the pose's own errors give (``k - 5`` degrees of
+    freedom), a likelihood-ratio statistic (about chi-square with a few degrees of freedom where the two
+    models fit equally; inf below 6 inliers or without noise)."""
+    k = len(f1)
+    if k < 6:
+        return float("inf")
+    sp = float(np.sum(v_sampson(R, t, f1, f2) ** 2))
+    st = float(np.sum(v_sampson(R_twin, t_twin, f1, f2) ** 2))
+    if not sp > 0:
+        return float("inf")
+    return (st - sp) * (k - 5) / sp
 
 
 def equally_supported_twin(info: dict[str, Any]) -> bool:

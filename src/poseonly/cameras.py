@@ -130,7 +130,7 @@ class Camera:
     def focal_px(self) -> float:
         """Mean focal length in pixels: converts a pixel threshold to an angle (``tau = px / f``)."""
         fx, fy = self.focal_xy
-        return 0.5 * (fx + fy)
+        return 0.5 * fx + 0.5 * fy  # no overflow
 
     @property
     def K(self) -> np.ndarray:

@@ -192,10 +192,14 @@ def cmd_relpose(args) -> int:
         if straight and Ka is not None and Kb is not None and r.R is not None and r.t is not None:
             F = fundamental_from_pose(Ka, Kb, r.R, r.t)
         draw_matches(imgs[0], imgs[1], pr.u1, pr.u2, r.inliers, args.draw, F=F, epipolar=args.epipolar if F is not None else 0, title=f"status: {r.status}")
+    # --matches rows a camera model could not lift were left out: inliers are reported as the file's rows
+    rows = pr.kept if args.matches else None
     if args.save:
-        _save_result(args.save, r)
+        _save_result(args.save, r, rows, len(pr.u1) + pr.dropped)
     if args.json:
         d = r.to_dict()
+        if rows is not None:
+            d["inliers"] = rows[np.asarray(r.inliers, bool)].tolist()
         d.update(num_matches=int(len(pr.u1)), num_dropped=pr.dropped, time_features_s=pr.time_features_s, time_estimate_s=pr.time_estimate_s)
         print(json.dumps(d, indent=2, allow_nan=False))
     else:
@@ -205,7 +209,13 @@ def cmd_relpose(args) -> int:
             print(f"left out: {pr.dropped} matches with a keypoint the camera model cannot undistort")
         if r.rotation_covariance is not None:
             std_t = r.diagnostics.get("translation_std_deg", float("nan"))
-            what = "the matches' noise and the rotation-only fit's distance from the pose's R" if r.status == "pure_rotation" else "the matches' noise alone"
+            what = (
+                "the matches' noise and the rotation-only fit's distance from the pose's R"
+                if r.status == "pure_rotation"
+                else "the matches' noise and an equally good planar twin's distance"
+                if "twin_spread_deg" in r.diagnostics
+                else "the matches' noise alone"
+            )
             print(f"deviation from {what} (1 sigma, first order): rotation {r.diagnostics['rotation_std_deg']:.3g} deg, translation direction {std_t:.3g} deg")
         print(f"status: {r.status}: {r.message}")
         print(f"time: features+matching {pr.time_features_s:.2f} s, estimation {pr.time_estimate_s * 1e3:.1f} ms")
@@ -222,7 +232,9 @@ def exit_code(status: str) -> int:
     return EXIT_OK if status == "ok" else (EXIT_ERROR if status == "degenerate" else EXIT_NOT_OK)
 
 
-def _save_result(path: str, r) -> None:
+def _save_result(path: str, r, rows: np.ndarray | None = None, n_rows: int = 0) -> None:
+    """``r`` to an npz; with ``rows`` (the given matches' rows ``r`` was estimated on, of ``n_rows``) the
+    ``inliers`` mask covers all the given rows (False for those left out)."""
     import io
 
     from ._fileutil import atomic_write_bytes
@@ -236,7 +248,7 @@ def _save_result(path: str, r) -> None:
         R=r.R if r.R is not None else np.full((3, 3), np.nan),
         t=r.t if r.t is not None else nan3,
         E=r.E if r.E is not None else np.full((3, 3), np.nan),
-        inliers=np.asarray(r.inliers, bool),
+        inliers=np.asarray(r.inliers, bool) if rows is None else np.isin(np.arange(n_rows), rows[np.asarray(r.inliers, bool)]),
         status=np.array(r.status),
         threshold_px=np.array(r.threshold_px),
     )

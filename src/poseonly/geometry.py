@@ -163,9 +163,14 @@ def pair_focal(f1: float, f2: float) -> float:
     and ``sigma / f2``, i.e. ``sigma / pair_focal`` with ``pair_focal = sqrt(2 / (1 / f1^2 + 1 / f2^2))``:
     ``f`` for two equal focal lengths, ``sqrt(2)`` times the smaller for very different ones (a mean
     of the two put a 300 px fisheye's 0.5 px noise outside a 1 px threshold beside a 3000 px lens)."""
-    lo, hi = min(float(f1), float(f2)), max(float(f1), float(f2))
+    a, b = float(f1), float(f2)
+    if math.isnan(a) or math.isnan(b):
+        return math.nan  # the caller's check rejects it
+    lo, hi = min(a, b), max(a, b)
     if not hi > 0:
         return lo  # no usable focal: the caller's check rejects it
+    if math.isinf(hi):
+        return lo * math.sqrt(2.0)  # inf when both are
     return lo * math.sqrt(2.0 / (1.0 + (lo / hi) ** 2))
 
 

@@ -20,7 +20,8 @@ __all__ = ["relpose_images", "relpose_matches", "draw_matches", "run_demo", "Pai
 class PairResult:
     """A pair's result with its matches ``u1, u2 (k, 2)`` in the images' pixels (OpenCV's convention
     for our own features), the stage times and ``dropped``: matches left out because a camera model
-    could not undistort a keypoint of theirs (with ``camera1/camera2``)."""
+    could not undistort a keypoint of theirs (with ``camera1/camera2``); ``kept``: where matches were
+    given and some dropped, the indices of the given rows that ``u1, u2`` (and ``result``'s arrays) are."""
 
     result: RelativePoseResult
     u1: np.ndarray
@@ -28,6 +29,7 @@ class PairResult:
     time_features_s: float
     time_estimate_s: float
     dropped: int = 0
+    kept: np.ndarray | None = None
 
 
 def _liftable(u1: np.ndarray, u2: np.ndarray, options: dict[str, Any], shift: float = 0.0) -> tuple[np.ndarray, dict[str, Any]]:
@@ -51,10 +53,12 @@ def relpose_matches(u1, u2, K1, K2, **options: Any) -> PairResult:
     u1 = np.asarray(u1, float)
     u2 = np.asarray(u2, float)
     dropped = 0
+    kept = None
     if u1.ndim == 2 and u1.shape == u2.shape and u1.shape[1] == 2 and np.isfinite(u1).all() and np.isfinite(u2).all():
         ok, options = _liftable(u1, u2, options)
         dropped = int(np.count_nonzero(~ok))
         if dropped:
+            kept = np.flatnonzero(ok)
             u1, u2 = u1[ok], u2[ok]
             for key in ("scores", "noise_scales"):
                 v = options.get(key)
@@ -65,7 +69,7 @@ def relpose_matches(u1, u2, K1, K2, **options: Any) -> PairResult:
         raise InputError(f"only {len(u1)} matches{why}: at least 6 are needed for a relative pose")
     t0 = time.perf_counter()
     r = estimate_relative_pose(u1, u2, K1, K2, **options)
-    return PairResult(r, u1, u2, 0.0, time.perf_counter() - t0, dropped)
+    return PairResult(r, u1, u2, 0.0, time.perf_counter() - t0, dropped, kept)
 
 
 def relpose_images(img1, img2, K1, K2=None, *, ratio: float = 0.8, mutual: bool = False, cache_dir=None, **options: Any) -> PairResult:

@@ -18,6 +18,7 @@ from ._json import json_array, json_float
 from .analysis import (
     NFA_MAX,
     ROTATION_THRESHOLD_FACTOR,
+    TWIN_SPREAD_CHI2,
     chance_rate,
     equally_supported_twin,
     log10_nfa,
@@ -345,7 +346,7 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     else:
         twin, info = planar_twin(R, t, g1, g2, tau, distinct(inl))
         diag.update(info)
-        if equally_supported_twin(info):
+        if equally_supported_twin(info) and info["twin_cost_excess"] <= TWIN_SPREAD_CHI2:
             # a planar scene's twin that explains the matches as well as the pose: the matches do not tell
             # the two apart, so their distance is part of the pose's uncertainty. Forward motion towards a
             # plane merges the twins into a flat valley the first-order covariance does not see (twins 0.9

@@ -49,11 +49,12 @@ def homography_twin(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray
     return _core.homography_twin(_c(R), _c(t), _c(f1), _c(f2))
 
 
-def homography_twin_dlt(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def homography_twin_dlt(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, max_transfer: float = float("inf")) -> tuple[np.ndarray, np.ndarray] | None:
     """The other physically valid decomposition of the homography fitted to the inliers ``f1, f2 (m, 3)``
     of ``(R (3, 3), t (3,))`` directly (DLT on the bearings, ``f2 x H f1 = 0``, ``H`` signed so that
     ``H f1`` points along ``f2`` for most matches): ``(R_twin, t_twin (unit))`` or ``None`` (fewer than 4
-    matches, a degenerate fit or decomposition, fewer than two valid decompositions). The status
-    analysis's fallback where :func:`homography_twin`'s triangulated plane misses the twin (forward
+    matches, a degenerate fit or decomposition, ``H`` carrying fewer than 90 % of the matches to within
+    ``max_transfer`` radians, fewer than two valid decompositions). The status analysis's fallback (at
+    twice its threshold) where :func:`homography_twin`'s triangulated plane misses the twin (forward
     motion triangulates the points near the focus of expansion poorly)."""
-    return _core.homography_twin_dlt(_c(R), _c(t), _c(f1), _c(f2))
+    return _core.homography_twin_dlt(_c(R), _c(t), _c(f1), _c(f2), float(max_transfer))

@@ -109,7 +109,7 @@ def brown_fold(k) -> float:
         den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
         dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
         dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
-        return num / den + 2.0 * r2 * (dnum * den - num * dden) / (den * den)
+        return np.where(den > 0, num / den + 2.0 * r2 * (dnum * den - num * dden) / (den * den), -1.0)  # the pole ends the branch
 
     return first_fold(dh, BROWN_FOLD_MAX_RADIUS)
 

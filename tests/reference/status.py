@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from poseonly import _core
-from poseonly.analysis import AMBIGUITY_LEVEL, TWIN_MIN_SEPARATION_DEG, TWIN_SUPPORT_RATIO, sign_test, support
+from poseonly.analysis import AMBIGUITY_LEVEL, TWIN_MIN_SEPARATION_DEG, TWIN_SUPPORT_RATIO, sign_test, support, twin_cost_excess
 from poseonly.geometry import rotation_error_deg
 from poseonly.median import median
 from poseonly.residuals import v_sampson
@@ -59,8 +59,8 @@ def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, i
         info["planarity"] = tw[2]
     if (tw is None or not plausible_twin(R, t, tw, f1, f2, tau)) and len(sel) >= 6:
         # the core's fallback: the twin of the homography fitted to the inliers directly
-        dlt = homography_twin_dlt(R, t, f1[sel], f2[sel])
-        tw = None if dlt is None else (*dlt, info.get("planarity"))
+        dlt = homography_twin_dlt(R, t, f1[sel], f2[sel], 2.0 * tau)
+        tw = None if dlt is None else (*dlt, None)
     if tw is not None and plausible_twin(R, t, tw, f1, f2, tau):
         Rt, tt = polish(tw[0], tw[1], f1, f2, tau)
         S = support(np.stack([R, Rt]), np.stack([t, tt]), f1, f2, tau)
@@ -69,6 +69,7 @@ def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, i
         lp = sign_test(only_pose, only_twin)
         sep = rotation_error_deg(R, Rt)
         info.update(support=int(sup[0]), twin_support=int(sup[1]), twin_log10_p=lp, twin_separation_deg=sep)
+        info["twin_cost_excess"] = twin_cost_excess(R, t, Rt, tt, f1[sel], f2[sel])
         ct = float(np.dot(tt, t)) / (np.linalg.norm(tt) * np.linalg.norm(t))
         info["twin_translation_separation_deg"] = float(np.degrees(np.arccos(np.clip(ct, -1.0, 1.0))))
         if sup[1] >= TWIN_SUPPORT_RATIO * sup[0] and lp >= np.log10(AMBIGUITY_LEVEL) and sep > TWIN_MIN_SEPARATION_DEG:

@@ -102,10 +102,10 @@ def _twin_of(R, t, Rs, Ts, Ns, f1) -> tuple[np.ndarray, np.ndarray] | None:
     return Rs[cand[k]], Tn[k]
 
 
-def homography_twin_dlt(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def homography_twin_dlt(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, max_transfer: float = np.inf) -> tuple[np.ndarray, np.ndarray] | None:
     """The same from the homography fitted to the matches directly: the unit ``H`` minimising
     ``sum |f2 x H f1|^2`` (the right singular vector of the stacked cross-product rows), signed so that
-    ``H f1`` points along ``f2`` for most matches."""
+    ``H f1`` points along ``f2`` for most matches, if it carries 90 % of them to within ``max_transfer``."""
     t = normalize(np.asarray(t, float))
     if len(f1) < 4:
         return None
@@ -116,6 +116,10 @@ def homography_twin_dlt(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.nda
     H = np.linalg.svd(A)[2][-1].reshape(3, 3)
     if 2 * np.count_nonzero(np.einsum("ij,ij->i", f1 @ H.T, f2) > 0) < len(f1):
         H = -H
+    h = f1 @ H.T
+    near = np.arctan2(np.linalg.norm(np.cross(h, f2), axis=1), np.einsum("ij,ij->i", h, f2)) < max_transfer
+    if not np.count_nonzero(near) >= 0.9 * len(f1):
+        return None
     try:
         Rs, Ts, Ns = decompose_homography(H)
     except np.linalg.LinAlgError:
