@@ -117,6 +117,7 @@ def test_points_past_the_first_fold_or_180_degrees_are_refused():
     uv = np.column_stack([1000.0 + 300.0 * np.radians(deg), np.full(5, 1000.0)])
     ok = np.isfinite(fe.unproject(uv, invalid="nan")[:, 0])
     assert ok.tolist() == [True, True, False, False, False]
+    assert np.isnan(fe.project(np.array([[0.0, 0.0, -1.0]]))).all()  # 180 deg has no image (was the principal point)
     folded = Camera("OPENCV_FISHEYE", 2000, 2000, (300.0, 300.0, 1000.0, 1000.0, -0.6, 0.12, 0.0, 0.0))
     # theta (1 - 0.6 theta^2 + 0.12 theta^4) peaks at 0.5348 (49.2 deg), dips, then rises again
     rd = np.array([0.50, 0.53, 0.54, 0.6])

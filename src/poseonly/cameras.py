@@ -212,7 +212,7 @@ class Camera:
 
     def project(self, X: np.ndarray) -> np.ndarray:
         """Camera-frame points or bearings ``(n, 3)`` -> pixels ``(n, 2)``. Points with ``z <= 0`` give
-        NaN for the perspective models; the fisheye model maps any direction off the ``-z`` axis."""
+        NaN for the perspective models; the fisheye model maps any direction off the ``-z`` axis (NaN on it)."""
         X = _check_points(X, 3, "X")
         (fx, fy), (cx, cy) = self.focal_xy, self.principal_point
         if self.model == "OPENCV_FISHEYE":
@@ -221,7 +221,9 @@ class Camera:
             g, _ = self._fisheye_poly(theta)
             with np.errstate(divide="ignore", invalid="ignore"):
                 s = np.where(r > _FISHEYE_EPS * np.abs(X[:, 2]), g / r, 1.0 / X[:, 2])
-            xd, yd = X[:, 0] * s, X[:, 1] * s
+            s = np.where((r <= _FISHEYE_EPS * np.abs(X[:, 2])) & (X[:, 2] < 0), np.nan, s)  # the -z axis has no image
+            with np.errstate(invalid="ignore"):
+                xd, yd = X[:, 0] * s, X[:, 1] * s
         else:
             with np.errstate(divide="ignore", invalid="ignore"):
                 z = np.where(X[:, 2] > 0, X[:, 2], np.nan)
