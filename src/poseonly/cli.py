@@ -162,6 +162,8 @@ def cmd_relpose(args) -> int:
         from .features import load_matches_npz
 
         md = load_matches_npz(args.matches)
+        if cams is not None and md.K1 is not None:
+            print(f"poseonly: note: {args.matches} holds K1/K2; the camera options replace them", file=sys.stderr)
         K1, K2 = (None, None) if cams is not None else _intrinsics(args)
         if K1 is None and cams is None:
             K1, K2 = md.K1, md.K2
