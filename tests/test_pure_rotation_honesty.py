@@ -85,3 +85,17 @@ def test_a_poor_pose_does_not_make_a_reliable_rotation():
         r = estimate_relative_pose(s.u1, s.u2, s.K, method=method, seed=0)
         assert r.status == "too_few_inliers" and "from the pose's R" in r.message, (method, r.message)
         assert r.rotation_covariance is None and r.diagnostics["rotation_model_spread_deg"] > 100
+
+
+def test_pure_rotation_keeps_the_epipolar_pose_in_the_diagnostics():
+    """A pure_rotation result's R is the rotation-only fit; the epipolar pose it replaced stays available
+    (a user's trial: at 10 cm sideways its translation was within a few degrees and nothing kept it)."""
+    import json
+
+    from poseonly import estimate_relative_pose, sim
+
+    sc = sim.make_scene(200, "rotation", camera="pinhole", noise_px=0.5, seed=1)
+    r = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K)
+    assert r.status == "pure_rotation"
+    assert r.diagnostics["pose_R"].shape == (3, 3) and r.diagnostics["pose_t"].shape == (3,)
+    assert json.loads(json.dumps(r.to_dict(), allow_nan=False))["diagnostics"]["pose_R"]

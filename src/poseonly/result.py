@@ -92,7 +92,7 @@ class RelativePoseResult:
       :func:`poseonly.analysis.parallax_ratio`): ``R`` is the robust rotation-only fit and reliable
       to ``diagnostics["rotation_std_deg"]`` (which includes its distance from the pose's R,
       ``diagnostics["rotation_model_spread_deg"]``), ``t`` (a unit vector, the epipolar fit's) is not;
-      ``inliers`` are the rotation's;
+      ``inliers`` are the rotation's; the epipolar pose is ``diagnostics["pose_R"]``, ``["pose_t"]``;
     * ``"too_few_inliers"`` -- fewer than ``min_inliers`` inliers, or not significantly more than
       randomly re-paired matches give the same model over all hypotheses tried, or a rotation that
       would be a pure rotation but whose fit is more than ``max_rotation_std_deg`` from the pose's R
@@ -305,7 +305,11 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
         # absorbs it differently: their difference is part of R's uncertainty (a 0.03 baseline at depths
         # 4-10: the fit 0.2 deg off, its noise-only deviation 0.02 deg, the difference 0.39 deg)
         delta = float(np.radians(rotation_error_deg(R, R_rot)))
-        R = R_rot  # the robust rotation-only fit is the estimate of R here
+        # the robust rotation-only fit is the estimate of R here; the epipolar pose stays in the diagnostics
+        # (a caller that knows the camera moved may prefer it: 10 cm sideways at 10-50 m is a pure rotation
+        # to the matches, and its translation direction was within a few degrees in a user's trial)
+        diag.update(pose_R=R, pose_t=t)
+        R = R_rot
         unc = _with_model_spread(unc, delta)
         diag.update(rotation_std_deg=unc["rotation_std_deg"], rotation_model_spread_deg=float(np.degrees(delta)))
         ang = _rotation_angles(R, f1, f2)
@@ -358,7 +362,8 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
             R_twin, t_twin, twin_n = twin
             msg = (
                 f"the inliers are explained by two poses {rotation_error_deg(R, R_twin):.2f} deg apart "
-                f"(planar scene: the homography twin keeps {twin_n} inliers in front of both cameras); see R_twin, t_twin"
+                f"(the homography twin keeps {twin_n} inliers in front of both cameras: a planar scene, or one whose depth "
+                "the parallax does not resolve); see R_twin, t_twin"
             )
         else:
             amb = None
