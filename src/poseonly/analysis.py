@@ -468,6 +468,21 @@ def _locally_supported(f1: np.ndarray, extra: np.ndarray, explained: np.ndarray)
     return out
 
 
+# a significant rotation-only model that explains at least this share of the pose's inliers, without
+# resolvable parallax on them, leaves the translation to the minority (rotation_explains_most)
+ROTATION_MAJORITY = 0.5
+
+
+def rotation_explains_most(rot: dict[str, Any]) -> bool:
+    """From :func:`pure_rotation_test`'s result: a significant rotation without translation explains at
+    least :data:`ROTATION_MAJORITY` of the pose's inliers and leaves no precise parallax on them, while
+    the translation is supported (not a pure rotation). Then the pose's translation rests on the
+    minority: a near surface before a distant background, or objects that moved before a still camera
+    (from two views the same geometry), and the rotation-only fit is the other reading of the data."""
+    precise = rot["parallax_ratio"] > PRECISION_RATIO and rot["parallax_noise"] <= PRECISION_NOISE
+    return bool(not rot["pure_rotation"] and rot["log10_nfa_rotation"] < np.log10(NFA_MAX) and rot["rotation_only_fraction"] >= ROTATION_MAJORITY and not precise)
+
+
 def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) -> dict[str, Any]:
     """Does a rotation without translation explain the data as well as the pose?
 

@@ -27,6 +27,7 @@ from .analysis import (
     pose_uncertainty,
     pure_rotation_test,
     rival_test,
+    rotation_explains_most,
 )
 from .geometry import essential_from_pose, rotation_error_deg
 from .options import MAX_ROTATION_STD_DEG
@@ -298,6 +299,14 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
     else:
         unc = pose_uncertainty(R_rot, None, g1, g2, distinct(rot_inl), _rotation_chord(tau_rot))
         diag["distinct_inliers"] = int(np.count_nonzero(distinct(rot_inl)))
+    minority = rotation_explains_most(rot)
+    if minority:
+        # the rotation-only fit is the other reading (a still camera, objects moving): its distance from the
+        # pose's R is part of R's uncertainty (a SLAM user's trial: R 0.18 deg off the still camera's
+        # identity against a first-order deviation of 0.03)
+        spread_rot = float(np.radians(rotation_error_deg(R, R_rot)))
+        unc = _with_model_spread(unc, spread_rot)
+        diag["rotation_model_spread_deg"] = float(np.degrees(spread_rot))
     diag.update(rotation_std_deg=unc["rotation_std_deg"], translation_std_deg=unc["translation_std_deg"], noise_sigma_px=unc["noise_sigma"] * focal)
     if rot_inl is not None:
         status = "pure_rotation"
@@ -402,6 +411,11 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
                     )
             else:
                 status, msg = "ok", f"{n_in} inliers within {thr_px:g} px (expected false alarms 10^{lnfa:.0f})"
+                if minority:
+                    msg += (
+                        f"; {100 * rot['rotation_only_fraction']:.0f} % of them fit a rotation alone: the translation rests on "
+                        "the rest (a near surface, or objects that moved; two views cannot tell)"
+                    )
     if status == "too_few_inliers":
         # inliers that chance explains, or too few to estimate their noise from, do not determine the pose
         # (a handful fitted exactly gave deviations of 1e-14 deg to a pose 160 deg off): no covariance
