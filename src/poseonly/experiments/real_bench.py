@@ -286,6 +286,9 @@ METHODS: dict[str, MethodFn] = {
     # of 2026-12-06), and against every basin it kept (rivals=8, the default since)
     "poseonly-onerival": ours(use_scores=True, use_scales=True, rivals=1),
     "poseonly-allrivals": ours(use_scores=True, use_scales=True, rivals=8),
+    # the default without its costliest extra stages for video-rate use (a SLAM user's trial, twelfth
+    # session): no cross-fitted inliers, no challengers, a 100-sample floor
+    "poseonly-lean": ours(use_scores=True, use_scales=True, ml_folds=0, challengers=0, min_iterations=100),
 }
 DEFAULT_METHODS = ("poseonly", "gnc-ransac", "poselib-1px", "poselib-2px", "opencv-magsac", "superansac")
 # the library each method needs (a missing one skips the method with a note)
