@@ -238,3 +238,30 @@ def test_progress_bar_only_on_a_terminal(capsys):
     assert "poseonly pairs" in capsys.readouterr().err
     with pytest.raises(poseonly.InputError, match="progress"):
         poseonly.estimate_relative_poses(pairs, progress="yes")
+
+
+def test_equal_keys_get_one_seed_whatever_their_types():
+    # a user's trial: numpy ids built the keys, and (np.int64(0), np.int64(7)) got another seed than (0, 7)
+    base = pair_seed(0, (0, 7))
+    for k in [(np.int64(0), np.int64(7)), (np.int32(0), np.int32(7)), (0.0, 7.0), (np.float32(0), np.uint8(7)), (False, 7)]:
+        assert k == (0, 7) and pair_seed(0, k) == base
+    assert pair_seed(0, np.str_("a")) == pair_seed(0, "a")
+    assert pair_seed(0, (0.5, 1)) != pair_seed(0, (0, 1))
+    # a frozenset's repr follows the process's hash seed; its canonical form does not
+    assert pair_seed(0, frozenset({"b", "a", "c"})) == pair_seed(0, frozenset({"c", "a", "b"}))
+    assert pair_seed(0, "a") == 0x7FFFFFFFFFFFFFFF & pair_seed(0, "a")  # the 63-bit range kept
+
+
+def test_unhashable_and_duplicate_keys_are_refused():
+    p = _pairs(2)
+    for key in ([0, 1], {"a": 1}, np.array([0, 1]), (0, [1])):
+        with pytest.raises(ValueError, match="must be hashable"):
+            list(poseonly.estimate_relative_poses([Pair(p[0].x1, p[0].x2, key=key, camera1=CAM)], progress=False))
+    dup = [Pair(p[0].x1, p[0].x2, key="A", camera1=CAM), Pair(p[1].x1, p[1].x2, key="A", camera1=CAM)]
+    with pytest.raises(ValueError, match="pair 1: its key 'A' is pair 0's too"):
+        list(poseonly.estimate_relative_poses(dup, progress=False))
+    # equal keys of other types are the same key; an unkeyed pair's key is its position
+    with pytest.raises(ValueError, match="keys must be unique"):
+        list(poseonly.estimate_relative_poses([Pair(p[0].x1, p[0].x2, key=(0, 1), camera1=CAM), Pair(p[1].x1, p[1].x2, key=(np.int64(0), 1), camera1=CAM)], progress=False))
+    with pytest.raises(ValueError, match="keys must be unique"):
+        list(poseonly.estimate_relative_poses([Pair(p[0].x1, p[0].x2, camera1=CAM), Pair(p[1].x1, p[1].x2, key=0, camera1=CAM)], progress=False))

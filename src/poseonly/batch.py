@@ -35,7 +35,7 @@ import numpy as np
 from .api import RelativePoseResult, estimate_relative_pose
 from .geometry import InputError
 
-__all__ = ["BACKENDS", "DASK_CHUNK", "POOL_CHUNK", "Pair", "PairResult", "estimate_relative_poses", "pair_seed"]
+__all__ = ["BACKENDS", "DASK_CHUNK", "POOL_CHUNK", "Pair", "PairResult", "canonical_key", "estimate_relative_poses", "pair_seed"]
 
 POOL_CHUNK = 16  # pairs per task on a local process pool (small: early results, even load)
 DASK_CHUNK = 256  # pairs per task on Dask (amortises the scheduler's per-task overhead)
@@ -82,10 +82,36 @@ class PairResult:
         return self.result is not None and self.result.ok
 
 
+def canonical_key(key: Hashable) -> Hashable:
+    """``key`` with numpy scalars as the Python ones they equal (``np.int64(7)``, ``np.float32(7.0)`` and
+    ``np.True_`` -> ``7``, ``7`` and ``1``; a whole float -> its int; ``np.str_`` -> ``str``), tuples
+    element by element and a frozenset as the sorted tuple of its elements' canonical ``repr``: keys that
+    compare equal (one dict entry) get one seed, whatever types built them (a user's trial: ``(0, 7)``
+    and ``(np.int64(0), np.int64(7))`` gave different seeds and statuses)."""
+    if isinstance(key, (bool, np.bool_)):
+        return int(key)
+    if isinstance(key, np.integer):
+        return int(key)
+    if isinstance(key, (float, np.floating)):
+        x = float(key)
+        return int(x) if x.is_integer() else x
+    if isinstance(key, np.str_):
+        return str(key)
+    if isinstance(key, np.bytes_):
+        return bytes(key)
+    if isinstance(key, tuple):
+        return tuple(canonical_key(k) for k in key)
+    if isinstance(key, frozenset):  # its iteration order (and repr) depends on the process's hash seed
+        return ("frozenset", tuple(sorted(repr(canonical_key(k)) for k in key)))
+    return key
+
+
 def pair_seed(base_seed: int, key: Hashable) -> int:
-    """Seed of the pair ``key``: the first 63 bits of ``BLAKE2b(repr((base_seed, key)))``. Keys should
-    be ints, strings or tuples of them (their ``repr`` is stable across processes and runs)."""
-    h = hashlib.blake2b(repr((int(base_seed), key)).encode(), digest_size=8).digest()
+    """Seed of the pair ``key``: the first 63 bits of ``BLAKE2b(repr((base_seed, canonical_key(key))))``
+    (:func:`canonical_key`: keys that compare equal get one seed). Keys should be ints, strings or
+    tuples of them (their ``repr`` is stable across processes and runs; an object's default ``repr``
+    holds its address, which is not)."""
+    h = hashlib.blake2b(repr((int(base_seed), canonical_key(key))).encode(), digest_size=8).digest()
     return int.from_bytes(h, "little") >> (64 - _SEED_BITS)
 
 
@@ -103,6 +129,10 @@ def _as_pair(p: Any, index: int) -> Pair:
         raise InputError(f"pair {index} must be a poseonly.batch.Pair or a dict with x1, x2, ...; got {type(p).__name__}")
     if pair.key is None:
         pair = Pair(**{**pair.__dict__, "key": index})
+    try:
+        hash(pair.key)
+    except TypeError:
+        raise InputError(f"pair {index}: its key must be hashable (results are collected by key), got {type(pair.key).__name__} {pair.key!r}") from None
     return pair
 
 
@@ -152,9 +182,17 @@ def _run_chunk(chunk: list[tuple[int, Pair]], options: dict[str, Any]) -> list[P
 
 
 def _chunks(pairs: Iterable[Any], size: int) -> Iterator[list[tuple[int, Pair]]]:
+    """The pairs in chunks of ``size``; :class:`InputError` at a pair whose key (its canonical form, the
+    one its seed is derived from) an earlier pair has: two results under one key, one of them lost to a
+    caller collecting by key (a user's trial)."""
     buf: list[tuple[int, Pair]] = []
+    seen: dict[Hashable, int] = {}
     for i, p in enumerate(pairs):
-        buf.append((i, _as_pair(p, i)))
+        pair = _as_pair(p, i)
+        first = seen.setdefault(canonical_key(pair.key), i)
+        if first != i:
+            raise InputError(f"pair {i}: its key {pair.key!r} is pair {first}'s too (an unkeyed pair's key is its position): keys must be unique")
+        buf.append((i, pair))
         if len(buf) >= size:
             yield buf
             buf = []
