@@ -202,3 +202,73 @@ def test_experiments_take_trials_with_quick_write_strict_json_and_check_values(t
         with pytest.raises(SystemExit) as e:
             main(argv)
         assert e.value.code == 2 and opt in _err(capsys), argv
+
+
+def _set_camera(path, model: str, params: list[float]) -> None:
+    db = pycolmap.Database.open(str(path))
+    cam = db.read_all_cameras()[0]
+    cam.model = getattr(pycolmap.CameraModelId, model)
+    cam.params = params
+    db.update_camera(cam)
+    db.close()
+
+
+def test_colmap_verify_unliftable_camera_refused_and_undefined_rows_redone(tmp_path, capsys):
+    """A user's trial: a camera model poseonly cannot lift made every pair an UNDEFINED row (exit 0),
+    and a rerun after fixing the camera kept them as 'already verified'."""
+    from test_colmap import CAM, _rows, make_db
+
+    path = tmp_path / "db.db"
+    _, ids = make_db(path, n_images=3)
+    _set_camera(path, "RADIAL_FISHEYE", [800.0, 320.0, 240.0, 0.0, 0.0])
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 2
+    err = _err(capsys)
+    assert "cameras of 3 selected pairs cannot be lifted" in err and "RADIAL_FISHEYE" in err
+    assert _rows(path) == []
+    # an UNDEFINED row (left by invalid input) is redone by a plain rerun; a verified one is kept
+    _set_camera(path, CAM.model, list(CAM.params))
+    db = pycolmap.Database.open(str(path))
+    db.write_two_view_geometry(ids[0], ids[1], pycolmap.TwoViewGeometry(config=pycolmap.TwoViewGeometryConfiguration.UNDEFINED))
+    db.close()
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 0
+    assert "3 pairs selected, 0 already verified (kept), 3 written" in capsys.readouterr().out
+    rows = _rows(path)
+    assert len(rows) == 3 and all(r[4] != int(pycolmap.TwoViewGeometryConfiguration.UNDEFINED) for r in rows)
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 0
+    assert "3 already verified (kept), 0 written" in capsys.readouterr().out
+    # a pairs-file pair without matches is said, not silently dropped
+    db = pycolmap.Database.open(str(path))
+    db.delete_matches(ids[1], ids[2])
+    db.close()
+    (tmp_path / "pairs.txt").write_text("im1.jpg im2.jpg\nim0.jpg im2.jpg\n")
+    assert main(["colmap", "verify", str(path), "--no-progress", "--pairs", str(tmp_path / "pairs.txt")]) == 0
+    out = capsys.readouterr().out
+    assert "1 pairs selected" in out and "1 pairs of" in out and "have no matches in the database" in out
+
+
+def test_colmap_verify_locked_database_is_one_clear_error(tmp_path, capsys):
+    """A user's trial: a database another process had locked ended in pycolmap's traceback ('No
+    registered database factory succeeded'). Now: one line, exit 2, nothing written."""
+    import subprocess
+    import sys
+
+    from test_colmap import _rows, make_db
+
+    path = tmp_path / "db.db"
+    make_db(path, n_images=3)
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sqlite3, sys, time; c = sqlite3.connect(sys.argv[1]); c.execute('BEGIN IMMEDIATE'); print('locked', flush=True); time.sleep(60)", str(path)],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "locked"
+        assert main(["colmap", "verify", str(path), "--no-progress"]) == 2
+        err = _err(capsys)
+        assert "cannot use the COLMAP database" in err and "locked by another process" in err
+        assert "Traceback" not in err
+    finally:
+        holder.kill()
+        holder.wait()
+    assert _rows(path) == []
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 0

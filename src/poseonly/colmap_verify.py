@@ -24,8 +24,13 @@ matched database do not overlap, and their searches run to the cap); ``max_itera
 (``--max-iterations``) overrides it.
 
 Rows are written in transactions of ``write_every`` pairs, so a killed run leaves every pair either
-complete or absent. A rerun skips pairs that already have a geometry (it resumes); ``overwrite=True``
-first deletes the selected pairs' geometries (one transaction), e.g. those of COLMAP's own verifier.
+complete or absent. A rerun skips pairs that already have a geometry other than ``UNDEFINED`` (it
+resumes; an ``UNDEFINED`` row, left for invalid input, is redone); ``overwrite=True`` first deletes the
+selected pairs' geometries (one transaction), e.g. those of COLMAP's own verifier. A camera poseonly
+cannot lift to bearings is refused before anything is written (:class:`poseonly.geometry.InputError`),
+a database another process has locked, or that cannot be written, too
+(:class:`poseonly.io.colmap_db.DatabaseUnavailableError`, an ``OSError``; a lock taken mid-run ends the
+run with it, the batches written before kept).
 """
 
 from __future__ import annotations
@@ -69,10 +74,12 @@ _WITH_INLIERS = ("CALIBRATED", "PLANAR_OR_PANORAMIC", "PANORAMIC")
 @dataclass
 class VerifySummary:
     """Counts of a run: ``selected`` pairs, ``skipped`` (already verified), ``written`` rows,
-    ``configs`` (rows per configuration), ``errors`` (pair id -> message), ``time_s``."""
+    ``configs`` (rows per configuration), ``errors`` (pair id -> message), ``unmatched`` (pairs of the
+    pairs file without matches in the database: nothing to verify), ``time_s``."""
 
     selected: int = 0
     skipped: int = 0
+    unmatched: int = 0
     written: int = 0
     configs: Counter = field(default_factory=Counter)
     errors: dict[int, str] = field(default_factory=dict)
@@ -216,7 +223,7 @@ def verify_database(
 
         cam = as_camera(camera)
         check_camera_threshold(cam, options.get("method", DEFAULT_METHOD), options.get("threshold_px"))
-    with ColmapDatabase(path) as db:
+    with ColmapDatabase(path, writable=True) as db:
         if cam is not None:  # every image's camera replaced (checked before any pair is estimated)
             db.cameras = dict.fromkeys(db.image_names, cam)
             db.unsupported.clear()
@@ -230,9 +237,19 @@ def verify_database(
             except UnicodeDecodeError as exc:
                 raise InputError(f"pairs file {pf} is not UTF-8 text ({exc.reason} at byte {exc.start})") from None
             wanted = db.pair_ids_from_names(lines, str(pf))
+            summary.unmatched = len(wanted - {p[0] for p in pairs})
             pairs = [p for p in pairs if p[0] in wanted]
         summary.selected = len(pairs)
-        todo = pairs if overwrite else [p for p in pairs if not db.has_geometry(p[1], p[2])]
+        # an UNDEFINED row (invalid input, e.g. a camera model poseonly cannot lift) is not a verification:
+        # a rerun redoes it
+        todo = pairs if overwrite else [p for p in pairs if not db.is_verified(p[1], p[2])]
+        bad = sorted({msg for _, i1, i2 in todo for i in (i1, i2) if (msg := db.unsupported.get(i)) is not None})
+        if bad:  # before any row is deleted or written: each of these pairs would be written UNDEFINED
+            raise InputError(
+                f"{path}: the cameras of {sum(1 for _, i1, i2 in todo if i1 in db.unsupported or i2 in db.unsupported)} selected pairs"
+                f" cannot be lifted to bearings ({'; '.join(bad[:3])}{'; ...' if len(bad) > 3 else ''}): give a supported camera"
+                " (--camera-model / --camera-params; camera= in Python), or leave those pairs out (--pairs)"
+            )
         if cam is None and not trust_guessed_focal:  # before any row is deleted or written
             refuse_guessed_focal(
                 path,
@@ -333,6 +350,8 @@ def run_cli(args: argparse.Namespace) -> int:
         **({} if args.max_iterations is None else {"max_iterations": args.max_iterations}),
     )
     print(f"{s.selected} pairs selected, {s.skipped} already verified (kept), {s.written} written in {s.time_s:.1f} s")
+    if s.unmatched:
+        print(f"  {s.unmatched} pairs of {args.pairs} have no matches in the database: nothing to verify there")
     if s.skipped and not s.written:
         print("  every selected pair already had a two-view geometry: pass --overwrite to replace them with poseonly's")
     for cfg, k in sorted(s.configs.items()):

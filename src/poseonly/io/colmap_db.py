@@ -14,6 +14,7 @@ to camera 2 (our ``X2 = R X1 + t``).
 
 from __future__ import annotations
 
+import os
 import sqlite3
 from collections import OrderedDict
 from collections.abc import Iterable
@@ -29,9 +30,39 @@ from ..cameras import Camera, as_camera
 from ..geometry import InputError
 from .pair_list import parse_pair_names
 
-__all__ = ["KEYPOINT_CACHE_IMAGES", "ColmapDatabase", "GeometryRow", "guessed_focal", "keypoint_scales", "matched_pair_ids", "refuse_guessed_focal"]
+__all__ = [
+    "KEYPOINT_CACHE_IMAGES",
+    "ColmapDatabase",
+    "DatabaseUnavailableError",
+    "GeometryRow",
+    "check_writable",
+    "guessed_focal",
+    "keypoint_scales",
+    "matched_pair_ids",
+    "refuse_guessed_focal",
+]
 
 KEYPOINT_CACHE_IMAGES = 512  # images whose keypoints (and bearings) are kept in memory (LRU)
+
+
+class DatabaseUnavailableError(OSError):
+    """A COLMAP database that exists but cannot be used now: locked by another process, or read-only
+    (the file, its directory or the file system) where poseonly must write. An ``OSError``, not an
+    :class:`InputError`: the file is right, its circumstances are not (``poseonly``'s commands print it
+    as one line and exit with 2)."""
+
+
+def _unavailable(path: str | Path, exc: BaseException, doing: str) -> DatabaseUnavailableError:
+    """The :class:`DatabaseUnavailableError` of an SQLite or pycolmap error ``exc`` while ``doing``."""
+    text = str(exc)
+    low = text.lower()
+    if "locked" in low or "busy" in low:
+        why = "it is locked by another process (a COLMAP or poseonly run on it?); try again when that one has finished"
+    elif "readonly" in low or "read-only" in low or "unable to open" in low or "no registered database factory" in low:
+        why = "SQLite cannot open it as needed (a read-only file, directory or file system; no permission; or a lock held by another process)"
+    else:
+        why = "the database refused it"
+    return DatabaseUnavailableError(f"cannot use the COLMAP database {path} ({doing}): {why} [{text.strip().splitlines()[-1] if text.strip() else type(exc).__name__}]")
 
 
 def keypoint_scales(raw: np.ndarray) -> np.ndarray | None:
@@ -114,19 +145,48 @@ def matched_pair_ids(path: str | Path) -> list[int]:
             if missing:
                 raise InputError(f"{path} is not a COLMAP database (missing tables {sorted(missing)})")
             return [int(r[0]) for r in con.execute("SELECT pair_id FROM matches WHERE rows > 0 ORDER BY pair_id")]
+    except sqlite3.OperationalError as exc:  # an SQLite file it cannot read now (not a wrong file)
+        if "not a database" in str(exc):
+            raise InputError(f"{path} is not an SQLite database: {exc}") from None
+        raise _unavailable(path, exc, "reading its matched pairs") from None
     except sqlite3.DatabaseError as exc:
         raise InputError(f"{path} is not an SQLite database: {exc}") from None
+
+
+def check_writable(path: str | Path) -> None:
+    """:class:`DatabaseUnavailableError` unless the existing database ``path`` can be written now: the
+    file and its directory writable (SQLite writes its journal beside the file) and no other process
+    holding a write lock (``BEGIN IMMEDIATE`` on a connection that is closed before pycolmap opens the
+    file: :func:`matched_pair_ids` says why). Checked before any pair is estimated, so that a run does
+    not end in a traceback after its work; a lock taken later still ends the run, with this error, the
+    pairs written before kept (a rerun resumes)."""
+    p = Path(path)
+    for what, q in (("file", p), ("directory", p.resolve().parent)):
+        if not os.access(q, os.W_OK):
+            raise DatabaseUnavailableError(f"cannot use the COLMAP database {path}: its {what} {q} is not writable (poseonly writes two_view_geometries rows)")
+    try:
+        with closing(sqlite3.connect(f"file:{p}?mode=rw", uri=True, timeout=0.0)) as con:
+            con.execute("BEGIN IMMEDIATE")
+            con.rollback()
+    except sqlite3.DatabaseError as exc:
+        raise _unavailable(path, exc, "before writing") from None
 
 
 class ColmapDatabase:
     """An existing COLMAP database file (never created here: a wrong path is an error)."""
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, writable: bool = False) -> None:
+        """``writable``: the caller will write (:func:`check_writable` before pycolmap opens the file)."""
         p = Path(path)
         pair_ids = matched_pair_ids(p)  # checked, read-only, before pycolmap opens the file
+        if writable:
+            check_writable(p)
         self.path = p
         self._pc = _pycolmap()
-        self.db = self._pc.Database.open(str(p))
+        try:
+            self.db = self._pc.Database.open(str(p))
+        except RuntimeError as exc:  # pycolmap: "No registered database factory succeeded" (its log says why)
+            raise _unavailable(p, exc, "opening it with pycolmap") from None
         self._pairs: list[tuple[int, int, int]] = []
         for pid in pair_ids:
             i1, i2 = self._pc.pair_id_to_image_pair(pid)
@@ -176,7 +236,16 @@ class ColmapDatabase:
         return out
 
     def has_geometry(self, image_id1: int, image_id2: int) -> bool:
+        """Does the pair have a ``two_view_geometries`` row (of any configuration)?"""
         return bool(self.db.exists_two_view_geometry(image_id1, image_id2))
+
+    def is_verified(self, image_id1: int, image_id2: int) -> bool:
+        """Does the pair have a row whose configuration is not ``UNDEFINED`` (a pair left undetermined, e.g.
+        for invalid input, is not verified: a rerun after the input is fixed redoes it)?"""
+        if not self.db.exists_two_view_geometry(image_id1, image_id2):
+            return False
+        g = self.db.read_two_view_geometry(image_id1, image_id2)
+        return bool(g.config != self._pc.TwoViewGeometryConfiguration.UNDEFINED)
 
     def matches(self, image_id1: int, image_id2: int) -> np.ndarray:
         """``(m, 2)`` keypoint indices (int64)."""
@@ -214,7 +283,14 @@ class ColmapDatabase:
     # -- writing --------------------------------------------------------------------------------------
 
     def write_geometries(self, rows: Iterable[GeometryRow]) -> int:
-        """Write (replacing) the rows in one transaction; returns how many."""
+        """Write (replacing) the rows in one transaction; returns how many. :class:`DatabaseUnavailableError`
+        where SQLite refuses (e.g. another process took the lock): the transaction is rolled back."""
+        try:
+            return self._write(rows)
+        except RuntimeError as exc:
+            raise _unavailable(self.path, exc, "writing two-view geometries; the batches written before are kept and a rerun resumes") from None
+
+    def _write(self, rows: Iterable[GeometryRow]) -> int:
         pc = self._pc
         k = 0
         with pc.DatabaseTransaction(self.db):
@@ -238,9 +314,12 @@ class ColmapDatabase:
     def delete_geometries(self, pairs: Iterable[tuple[int, int]]) -> int:
         """Delete the stored geometries of ``(image_id1, image_id2)`` pairs in one transaction."""
         k = 0
-        with self._pc.DatabaseTransaction(self.db):
-            for i1, i2 in pairs:
-                if self.db.exists_two_view_geometry(i1, i2):
-                    self.db.delete_two_view_geometry(i1, i2)
-                    k += 1
+        try:
+            with self._pc.DatabaseTransaction(self.db):
+                for i1, i2 in pairs:
+                    if self.db.exists_two_view_geometry(i1, i2):
+                        self.db.delete_two_view_geometry(i1, i2)
+                        k += 1
+        except RuntimeError as exc:
+            raise _unavailable(self.path, exc, "deleting two-view geometries; nothing was deleted") from None
         return k
