@@ -150,6 +150,33 @@ def test_feature_cache(tmp_path: Path, demo, monkeypatch) -> None:
     extract_features(img, max_features=300, cache_dir=cache)
     assert len(calls) == 4
 
+    # and an empty file (EOFError), a missing field (KeyError) or a field of the wrong type (TypeError)
+    good = files[0].stat().st_size
+    fields = {"keypoints": f1.keypoints, "descriptors": f1.descriptors, "image_size": np.array(f1.image_size), "sizes": f1.sizes}
+    for k, bad in enumerate(({}, {k: v for k, v in fields.items() if k != "sizes"}, fields | {"image_size": np.array(5)})):
+        if bad:
+            np.savez(files[0], **bad)
+        else:
+            files[0].write_bytes(b"")
+        f4 = extract_features(img, max_features=300, cache_dir=cache)
+        assert len(calls) == 5 + k
+        np.testing.assert_array_equal(f1.descriptors, f4.descriptors)
+        assert files[0].stat().st_size == good  # rewritten
+
+
+def test_feature_cache_read_errors_other_than_a_bad_file_propagate(tmp_path: Path, demo, monkeypatch) -> None:
+    """Only what a corrupt cache file raises means "recompute"; anything else (a bug) is not swallowed."""
+    img = tmp_path / "img.jpg"
+    img.write_bytes(demo.image1.read_bytes())
+    extract_features(img, max_features=100, cache_dir=tmp_path / "cache")
+
+    def broken_load(*a, **k):
+        raise RuntimeError("a bug, not a corrupt cache")
+
+    monkeypatch.setattr(feat.np, "load", broken_load)
+    with pytest.raises(RuntimeError, match="a bug"):
+        extract_features(img, max_features=100, cache_dir=tmp_path / "cache")
+
 
 # --------------------------------------------------------------------------------------------
 # match files

@@ -83,3 +83,70 @@ def test_two_view_passes_the_noise_scales_unless_turned_off(tmp_path):
     np.testing.assert_allclose(off.R, without.R, atol=1e-12)
     assert not np.allclose(on.R, off.R, atol=1e-9)
     assert len(list((tmp_path / "twoview").glob("*.npz"))) == 2  # two cache entries, not one
+
+
+def _corrupt_npz_entries(good: dict[str, np.ndarray], wrong_type: dict[str, np.ndarray] | None = None):
+    """Writers of a corrupt cache entry: truncated, garbage, empty, a missing field and (with
+    ``wrong_type``, for a reader that converts its fields) a field of the wrong type."""
+
+    def truncated(f):
+        data = f.read_bytes()
+        f.write_bytes(data[: len(data) // 2])
+
+    def missing(f):
+        np.savez(f, **dict(list(good.items())[1:]))
+
+    out = [
+        truncated,  # zipfile.BadZipFile
+        lambda f: f.write_bytes(b"not an npz"),  # ValueError
+        lambda f: f.write_bytes(b""),  # EOFError
+        missing,  # KeyError
+    ]
+    if wrong_type is not None:
+        out.append(lambda f: np.savez(f, **(good | wrong_type)))  # TypeError
+    return out
+
+
+def test_a_corrupt_two_view_cache_entry_is_recomputed(tmp_path, monkeypatch):
+    import poseonly.sfm.pairwise as pw
+
+    calls: list[int] = []
+    real = pw.estimate_relative_pose
+    monkeypatch.setattr(pw, "estimate_relative_pose", lambda *a, **k: calls.append(1) or real(*a, **k))
+    sc = make_scene(80, "normal", "pinhole", 0.5, 0.2, 3)
+    opt = PairwiseOptions(use_scores=False)
+    a = two_view(sc.u1, sc.u2, sc.K, sc.K, opt, 0, tmp_path)
+    (entry,) = (tmp_path / "twoview").glob("*.npz")
+    assert two_view(sc.u1, sc.u2, sc.K, sc.K, opt, 0, tmp_path).num_inliers == a.num_inliers and len(calls) == 1  # served from the cache
+    good = dict(np.load(entry))
+    for k, corrupt in enumerate(_corrupt_npz_entries(good, {"num_inliers": np.array([1, 2])})):
+        corrupt(entry)
+        b = two_view(sc.u1, sc.u2, sc.K, sc.K, opt, 0, tmp_path)
+        assert len(calls) == 2 + k
+        np.testing.assert_array_equal(a.R, b.R)
+        assert (a.num_inliers, a.status) == (b.num_inliers, b.status)
+        np.testing.assert_array_equal(np.load(entry)["R"], a.R)  # rewritten
+
+
+def test_a_corrupt_match_cache_entry_is_recomputed(tmp_path, monkeypatch):
+    pytest.importorskip("cv2")
+    import poseonly.sfm.pairwise as pw
+    from poseonly.demo_data import load_demo_pair
+
+    demo = load_demo_pair()
+    calls: list[int] = []
+    real = pw.match_features
+    monkeypatch.setattr(pw, "match_features", lambda *a, **k: calls.append(1) or real(*a, **k))
+    opt = PairwiseOptions(max_features=300)
+    images = [demo.image1, demo.image2]
+    ref = pw.image_view_graph(images, demo.K1, options=opt, cache_dir=tmp_path)
+    (entry,) = (tmp_path / "matches").glob("*.npz")
+    pw.image_view_graph(images, demo.K1, options=opt, cache_dir=tmp_path)
+    assert len(calls) == 1  # served from the cache
+    good = dict(np.load(entry))
+    for k, corrupt in enumerate(_corrupt_npz_entries(good)):
+        corrupt(entry)
+        g = pw.image_view_graph(images, demo.K1, options=opt, cache_dir=tmp_path)
+        assert len(calls) == 2 + k
+        assert g.pair_stats == ref.pair_stats
+        np.testing.assert_array_equal(np.load(entry)["idx"], good["idx"])  # rewritten

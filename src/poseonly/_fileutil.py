@@ -18,11 +18,13 @@ import os
 import tempfile
 import threading
 import time
+import zipfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
 __all__ = [
+    "CACHE_READ_ERRORS",
     "TMP_SUFFIX",
     "atomic_open",
     "atomic_savefig",
@@ -37,6 +39,9 @@ __all__ = [
 ]
 
 TMP_SUFFIX = ".poseonly-tmp"
+# what reading a missing, truncated, garbage or inconsistent ``.npz`` cache entry raises (``np.load``
+# with ``allow_pickle=False``, a missing key, a field of the wrong type): such an entry is recomputed
+CACHE_READ_ERRORS: tuple[type[Exception], ...] = (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile)
 # temp files of the older writers (no pid in the name) are removed once they are this old (seconds)
 LEGACY_TMP_AGE_S = 3600.0
 

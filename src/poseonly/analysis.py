@@ -21,6 +21,7 @@ from .residuals import v_sampson, v_sampson_chiral
 
 __all__ = [
     "NFA_MAX",
+    "POSE_DOF",
     "REFINE_SOLVER",
     "chance_inliers",
     "chance_rate",
@@ -41,6 +42,9 @@ __all__ = [
 # LiGTopt's optimiser inside the robust methods: the compact LM of poseonly.refine.ligt (same
 # objective as scipy's least_squares, ~10-20x less time per call; docs/RESULTS.md section 2)
 REFINE_SOLVER = "lm"
+# the pose's degrees of freedom: the a-contrario test discounts this many inliers (a pose fits any
+# 5 matches exactly), and a pose fitted to k matches leaves k - POSE_DOF for their noise variance
+POSE_DOF = 5
 # a second pose (the planar twin, the search's rival) makes the pose ambiguous unless the pose explains
 # significantly more matches of its own: McNemar's sign test on the matches only one of the two
 # explains, one-sided at this level. At NFA_MAX instead, 3 of the 51 fountain-P11 pairs on which
@@ -72,7 +76,7 @@ def support(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: f
     return v_sampson_chiral(R, t, f1, f2) < min(tau, MAX_SUPPORT_THRESHOLD)
 
 
-def parallax_deg(R, f1, f2, inl) -> float:
+def parallax_deg(R: np.ndarray, f1: np.ndarray, f2: np.ndarray, inl: np.ndarray) -> float:
     """Median angle (degrees) between ``R f1`` and ``f2`` over the inliers ``inl (n,)`` (NaN without
     any). One core call (numpy reference: tests/reference/status.py)."""
     return float(np.degrees(_core.median_rotation_angle(_c(R), _c(f1), _c(f2), np.ascontiguousarray(inl, dtype=bool))))
@@ -139,7 +143,7 @@ def pose_uncertainty(R: np.ndarray, t: np.ndarray | None, f1: np.ndarray, f2: np
     }
 
 
-def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, int] | None, dict[str, Any]]:
+def planar_twin(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float, inl: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray, int] | None, dict[str, Any]]:
     """The homography twin of ``(R, t)`` when it explains the data about as well (planar scene).
 
     The core (``_core.analyse_twin``; numpy reference: tests/reference/status.py) decomposes the
@@ -174,9 +178,9 @@ def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, i
     return None, info
 
 
-def twin_cost_excess(R, t, R_twin, t_twin, f1: np.ndarray, f2: np.ndarray) -> float:
+def twin_cost_excess(R: np.ndarray, t: np.ndarray, R_twin: np.ndarray, t_twin: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> float:
     """How much worse the twin fits the pose's inliers ``f1, f2 (k, 3)``: the difference of their summed
-    squared Sampson errors over the noise variance the pose's own errors give (``k - 5`` degrees of
+    squared Sampson errors over the noise variance the pose's own errors give (``k - POSE_DOF`` degrees of
     freedom), a likelihood-ratio statistic (about chi-square with a few degrees of freedom where the two
     models fit equally; inf below 6 inliers or without noise)."""
     k = len(f1)
@@ -186,7 +190,7 @@ def twin_cost_excess(R, t, R_twin, t_twin, f1: np.ndarray, f2: np.ndarray) -> fl
     st = float(np.sum(v_sampson(R_twin, t_twin, f1, f2) ** 2))
     if not sp > 0:
         return float("inf")
-    return (st - sp) * (k - 5) / sp
+    return (st - sp) * (k - POSE_DOF) / sp
 
 
 def equally_supported_twin(info: dict[str, Any]) -> bool:
@@ -198,7 +202,7 @@ def equally_supported_twin(info: dict[str, Any]) -> bool:
     return bool(info["twin_support"] >= TWIN_SUPPORT_RATIO * info["support"] and info["twin_log10_p"] >= np.log10(AMBIGUITY_LEVEL))
 
 
-def rival_test(R, t, R_rival, t_rival, f1, f2, tau, min_separation_deg) -> dict[str, Any]:
+def rival_test(R: np.ndarray, t: np.ndarray, R_rival: np.ndarray, t_rival: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float, min_separation_deg: float) -> dict[str, Any]:
     """Does a second pose explain the matches as well as ``(R, t)`` (the uniqueness test)?
 
     ``(R_rival, t_rival)``: the best model the search scored at least ``min_separation_deg`` from
@@ -259,7 +263,7 @@ def _permutations(n: int) -> np.ndarray:
     return p
 
 
-def chance_rate(R, t, f1, f2, tau) -> float:
+def chance_rate(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float) -> float:
     """Probability that a randomly re-paired match is a Sampson inlier (``< tau``) of ``(R, t)``,
     with add-one smoothing (never 0). One core call over the cached re-pairings."""
     perms = _permutations(len(f1))
@@ -269,7 +273,7 @@ def chance_rate(R, t, f1, f2, tau) -> float:
     return float((hits + 1) / (perms.size + 2))
 
 
-def chance_inliers(R, t, f1, f2, tau) -> float:
+def chance_inliers(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float) -> float:
     """Expected inlier count of ``(R, t)`` on randomly re-paired matches (``n * chance_rate``)."""
     return len(f1) * chance_rate(R, t, f1, f2, tau)
 
@@ -355,7 +359,7 @@ def _rotation_inliers(Rs, f1, f2, thr) -> np.ndarray:
     return np.einsum("hni,hni->hn", d, d) < (2.0 * np.sin(0.5 * thr)) ** 2
 
 
-def robust_rotation(f1, f2, tau, min_inlier_ratio: float = 0.0) -> tuple[np.ndarray, np.ndarray, int]:
+def robust_rotation(f1: np.ndarray, f2: np.ndarray, tau: float, min_inlier_ratio: float = 0.0) -> tuple[np.ndarray, np.ndarray, int]:
     """Best rotation-only model ``X2 ~ R X1`` over all matches ``f1, f2 (n, 3)``: 2-point RANSAC with
     adaptive stopping in the core (the generic loop with its rotation estimator; hypotheses scored on
     at most :data:`ROTATION_SCORE_POINTS` matches), then Kabsch on the inliers among all matches
@@ -377,7 +381,7 @@ def robust_rotation(f1, f2, tau, min_inlier_ratio: float = 0.0) -> tuple[np.ndar
     return R, mask.astype(bool), int(tests)
 
 
-def rotation_chance_rate(R, f1, f2, tau) -> float:
+def rotation_chance_rate(R: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float) -> float:
     """Probability that a re-paired match fits the rotation ``R`` (add-one smoothing)."""
     perms = _permutations(len(f1))
     chord2 = (2.0 * np.sin(0.5 * ROTATION_THRESHOLD_FACTOR * tau)) ** 2
@@ -385,7 +389,7 @@ def rotation_chance_rate(R, f1, f2, tau) -> float:
     return float((hits + 1) / (perms.size + 2))
 
 
-def far_angle(v_pose, tau) -> float:
+def far_angle(v_pose: np.ndarray | None, tau: float) -> float:
     """The angle from a rotation-only model beyond which a pose inlier is evidence of a translation:
     ``EXTRA_FACTOR`` rotation thresholds, or, where the matches are noisier than the threshold
     assumes, :data:`FAR_SIGMAS` noise sigmas of the rotation's residual (``sqrt(2)`` times the pose's
@@ -402,7 +406,7 @@ def far_angle(v_pose, tau) -> float:
     return max(far, FAR_SIGMAS * np.sqrt(2.0) * sigma)
 
 
-def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float, np.ndarray | None]:
+def parallax_ratio(R_rot: np.ndarray, f1: np.ndarray, f2: np.ndarray, v_pose: np.ndarray, tau: float) -> tuple[float, float, np.ndarray | None]:
     """Precision test of a rotation-only model against a pose with Sampson errors ``v_pose (n,)``:
     ``(ratio, noise, R)``, the median parallax component over the median squared Sampson error on the
     matches with ``v_pose < PRECISION_BAND * tau`` that the rotation does not put clearly off (within
@@ -483,7 +487,7 @@ def rotation_explains_most(rot: dict[str, Any]) -> bool:
     return bool(not rot["pure_rotation"] and rot["log10_nfa_rotation"] < np.log10(NFA_MAX) and rot["rotation_only_fraction"] >= ROTATION_MAJORITY and not precise)
 
 
-def pure_rotation_test(f1, f2, tau, inl, p_pose, num_pose_tests, v_pose=None) -> dict[str, Any]:
+def pure_rotation_test(f1: np.ndarray, f2: np.ndarray, tau: float, inl: np.ndarray, p_pose: float, num_pose_tests: float, v_pose: np.ndarray | None = None) -> dict[str, Any]:
     """Does a rotation without translation explain the data as well as the pose?
 
     The rotation is fitted robustly on all matches (:func:`robust_rotation`). It is *significant*

@@ -13,8 +13,21 @@ import numpy as np
 
 __all__ = ["opencv_relpose", "poselib_relpose", "ANCHORS", "available_anchors"]
 
+# (R (3, 3) or None, unit t (3,) or None, inliers (n,) bool, seconds)
+AnchorResult = tuple[np.ndarray | None, np.ndarray | None, np.ndarray, float]
 
-def opencv_relpose(u1, u2, K1, K2=None, *, method: str = "RANSAC", threshold_px: float = 1.0, max_iters: int | None = None, prob: float = 0.999):
+
+def opencv_relpose(
+    u1: np.ndarray,
+    u2: np.ndarray,
+    K1: np.ndarray,
+    K2: np.ndarray | None = None,
+    *,
+    method: str = "RANSAC",
+    threshold_px: float = 1.0,
+    max_iters: int | None = None,
+    prob: float = 0.999,
+) -> AnchorResult:
     """``cv2.findEssentialMat`` + ``cv2.recoverPose`` (classic ``RANSAC`` or ``USAC_MAGSAC``).
 
     With different ``K1, K2`` the points are first normalised and an identity camera is used with
@@ -48,7 +61,9 @@ def opencv_relpose(u1, u2, K1, K2=None, *, method: str = "RANSAC", threshold_px:
     return R, t.ravel() / max(float(np.linalg.norm(t)), 1e-300), mask.ravel().astype(bool), dt
 
 
-def poselib_relpose(u1, u2, K1, K2=None, *, threshold_px: float = 1.0, max_iterations: int | None = None, seed: int = 0):
+def poselib_relpose(
+    u1: np.ndarray, u2: np.ndarray, K1: np.ndarray, K2: np.ndarray | None = None, *, threshold_px: float = 1.0, max_iterations: int | None = None, seed: int = 0
+) -> AnchorResult:
     """``poselib.estimate_relative_pose`` with PINHOLE cameras (defaults unless given)."""
     import poselib
 

@@ -6,7 +6,10 @@ from __future__ import annotations
 import argparse
 from collections.abc import Callable
 
-__all__ = ["jobs_int", "non_negative_float", "non_negative_int", "positive_float", "positive_int"]
+from .geometry import InputError
+from .sfm.choices import checked_sigma_deg
+
+__all__ = ["jobs_int", "non_negative_float", "non_negative_int", "positive_degrees", "positive_float", "positive_int"]
 
 
 def _int_in(text: str, ok: Callable[[int], bool], what: str) -> int:
@@ -54,4 +57,15 @@ def non_negative_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"expected a finite number >= 0, got {text!r}") from None
     if not (v >= 0 and v != float("inf")):
         raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text}")
+    return v
+
+
+def positive_degrees(text: str) -> float:
+    """A Geman-McClure scale in degrees within :data:`poseonly.sfm.choices.SIGMA_RANGE_DEG` (``--rotation-sigma``
+    of ``poseonly sfm`` and ``poseonly experiment global``; checked before any image is read)."""
+    try:
+        v = checked_sigma_deg(float(text), "--rotation-sigma")
+    except (ValueError, InputError) as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    assert v is not None
     return v

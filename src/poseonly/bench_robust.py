@@ -20,25 +20,26 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ._fileutil import new_results_dir
+from ._fileutil import atomic_write_text, new_results_dir
 from .argtypes import non_negative_int, positive_int
-from .experiments._common import atomic_write_text, machine, markdown_table, progress, savefig, single_thread, write_json
+from .experiments.report import machine, markdown_table, progress, savefig, single_thread, write_json
 from .geometry import rotation_error_deg
-from .sim import make_scene
+from .sim import Scene, make_scene
 
 OUTLIERS: tuple[float, ...] = (0.0, 0.2, 0.4, 0.5, 0.6, 0.7, 0.8)
 
 
-def ml_floor(sc) -> np.ndarray:
+def ml_floor(sc: Scene) -> np.ndarray:
     """Sampson least squares on the true inliers from the true pose (the noise floor)."""
     from scipy.optimize import least_squares
 
-    from .refine._manifold import PoseChart
+    from .refine import PoseChart
     from .residuals import v_sampson
 
     f1, f2 = sc.f1[sc.inliers], sc.f2[sc.inliers]
@@ -101,7 +102,7 @@ def _methods():
     return ms
 
 
-def compute(trials: int, cameras=("wide", "pinhole"), outliers=OUTLIERS, n: int = 300, noise: float = 1.0, seed: int = 0) -> dict:
+def compute(trials: int, cameras: Sequence[str] = ("wide", "pinhole"), outliers: Sequence[float] = OUTLIERS, n: int = 300, noise: float = 1.0, seed: int = 0) -> dict[str, Any]:
     single_thread()
     ms = _methods()
     res: dict[str, Any] = {"trials": trials, "n": n, "noise_px": noise, "outliers": list(outliers), "methods": list(ms), "rows": []}

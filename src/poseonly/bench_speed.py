@@ -42,8 +42,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ._fileutil import new_results_dir
-from .experiments._common import atomic_write_text, code_version, machine, markdown_table, single_thread
+from ._fileutil import atomic_write_text, new_results_dir
+from .experiments.report import code_version, machine, markdown_table, single_thread
 
 THRESHOLD_PX = 1.0  # the anchors' default; the default method gets its own default (noise-matched)
 NOISE_PX = 0.5

@@ -115,7 +115,7 @@ def _jsonable(v):
     return v
 
 
-def cmd_demo(args) -> int:
+def cmd_demo(args: argparse.Namespace) -> int:
     from .pipeline import run_demo
 
     if not args.no_draw:
@@ -138,7 +138,7 @@ def cmd_demo(args) -> int:
     return 0
 
 
-def cmd_relpose(args) -> int:
+def cmd_relpose(args: argparse.Namespace) -> int:
     from .pipeline import draw_matches, relpose_images, relpose_matches
 
     _check_draw_target(args.draw)
@@ -257,30 +257,29 @@ def _save_result(path: str, r, rows: np.ndarray | None = None, n_rows: int = 0) 
     atomic_write_bytes(path, buf.getvalue())
 
 
-def cmd_experiment(args) -> int:
+def cmd_experiment(args: argparse.Namespace) -> int:
     from . import experiments
     from ._fileutil import new_results_dir
-    from .experiments import _common
 
     mod = experiments.load(args.name)
     if getattr(args, "out", "") is None:
         args.out = str(new_results_dir(args.name))
         print(f"writing results to {args.out}", file=sys.stderr)
-    _common.COMMAND[:] = [_command_line(args)]
+    experiments.set_command_line(_command_line(args))
     try:
         return int(mod.run(args) or 0)
     finally:
-        _common.COMMAND.clear()
+        experiments.clear_command_line()
 
 
-def _command_line(args) -> str:
+def _command_line(args: argparse.Namespace) -> str:
     """The command line that started this run (``main``'s ``argv``, or the process's)."""
     import shlex
 
     return "poseonly " + shlex.join(getattr(args, "argv", None) or sys.argv[1:])
 
 
-def cmd_colmap_verify(args) -> int:
+def cmd_colmap_verify(args: argparse.Namespace) -> int:
     from .colmap_verify import run_cli
 
     return run_cli(args)
@@ -292,7 +291,7 @@ BENCHES["real"] = "poseonly.experiments.real_bench"
 # --- end issue 12
 
 
-def cmd_bench(args) -> int:
+def cmd_bench(args: argparse.Namespace) -> int:
     import importlib
 
     return int(importlib.import_module(BENCHES[args.name]).main(args.rest) or 0)

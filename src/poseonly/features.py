@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ._fileutil import atomic_savez, sweep_stale_temps
+from ._fileutil import CACHE_READ_ERRORS, atomic_savez, sweep_stale_temps
 from .geometry import InputError, as_real_array, check_intrinsics, essential_from_pose
 
 __all__ = [
@@ -242,7 +242,7 @@ def _read_cache(f: Path) -> Features | None:
             desc = np.asarray(z["descriptors"])
             size = tuple(int(s) for s in z["image_size"])
             sizes = np.asarray(z["sizes"], dtype=np.float64)
-    except Exception:  # noqa: BLE001 - any unreadable cache is simply recomputed
+    except CACHE_READ_ERRORS:  # a truncated or garbage cache is simply recomputed
         return None
     if kp.ndim != 2 or kp.shape[1] != 2 or desc.shape != (len(kp), 128) or desc.dtype != np.float32 or len(size) != 2 or sizes.shape != (len(kp),):
         return None

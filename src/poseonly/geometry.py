@@ -68,15 +68,17 @@ def skew(v: np.ndarray) -> np.ndarray:
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Broadcasting cross product over the last axis (several times faster than ``np.cross`` on
-    small stacked arrays, which pays for ``moveaxis`` on every call)."""
+    """Broadcasting cross product over the last axis: ``a, b (..., 3)`` -> ``(..., 3)`` (leading axes
+    broadcast; several times faster than ``np.cross`` on small stacked arrays, which pays for
+    ``moveaxis`` on every call)."""
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def normalize(v: np.ndarray, axis: int = -1) -> np.ndarray:
-    """Unit vectors along ``axis`` (zero vectors stay zero)."""
+    """Unit vectors along ``axis``: ``v (..., d)`` (with the default ``axis=-1``) -> the same shape,
+    as float (zero vectors stay zero)."""
     v = np.asarray(v, dtype=float)
     nrm = np.linalg.norm(v, axis=axis, keepdims=True)
     return v / np.where(nrm > 0, nrm, 1.0)
@@ -334,7 +336,9 @@ def check_correspondences(
     K1: np.ndarray | None = None,
     K2: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Validate and convert a correspondence set; returns unit bearings and float weights."""
+    """Validate and convert a correspondence set: ``f1, f2 (n, 2)`` pixels (with ``K1, K2 (3, 3)``) or
+    normalized image coordinates (without), or ``(n, 3)`` bearing vectors; ``weights (n,)`` or None.
+    Returns unit bearings ``b1, b2 (n, 3)`` and float weights ``(n,)`` (or None)."""
     b1 = as_bearings(f1, K1, "f1" if K1 is None else "x1")
     b2 = as_bearings(f2, K2, "f2" if K2 is None else "x2")
     if b1.shape != b2.shape:
@@ -364,7 +368,7 @@ def check_correspondences(
 
 
 def essential_from_pose(R: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """``E = [t]x R`` (batched)."""
+    """``E = [t]x R``: ``R (..., 3, 3)``, ``t (..., 3)`` -> ``E (..., 3, 3)`` (leading axes broadcast)."""
     return skew(t) @ R
 
 
@@ -437,9 +441,10 @@ def triangulate_midpoint(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.nd
     """Midpoint two-view triangulation.
 
     Solves ``min || z1 R f1 + t - z2 f2 ||`` for the depths along each ray (in camera 2's frame),
-    vectorized over points (and over leading pose dimensions). Returns ``(X1, z1, z2)`` with ``X1``
-    the midpoint expressed in camera 1's frame and ``z1, z2`` the signed ray depths (negative means
-    behind the camera). Points on the baseline (parallel rays) get zero depth.
+    vectorized over points (and over leading pose dimensions): ``R (..., 3, 3)``, ``t (..., 3)``,
+    unit bearings ``f1, f2 (n, 3)`` (or stacked ``(..., n, 3)``). Returns ``(X1, z1, z2)`` with ``X1
+    (..., n, 3)`` the midpoint expressed in camera 1's frame and ``z1, z2 (..., n)`` the signed ray
+    depths (negative means behind the camera). Points on the baseline (parallel rays) get zero depth.
     """
     R = np.asarray(R, dtype=float)
     t = np.asarray(t, dtype=float)
@@ -465,7 +470,8 @@ def triangulate_midpoint(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.nd
 
 
 def rotation_angle_deg(R: np.ndarray) -> np.ndarray:
-    """Rotation angle in degrees, accurate near 0 and 180 (atan2 of sin and cos)."""
+    """Rotation angle in degrees of ``R (..., 3, 3)`` -> ``(...)``, accurate near 0 and 180 (atan2 of
+    sin and cos)."""
     R = np.asarray(R, dtype=float)
     c = 0.5 * (np.trace(R, axis1=-2, axis2=-1) - 1.0)
     s = 0.5 * np.linalg.norm(
@@ -485,7 +491,8 @@ def rotation_error_deg(R_gt: np.ndarray, R: np.ndarray) -> np.ndarray:
 
 
 def translation_error_deg(t_gt: np.ndarray, t: np.ndarray, sign_invariant: bool = False) -> np.ndarray:
-    """Angle between translation directions in degrees (``sign_invariant`` ignores the sign)."""
+    """Angle between translation directions in degrees: ``t_gt, t (..., 3)`` (any length; leading
+    axes broadcast) -> ``(...)`` (``sign_invariant`` ignores the sign)."""
     a = normalize(t_gt)
     b = normalize(t)
     c = np.sum(a * b, axis=-1)

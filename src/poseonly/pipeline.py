@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -46,7 +47,7 @@ def _liftable(u1: np.ndarray, u2: np.ndarray, options: dict[str, Any], shift: fl
     return ok, {**options, "camera1": c1, "camera2": c2}
 
 
-def relpose_matches(u1, u2, K1, K2, **options: Any) -> PairResult:
+def relpose_matches(u1: np.ndarray, u2: np.ndarray, K1: np.ndarray | None, K2: np.ndarray | None, **options: Any) -> PairResult:
     """Robust relative pose from pixel matches (validated; ``ValueError`` below 6 matches). With
     ``camera1`` (/ ``camera2``) options, matches with a keypoint the model cannot undistort are left out
     (``PairResult.dropped``; their ``scores`` and ``noise_scales`` with them)."""
@@ -72,7 +73,17 @@ def relpose_matches(u1, u2, K1, K2, **options: Any) -> PairResult:
     return PairResult(r, u1, u2, 0.0, time.perf_counter() - t0, dropped, kept)
 
 
-def relpose_images(img1, img2, K1, K2=None, *, ratio: float = 0.8, mutual: bool = False, cache_dir=None, **options: Any) -> PairResult:
+def relpose_images(
+    img1: str | os.PathLike | np.ndarray,
+    img2: str | os.PathLike | np.ndarray,
+    K1: np.ndarray | None,
+    K2: np.ndarray | None = None,
+    *,
+    ratio: float = 0.8,
+    mutual: bool = False,
+    cache_dir: str | os.PathLike | None = None,
+    **options: Any,
+) -> PairResult:
     """SIFT + ratio-test matching + :func:`poseonly.estimate_relative_pose` on two image files. With
     ``camera1`` (/ ``camera2``) options instead of ``K1``: cameras in COLMAP's pixel convention (an
     OpenCV ``(K, dist)`` converted to it; the OpenCV keypoints are shifted by
@@ -116,6 +127,7 @@ DRAW_FORMATS = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp")
 # drawing colours (BGR) and layout
 INLIER_BGR, OUTLIER_BGR, EPIPOLAR_BGR = (0, 200, 0), (0, 0, 255), (255, 160, 0)
 LEGEND_ROW_PX = 22
+LEGEND_FONT_SCALE = 0.55  # cv2.putText scale of the legend text (cv2.FONT_HERSHEY_SIMPLEX)
 
 
 def _clip_line(line: np.ndarray, w: int, h: int) -> tuple[tuple[int, int], tuple[int, int]] | None:
@@ -134,11 +146,11 @@ def _clip_line(line: np.ndarray, w: int, h: int) -> tuple[tuple[int, int], tuple
 
 
 def draw_matches(
-    img1,
-    img2,
-    u1,
-    u2,
-    inliers,
+    img1: str | os.PathLike,
+    img2: str | os.PathLike,
+    u1: np.ndarray,
+    u2: np.ndarray,
+    inliers: np.ndarray,
     out: str | Path,
     max_lines: int = 400,
     seed: int = 0,
@@ -213,7 +225,7 @@ def draw_matches(
     box_h = LEGEND_ROW_PX * len(rows) + 8
     cv2.rectangle(canvas, (0, 0), (min(canvas.shape[1] - 1, 430), min(h - 1, box_h)), (0, 0, 0), -1)
     for r, (text, col) in enumerate(rows):
-        cv2.putText(canvas, text, (8, LEGEND_ROW_PX * (r + 1)), cv2.FONT_HERSHEY_SIMPLEX, 0.55, col, 1, cv2.LINE_AA)
+        cv2.putText(canvas, text, (8, LEGEND_ROW_PX * (r + 1)), cv2.FONT_HERSHEY_SIMPLEX, LEGEND_FONT_SCALE, col, 1, cv2.LINE_AA)
     ok, buf = cv2.imencode(ext, canvas)
     if not ok:
         raise InputError(f"could not encode the drawing as {ext}")

@@ -90,6 +90,9 @@ class Residual:
     code: int
 
     def __call__(self, R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+        """The residual of each correspondence under each pose: ``R (..., 3, 3)``, ``t (..., 3)`` (any
+        non-zero length; normalised), unit bearings ``f1, f2 (n, 3)`` or stacked ``(..., n, 3)`` ->
+        ``(..., n)``, the leading axes of the poses and the point sets broadcast."""
         if _one_pose(R, t, f1, f2):
             # one pose on one point set, already float64 and C-contiguous (the library's own calls):
             # the same core call with t normalised as :func:`normalize` does it, without its broadcasting

@@ -16,7 +16,9 @@ import numpy as np
 
 from ._json import json_array, json_float
 from .analysis import (
+    AMBIGUITY_LEVEL,
     NFA_MAX,
+    POSE_DOF,
     ROTATION_THRESHOLD_FACTOR,
     TWIN_SPREAD_CHI2,
     chance_rate,
@@ -40,9 +42,6 @@ STATUSES = ("ok", "planar_ambiguous", "ambiguous", "uncertain", "pure_rotation",
 
 # a returned R must satisfy |R^T R - I|_max < ORTHO_TOL and det R > 0 (else no valid pose was found)
 ORTHO_TOL = 1e-6
-# the pose's degrees of freedom: the a-contrario test discounts this many inliers (a pose fits any
-# 5 matches exactly)
-POSE_DOF = 5
 
 
 _json_float = json_float
@@ -234,8 +233,28 @@ def _with_model_spread(unc: dict[str, Any], delta: float, delta_t: float = 0.0, 
     return out
 
 
-def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inliers=15, max_rotation_std_deg=MAX_ROTATION_STD_DEG) -> RelativePoseResult:
+def finish(
+    method: str,
+    R: np.ndarray,
+    t: np.ndarray,
+    f1: np.ndarray,
+    f2: np.ndarray,
+    w: np.ndarray | None,
+    tau: float,
+    focal: float,
+    thr_px: float,
+    iters: int,
+    t0: float,
+    diag: dict[str, Any],
+    min_inliers: int = 15,
+    max_rotation_std_deg: float = MAX_ROTATION_STD_DEG,
+) -> RelativePoseResult:
     """Inliers, residuals, analysis and status of a method's final model ``(R, t)``.
+
+    ``R (3, 3)``, ``t (3,)`` (any length; non-finite when the method found no model), unit bearings
+    ``f1, f2 (n, 3)``, the method's weights ``w (n,)`` or None, the angular threshold ``tau``
+    (radians; ``thr_px`` at ``focal`` pixels), ``iters`` the method's iterations, ``t0`` its start
+    (``time.perf_counter``) and ``diag`` its diagnostics (updated in place).
 
     Order of the decision: no valid model -> ``degenerate``; a significant rotation-only model
     and no significant translation -> ``pure_rotation`` (``too_few_inliers`` where that rotation is
@@ -390,7 +409,8 @@ def finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, min_inl
                 status = "ambiguous"
                 msg = (
                     f"a second pose {amb['rival_separation_deg']:.1f} deg away (diagnostics rival_R, rival_t) explains "
-                    f"{amb['rival_only']} matches the pose does not, against the pose's {amb['pose_only']} it does not: "
+                    f"{amb['rival_only']} matches the pose does not, against the pose's {amb['pose_only']} it does not, "
+                    f"too few to prefer the pose (sign test p = {10 ** amb['rival_log10_p']:.2g} >= {AMBIGUITY_LEVEL:g}): "
                     "the matches do not single out the pose"
                 )
             elif max_rotation_std_deg < np.inf and not unc["rotation_std_deg"] <= max_rotation_std_deg:

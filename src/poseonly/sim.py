@@ -26,7 +26,7 @@ import numpy as np
 
 from .geometry import normalize, rotation_from_rotvec, skew
 
-__all__ = ["Scene", "make_scene", "FOCAL", "WIDTH", "HEIGHT", "default_K"]
+__all__ = ["Scene", "make_scene", "motion", "opengv_points", "add_noise", "FOCAL", "WIDTH", "HEIGHT", "default_K"]
 
 FOCAL = 800.0
 WIDTH, HEIGHT = 640, 480
@@ -75,13 +75,17 @@ def _opengv_rotation(rng: np.random.Generator, max_angle: float = 0.5) -> np.nda
     return rotation_from_rotvec(np.array([0, 0, a[0]])) @ rotation_from_rotvec(np.array([0, a[1], 0])) @ rotation_from_rotvec(np.array([a[2], 0, 0]))
 
 
-def _opengv_points(rng: np.random.Generator, m: int, max_depth: float = 8.0, min_depth: float = 4.0) -> np.ndarray:
+def opengv_points(rng: np.random.Generator, m: int, max_depth: float = 8.0, min_depth: float = 4.0) -> np.ndarray:
+    """``m`` random 3-D points, ``(m, 3)``, at least ``min_depth`` from the origin (OpenGV
+    ``generateRandomPoint``: a uniform cube of half-width ``max_depth - min_depth`` pushed out by ``min_depth``)."""
     c = rng.uniform(-1.0, 1.0, (m, 3))
     return (max_depth - min_depth) * c + min_depth * normalize(c)
 
 
-def _add_noise(f: np.ndarray, noise_px: float, rng: np.random.Generator, model: str) -> np.ndarray:
-    """Perturb unit bearings on their tangent plane by ``noise_px`` pixels at focal 800."""
+def add_noise(f: np.ndarray, noise_px: float, rng: np.random.Generator, model: str) -> np.ndarray:
+    """Perturb unit bearings ``f (n, 3)`` on their tangent plane by ``noise_px`` pixels at focal 800;
+    returns unit bearings ``(n, 3)`` (``f`` itself when ``noise_px <= 0``). ``model``: ``"gaussian"``
+    or ``"opengv"`` (uniform, as OpenGV ``addNoise``)."""
     if noise_px <= 0:
         return f
     # tangent basis: n1 orthogonal to f built from the largest |component| (OpenGV addNoise)
@@ -123,8 +127,8 @@ def _look_at(C: np.ndarray, target: np.ndarray, rng: np.random.Generator, jitter
     return (Rwc @ Rj).T
 
 
-def _motion(rng: np.random.Generator, kind: str, camera: str) -> tuple[np.ndarray, np.ndarray]:
-    """Camera-2 pose (R, C): rotation world->camera 2 and centre in camera-1 coordinates."""
+def motion(rng: np.random.Generator, kind: str, camera: str) -> tuple[np.ndarray, np.ndarray]:
+    """Camera-2 pose ``(R (3, 3), C (3,))``: rotation world->camera 2 and centre in camera-1 coordinates."""
     if camera == "wide":
         R2 = _opengv_rotation(rng)  # body 2 -> world (OpenGV)
         C = np.zeros(3) if kind == "rotation" else rng.uniform(-2.0, 2.0, 3)
@@ -153,7 +157,7 @@ def _sample_points(rng, kind, camera, R, C, m, plane):
         ok = np.isfinite(z) & (z > 0) & (np.linalg.norm(P, axis=1) < 25.0)
         return P[ok]
     if camera == "wide":
-        return _opengv_points(rng, m)
+        return opengv_points(rng, m)
     u = np.column_stack([rng.uniform(0, WIDTH, m), rng.uniform(0, HEIGHT, m)])
     depth = rng.uniform(4.0, 12.0, m)
     return np.column_stack([(u - [WIDTH / 2, HEIGHT / 2]) / FOCAL, np.ones(m)]) * depth[:, None]
@@ -189,7 +193,7 @@ def make_scene(
     rng = _rng(seed)
     K = default_K()
     for _attempt in range(200):
-        R, C = _motion(rng, kind, camera)
+        R, C = motion(rng, kind, camera)
         plane = None
         if kind == "planar":
             # plane nrm^T X = dd in camera 1, crossing the optical axis at depth z0, tilted up to ~60 deg
@@ -219,8 +223,8 @@ def make_scene(
     baseline = float(np.linalg.norm(t))
     t_unit = t / baseline if baseline > 0 else np.zeros(3)
     X2 = X @ R.T + t
-    f1 = _add_noise(normalize(X), noise_px, rng, noise_model)
-    f2 = _add_noise(normalize(X2), noise_px, rng, noise_model)
+    f1 = add_noise(normalize(X), noise_px, rng, noise_model)
+    f2 = add_noise(normalize(X2), noise_px, rng, noise_model)
     inliers = np.ones(n, bool)
     k = int(np.floor(outlier_fraction * n))
     if k > 0:
@@ -229,7 +233,7 @@ def make_scene(
         if camera == "wide":
             Q: list[np.ndarray] = []
             while sum(len(q) for q in Q) < k:
-                Pq = _opengv_points(rng, 4 * k)
+                Pq = opengv_points(rng, 4 * k)
                 Q.append(Pq[Pq[:, 2] > 0])  # a random point seen by camera 2, in camera 2's frame
             f2[idx] = normalize(np.concatenate(Q)[:k])
         else:

@@ -27,6 +27,21 @@ def load(name: str) -> ModuleType:
     return importlib.import_module(EXPERIMENTS[name])
 
 
+def set_command_line(cmd: str) -> None:
+    """Record ``cmd`` (one shell command line, e.g. ``"poseonly experiment noise --quick"``) as the
+    command of the running experiment: every report written until :func:`clear_command_line` states it."""
+    from . import _common
+
+    _common.COMMAND[:] = [cmd]
+
+
+def clear_command_line() -> None:
+    """Forget the command line recorded by :func:`set_command_line`."""
+    from . import _common
+
+    _common.COMMAND.clear()
+
+
 def available() -> list[str]:
     out = []
     for k, mod in EXPERIMENTS.items():

@@ -56,19 +56,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def make_scene_no_chirality(n: int, noise_px: float, outlier_fraction: float, seed) -> sim.Scene:
     """OpenGV's generator without the chirality filter (module docstring). Returns a :class:`poseonly.sim.Scene`."""
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-    R, C = sim._motion(rng, "normal", "wide")
-    X = sim._opengv_points(rng, n)
+    R, C = sim.motion(rng, "normal", "wide")
+    X = sim.opengv_points(rng, n)
     t = -R @ C
     baseline = float(np.linalg.norm(t))
     X2 = X @ R.T + t
-    f1 = sim._add_noise(normalize(X), noise_px, rng, "gaussian")
-    f2 = sim._add_noise(normalize(X2), noise_px, rng, "gaussian")
+    f1 = sim.add_noise(normalize(X), noise_px, rng, "gaussian")
+    f2 = sim.add_noise(normalize(X2), noise_px, rng, "gaussian")
     inliers = np.ones(n, bool)
     k = int(np.floor(outlier_fraction * n))
     if k > 0:
         idx = rng.choice(n, size=k, replace=False)
         inliers[idx] = False
-        f2[idx] = normalize(sim._opengv_points(rng, k))  # anywhere around camera 2, as OpenGV
+        f2[idx] = normalize(sim.opengv_points(rng, k))  # anywhere around camera 2, as OpenGV
     K = sim.default_K()
     nan = np.full((n, 2), np.nan)
     return sim.Scene(f1=f1, f2=f2, u1=nan, u2=nan.copy(), K=K, R=R, t=t / baseline, baseline=baseline, inliers=inliers, X=X, kind="normal", camera="wide", noise_px=float(noise_px))

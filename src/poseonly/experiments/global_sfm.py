@@ -33,11 +33,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..argtypes import non_negative_int
+from ..argtypes import non_negative_int, positive_degrees
 from ..geometry import InputError
 from ..io.strecha import find_scenes, load_scene
 from ..sfm.choices import LIGT_NORMALIZATIONS, LIGT_REWEIGHT, ROTATION_WEIGHTS
-from ..sfm.cli import positive_degrees
 from ._common import code_version, machine, markdown_table, progress, write_outputs
 
 if TYPE_CHECKING:  # the pipeline's modules (scipy) load when a scene runs, not when the CLI starts

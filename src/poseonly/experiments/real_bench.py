@@ -884,7 +884,7 @@ def diagnose(res: dict, cache: Path, n_worst: int = 8, method: str = "poseonly",
             "iterations": int(o.num_iterations),
             "ref_iterations": _poselib_iterations(u1, u2, p),
         }
-        if Rp is not None:
+        if Rp is not None and tp is not None:  # (None together: a failed call)
             d.update(
                 ref_R_err=float(rotation_error_deg(p.R, Rp)),
                 ref_inliers=int(np.count_nonzero(inlp)),

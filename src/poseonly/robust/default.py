@@ -26,13 +26,20 @@ __all__ = ["keep_better", "local_optimization", "make_rng", "msac_chiral", "nois
 # noise-matched threshold: clip range relative to the user's threshold, steps of the fixed point
 NOISE_THRESHOLD_RANGE = (0.25, 3.0)
 NOISE_THRESHOLD_STEPS = 3
+# fewer Sampson errors below the threshold than this: too few for the noise estimate, keep tau
+NOISE_THRESHOLD_MIN_ERRORS = 15
 MAD_TO_SIGMA = 1.4826
 # hypotheses counted for the a-contrario test (poseonly.analysis): every minimal sample may give up
 # to 10 essential matrices (the 5-point solver's bound), each LO and final-stage candidate counts
 MAX_ROOTS_PER_SAMPLE = 10
 FINAL_CANDIDATES = 20
+# the scales of the "msac-multi" score (tau, tau / 2, tau / 4, each normalised to at most 1 a match):
+# must match the core's multi-scale MSAC (src/core/ransac.h), whose best possible cost is this times n
+MSAC_MULTI_SCALES = 3
 # the ML refinement is kept unless it loses more than 2 % of the cheirality-aware MSAC score at tau
 ML_KEEP_TOLERANCE = 0.98
+# the angular LiGT refinement after LO is kept unless it loses more than 2 % of that score at the noise threshold
+LIGT_KEEP_TOLERANCE = 0.98
 # EM rounds at most, and the pose change (radians / unit-t distance; 1e-6 rad = 6e-5 deg, far below any
 # pose error) that ends them: 7-8 rounds on real pairs
 ML_ROUNDS = 50
@@ -70,20 +77,20 @@ def make_rng(seed: int | np.random.Generator) -> np.random.Generator:
     return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(int(seed))
 
 
-def msac_chiral(R, t, f1, f2, tau) -> float:
+def msac_chiral(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float) -> float:
     """Cheirality-aware MSAC score (larger is better)."""
     v = v_sampson_chiral(R, t, f1, f2)
     return float(np.sum(tau * tau - np.minimum(v * v, tau * tau)))
 
 
-def keep_better(a, b, f1, f2, tau, tol=1.0):
+def keep_better(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray], f1: np.ndarray, f2: np.ndarray, tau: float, tol: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
     """``b`` if its cheirality-aware MSAC score reaches ``tol`` times ``a``'s, else ``a``."""
     if not (np.all(np.isfinite(b[0])) and np.all(np.isfinite(b[1]))):
         return a
     return b if msac_chiral(*b, f1, f2, tau) >= tol * msac_chiral(*a, f1, f2, tau) else a
 
 
-def select_by_support(R, t, f1, f2, tau):
+def select_by_support(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float) -> tuple[np.ndarray, np.ndarray]:
     """Best of ``(R, t)`` (re-identified on its Sampson inliers), its homography twin and the LiRP
     candidates of its consensus set, by cheirality-consistent support (the core's
     ``src/core/analysis.cpp``, GIL released; numpy reference: ``tests/reference/select.py``)."""
@@ -91,7 +98,7 @@ def select_by_support(R, t, f1, f2, tau):
     return _core.select_by_support(c(R, dtype=float), c(t, dtype=float), c(f1, dtype=float), c(f2, dtype=float), float(tau))
 
 
-def refine_ligt(R, t, f1, f2, inl, tau, normalization="none"):
+def refine_ligt(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, inl: np.ndarray, tau: float, normalization: str = "none") -> tuple[np.ndarray, np.ndarray]:
     """LiGTopt on the inliers ``inl (n,)`` with a robust Cauchy loss at the threshold scale.
 
     ``normalization="none"`` is the paper's LiGTopt (Eq. 9 residual ``||L~_i t||``);
@@ -109,7 +116,7 @@ def refine_ligt(R, t, f1, f2, inl, tau, normalization="none"):
     return R, t
 
 
-def noise_threshold(R, t, f1, f2, tau, o: PoseonlyOptions) -> float:
+def noise_threshold(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float, o: PoseonlyOptions) -> float:
     """Inlier threshold matched to the measured noise, for the final stages and the returned mask.
 
     Fixed-point iteration ``thr <- clip(k sigma(thr), tau / 4, 3 tau)`` (3 steps from ``thr = tau``)
@@ -125,7 +132,7 @@ def noise_threshold(R, t, f1, f2, tau, o: PoseonlyOptions) -> float:
     lo, hi = NOISE_THRESHOLD_RANGE
     for _ in range(NOISE_THRESHOLD_STEPS):
         v = v_all[v_all < thr]
-        if len(v) < 15:
+        if len(v) < NOISE_THRESHOLD_MIN_ERRORS:
             return tau
         thr = float(np.clip(o.noise_factor * MAD_TO_SIGMA * median(v), lo * tau, hi * tau))
     return thr
@@ -134,7 +141,7 @@ def noise_threshold(R, t, f1, f2, tau, o: PoseonlyOptions) -> float:
 LO_CODES = {"lirp": 0, "sampson": 1}
 
 
-def local_optimization(R, t, f1, f2, thr, o: PoseonlyOptions):
+def local_optimization(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, thr: float, o: PoseonlyOptions) -> tuple[np.ndarray, np.ndarray]:
     """The core's LO step at ``thr`` from the pose's cheirality-consistent inliers, on the points within
     4 thresholds: warm-started TLS IRLS on all-candidate LiRP (``lo="lirp"``) or Sampson LM with a
     Cauchy loss (``lo="sampson"``)."""
@@ -146,7 +153,7 @@ def rival_support_ratio(r: RansacResult, n: int, tau: float, scoring: str) -> fl
     """Support of the best rival model (``rival_distance`` degrees or more from the result) relative to
     the result's: the scorer's maximum minus its cost, so 1 means an equally supported rival and 0 no
     rival. Diagnostic of the uniqueness of the pose."""
-    full = {"msac-multi": 3.0 * n, "msac": n * tau * tau, "count": float(n)}[scoring]
+    full = {"msac-multi": float(MSAC_MULTI_SCALES * n), "msac": n * tau * tau, "count": float(n)}[scoring]
     rc = float(r.stats.get("rival_cost", np.inf))
     if not np.isfinite(rc):
         return 0.0
@@ -343,7 +350,7 @@ def full_range_log_likelihood(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: 
     likelihood for every pose, unlike the ML stage's, whose mixture lives on the errors below its range."""
     r = np.minimum(v_sampson(R, t, f1, f2), FULL_RANGE)
     near = r < T
-    if np.count_nonzero(near) < 6:
+    if np.count_nonzero(near) < ML_MIN_NEAR:
         return -np.inf
     s = max(MAD_TO_SIGMA * median(r[near]), 1e-12)
     g = min(max(float(np.mean(near)), 1e-9), 1 - 1e-9)
@@ -620,6 +627,6 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
     R, t = keep_better((R, t), local_optimization(R, t, f1, f2, thr, o), f1, f2, thr)
     if o.refine:
         ref = refine_ligt(R, t, f1, f2, support(R[None], t[None], f1, f2, thr)[0], thr, normalization="angular")
-        R, t = keep_better((R, t), ref, f1, f2, thr, tol=0.98)
+        R, t = keep_better((R, t), ref, f1, f2, thr, tol=LIGT_KEEP_TOLERANCE)
     diag["tau_effective"] = thr
     return R, t, None, r.num_iterations, diag

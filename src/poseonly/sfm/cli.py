@@ -27,25 +27,14 @@ from typing import Any
 import numpy as np
 
 from .._pycolmap import import_pycolmap
-from ..argtypes import non_negative_int, positive_float, positive_int
+from ..argtypes import non_negative_int, positive_degrees, positive_float, positive_int
 from ..geometry import InputError
 from ..io.pair_list import parse_pair_names
-from .choices import LIGT_NORMALIZATIONS, LIGT_REWEIGHT, ROTATION_WEIGHTS, checked_sigma_deg
+from .choices import LIGT_NORMALIZATIONS, LIGT_REWEIGHT, ROTATION_WEIGHTS
 
 __all__ = ["IMAGE_EXTS", "add_parsers", "cmd_sfm"]
 
 IMAGE_EXTS = (".jpg", ".jpeg", ".png", ".JPG", ".JPEG", ".PNG")
-
-
-def positive_degrees(text: str) -> float:
-    """argparse type of ``--rotation-sigma``: a number of degrees in ``choices.SIGMA_RANGE_DEG`` (checked
-    before any image is read)."""
-    try:
-        v = checked_sigma_deg(float(text), "--rotation-sigma")
-    except (ValueError, InputError) as e:
-        raise argparse.ArgumentTypeError(str(e)) from None
-    assert v is not None
-    return v
 
 
 def _progress(it, **kw):

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from .._fileutil import atomic_savez
+from .._fileutil import CACHE_READ_ERRORS, atomic_savez
 from ..api import estimate_relative_pose
 from ..cameras import OPENCV_TO_COLMAP_PX
 from ..features import Features, extract_features, match_features, match_noise_scales, unreadable_images
@@ -278,7 +278,7 @@ def _matches(fa: Features, fb: Features, da: str, db: str, opt: PairwiseOptions,
             try:
                 with np.load(f) as z:
                     return z["idx"], z["scores"]
-            except Exception:  # noqa: BLE001, S110 - unreadable cache entry: recompute
+            except CACHE_READ_ERRORS:  # unreadable cache entry: recompute
                 pass
     idx, scores = match_features(fa.descriptors, fb.descriptors, ratio=opt.ratio, mutual=opt.mutual, return_scores=True)
     if f is not None:
@@ -330,7 +330,7 @@ def two_view(
             try:
                 with np.load(f) as z:
                     return TwoView(z["R"], z["t"], z["inliers"], int(z["num_inliers"]), str(z["status"]))
-            except Exception:  # noqa: BLE001, S110 - unreadable cache entry: recompute
+            except CACHE_READ_ERRORS:  # unreadable cache entry: recompute
                 pass
     extra: dict[str, Any] = {} if focal_px is None else {"focal_px": float(focal_px)}
     if opt.threshold_px is not None:

@@ -76,8 +76,9 @@ def mat_to_vec(M: np.ndarray) -> np.ndarray:
     return np.swapaxes(M, -1, -2).reshape(M.shape[:-2] + (9,))
 
 
-def prepare(f1, f2, w, min_points: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """Validate one correspondence set and add the batch axis: ``(1, n, 3), (1, n, 3), (1, n) | None``.
+def prepare(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None, min_points: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Validate one correspondence set (``f1, f2 (n, 3)`` bearings, ``w (n,)`` or None) and add the
+    batch axis: ``(1, n, 3), (1, n, 3), (1, n) | None``.
 
     Raises :class:`poseonly.geometry.InputError` (a ``ValueError``) for bad shapes, NaN/inf, zero
     vectors, negative weights or fewer than ``min_points`` (positively weighted) correspondences.
