@@ -69,6 +69,20 @@ def test_homography_twin_dlt_matches_the_reference(camera):
     assert homography_twin_dlt(sc.R, sc.t, sc.f1[:3], sc.f2[:3]) is None  # fewer than 4 matches
 
 
+def test_homography_twin_dlt_refuses_an_undetermined_homography():
+    """Matches of points on one 3-D line do not determine a homography (a null space of several
+    dimensions): no twin, in the core and the reference, where the fit used to pick an arbitrary H."""
+    rng = np.random.default_rng(3)
+    R = np.eye(3)
+    t = np.array([0.3, 0.0, 0.05])
+    X = np.array([0.2, -0.1, 5.0]) + np.outer(rng.uniform(-1, 1, 40), [1.0, 0.4, 0.5])
+    f1 = X / np.linalg.norm(X, axis=1, keepdims=True)
+    X2 = X @ R.T + t
+    f2 = X2 / np.linalg.norm(X2, axis=1, keepdims=True)
+    assert homography_twin_dlt(R, t, f1, f2) is None
+    assert ref_twin.homography_twin_dlt(R, t, f1, f2) is None
+
+
 def test_homography_twin_dlt_is_exact_on_a_noise_free_plane():
     """Noise-free planar scene: the directly fitted homography's twin reproduces the plane's
     correspondences exactly, and it is the triangulated plane's twin."""

@@ -164,6 +164,10 @@ bool homography_twin(const Pose& pose, const Points& P, Pose* twin, double* plan
 namespace {
 
 constexpr double kDltPlanarShare = 0.9;  // homography_twin_dlt: the share of matches H must carry (TWIN_SUPPORT_RATIO)
+// fit_homography: H is undetermined (a null space of two or more dimensions: collinear matches, or four
+// with three on a line) when the second smallest singular value of the stacked rows is below this
+// fraction of the largest (eigenvalues of their Gram matrix: its square)
+constexpr double kHomographyRankRtol = 1e-6;
 
 // The sign-fixed homography of the matches P fitted directly: the unit H minimising sum |f2 x H f1|^2
 // (DLT on the bearings, all three rows of each cross product; the eigenvector of the smallest
@@ -183,6 +187,8 @@ bool fit_homography(const Points& P, Mat3* H) {
   if (!M.allFinite()) return false;
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> es(M);
   if (es.info() != Eigen::Success) return false;
+  const double lmax = es.eigenvalues()(8);
+  if (!(lmax > 0.0) || !(es.eigenvalues()(1) > kHomographyRankRtol * kHomographyRankRtol * lmax)) return false;
   const Eigen::Matrix<double, 9, 1> h = es.eigenvectors().col(0);
   for (int r = 0; r < 3; ++r) H->row(r) = h.segment<3>(3 * r).transpose();
   int along = 0;

@@ -113,7 +113,10 @@ def homography_twin_dlt(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.nda
     B = np.zeros((len(f1), 3, 3))
     B[:, 0, 1], B[:, 0, 2], B[:, 1, 0], B[:, 1, 2], B[:, 2, 0], B[:, 2, 1] = -f2[:, 2], f2[:, 1], f2[:, 2], -f2[:, 0], -f2[:, 1], f2[:, 0]
     A = np.einsum("ikr,ij->ikrj", B, f1).reshape(-1, 9)
-    H = np.linalg.svd(A)[2][-1].reshape(3, 3)
+    _, s, Vt = np.linalg.svd(A)
+    if not s[-2] > 1e-6 * s[0]:  # H undetermined (collinear matches): the core's kHomographyRankRtol
+        return None
+    H = Vt[-1].reshape(3, 3)
     if 2 * np.count_nonzero(np.einsum("ij,ij->i", f1 @ H.T, f2) > 0) < len(f1):
         H = -H
     h = f1 @ H.T
