@@ -445,6 +445,35 @@ def test_sfm_command_writes_one_model_per_scene(tmp_path, capsys):
         return
     for k in (0, 1):
         assert pycolmap.Reconstruction(str(out / "sparse" / str(k))).num_reg_images() == 3
+    # a rerun into the same folder with one scene: the other model's outputs, which no longer match
+    # poses.json, are removed (a user's trial); a file poseonly did not write stays
+    (out / "sparse" / "notes.txt").write_text("mine")
+    for f in d.glob("b_*"):
+        f.unlink()
+    assert main(["sfm", str(d), "--K", str(tmp_path / "K.txt"), "--out", str(out), "--max-features", "1500", "--no-progress"]) == 0
+    assert "removed 3 outputs of the previous run" in capsys.readouterr().out
+    assert not (out / "sparse" / "1").exists() and not (out / "points_1.ply").exists() and not (out / "reconstruction_1.png").exists()
+    assert (out / "sparse" / "0").is_dir() and (out / "points.ply").is_file() and (out / "sparse" / "notes.txt").read_text() == "mine"
+    assert len(json.loads((out / "poses.json").read_text())["models"]) == 1
+
+
+def test_sfm_command_refuses_images_of_other_sizes_with_one_calibration(tmp_path, capsys):
+    """A user's trial: one --K for images of different sizes gave a model 12-36 deg off, status ok."""
+    cv2 = pytest.importorskip("cv2")
+    if not (SCENE / "images" / "K.txt").is_file():
+        pytest.skip("shared Strecha data not available")
+    d = tmp_path / "imgs"
+    d.mkdir()
+    for k, f in enumerate(sorted((SCENE / "images").glob("*.jpg"))[:3]):
+        im = cv2.imread(str(f))
+        cv2.imwrite(str(d / f.name), cv2.resize(im, None, fx=0.25 if k < 2 else 0.2, fy=0.25 if k < 2 else 0.2, interpolation=cv2.INTER_AREA))
+    K = np.loadtxt(SCENE / "images" / "K.txt")
+    K[:2] *= 0.25
+    np.savetxt(tmp_path / "K.txt", K)
+    assert main(["sfm", str(d), "--K", str(tmp_path / "K.txt"), "--out", str(tmp_path / "o"), "--max-features", "1000", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "pixels but" in err and "one calibration for every image describes one image size" in err
+    assert not (tmp_path / "o" / "poses.json").exists()
 
 
 def test_sfm_database_with_keypoints_the_camera_cannot_undistort(distorted_images, tmp_path):

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import time
 from collections import Counter
 from pathlib import Path
@@ -178,6 +179,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     for k, res in enumerate(models):
         model_of[np.all(np.isfinite(res.rotations), axis=(1, 2))] = k
     print(f"models: {len(models)} ({', '.join(str(int(np.sum(model_of == k))) for k in range(len(models)))} images)")
+    previous = _previous_outputs(out)  # read before this run writes over them
     poses: dict[str, Any] = {"convention": "X_cam = R (X_world - c)", "status": "", "models": [], "images": []}
     for k, res in enumerate(models):
         poses["models"].append(_write_model(k, res, images, ig, out, args))
@@ -196,9 +198,39 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     unmodelled = int(np.sum(model_of < 0) - sum(m["views_not_posed"] for m in poses["models"]))
     if unmodelled > 0:
         print(f"in no model: {unmodelled} images (no trusted pair joins them to a model of at least {MIN_MODEL_VIEWS} images)")
+    stale = sorted(previous - _model_outputs(out, poses["models"]))
+    for f in stale:  # a previous run's outputs this run did not write: they would not match poses.json
+        if f.is_dir():
+            shutil.rmtree(f)
+        else:
+            f.unlink(missing_ok=True)
+    if stale:
+        print(f"removed {len(stale)} outputs of the previous run in {out} that this run does not write: {', '.join(str(f.relative_to(out)) for f in stale)}")
     atomic_write_text(out / "poses.json", json.dumps(poses, indent=1))
     print(f"total {time.perf_counter() - t0:.1f} s; outputs in {out}")
     return 0
+
+
+def _model_outputs(out: Path, models: list[dict[str, Any]]) -> set[Path]:
+    """The files and folders ``_write_model`` writes for poses.json's ``models`` entries (a model whose
+    centres are undetermined writes none)."""
+    files: set[Path] = set()
+    for m in models:
+        k = m.get("model") if isinstance(m, dict) else None
+        if isinstance(k, int) and not isinstance(k, bool) and k >= 0 and m.get("status") == "ok":
+            files |= {out / "sparse" / str(k), out / f"points{_suffix(k)}.ply", out / f"reconstruction{_suffix(k)}.png"}
+    return files
+
+
+def _previous_outputs(out: Path) -> set[Path]:
+    """What an earlier run wrote into ``out``, by its poses.json (none without a readable one: files
+    poseonly did not write, e.g. a COLMAP project's own ``sparse/0``, are never touched); only paths
+    that exist."""
+    try:
+        models = json.loads((out / "poses.json").read_text(encoding="utf-8")).get("models", [])
+    except (OSError, ValueError, AttributeError):
+        return set()
+    return {f for f in _model_outputs(out, models if isinstance(models, list) else []) if f.exists()}
 
 
 def _suffix(k: int) -> str:

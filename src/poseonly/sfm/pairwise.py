@@ -436,6 +436,10 @@ def image_view_graph(
     if n < 2:
         raise InputError(f"need at least two images, got {n}")
     cams = None if camera is None else _image_cameras(camera, n, K)
+    # one calibration for every image describes one image size: images of other sizes are refused (a
+    # user's trial: a folder of 1536x1024, 3072x2048 and 1024x683 images with one K gave a model 12-36
+    # deg off, status ok)
+    shared = not isinstance(camera, list) if cams is not None else (K is not None and np.shape(K) == (3, 3))
     if cams is not None:
         Ks = np.stack([c.K for c in cams])
     elif K is None:
@@ -462,6 +466,21 @@ def image_view_graph(
     pool = _FeaturePool(images, opt.max_features, None if cache is None else cache / "features", uses, resident_images)
     lifted: dict[int, np.ndarray] = {}
     lift_lock = threading.Lock()
+    first_size: list[tuple[int, tuple[int, int]]] = []  # (image, size) of the first image checked
+
+    def check_shared_size(i: int) -> None:
+        """:class:`InputError` when image ``i``'s size differs from the first checked image's (``shared``)."""
+        w, h = pool.base(i).image_size
+        size = (int(w), int(h))
+        with lift_lock:
+            if not first_size:
+                first_size.append((i, size))
+            j, ref = first_size[0]
+        if size != ref:
+            raise InputError(
+                f"{images[i]} is {size[0]}x{size[1]} pixels but {images[j]} is {ref[0]}x{ref[1]}: one calibration for every image"
+                " describes one image size; give the images one size, or one calibration per image"
+            )
 
     def lift(i: int) -> np.ndarray:
         """Image ``i``'s keypoints as unit bearings through its camera model (NaN rows where it
@@ -489,6 +508,9 @@ def image_view_graph(
             pool.done(i)
             pool.done(j)
         del fa, fb  # the descriptors: the pool may release them now
+        if shared:
+            check_shared_size(i)
+            check_shared_size(j)
         if cams is not None and len(idx):  # only matches whose keypoints the cameras can lift
             ok = np.isfinite(lift(i)[idx[:, 0], 0]) & np.isfinite(lift(j)[idx[:, 1], 0])
             if not ok.all():
