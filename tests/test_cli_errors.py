@@ -272,3 +272,14 @@ def test_colmap_verify_locked_database_is_one_clear_error(tmp_path, capsys):
         holder.wait()
     assert _rows(path) == []
     assert main(["colmap", "verify", str(path), "--no-progress"]) == 0
+
+
+def test_read_K_names_what_is_wrong(tmp_path):
+    from poseonly.io.calibration import read_K
+
+    with pytest.raises(ValueError, match="is a folder; give the calibration's text file"):
+        read_K(tmp_path)
+    with pytest.raises(ValueError, match="calibration file not found"):
+        read_K(tmp_path / "K.txt")
+    (tmp_path / "K.txt").write_text("800 0 320\n0 800 240\n0 0 1\n")
+    assert read_K(tmp_path / "K.txt")[0, 0] == 800

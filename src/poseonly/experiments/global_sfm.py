@@ -54,7 +54,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("path", help="a Strecha scene folder, or a folder holding scene folders")
     p.add_argument("--scenes", nargs="+", help="only these scene names")
     p.add_argument("--cache", default=DEFAULT_CACHE, help=f"feature / match / two-view cache (default {DEFAULT_CACHE})")
-    p.add_argument("--max-features", type=non_negative_int, default=8000, help="strongest SIFT features per image (default 8000)")
+    p.add_argument("--max-features", type=non_negative_int, default=8000, help="strongest SIFT features per image (default 8000; 0: every feature SIFT finds)")
     p.add_argument("--threshold-px", type=float, default=None, help="two-view RANSAC threshold in pixels (default: the method's, 1 px)")
     p.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
     p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' sizes to the two-view estimator as noise scales")

@@ -17,6 +17,8 @@ def read_K(path: str | Path, name: str = "--K") -> np.ndarray:
     ``numpy.loadtxt`` reads them); :class:`InputError` naming the file and ``name`` otherwise (missing,
     unreadable, empty, not 3x3, not a calibration matrix: :func:`poseonly.geometry.check_intrinsics`)."""
     p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{name}: {path} is a folder; give the calibration's text file")
     if not p.is_file():
         raise InputError(f"{name}: calibration file not found: {path}")
     try:

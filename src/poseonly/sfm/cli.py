@@ -348,7 +348,7 @@ def add_parsers(sub: Any, esub: Any) -> None:
         help="--database: use the focal length COLMAP guessed for cameras imported without calibration or EXIF focal length (refused otherwise)",
     )
     s.add_argument("--out", required=True, help="output folder")
-    s.add_argument("--max-features", type=non_negative_int, default=8000, help="strongest SIFT features per image (default 8000)")
+    s.add_argument("--max-features", type=non_negative_int, default=8000, help="strongest SIFT features per image (default 8000; 0: every feature SIFT finds)")
     s.add_argument("--max-images", type=positive_int, help="use only the first N images (sorted by name)")
     s.add_argument("--threshold-px", type=positive_float, default=None, help="two-view inlier threshold (px; default: the method's, 1 px)")
     s.add_argument("--cache", help="feature / match cache (default OUT/cache)")
