@@ -249,7 +249,8 @@ def _write_model(k: int, res: Any, images: list[Path], ig: Any, out: Path, args:
     rec = res.reconstruction
     undetermined = res.info.get("translation_undetermined")
     entry: dict[str, Any] = {"model": k, "status": "translation_undetermined" if undetermined else "ok", "images": int(has_R.sum()), "points": int(rec.num_valid)}
-    print(f"model {k}: cameras: {int(est.sum())}/{int(component.sum())} posed; outlier edges: {len(res.rotation.outlier_edges)}; points: {rec.num_valid}/{len(res.tracks)} valid")
+    posed = f"{int(has_R.sum())} rotations averaged, centres undetermined" if undetermined else f"{int(est.sum())}/{int(component.sum())} posed"
+    print(f"model {k}: cameras: {posed}; outlier edges: {len(res.rotation.outlier_edges)}; points: {rec.num_valid}/{len(res.tracks)} valid")
     li = res.ligt.info
     reasons = {
         "not joined to the solved component by usable tracks": _count(li, "views_disconnected"),
