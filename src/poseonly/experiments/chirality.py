@@ -135,7 +135,7 @@ def _methods(cauchy_px: float):
         ms["robust Npt (IRLS, Cauchy)"] = lambda sc, s: robust_npt(sc.f1, sc.f2, npt_fn, c)[0]
         ms["Npt (all points)"] = lambda sc, s: npt_fn(sc.f1, sc.f2)[0]
     else:
-        skipped["robust Npt"] = "poseonly.refine.npt or cvxpy is not available"
+        skipped["robust Npt"] = "poseonly.refine.npt or cvxpy is not available (pip install -e '.[sdp]', or '.[all]')"
     return ms, skipped
 
 
