@@ -19,6 +19,7 @@ import tempfile
 import threading
 import time
 import zipfile
+import zlib
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
@@ -40,8 +41,11 @@ __all__ = [
 
 TMP_SUFFIX = ".poseonly-tmp"
 # what reading a missing, truncated, garbage or inconsistent ``.npz`` cache entry raises (``np.load``
-# with ``allow_pickle=False``, a missing key, a field of the wrong type): such an entry is recomputed
-CACHE_READ_ERRORS: tuple[type[Exception], ...] = (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile)
+# with ``allow_pickle=False``, a missing key, a field of the wrong type; zipfile on a corrupt header byte:
+# NotImplementedError for an unknown version or compression, RuntimeError for the "encrypted" flag, a
+# review's fuzzing: 55 of ~7000 single-byte corruptions; zlib.error for corrupt deflate data): such an
+# entry is recomputed
+CACHE_READ_ERRORS: tuple[type[Exception], ...] = (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, NotImplementedError, RuntimeError, zlib.error)
 # temp files of the older writers (no pid in the name) are removed once they are this old (seconds)
 LEGACY_TMP_AGE_S = 3600.0
 
