@@ -225,15 +225,16 @@ def test_colmap_verify_unliftable_camera_refused_and_undefined_rows_redone(tmp_p
     err = _err(capsys)
     assert "cameras of 3 selected pairs cannot be lifted" in err and "RADIAL_FISHEYE" in err
     assert _rows(path) == []
-    # an UNDEFINED row (left by invalid input) is redone by a plain rerun; a verified one is kept
+    # nothing was written, so the rerun after fixing the camera verifies every pair; a row of any
+    # configuration is kept by a plain rerun (COLMAP writes UNDEFINED for the pairs it rejects)
     _set_camera(path, CAM.model, list(CAM.params))
     db = pycolmap.Database.open(str(path))
     db.write_two_view_geometry(ids[0], ids[1], pycolmap.TwoViewGeometry(config=pycolmap.TwoViewGeometryConfiguration.UNDEFINED))
     db.close()
     assert main(["colmap", "verify", str(path), "--no-progress"]) == 0
-    assert "3 pairs selected, 0 already verified (kept), 3 written" in capsys.readouterr().out
+    assert "3 pairs selected, 1 already verified (kept), 2 written" in capsys.readouterr().out
     rows = _rows(path)
-    assert len(rows) == 3 and all(r[4] != int(pycolmap.TwoViewGeometryConfiguration.UNDEFINED) for r in rows)
+    assert len(rows) == 3 and sum(r[4] == int(pycolmap.TwoViewGeometryConfiguration.UNDEFINED) for r in rows) == 1
     assert main(["colmap", "verify", str(path), "--no-progress"]) == 0
     assert "3 already verified (kept), 0 written" in capsys.readouterr().out
     # a pairs-file pair without matches is said, not silently dropped
@@ -283,3 +284,19 @@ def test_read_K_names_what_is_wrong(tmp_path):
         read_K(tmp_path / "K.txt")
     (tmp_path / "K.txt").write_text("800 0 320\n0 800 240\n0 0 1\n")
     assert read_K(tmp_path / "K.txt")[0, 0] == 800
+
+
+def test_colmap_verify_database_path_with_uri_characters(tmp_path, capsys):
+    """A review: ``#`` or ``?`` in the database's name cut the SQLite URI (its read-only mode dropped,
+    another, empty file created); ``%20`` opened another file."""
+    from test_colmap import _rows, make_db
+
+    d = tmp_path / "a#b?c%20d"
+    d.mkdir()
+    path = d / "x#y?.db"
+    make_db(path, n_images=3)
+    before = sorted(p.name for p in d.iterdir())
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 0
+    assert "3 written" in capsys.readouterr().out
+    assert len(_rows(path)) == 3
+    assert sorted(p.name for p in d.iterdir() if not p.name.endswith(("-wal", "-shm", "-journal"))) == before

@@ -114,7 +114,7 @@ def test_verify_rows_and_mapping(tmp_path):
     assert verify_database(path, progress=False).written == 0
     assert verify_database(path, progress=False, overwrite=True).written == 15
     assert _rows(path) == before
-    assert verify_database(path, progress=False, overwrite=True, n_jobs=2, write_every=4).written == 15
+    assert verify_database(path, progress=False, overwrite=True, n_jobs=2, backend="processes", write_every=4).written == 15
     assert _rows(path) == before  # the same rows from 2 processes and other transaction sizes
     assert verify_database(path, progress=False, overwrite=True, n_jobs=2, backend="threads", write_every=3).written == 15
     assert _rows(path) == before  # and from 2 threads

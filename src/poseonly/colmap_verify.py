@@ -24,9 +24,9 @@ matched database do not overlap, and their searches run to the cap); ``max_itera
 (``--max-iterations``) overrides it.
 
 Rows are written in transactions of ``write_every`` pairs, so a killed run leaves every pair either
-complete or absent. A rerun skips pairs that already have a geometry other than ``UNDEFINED`` (it
-resumes; an ``UNDEFINED`` row, left for invalid input, is redone); ``overwrite=True`` first deletes the
-selected pairs' geometries (one transaction), e.g. those of COLMAP's own verifier. A camera poseonly
+complete or absent. A rerun skips pairs that already have a geometry, of any configuration (it
+resumes; COLMAP's own matcher writes ``UNDEFINED`` rows for the pairs it rejects); ``overwrite=True``
+first deletes the selected pairs' geometries (one transaction), e.g. those of COLMAP's own verifier. A camera poseonly
 cannot lift to bearings is refused before anything is written (:class:`poseonly.geometry.InputError`),
 a database another process has locked, or that cannot be written, too
 (:class:`poseonly.io.colmap_db.DatabaseUnavailableError`, an ``OSError``; a lock taken mid-run ends the
@@ -47,7 +47,7 @@ import numpy as np
 
 from .api import DEFAULT_METHOD, METHODS
 from .argtypes import jobs_int, non_negative_int, positive_float, positive_int
-from .batch import Pair, PairResult, estimate_relative_poses
+from .batch import AUTO_THREADS_MAX_PAIRS, Pair, PairResult, estimate_relative_poses
 from .geometry import InputError, pair_focal
 from .io.colmap_db import ColmapDatabase, GeometryRow, refuse_guessed_focal
 from .options import MANY_PAIRS_MAX_ITERATIONS
@@ -186,7 +186,7 @@ def verify_database(
     pairs_file: str | Path | None = None,
     overwrite: bool = False,
     n_jobs: int = 1,
-    backend: str = "processes",
+    backend: str = "auto",
     client: Any = None,
     chunk_size: int | None = None,
     write_every: int = WRITE_EVERY,
@@ -208,7 +208,8 @@ def verify_database(
     such a database is refused before any pair is estimated (:class:`InputError` naming the cameras),
     since a calibrated pose from a guessed focal length can be degrees off and be written
     ``CALIBRATED``; ``n_jobs``,
-    ``backend`` (``"processes"`` or ``"threads"``) and ``client`` as :func:`poseonly.estimate_relative_poses`
+    ``backend`` (``"auto"``: threads for fewer than :data:`poseonly.batch.AUTO_THREADS_MAX_PAIRS` pairs to
+    verify, else processes; ``"processes"`` or ``"threads"``) and ``client`` as :func:`poseonly.estimate_relative_poses`
     takes them (the database is read and written in this thread only). Returns a :class:`VerifySummary`."""
     t0 = time.perf_counter()
     if isinstance(write_every, (bool, np.bool_)) or not isinstance(write_every, (int, np.integer)) or write_every < 1:
@@ -240,9 +241,9 @@ def verify_database(
             summary.unmatched = len(wanted - {p[0] for p in pairs})
             pairs = [p for p in pairs if p[0] in wanted]
         summary.selected = len(pairs)
-        # an UNDEFINED row (invalid input, e.g. a camera model poseonly cannot lift) is not a verification:
-        # a rerun redoes it
-        todo = pairs if overwrite else [p for p in pairs if not db.is_verified(p[1], p[2])]
+        # every existing row is kept without overwrite, UNDEFINED ones included: COLMAP's own matcher writes
+        # UNDEFINED for the pairs it rejects, and a rerun must not mix the two verifiers' results (a review)
+        todo = pairs if overwrite else [p for p in pairs if not db.has_geometry(p[1], p[2])]
         bad = sorted({msg for _, i1, i2 in todo for i in (i1, i2) if (msg := db.unsupported.get(i)) is not None})
         if bad:  # before any row is deleted or written: each of these pairs would be written UNDEFINED
             raise InputError(
@@ -259,6 +260,8 @@ def verify_database(
         if overwrite:
             db.delete_geometries([(i1, i2) for _, i1, i2 in pairs])
         summary.skipped = len(pairs) - len(todo)
+        if backend == "auto":  # the pairs stream from the database (no len): decided on the pairs to verify
+            backend = "threads" if len(todo) < AUTO_THREADS_MAX_PAIRS else "processes"
         src = _Source(db, todo, summary.errors, noise_scales)
         buf: list[GeometryRow] = []
 
@@ -306,7 +309,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help=f"the search's sample cap per pair (default for the default method: {MANY_PAIRS_MAX_ITERATIONS}, COLMAP's two-view cap; the method's own otherwise)",
     )
     p.add_argument("--jobs", type=jobs_int, default=1, help="local workers (-1: all cores; default 1): processes, or threads with --threads")
-    p.add_argument("--threads", action="store_true", help="the local workers are threads (the core releases the GIL), not processes")
+    p.add_argument(
+        "--threads",
+        action="store_true",
+        help=f"the local workers are threads (the core releases the GIL), not processes (default: threads below {AUTO_THREADS_MAX_PAIRS} pairs to verify, processes above)",
+    )
     p.add_argument("--dask", metavar="ADDRESS", help="run on the Dask scheduler at ADDRESS instead of local processes")
     p.add_argument("--chunk", type=positive_int, default=None, help="pairs per task (default 16 local, 256 on Dask)")
     p.add_argument("--write-every", type=positive_int, default=WRITE_EVERY, help=f"pairs per database transaction (default {WRITE_EVERY})")
@@ -336,7 +343,7 @@ def run_cli(args: argparse.Namespace) -> int:
         pairs_file=args.pairs,
         overwrite=args.overwrite,
         n_jobs=args.jobs,
-        backend="threads" if args.threads else "processes",
+        backend="threads" if args.threads else "auto",
         client=args.dask,
         chunk_size=args.chunk,
         write_every=args.write_every,

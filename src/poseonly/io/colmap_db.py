@@ -127,6 +127,13 @@ def refuse_guessed_focal(path: str | Path, guessed: Iterable[str], override: str
         )
 
 
+def _sqlite_uri(path: Path, mode: str) -> str:
+    """An SQLite URI of the existing file ``path`` opened in ``mode`` (``ro`` / ``rw``: never created): the
+    path percent-encoded (a review: ``#`` or ``?`` in a name cut the URI, and ``mode`` was dropped, so
+    SQLite created another, empty file)."""
+    return f"{path.resolve().as_uri()}?mode={mode}"
+
+
 def matched_pair_ids(path: str | Path) -> list[int]:
     """The pair ids of ``path``'s matches (pairs with at least one match, ascending), after checking
     that ``path`` is an existing COLMAP database: :class:`InputError` otherwise, and the file is never
@@ -139,7 +146,7 @@ def matched_pair_ids(path: str | Path) -> list[int]:
     if not p.is_file():
         raise InputError(f"COLMAP database not found: {path}")
     try:
-        with closing(sqlite3.connect(f"file:{p}?mode=ro", uri=True)) as con:
+        with closing(sqlite3.connect(_sqlite_uri(p, "ro"), uri=True)) as con:
             tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
             missing = {"cameras", "images", "keypoints", "matches", "two_view_geometries"} - tables
             if missing:
@@ -165,7 +172,7 @@ def check_writable(path: str | Path) -> None:
         if not os.access(q, os.W_OK):
             raise DatabaseUnavailableError(f"cannot use the COLMAP database {path}: its {what} {q} is not writable (poseonly writes two_view_geometries rows)")
     try:
-        with closing(sqlite3.connect(f"file:{p}?mode=rw", uri=True, timeout=0.0)) as con:
+        with closing(sqlite3.connect(_sqlite_uri(p, "rw"), uri=True, timeout=0.0)) as con:
             con.execute("BEGIN IMMEDIATE")
             con.rollback()
     except sqlite3.DatabaseError as exc:
@@ -238,14 +245,6 @@ class ColmapDatabase:
     def has_geometry(self, image_id1: int, image_id2: int) -> bool:
         """Does the pair have a ``two_view_geometries`` row (of any configuration)?"""
         return bool(self.db.exists_two_view_geometry(image_id1, image_id2))
-
-    def is_verified(self, image_id1: int, image_id2: int) -> bool:
-        """Does the pair have a row whose configuration is not ``UNDEFINED`` (a pair left undetermined, e.g.
-        for invalid input, is not verified: a rerun after the input is fixed redoes it)?"""
-        if not self.db.exists_two_view_geometry(image_id1, image_id2):
-            return False
-        g = self.db.read_two_view_geometry(image_id1, image_id2)
-        return bool(g.config != self._pc.TwoViewGeometryConfiguration.UNDEFINED)
 
     def matches(self, image_id1: int, image_id2: int) -> np.ndarray:
         """``(m, 2)`` keypoint indices (int64)."""
