@@ -446,14 +446,19 @@ def test_sfm_command_writes_one_model_per_scene(tmp_path, capsys):
         return
     for k in (0, 1):
         assert pycolmap.Reconstruction(str(out / "sparse" / str(k))).num_reg_images() == 3
-    # a rerun into the same folder with one scene: the other model's outputs, which no longer match
-    # poses.json, are removed (a user's trial); a file poseonly did not write stays
+    written = json.loads((out / "poses.json").read_text())["models"][1]["outputs"]
+    assert "points_1.ply" in written and "reconstruction_1.png" in written and any(f.startswith("sparse/1/") for f in written)
+    # a rerun into the same folder with one scene: the other model's files, which no longer match
+    # poses.json, are removed (a user's trial); files poseonly did not write stay, and so does a folder
+    # holding one
     (out / "sparse" / "notes.txt").write_text("mine")
+    (out / "sparse" / "1" / "mine.txt").write_text("mine")
     for f in d.glob("b_*"):
         f.unlink()
     assert main(["sfm", str(d), "--K", str(tmp_path / "K.txt"), "--out", str(out), "--max-features", "1500", "--no-progress"]) == 0
-    assert "removed 3 outputs of the previous run" in capsys.readouterr().out
-    assert not (out / "sparse" / "1").exists() and not (out / "points_1.ply").exists() and not (out / "reconstruction_1.png").exists()
+    assert f"removed {len(written)} files of the previous run" in capsys.readouterr().out
+    assert not (out / "points_1.ply").exists() and not (out / "reconstruction_1.png").exists()
+    assert sorted(p.name for p in (out / "sparse" / "1").iterdir()) == ["mine.txt"]
     assert (out / "sparse" / "0").is_dir() and (out / "points.ply").is_file() and (out / "sparse" / "notes.txt").read_text() == "mine"
     assert len(json.loads((out / "poses.json").read_text())["models"]) == 1
 

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
 import time
 from collections import Counter
 from pathlib import Path
@@ -198,39 +197,56 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     unmodelled = int(np.sum(model_of < 0) - sum(m["views_not_posed"] for m in poses["models"]))
     if unmodelled > 0:
         print(f"in no model: {unmodelled} images (no trusted pair joins them to a model of at least {MIN_MODEL_VIEWS} images)")
-    stale = sorted(previous - _model_outputs(out, poses["models"]))
-    for f in stale:  # a previous run's outputs this run did not write: they would not match poses.json
-        if f.is_dir():
-            shutil.rmtree(f)
-        else:
-            f.unlink(missing_ok=True)
-    if stale:
-        print(f"removed {len(stale)} outputs of the previous run in {out} that this run does not write: {', '.join(str(f.relative_to(out)) for f in stale)}")
     atomic_write_text(out / "poses.json", json.dumps(poses, indent=1))
+    _remove_stale(out, previous - _model_outputs(out, poses["models"]))
     print(f"total {time.perf_counter() - t0:.1f} s; outputs in {out}")
     return 0
 
 
-def _model_outputs(out: Path, models: list[dict[str, Any]]) -> set[Path]:
-    """The files and folders ``_write_model`` writes for poses.json's ``models`` entries (a model whose
-    centres are undetermined writes none)."""
+def _model_outputs(out: Path, models: list[Any]) -> set[Path]:
+    """The files poses.json's ``models`` entries list as written (``outputs``, relative to ``out``; an
+    entry that leaves ``out`` is ignored)."""
+    root = out.resolve()
     files: set[Path] = set()
     for m in models:
-        k = m.get("model") if isinstance(m, dict) else None
-        if isinstance(k, int) and not isinstance(k, bool) and k >= 0 and m.get("status") == "ok":
-            files |= {out / "sparse" / str(k), out / f"points{_suffix(k)}.ply", out / f"reconstruction{_suffix(k)}.png"}
+        rel = m.get("outputs", []) if isinstance(m, dict) else []
+        for r in rel if isinstance(rel, list) else []:
+            if not isinstance(r, str) or Path(r).is_absolute() or ".." in Path(r).parts:
+                continue
+            f = out / r
+            if f.resolve().parent.is_relative_to(root):
+                files.add(f)
     return files
 
 
 def _previous_outputs(out: Path) -> set[Path]:
-    """What an earlier run wrote into ``out``, by its poses.json (none without a readable one: files
-    poseonly did not write, e.g. a COLMAP project's own ``sparse/0``, are never touched); only paths
-    that exist."""
+    """The files an earlier run listed as written in ``out``'s poses.json (none without a readable one,
+    or from a version that did not list them)."""
     try:
         models = json.loads((out / "poses.json").read_text(encoding="utf-8")).get("models", [])
     except (OSError, ValueError, AttributeError):
         return set()
-    return {f for f in _model_outputs(out, models if isinstance(models, list) else []) if f.exists()}
+    return _model_outputs(out, models if isinstance(models, list) else [])
+
+
+def _remove_stale(out: Path, stale: set[Path]) -> None:
+    """Remove a previous run's output files that this run did not write (they would not match poses.json;
+    a user's trial): regular files only, never through a symlink; a model folder left empty goes too.
+    Runs after poses.json is written; a failure is reported, not raised (the new outputs are complete)."""
+    removed: list[str] = []
+    try:
+        for f in sorted(stale):
+            if f.is_symlink() or not f.is_file():
+                continue
+            f.unlink()
+            removed.append(f.relative_to(out).as_posix())
+        for d in sorted({f.parent for f in stale}, reverse=True):
+            if d != out and not d.is_symlink() and d.is_dir() and not any(d.iterdir()):
+                d.rmdir()
+    except OSError as exc:
+        print(f"could not remove every output of the previous run in {out}: {exc}")
+    if removed:
+        print(f"removed {len(removed)} files of the previous run in {out} that this run does not write: {', '.join(removed)}")
 
 
 def _suffix(k: int) -> str:
@@ -270,8 +286,10 @@ def _write_model(k: int, res: Any, images: list[Path], ig: Any, out: Path, args:
     sfx = _suffix(k)
     colors = point_colors(images, [f.keypoints for f in ig.features], res.tracks, rec.base[:, 0])
     write_ply(out / f"points{sfx}.ply", rec.points[rec.valid], colors[rec.valid], res.centres)
+    entry["outputs"] = [f"points{sfx}.ply"]  # the files written, relative to out (a rerun removes stale ones)
     fig = plot_reconstruction(out / f"reconstruction{sfx}.png", rec.points[rec.valid], res.centres, res.rotations, colors[rec.valid])
     if fig is not None:
+        entry["outputs"].append(f"reconstruction{sfx}.png")
         print(f"model {k}: figure: {fig}")
     try:
         import_pycolmap()
@@ -279,7 +297,8 @@ def _write_model(k: int, res: Any, images: list[Path], ig: Any, out: Path, args:
         print(f"model {k}: pycolmap is not installed: COLMAP model not written (points{sfx}.ply and poses.json are)")
     else:
         model = colmap_model_of([p.name for p in images], ig, res, colors)
-        write_colmap_model(model, out / "sparse" / str(k), binary=not args.text)
+        folder = write_colmap_model(model, out / "sparse" / str(k), binary=not args.text)
+        entry["outputs"] += sorted(f.relative_to(out).as_posix() for f in folder.iterdir() if f.is_file())
         print(f"model {k}: COLMAP model: {out / 'sparse' / str(k)} ({model.num_reg_images()} images, {model.num_points3D()} points)")
     return entry
 
