@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default=None, help="output folder (default: a new ./batch_throughput_<time>)")
     a = ap.parse_args(argv)
     pairs = make_pairs(a.pairs, a.points)
-    schedules = {"1 process": {"n_jobs": 1}, f"{a.jobs} processes": {"n_jobs": a.jobs}, f"{a.jobs} threads": {"n_jobs": a.jobs, "backend": "threads"}}
+    schedules = {"1 process": {"n_jobs": 1}, f"{a.jobs} processes": {"n_jobs": a.jobs, "backend": "processes"}, f"{a.jobs} threads": {"n_jobs": a.jobs, "backend": "threads"}}
     walls: dict[str, list[float]] = {name: [] for name in schedules}
     speedups: dict[str, list[float]] = {name: [] for name in list(schedules)[1:]}
     same = True

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import poseonly
-from poseonly.batch import Pair, pair_seed
+from poseonly.batch import Pair, canonical_key, pair_seed
 from poseonly.cameras import Camera
 from poseonly.sim import make_scene
 
@@ -39,8 +39,10 @@ def test_serial_pool_dask_identical():
     pairs = _pairs()
     serial = _summary(poseonly.estimate_relative_poses(pairs, progress=False, seed=7))
     assert len(serial) == 6
-    pooled = _summary(poseonly.estimate_relative_poses(pairs, n_jobs=2, chunk_size=2, progress=False, seed=7))
+    pooled = _summary(poseonly.estimate_relative_poses(pairs, n_jobs=2, backend="processes", chunk_size=2, progress=False, seed=7))
     _same(serial, pooled)
+    auto = _summary(poseonly.estimate_relative_poses(pairs, n_jobs=2, chunk_size=2, progress=False, seed=7))  # threads: a small batch
+    _same(serial, auto)
     threaded = _summary(poseonly.estimate_relative_poses(pairs, n_jobs=2, backend="threads", chunk_size=1, progress=False, seed=7))
     _same(serial, threaded)
     distributed = pytest.importorskip("dask.distributed")
@@ -181,7 +183,7 @@ pairs = []
 for s in range(4):
     sc = sim.make_scene(60, camera="pinhole", noise_px=0.5, seed=s)
     pairs.append({"x1": sc.u1, "x2": sc.u2, "K1": sc.K, "K2": sc.K})
-res = list(poseonly.estimate_relative_poses(pairs, n_jobs=2, progress=False))
+res = list(poseonly.estimate_relative_poses(pairs, n_jobs=2, backend="processes", progress=False))
 print("done", len(res), flush=True)
 """
 
@@ -200,6 +202,10 @@ def test_unguarded_script_gets_the_reason(tmp_path):
     r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)
     assert r.returncode == 1 and "done" not in r.stdout
     assert 'if __name__ == "__main__":' in r.stderr.splitlines()[-1] and "RuntimeError" in r.stderr.splitlines()[-1]
+    # the default backend ("auto") runs a small sized batch on threads: no worker imports the script
+    script.write_text(SCRIPT.replace(', backend="processes"', ""))
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)
+    assert r.returncode == 0 and "done 4" in r.stdout, r.stderr
     lines = SCRIPT.strip().splitlines()
     guarded = "\n".join(lines[:-2] + ['if __name__ == "__main__":'] + ["    " + x for x in lines[-2:]])
     script.write_text(guarded)
@@ -249,6 +255,7 @@ def test_equal_keys_get_one_seed_whatever_their_types():
     assert pair_seed(0, (0.5, 1)) != pair_seed(0, (0, 1))
     # a frozenset's repr follows the process's hash seed; its canonical form does not
     assert pair_seed(0, frozenset({"b", "a", "c"})) == pair_seed(0, frozenset({"c", "a", "b"}))
+    assert canonical_key(frozenset({1})) != canonical_key(("frozenset", ("1",)))  # a set is never a tuple
     assert pair_seed(0, "a") == 0x7FFFFFFFFFFFFFFF & pair_seed(0, "a")  # the 63-bit range kept
 
 

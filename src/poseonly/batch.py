@@ -3,12 +3,17 @@ process or thread pool or on a Dask cluster, yielding each pair's result as its 
 
 Threads (``backend="threads"``) work because the compiled core releases the GIL for its numeric work,
 which is about 90 % of a pair (``benchmarks/stage_times.py --core-share``): no worker processes to
-start, no pickling, and it runs where processes cannot be forked (notebooks, Windows).
+start, no pickling, and it runs where processes cannot be forked (notebooks, Windows). The default
+``backend="auto"`` takes threads for a batch of known size below :data:`AUTO_THREADS_MAX_PAIRS` pairs
+(a process pool's start-up costs more than such a batch can gain from escaping the GIL) and
+processes otherwise (the GIL's ~10 % share bounds threads on many cores: 4.7x on 8 by Amdahl's law).
 
 Determinism: the seed of a pair is derived from the base ``seed`` option and the pair's key
 (:func:`pair_seed`, a BLAKE2b hash), never from its position in the schedule, so the result of a
 pair is the same serially, on any number of processes and on any cluster (each estimate runs
-single-threaded BLAS, see :mod:`poseonly.api`).
+single-threaded BLAS, see :mod:`poseonly.api`). Keys that compare equal get one seed whatever types
+built them (:func:`canonical_key`); keys must be hashable and unique in a batch (:class:`InputError`
+at the offending pair).
 
 Work is sent in chunks (``chunk_size`` pairs per task; default :data:`POOL_CHUNK` on a process
 pool, :data:`DASK_CHUNK` on Dask, fewer when a sized batch would otherwise give a worker fewer than
@@ -35,13 +40,17 @@ import numpy as np
 from .api import RelativePoseResult, estimate_relative_pose
 from .geometry import InputError
 
-__all__ = ["BACKENDS", "DASK_CHUNK", "POOL_CHUNK", "Pair", "PairResult", "canonical_key", "estimate_relative_poses", "pair_seed"]
+__all__ = ["AUTO_THREADS_MAX_PAIRS", "BACKENDS", "DASK_CHUNK", "POOL_CHUNK", "Pair", "PairResult", "canonical_key", "estimate_relative_poses", "pair_seed"]
 
 POOL_CHUNK = 16  # pairs per task on a local process pool (small: early results, even load)
 DASK_CHUNK = 256  # pairs per task on Dask (amortises the scheduler's per-task overhead)
 MIN_CHUNKS_PER_WORKER = 4  # a known-size batch is cut finer when it would give fewer chunks per worker
 IN_FLIGHT_PER_WORKER = 2  # chunks queued per worker: keeps workers busy without loading everything
-BACKENDS = ("processes", "threads")  # the local pool's workers (n_jobs > 1)
+BACKENDS = ("auto", "processes", "threads")  # the local pool's workers (n_jobs > 1)
+# backend="auto": a batch of known size below this many pairs runs on threads, a larger or unsized one on
+# processes (a user's trial: 2 processes 1.29-1.43x slower than serial on 28-55 pairs, first result after
+# 1.15 s against 0.07 s; PIPELINES.md, "Throughput")
+AUTO_THREADS_MAX_PAIRS = 256
 DASK_RETRIES = 3
 _SEED_BITS = 63
 _CHECK_POINTS = 100
@@ -102,8 +111,19 @@ def canonical_key(key: Hashable) -> Hashable:
     if isinstance(key, tuple):
         return tuple(canonical_key(k) for k in key)
     if isinstance(key, frozenset):  # its iteration order (and repr) depends on the process's hash seed
-        return ("frozenset", tuple(sorted(repr(canonical_key(k)) for k in key)))
+        return _SortedSet(tuple(sorted(repr(canonical_key(k)) for k in key)))
     return key
+
+
+@dataclass(frozen=True)
+class _SortedSet:
+    """A frozenset key's canonical form: its elements' canonical reprs, sorted (equal only to another
+    set's, never to a tuple's; its repr is stable across processes)."""
+
+    reprs: tuple[str, ...]
+
+    def __repr__(self) -> str:
+        return "frozenset({" + ", ".join(self.reprs) + "})"
 
 
 def pair_seed(base_seed: int, key: Hashable) -> int:
@@ -233,7 +253,7 @@ def estimate_relative_poses(
     pairs: Iterable[Any],
     *,
     n_jobs: int = 1,
-    backend: str = "processes",
+    backend: str = "auto",
     client: Any = None,
     chunk_size: int | None = None,
     progress: bool | None = None,
@@ -245,7 +265,8 @@ def estimate_relative_poses(
 
     ``pairs``: an iterable of :class:`Pair` or dicts with its fields (``x1, x2`` ``(n, 2)`` or
     ``(n, 3)``, ``camera1/camera2`` or ``K1/K2``, ``key``, ``options``). ``n_jobs``: local workers
-    (1 = in this process, -1 = all cores), ``backend`` ``"processes"`` or ``"threads"`` for
+    (1 = in this process, -1 = all cores), ``backend`` ``"auto"`` (threads for a sized batch below
+    :data:`AUTO_THREADS_MAX_PAIRS` pairs, else processes), ``"processes"`` or ``"threads"`` for
     ``n_jobs > 1`` (the same results either way; not used with ``n_jobs = 1`` or a ``client``); ``client``: a ``dask.distributed.Client`` or a scheduler
     address (then ``n_jobs`` is ignored). ``options``: those of
     :func:`poseonly.estimate_relative_pose` (``method``, ``threshold_px``, ...); ``seed`` is the base
@@ -265,11 +286,13 @@ def estimate_relative_poses(
         raise InputError(f"backend must be one of {BACKENDS}, got {backend!r}")
     if progress is not None and not isinstance(progress, (bool, np.bool_)):
         raise InputError(f"progress must be True, False or None (a bar where stderr is a terminal), got {progress!r}")
+    total = len(pairs) if hasattr(pairs, "__len__") else None  # type: ignore[arg-type]
+    if backend == "auto":  # the same results either way: only the time differs
+        backend = "threads" if total is not None and total < AUTO_THREADS_MAX_PAIRS else "processes"
     if client is None and n_jobs != 1 and backend == "processes" and _importing_main():
         # a worker process of a pool is importing the caller's script, which runs this call again
         raise RuntimeError(UNGUARDED_MAIN)
     _check_options(options)
-    total = len(pairs) if hasattr(pairs, "__len__") else None  # type: ignore[arg-type]
     return _generate(pairs, int(n_jobs), backend, client, chunk_size, progress, int(retries), options, total)
 
 
