@@ -512,3 +512,13 @@ def test_sfm_database_with_keypoints_the_camera_cannot_undistort(distorted_image
     rec = pycolmap.Reconstruction(str(out / "sparse" / "0"))
     assert rec.num_reg_images() == N_IMAGES and {c.model_name for c in rec.cameras.values()} == {"SIMPLE_RADIAL"}
     assert _camera_errors(rec, sc)["rot_mean_deg_rotalign"] < 0.1
+
+
+def test_image_files_by_extension_any_case(tmp_path):
+    """A user's trial: .tif images were skipped silently (only .jpg / .png were read)."""
+    from poseonly.sfm.cli import is_image_file
+
+    for n in ("a.JPG", "b.tif", "c.TIFF", "d.png", "e.webp", "K.txt", "f.jpeg.bak"):
+        (tmp_path / n).write_bytes(b"x")
+    (tmp_path / "g.jpg").mkdir()
+    assert sorted(p.name for p in tmp_path.iterdir() if is_image_file(p)) == ["a.JPG", "b.tif", "c.TIFF", "d.png", "e.webp"]

@@ -32,9 +32,15 @@ from ..geometry import InputError
 from ..io.pair_list import parse_pair_names
 from .choices import LIGT_NORMALIZATIONS, LIGT_REWEIGHT, ROTATION_WEIGHTS
 
-__all__ = ["IMAGE_EXTS", "add_parsers", "cmd_sfm"]
+__all__ = ["IMAGE_EXTS", "add_parsers", "cmd_sfm", "is_image_file"]
 
-IMAGE_EXTS = (".jpg", ".jpeg", ".png", ".JPG", ".JPEG", ".PNG")
+# image files of a folder, by extension, case-insensitive (those OpenCV's default build decodes)
+IMAGE_EXTS = (".jpg", ".jpeg", ".png", ".tif", ".tiff", ".bmp", ".webp")
+
+
+def is_image_file(p: Path) -> bool:
+    """Is ``p`` a file whose extension names an image format (:data:`IMAGE_EXTS`, any case)?"""
+    return p.is_file() and p.suffix.lower() in IMAGE_EXTS
 
 
 def _progress(it, **kw):
@@ -135,7 +141,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     else:
         if not args.K and camera is None:
             raise InputError("give --K K.txt, --camera-model / --camera-params, or --database colmap.db (which holds the cameras)")
-        images = sorted(p for p in d.iterdir() if p.is_file() and p.suffix in IMAGE_EXTS)
+        images = sorted(p for p in d.iterdir() if is_image_file(p))
         held = len(images)
         if args.max_images:
             images = images[: args.max_images]
@@ -325,7 +331,7 @@ def _pair_list(args: argparse.Namespace, images: list[Path]) -> list[tuple[int, 
         raise InputError(f"pair list not found: {path}")
     index = {p.name: k for k, p in enumerate(images)}
     folder = Path(args.images)
-    known = {p.name for p in folder.iterdir() if p.is_file() and p.suffix in IMAGE_EXTS} if folder.is_dir() else set()
+    known = {p.name for p in folder.iterdir() if is_image_file(p)} if folder.is_dir() else set()
     out: set[tuple[int, int]] = set()
     for a, b in parse_pair_names(path.read_text(encoding="utf-8", errors="replace").splitlines(), str(path)):
         for nm in (a, b):
@@ -350,7 +356,7 @@ def _cmd_global(args: argparse.Namespace) -> int:
 def add_parsers(sub: Any, esub: Any) -> None:
     """Add ``sfm`` to the command subparsers ``sub`` and ``global`` to the experiment ones ``esub``."""
     s = sub.add_parser("sfm", help="global SfM of an image folder (rotation averaging + LiGT + analytical points)")
-    s.add_argument("images", help="folder of images (.jpg / .png), one calibrated camera")
+    s.add_argument("images", help="folder of images (.jpg, .jpeg, .png, .tif, .tiff, .bmp, .webp, any case), one calibrated camera")
     s.add_argument("--K", help="text file with the 3x3 calibration matrix of the (undistorted) images")
     s.add_argument(
         "--camera-model",
