@@ -43,8 +43,11 @@ STATUSES = ("ok", "planar_ambiguous", "ambiguous", "uncertain", "pure_rotation",
 # a returned R must satisfy |R^T R - I|_max < ORTHO_TOL and det R > 0 (else no valid pose was found)
 ORTHO_TOL = 1e-6
 # two matches within this many pixels of each other in both views are one observation for the status
-# (finish): the same keypoint detected twice has correlated errors; distinct features are further apart
+# (finish): the same keypoint detected twice has correlated errors; distinct features are further apart.
+# The angle is capped (0.5 px at a focal of 500 px): a focal of a few pixels, valid input, would otherwise
+# make every match a copy of every other
 NEAR_DUPLICATE_PX = 0.5
+NEAR_DUPLICATE_MAX_RAD = 1e-3
 
 
 _json_float = json_float
@@ -347,7 +350,7 @@ def finish(
     # 0.05-0.3 px of jitter `ok`), is one observation, not two: the significance, the inlier count the
     # status needs, the support counts of the pure-rotation, twin and uniqueness tests and the covariance
     # count it once
-    once = distinct_rows(f1, f2, NEAR_DUPLICATE_PX / focal if focal > 0 else 0.0)
+    once = distinct_rows(f1, f2, min(NEAR_DUPLICATE_PX / focal, NEAR_DUPLICATE_MAX_RAD) if focal > 0 else 0.0)
 
     def distinct(x: np.ndarray) -> np.ndarray:
         return x if once is None else x[once]
