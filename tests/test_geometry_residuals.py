@@ -104,3 +104,16 @@ def test_get_residual():
     assert res.get_residual("v_E") is res.v_E
     with pytest.raises(ValueError, match="unknown residual"):
         res.get_residual("nope")
+
+
+def test_unchecked_residuals_equal_the_checked_ones():
+    sc = make_scene(50, outlier_fraction=0.3, seed=4)
+    for r in (res.v_sampson, res.v_sampson_chiral, res.v_LiGT):
+        np.testing.assert_array_equal(r.unchecked(sc.R, 3.0 * sc.t, sc.f1, sc.f2), r(sc.R, 3.0 * sc.t, sc.f1, sc.f2))
+        # not float64 C-contiguous: the checked path
+        np.testing.assert_array_equal(r.unchecked(np.asfortranarray(sc.R), sc.t, sc.f1, sc.f2), r(sc.R, sc.t, sc.f1, sc.f2))
+    bad = sc.R.copy()
+    bad[0, 0] = np.nan
+    assert np.all(np.isnan(res.v_sampson.unchecked(bad, sc.t, sc.f1, sc.f2)))
+    with pytest.raises(ValueError, match="NaN"):
+        res.v_sampson(bad, sc.t, sc.f1, sc.f2)

@@ -15,11 +15,34 @@
 namespace poseonly {
 
 int64_t chance_count_sampson(const Pose& pose, const Points& P, const int64_t* perm, int reps, double tau) {
+  // sampson() of a re-paired match (f1_i, f2_j) from E f1_i and E^T f2_j computed once per bearing: the
+  // same operations in the same order as sampson_terms (bit for bit), without the 3x3 products per pair
   const PoseTerms pt(pose);
+  const Mat3& E = pt.E;
+  const size_t n = static_cast<size_t>(P.n);
+  std::vector<double> a(3 * n), sa(n), b(3 * n), sb(n);
+  for (size_t i = 0; i < n; ++i) {
+    const double x1 = P.f1[3 * i], y1 = P.f1[3 * i + 1], z1 = P.f1[3 * i + 2];
+    const double a0 = E(0, 0) * x1 + E(0, 1) * y1 + E(0, 2) * z1;
+    const double a1 = E(1, 0) * x1 + E(1, 1) * y1 + E(1, 2) * z1;
+    const double a2 = E(2, 0) * x1 + E(2, 1) * y1 + E(2, 2) * z1;
+    a[3 * i] = a0, a[3 * i + 1] = a1, a[3 * i + 2] = a2, sa[i] = a0 * a0 + a1 * a1 + a2 * a2;
+    const double x2 = P.f2[3 * i], y2 = P.f2[3 * i + 1], z2 = P.f2[3 * i + 2];
+    const double b0 = E(0, 0) * x2 + E(1, 0) * y2 + E(2, 0) * z2;
+    const double b1 = E(0, 1) * x2 + E(1, 1) * y2 + E(2, 1) * z2;
+    const double b2 = E(0, 2) * x2 + E(1, 2) * y2 + E(2, 2) * z2;
+    b[3 * i] = b0, b[3 * i + 1] = b1, b[3 * i + 2] = b2, sb[i] = b0 * b0 + b1 * b1 + b2 * b2;
+  }
   int64_t hits = 0;
   for (int r = 0; r < reps; ++r) {
     const int64_t* p = perm + static_cast<int64_t>(r) * P.n;
-    for (int i = 0; i < P.n; ++i) hits += sampson(pt.E, P.a(i), P.b(static_cast<int>(p[i]))) < tau;
+    for (size_t i = 0; i < n; ++i) {
+      const size_t j = static_cast<size_t>(p[i]);
+      const double* f2 = P.f2 + 3 * j;
+      const double num = f2[0] * a[3 * i] + f2[1] * a[3 * i + 1] + f2[2] * a[3 * i + 2];
+      const double den = sa[i] + sb[j] - 2.0 * num * num;
+      hits += std::abs(num) / std::sqrt(den < kTiny ? kTiny : den) < tau;
+    }
   }
   return hits;
 }

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <numeric>
 #include <vector>
 
 namespace poseonly {
@@ -131,6 +133,110 @@ void neighbour_consistency(const double* f1, const double* f2, int n, int k, int
       else ++q;
     }
     out[i] = c;
+  }
+}
+
+namespace {
+
+// a fixed generic unit direction in the 6-D space of a match's two bearings (unnormalised here)
+constexpr double kSweep[6] = {0.41, -0.27, 0.53, 0.37, 0.45, -0.38};
+
+int find_root(std::vector<int>& parent, int i) {
+  while (parent[i] != i) i = parent[i] = parent[parent[i]];
+  return i;
+}
+
+}  // namespace
+
+std::vector<int64_t> distinct_matches(const double* f1, const double* f2, int n, double tol) {
+  // exact repeats: the rows sorted by their 48 bytes (ties by index), the first of each run kept
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  auto row_cmp = [&](int a, int b) {
+    const int c1 = std::memcmp(f1 + 3 * static_cast<size_t>(a), f1 + 3 * static_cast<size_t>(b), 3 * sizeof(double));
+    if (c1 != 0) return c1;
+    return std::memcmp(f2 + 3 * static_cast<size_t>(a), f2 + 3 * static_cast<size_t>(b), 3 * sizeof(double));
+  };
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    const int c = row_cmp(a, b);
+    return c < 0 || (c == 0 && a < b);
+  });
+  std::vector<int> first;
+  first.reserve(n);
+  for (int s = 0; s < n; ++s)
+    if (s == 0 || row_cmp(order[s - 1], order[s]) != 0) first.push_back(order[s]);
+  std::sort(first.begin(), first.end());
+  const int m = static_cast<int>(first.size());
+  if (tol > 0.0 && m > 1) {
+    double norm = 0.0;
+    for (double c : kSweep) norm += c * c;
+    norm = std::sqrt(norm);
+    std::vector<double> proj(m);
+    for (int a = 0; a < m; ++a) {
+      const double* p = f1 + 3 * static_cast<size_t>(first[a]);
+      const double* q = f2 + 3 * static_cast<size_t>(first[a]);
+      proj[a] = (kSweep[0] * p[0] + kSweep[1] * p[1] + kSweep[2] * p[2] + kSweep[3] * q[0] + kSweep[4] * q[1] + kSweep[5] * q[2]) / norm;
+    }
+    std::vector<int> by(m);
+    std::iota(by.begin(), by.end(), 0);
+    std::stable_sort(by.begin(), by.end(), [&](int a, int b) { return proj[a] < proj[b]; });
+    const double bound = std::sqrt(2.0) * tol;
+    std::vector<int> parent(m);
+    std::iota(parent.begin(), parent.end(), 0);
+    auto dist = [](const double* x, const double* y) {
+      const double d0 = x[0] - y[0], d1 = x[1] - y[1], d2 = x[2] - y[2];
+      return std::sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+    };
+    for (int s = 0; s < m; ++s) {
+      const int a = by[s];
+      const size_t ia = static_cast<size_t>(first[a]);
+      for (int u = s + 1; u < m && proj[by[u]] - proj[a] < bound; ++u) {
+        const int b = by[u];
+        const size_t ib = static_cast<size_t>(first[b]);
+        if (dist(f1 + 3 * ia, f1 + 3 * ib) < tol && dist(f2 + 3 * ia, f2 + 3 * ib) < tol) {
+          // union, the lower position the root: a group is represented by its lowest index
+          const int ra = find_root(parent, a), rb = find_root(parent, b);
+          if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+        }
+      }
+    }
+    std::vector<int> kept;
+    kept.reserve(m);
+    for (int a = 0; a < m; ++a)
+      if (find_root(parent, a) == a) kept.push_back(first[a]);
+    first.swap(kept);
+  }
+  return std::vector<int64_t>(first.begin(), first.end());
+}
+
+void locally_supported(const double* f1, int n, const uint8_t* extra, const uint8_t* explained, int k_max, int min_count, uint8_t* out) {
+  std::vector<int> idx;
+  idx.reserve(n);
+  for (int i = 0; i < n; ++i) {
+    out[i] = extra[i];
+    if (extra[i] || explained[i]) idx.push_back(i);
+  }
+  const int m = static_cast<int>(idx.size());
+  const int k = std::min(k_max, m - 1);
+  if (k < 1) return;
+  std::vector<double> g(3 * static_cast<size_t>(m));
+  for (int a = 0; a < m; ++a)
+    for (int c = 0; c < 3; ++c) g[3 * static_cast<size_t>(a) + c] = f1[3 * static_cast<size_t>(idx[a]) + c];
+  std::vector<int32_t> nb(static_cast<size_t>(m) * k);
+  nearest_neighbours(g.data(), m, k, nb.data());
+  const int need = std::min(min_count, k);
+  for (int a = 0; a < m; ++a) {
+    const int i = idx[a];
+    if (!extra[i]) continue;
+    const double* ga = g.data() + 3 * static_cast<size_t>(a);
+    int c = 0;
+    for (int q = 0; q < k; ++q) {
+      const int b = nb[static_cast<size_t>(a) * k + q];
+      const double* gb = g.data() + 3 * static_cast<size_t>(b);
+      const bool other = ga[0] != gb[0] || ga[1] != gb[1] || ga[2] != gb[2];
+      c += extra[idx[b]] && other;
+    }
+    out[i] = c >= need;
   }
 }
 

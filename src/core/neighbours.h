@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 namespace poseonly {
 
@@ -17,5 +18,19 @@ void nearest_neighbours(const double* f, int n, int k, int32_t* out);
 // For each match i of (f1, f2) (n x 3 each): how many of its k nearest matches in view 1 are among its
 // k nearest in view 2. Requires 1 <= k <= n - 1.
 void neighbour_consistency(const double* f1, const double* f2, int n, int k, int64_t* out);
+
+// The first match (lowest index) of each group of repeated matches of (f1, f2) (n x 3 each), ascending.
+// Two matches repeat each other when their rows are identical (bit for bit, both views) or, with
+// tol > 0, both chord distances |f1_i - f1_j| and |f2_i - f2_j| are below tol; the groups are the
+// connected components of that relation. Exact: every pair within tol in both views lies within
+// sqrt(2) tol in the 6-D space of the two bearings, so a sweep along one fixed direction of that
+// space (sorted projections) meets it; the time is O(n log n) plus the pairs the sweep's slab holds.
+std::vector<int64_t> distinct_matches(const double* f1, const double* f2, int n, double tol);
+
+// The translation's local support (poseonly.analysis._locally_supported): extra[i] kept where at least
+// min(min_count, k) of match i's k = min(k_max, m - 1) nearest matches in view 1 (among the m matches
+// in extra | explained; chord distance) are extra too and not the same view-1 bearing as i (a
+// keypoint matched again). extra and explained are n-element masks; out gets the result (n).
+void locally_supported(const double* f1, int n, const uint8_t* extra, const uint8_t* explained, int k_max, int min_count, uint8_t* out);
 
 }  // namespace poseonly

@@ -456,20 +456,12 @@ LOCAL_SUPPORT_MIN = 2
 def _locally_supported(f1: np.ndarray, extra: np.ndarray, explained: np.ndarray) -> np.ndarray:
     """``extra (n,)`` bool restricted to the matches with at least :data:`LOCAL_SUPPORT_MIN` of their
     :data:`LOCAL_SUPPORT_K` nearest ``explained`` matches in view 1 (chord distance on the bearings; the
-    matches the pose or the rotation explains: outliers of both say nothing about depth) in ``extra``."""
-    idx = np.flatnonzero(explained | extra)
-    k = min(LOCAL_SUPPORT_K, len(idx) - 1)
-    if k < 1:
-        return extra
-    g = np.ascontiguousarray(f1[idx], dtype=float)
-    nb = _core.nearest_neighbours(g, k)
-    sub = extra[idx]
-    # a neighbour at the same view-1 bearing is the same keypoint matched again (a non-mutual matcher,
-    # several orientations of one SIFT keypoint), not a second point of the surface
-    other = np.any(g[nb] != g[:, None, :], axis=2)
-    out = np.zeros_like(extra)
-    out[idx] = sub & (np.count_nonzero(sub[nb] & other, axis=1) >= min(LOCAL_SUPPORT_MIN, k))
-    return out
+    matches the pose or the rotation explains: outliers of both say nothing about depth) in ``extra``.
+    A neighbour at the same view-1 bearing is the same keypoint matched again (a non-mutual matcher,
+    several orientations of one SIFT keypoint), not a second point of the surface. One core call
+    (numpy reference: tests/reference/neighbours.py)."""
+    m = _core.locally_supported(_c(f1), np.ascontiguousarray(extra, dtype=bool), np.ascontiguousarray(explained, dtype=bool), LOCAL_SUPPORT_K, LOCAL_SUPPORT_MIN)
+    return m.view(bool)
 
 
 # a significant rotation-only model that explains at least this share of the pose's inliers, without

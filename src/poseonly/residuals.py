@@ -94,18 +94,9 @@ class Residual:
         non-zero length; normalised), unit bearings ``f1, f2 (n, 3)`` or stacked ``(..., n, 3)`` ->
         ``(..., n)``, the leading axes of the poses and the point sets broadcast."""
         if _one_pose(R, t, f1, f2):
-            # one pose on one point set, already float64 and C-contiguous (the library's own calls):
-            # the same core call with t normalised as :func:`normalize` does it, without its broadcasting
+            # one pose on one point set, already float64 and C-contiguous (the library's own calls)
             _check_finite(R, t, f1, f2)
-            a, b, c = float(t[0]), float(t[1]), float(t[2])  # Python floats: overflow without a warning
-            tn = math.sqrt(a * a + b * b + c * c)
-            if not T_NORM_SAFE[0] < tn < T_NORM_SAFE[1]:  # (scaled first where its square would over- or underflow)
-                m = float(np.max(np.abs(t)))
-                if m > 0:
-                    t = t / m
-                    tn = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
-            tk = t / tn if tn > 0 else t
-            return _core.residual_matrix(self.code, R.reshape(1, 3, 3), tk.reshape(1, 3), f1, f2)[0]
+            return self._one(R, t, f1, f2)
         R, t, f1, f2 = _checked_args(R, t, f1, f2)
         _check_finite(R, t, f1, f2)
         m = np.max(np.abs(t), axis=-1, keepdims=True)
@@ -129,6 +120,28 @@ class Residual:
                 self.code, np.ascontiguousarray(Rb[i : i + 1]), np.ascontiguousarray(tb[i : i + 1]), np.ascontiguousarray(F1[i]), np.ascontiguousarray(F2[i])
             )[0]
         return out.reshape(pl + (n,))
+
+    def _one(self, R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+        """One pose on one point set, float64 and C-contiguous (``_one_pose``), unchecked: the core call
+        with ``t`` normalised as :func:`normalize` does it, without its broadcasting."""
+        a, b, c = float(t[0]), float(t[1]), float(t[2])  # Python floats: overflow without a warning
+        tn = math.sqrt(a * a + b * b + c * c)
+        if not T_NORM_SAFE[0] < tn < T_NORM_SAFE[1]:  # (scaled first where its square would over- or underflow)
+            m = float(np.max(np.abs(t)))
+            if m > 0:
+                t = t / m
+                tn = math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2])
+        tk = t / tn if tn > 0 else t
+        return _core.residual_matrix(self.code, R.reshape(1, 3, 3), tk.reshape(1, 3), f1, f2)[0]
+
+    def unchecked(self, R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
+        """The residual for the library's own calls on bearings it validated: where ``R (3, 3)``, ``t (3,)``,
+        ``f1, f2 (n, 3)`` are float64 C-contiguous arrays, the values are not checked (a non-finite pose
+        gives NaN residuals instead of an :class:`InputError`); any other input goes through
+        :meth:`__call__`."""
+        if _one_pose(R, t, f1, f2):
+            return self._one(R, t, f1, f2)
+        return self(R, t, f1, f2)
 
     @property
     def __name__(self) -> str:  # residuals behave like the functions they replaced (reports, test ids)

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from . import _core
 from ._json import json_array, json_float
 from .analysis import (
     AMBIGUITY_LEVEL,
@@ -219,61 +220,10 @@ def distinct_rows(f1: np.ndarray, f2: np.ndarray, tol: float = 0.0) -> np.ndarra
     """Indices (ascending) of the first match of each group of repeated matches, or ``None`` where every
     match is distinct. ``f1, f2 (n, 3)`` unit bearings; two matches repeat each other when their rows are
     identical or, with ``tol > 0`` (radians), within ``tol`` of each other in both views (chord
-    distance); groups are the connected components of that relation."""
-    X = np.ascontiguousarray(np.concatenate([f1, f2], axis=1), dtype=float)
-    _, first = np.unique(X.view(np.dtype((np.void, X.dtype.itemsize * X.shape[1]))).ravel(), return_index=True)
-    first = np.sort(first)
-    if tol > 0.0 and len(first) > 1:
-        pairs = _near_pairs(X[first], tol)
-        if len(pairs):
-            # connected components by min-label propagation with pointer jumping (groups of near copies
-            # are small: a few rounds); a group's label is its lowest index, which represents it
-            label = np.arange(len(first))
-            while True:
-                low = np.minimum(label[pairs[:, 0]], label[pairs[:, 1]])
-                nxt = label.copy()
-                np.minimum.at(nxt, pairs[:, 0], low)
-                np.minimum.at(nxt, pairs[:, 1], low)
-                nxt = nxt[nxt]
-                if np.array_equal(nxt, label):
-                    break
-                label = nxt
-            first = first[label == np.arange(len(first))]
-    return None if len(first) == len(X) else first
-
-
-# a fixed generic unit direction in the 6-D space of a match's two bearings: matches within tol of each
-# other in both views lie within sqrt(2) tol of each other along it
-_SWEEP = np.array([0.41, -0.27, 0.53, 0.37, 0.45, -0.38]) / np.linalg.norm([0.41, -0.27, 0.53, 0.37, 0.45, -0.38])
-_SWEEP_MAX_OFFSET = 64  # sweep offsets before a k-d tree takes over (many matches in one thin slab)
-
-
-def _near_pairs(Y: np.ndarray, tol: float) -> np.ndarray:
-    """Index pairs ``(k, 2)`` of the rows of ``Y (m, 6)`` (two unit bearings a row) within ``tol`` of each
-    other in both halves: a sweep along :data:`_SWEEP` (sorted projections, offsets 1, 2, ... while some
-    neighbours lie within ``sqrt(2) tol``; ~0.1 ms for thousands of matches), a k-d tree where the sweep
-    would take more than :data:`_SWEEP_MAX_OFFSET` offsets."""
-    proj = Y @ _SWEEP
-    order = np.argsort(proj, kind="stable")
-    ps = proj[order]
-    bound = np.sqrt(2.0) * tol
-    out = []
-    for k in range(1, len(Y)):
-        close = ps[k:] - ps[:-k] < bound
-        if not close.any():
-            break
-        if k > _SWEEP_MAX_OFFSET:
-            from scipy.spatial import cKDTree
-
-            cand = cKDTree(Y).query_pairs(bound, output_type="ndarray").reshape(-1, 2)
-            out = [cand]
-            break
-        out.append(np.column_stack([order[:-k][close], order[k:][close]]))
-    if not out:
-        return np.zeros((0, 2), dtype=np.int64)
-    P = np.concatenate(out)
-    near = (np.linalg.norm(Y[P[:, 0], :3] - Y[P[:, 1], :3], axis=1) < tol) & (np.linalg.norm(Y[P[:, 0], 3:] - Y[P[:, 1], 3:], axis=1) < tol)
-    return P[near]
+    distance); groups are the connected components of that relation. One core call (a sort for the
+    identical rows, a sweep along a fixed direction of the two bearings' 6-D space for the near ones,
+    union-find; numpy reference: tests/reference/neighbours.py)."""
+    return _core.distinct_matches(np.ascontiguousarray(f1, dtype=float), np.ascontiguousarray(f2, dtype=float), float(tol))
 
 
 def _with_model_spread(unc: dict[str, Any], delta: float, delta_t: float = 0.0, t: np.ndarray | None = None) -> dict[str, Any]:

@@ -78,8 +78,9 @@ def make_rng(seed: int | np.random.Generator) -> np.random.Generator:
 
 
 def msac_chiral(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float) -> float:
-    """Cheirality-aware MSAC score (larger is better)."""
-    v = v_sampson_chiral(R, t, f1, f2)
+    """Cheirality-aware MSAC score (larger is better) of a pose on validated bearings ``f1, f2 (n, 3)``
+    (NaN for a non-finite pose)."""
+    v = v_sampson_chiral.unchecked(R, t, f1, f2)
     return float(np.sum(tau * tau - np.minimum(v * v, tau * tau)))
 
 
