@@ -164,3 +164,50 @@ def test_pixels_without_K_and_bearings_without_focal_are_errors():
     b = estimate_relative_pose(sc.u1, sc.u2, sc.K)
     assert a.status == b.status == "ok"
     assert rotation_error_deg(a.R, b.R) < 1e-6
+
+
+def test_results_compare_by_value():
+    """``==`` on results compares values (it raised on the arrays' elementwise ``==``); the duration is
+    not part of a result's value."""
+    import pickle
+
+    from poseonly.batch import estimate_relative_poses
+
+    sc = make_scene(120, camera="pinhole", noise_px=0.5, outlier_fraction=0.2, seed=1)
+    a = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=3)
+    b = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=3)
+    c = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, seed=4, threshold_px=3.0)
+    assert a == b and not a != b and a != c
+    assert a == pickle.loads(pickle.dumps(a))
+    with pytest.raises(TypeError):
+        hash(a)
+    assert poseonly.lirp(sc.f1[:30], sc.f2[:30]) == poseonly.lirp(sc.f1[:30], sc.f2[:30])
+    pairs = [{"x1": sc.u1, "x2": sc.u2, "K1": sc.K, "K2": sc.K, "key": "a"}]
+    r1, r2 = list(estimate_relative_poses(pairs, progress=False)), list(estimate_relative_poses(pairs, progress=False))
+    assert r1 == r2 and r1[0].result is not None
+
+
+def test_to_dict_has_every_key():
+    """A result's dict has the same keys whatever its status (null where undefined)."""
+    import json
+
+    sc = make_scene(120, camera="pinhole", noise_px=0.5, seed=1)
+    good = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K).to_dict()
+    rng = np.random.default_rng(0)
+    bad = estimate_relative_pose(rng.uniform(0, 640, (30, 2)), rng.uniform(0, 640, (30, 2)), sc.K, sc.K)
+    assert bad.status != "ok" and bad.rotation_covariance is None
+    d = bad.to_dict()
+    assert d.keys() == good.keys()
+    assert d["rotation_covariance"] is None and d["R_twin"] is None
+    json.dumps(d, allow_nan=False)
+
+
+def test_documented_submodules_are_attributes_after_a_plain_import():
+    import subprocess
+    import sys
+
+    code = "import poseonly; print(poseonly.cameras.from_opencv.__name__, poseonly.sim.make_scene.__name__, poseonly.io.__name__, poseonly.refine.__name__)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["from_opencv", "make_scene", "poseonly.io", "poseonly.refine"]
+    with pytest.raises(AttributeError, match="no attribute"):
+        poseonly.not_a_module  # noqa: B018

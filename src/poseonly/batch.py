@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from ._equality import ValueEquality
 from .api import RelativePoseResult, estimate_relative_pose
 from .geometry import InputError
 
@@ -75,8 +76,8 @@ class Pair:
     noise_scales: np.ndarray | None = None
 
 
-@dataclass
-class PairResult:
+@dataclass(eq=False)
+class PairResult(ValueEquality):
     """The outcome of one pair: ``result`` (or ``None`` and ``error`` when the input was invalid),
     the pair's ``key``, its ``index`` in the input iterable and the ``seed`` it was run with."""
 

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from .. import _core
+from .._equality import ValueEquality
 from .._json import json_array, json_float
 from ..geometry import check_correspondences
 
@@ -69,8 +70,8 @@ def lirp_candidates(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None)
     return {"E": o["cand_E"], "singular_values": o["singular_values"], "d_min": o["d_min"], "d_min_C2": o["d_min_C2"]}
 
 
-@dataclass
-class LiRPResult:
+@dataclass(eq=False)
+class LiRPResult(ValueEquality):
     """Result of :func:`lirp`.
 
     ``R, t``: the identified pose (``X2 = R X1 + t``, unit ``t``); ``E``: its candidate essential
