@@ -229,3 +229,15 @@ def test_lirp_result_to_dict_is_strict_json():
     d = poseonly.lirp(s.f1, s.f2).to_dict()
     assert json.loads(json.dumps(d, allow_nan=False))["status"] == "ok"
     assert np.shape(d["candidates_E"]) == (18, 3, 3) and isinstance(d["candidate_valid"][0], bool)
+
+
+def test_seed_out_of_the_cores_range_and_an_ill_conditioned_K_name_the_problem():
+    from poseonly.sim import make_scene
+
+    sc = make_scene(60, camera="pinhole", seed=1)
+    with pytest.raises(InputError, match=r"\[0, 2\*\*64\)"):
+        poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=2**64)  # would alias seed 0
+    assert poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=2**64 - 1).R.shape == (3, 3)
+    K = np.array([[800.0, 0.0, 1e9], [0.0, 800.0, 1e9], [0.0, 0.0, 1.0]])
+    with pytest.raises(InputError, match="numerically singular.*largest entry"):
+        poseonly.estimate_relative_pose(sc.u1, sc.u2, K)

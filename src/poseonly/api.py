@@ -192,7 +192,8 @@ def estimate_relative_pose(
     decision threshold is reported as ``result.threshold_px``), ``min_inliers`` (15, for status ``ok``),
     ``focal_px`` (focal length in pixels converting ``threshold_px`` to an angle; required for
     normalized coordinates and bearings, overrides the cameras' focal otherwise), ``seed``
-    (int or ``numpy.random.Generator``; default 0), ``refine`` (LiGTopt on the inliers; default
+    (int in ``[0, 2**64)`` or ``numpy.random.Generator``; default 0: every run is reproducible, and
+    ``seed=None``, like ``None`` for any option, means the default, not fresh entropy), ``refine`` (LiGTopt on the inliers; default
     True). ``camera1``/``camera2`` (instead of ``K1``/``K2``; ``camera2`` defaults to ``camera1``): any
     camera of :func:`poseonly.cameras.as_camera` (pycolmap.Camera, ``{"model", "width", "height",
     "params"}``, ``(K, dist)``); pixels are lifted through the distortion model and the threshold uses

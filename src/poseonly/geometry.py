@@ -210,7 +210,12 @@ def check_intrinsics(K: np.ndarray, name: str = "K") -> np.ndarray:
         raise InputError(f"{name} has focal lengths out of the representable range (fx = {fx:g}, fy = {fy:g})")
     big = max(1.0, max(abs(v) for v in kn))
     if det < 1e-12 * big * big:  # a product, not ** 2: an inf, not an OverflowError, for K entries ~1e200
-        raise InputError(f"{name} is singular (det = {det:.3g})")
+        # relative to K's largest entry: a focal of 800 px with the principal point at 1e9 px is not
+        # singular, but pixels lose all but a few digits of their angle through K^-1
+        raise InputError(
+            f"{name} is numerically singular: fx * fy = {det:.3g} is below 1e-12 times the square of its largest entry ({big:.3g}); "
+            "the focal lengths are too small for the principal point and skew (pixels and K in different units?)"
+        )
     return Kn
 
 

@@ -74,7 +74,7 @@ class Spec:
         if self.kind == "bool":
             return "True or False"
         if self.kind == "seed":
-            return "an integer >= 0 or a numpy.random.Generator"
+            return "an integer in [0, 2**64) or a numpy.random.Generator"
         if self.kind == "name":
             return f"a {self.doc} name"
         if self.kind == "str":
@@ -126,7 +126,7 @@ def check_value(name: str, v: Any, s: Spec) -> Any:
             return v
         if _is_bool(v) or not isinstance(v, numbers.Integral):
             raise bad_type()
-        if int(v) < 0:
+        if not 0 <= int(v) < SEED_LIMIT:  # the core's seeds are 64-bit: a larger one would alias a smaller
             raise bad_value()
         return int(v)
     if s.kind == "name":
@@ -154,6 +154,7 @@ def check_value(name: str, v: Any, s: Spec) -> Any:
     return x
 
 
+SEED_LIMIT = 2**64
 _TYPE_WORD = {"bool": "bool", "seed": "int", "name": "str", "str": "str", "int": "int", "real": "int/float", "scale": "str/float"}
 
 

@@ -55,12 +55,12 @@ class RansacResult:
 
 
 def core_seed(seed: int | np.integer | np.random.Generator) -> int:
-    """The core's 64-bit seed: a non-negative ``int`` as is, one draw of a ``Generator``."""
+    """The core's 64-bit seed: an ``int`` in ``[0, 2**64)`` as is, one draw of a ``Generator``."""
     if isinstance(seed, np.random.Generator):
         return int(seed.integers(0, 2**63))
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer or a numpy.random.Generator, got {seed!r}")
-    return int(seed) & _SEED_MASK
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or not 0 <= int(seed) <= _SEED_MASK:
+        raise ValueError(f"seed must be an integer in [0, 2**64) or a numpy.random.Generator, got {seed!r}")
+    return int(seed)
 
 
 def prosac_order(scores: np.ndarray) -> np.ndarray:
