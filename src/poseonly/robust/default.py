@@ -564,7 +564,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
         diag.update(rival_R=rivals[0][0], rival_t=rivals[0][1], rival_distance=float(o.rival_distance), rivals=rivals)
     R, t = select_by_support(r.R, r.t, f1, f2, tau)
     if o.final == "cauchy":
-        diag["tau_effective"] = tau
+        diag.update(tau_effective=tau, sampson_final=True)
         if o.refine:
             inl = v_sampson(R, t, f1, f2) < tau
             if np.count_nonzero(inl) >= 6:
@@ -574,7 +574,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                     R, t = Rc, tc
         return R, t, None, r.num_iterations, diag
     if o.final == "ml":
-        diag["tau_effective"] = tau
+        diag.update(tau_effective=tau, sampson_final=True)
         iterations = r.num_iterations
         if o.refine:
             T = float(o.ml_range) * tau
