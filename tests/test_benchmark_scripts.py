@@ -169,3 +169,15 @@ def test_warped_statuses_runs(capsys):
     assert "ok (a made-up translation) 0 of 5" in out, out
     line = next(x for x in out.splitlines() if "t = 0.2 d sideways" in x)
     assert "{'ok': 1}" in line and float(line.split("error ")[1].split()[0]) < 0.05
+
+
+def test_shoulder_study_runs(capsys):
+    """benchmarks/shoulder_study.py's synthetic table on one seed a cell."""
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    try:
+        import shoulder_study
+    finally:
+        sys.path.pop(0)
+    assert shoulder_study.main(["--synthetic", "--seeds", "1"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("\n| ") == 10 and "band test" in out
