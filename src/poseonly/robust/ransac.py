@@ -247,6 +247,8 @@ def gnc_ransac(
     by GNC-IRLS. ``adaptive=True`` stops early with the RANSAC rule applied to the paper's rationale (a
     sample only needs a majority of inliers, taken as ``>= 60 %``; binomial tail). ``theta`` is given by
     the caller (:func:`poseonly.api.estimate_relative_pose` derives it from a pixel threshold).
+    With fewer than ``sample_size`` points every sample is all of them (the same fit each time); the
+    public :func:`poseonly.gnc_ransac` refuses such input.
     """
     est = estimator or lirp_estimator()
     opts = gnc_options or GNCOptions()

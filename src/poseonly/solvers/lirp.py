@@ -14,7 +14,8 @@ Construction (``src/core/lirp.cpp``; the numpy reference is ``tests/reference/li
    complex eigenvectors contribute the real parts of ``a, b`` (paper silent), read homogeneously
    (``Re(g4 conj(g6)) q1 + Re(g5 conj(g6)) q2 + |g6|^2 q3``) so that ``g6 -> 0`` cannot divide by zero.
 4. Case 2 (``c = 0, b = 1``): ``det(a Q1 + Q2) = 0`` (Eq. 15), a cubic in ``a`` (or in ``1/a`` when its
-   leading coefficient is the smaller one): 3 candidates.
+   leading coefficient is the smaller one): 3 candidates (a complex pair of roots contributes its
+   real parts, as in case 1; paper silent).
 5. ``q1, q2, q3`` themselves: 3 candidates; 18 in all.
 6. Each candidate is identified with the pose-only depth conditions and ranked by the weighted mean
    PPO residual (:mod:`poseonly.identify`).
