@@ -101,3 +101,17 @@ def test_local_support_rejects_bad_input():
     bad[3, 0] = np.nan
     with pytest.raises(ValueError, match="finite"):
         _core.locally_supported(bad, m, m, 10, 2)
+
+
+def test_distinct_matches_refuse_nan_and_keep_tiny_tolerances():
+    sc = make_scene(30, seed=2)
+    bad = sc.f1.copy()
+    bad[4, 1] = np.nan
+    with pytest.raises(ValueError, match="finite"):
+        _core.distinct_matches(bad, sc.f2, 1e-3)
+    # a pair within 1e-13 of each other in both views (the sweep's bound has a slack for the projections'
+    # rounding): one group
+    g1 = np.ascontiguousarray(np.vstack([sc.f1[:1], _unit(sc.f1[:1] + 3e-14)]))
+    g2 = np.ascontiguousarray(np.vstack([sc.f2[:1], _unit(sc.f2[:1] - 3e-14)]))
+    assert np.linalg.norm(g1[0] - g1[1]) < 1e-13 and np.linalg.norm(g2[0] - g2[1]) < 1e-13
+    np.testing.assert_array_equal(distinct_rows(g1, g2, 1e-13), [0])

@@ -300,3 +300,21 @@ def test_a_pose_of_another_objective_carries_its_offset_from_least_squares(metho
     assert beyond == 0 and max(spread) > 0
     d = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K).diagnostics
     assert "estimator_spread_deg" not in d and "sampson_final" not in d
+
+
+def test_the_estimator_spread_ignores_the_translation_sign():
+    """The refit's t takes the sign most inliers put in front; the Sampson errors do not see the sign, so
+    a pose given with -t is as far from the refit as with t (a review: 179.97 deg of translation spread)."""
+    from poseonly.result import _with_estimator_spread
+
+    sc = sim.make_scene(200, camera="pinhole", noise_px=0.5, seed=3)
+    r = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, method="lirp")
+    inl = v_sampson(r.R, r.t, sc.f1, sc.f2) < 2.0 / sc.K[0, 0]
+    unc = pose_uncertainty(r.R, r.t, sc.f1, sc.f2, inl, 2.0 / sc.K[0, 0])
+    d_plus: dict = {}
+    d_minus: dict = {}
+    a = _with_estimator_spread(unc, r.R, r.t, sc.f1, sc.f2, inl, d_plus)
+    b = _with_estimator_spread(unc, r.R, -r.t, sc.f1, sc.f2, inl, d_minus)
+    assert d_plus["estimator_translation_spread_deg"] < 1.0
+    assert abs(d_plus["estimator_translation_spread_deg"] - d_minus["estimator_translation_spread_deg"]) < 1e-6
+    assert abs(a["translation_std_deg"] - b["translation_std_deg"]) < 1e-6

@@ -150,3 +150,16 @@ def test_a_corrupt_match_cache_entry_is_recomputed(tmp_path, monkeypatch):
         assert len(calls) == 2 + k
         assert g.pair_stats == ref.pair_stats
         np.testing.assert_array_equal(np.load(entry)["idx"], good["idx"])  # rewritten
+
+
+def test_pairwise_seeds_stay_in_the_cores_range():
+    """A base seed near 2**64 is kept exactly (it went through float64: 2**64 - 1 became 2**64, and every
+    pair then failed after features and matching) and the per-pair seeds wrap modulo 2**64."""
+    from poseonly.geometry import InputError
+    from poseonly.sfm.pairwise import PairwiseOptions, pair_seed
+
+    o = PairwiseOptions(seed=2**64 - 1)
+    assert o.seed == 2**64 - 1
+    assert pair_seed(o.seed, 0, 1, 4) == 2**64 - 1 and pair_seed(o.seed, 0, 2, 4) == 0
+    with pytest.raises(InputError, match=r"\[0, 2\*\*64\)"):
+        PairwiseOptions(seed=2**64)

@@ -52,6 +52,8 @@ static nb::object distinct_matches_py(const BearingsIn& f1, const BearingsIn& f2
   if (f1.shape(0) > static_cast<size_t>(std::numeric_limits<int32_t>::max())) throw std::invalid_argument("too many bearings");
   const Points P = points_of(f1, f2);
   if (!(tol >= 0.0) || !std::isfinite(tol)) throw std::invalid_argument("tol must be finite and >= 0");
+  check_finite(P.f1, static_cast<size_t>(P.n));
+  check_finite(P.f2, static_cast<size_t>(P.n));
   std::vector<int64_t> kept;
   {
     nb::gil_scoped_release release;

@@ -180,7 +180,9 @@ std::vector<int64_t> distinct_matches(const double* f1, const double* f2, int n,
     std::vector<int> by(m);
     std::iota(by.begin(), by.end(), 0);
     std::stable_sort(by.begin(), by.end(), [&](int a, int b) { return proj[a] < proj[b]; });
-    const double bound = std::sqrt(2.0) * tol;
+    // the projections' rounding (a few ulps of values ~1) must not cut a pair off where tol is tiny: a
+    // slack on the pre-filter only (each candidate's distances are checked exactly)
+    const double bound = std::sqrt(2.0) * tol * (1.0 + 1e-9) + 1e-14;
     std::vector<int> parent(m);
     std::iota(parent.begin(), parent.end(), 0);
     auto dist = [](const double* x, const double* y) {

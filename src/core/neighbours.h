@@ -24,7 +24,8 @@ void neighbour_consistency(const double* f1, const double* f2, int n, int k, int
 // tol > 0, both chord distances |f1_i - f1_j| and |f2_i - f2_j| are below tol; the groups are the
 // connected components of that relation. Exact: every pair within tol in both views lies within
 // sqrt(2) tol in the 6-D space of the two bearings, so a sweep along one fixed direction of that
-// space (sorted projections) meets it; the time is O(n log n) plus the pairs the sweep's slab holds.
+// space (sorted projections, the bound given a slack of 1e-9 relative and 1e-14 absolute against
+// their rounding) meets it; the time is O(n log n) plus the pairs the sweep's slab holds. Finite input.
 std::vector<int64_t> distinct_matches(const double* f1, const double* f2, int n, double tol);
 
 // The translation's local support (poseonly.analysis._locally_supported): extra[i] kept where at least

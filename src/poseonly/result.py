@@ -261,7 +261,9 @@ def _with_estimator_spread(unc: dict[str, Any], R: np.ndarray, t: np.ndarray, f1
     if not (np.all(np.isfinite(Rl)) and np.all(np.isfinite(tl))):
         return unc
     d = float(np.radians(rotation_error_deg(R, Rl)))
-    ct = float(np.clip(np.dot(_unit(t), _unit(tl)), -1.0, 1.0))
+    # the Sampson errors do not see t's sign, and the refit takes the sign most inliers put in front:
+    # the distance between the two directions is sign-free
+    ct = float(np.clip(abs(np.dot(_unit(t), _unit(tl))), 0.0, 1.0))
     dt = float(np.arccos(ct))
     diag.update(estimator_spread_deg=float(np.degrees(d)), estimator_translation_spread_deg=float(np.degrees(dt)))
     return _with_model_spread(unc, d, dt, t)
@@ -465,7 +467,8 @@ def finish(
                 else:
                     msg = (
                         f"{n_in} inliers within {thr_px:g} px single out the pose, but they determine its rotation only to "
-                        f"{unc['rotation_std_deg']:.2f} deg (one standard deviation, first order; max_rotation_std_deg = "
+                        f"{unc['rotation_std_deg']:.2f} deg (one standard deviation, first order, with the spread to other fits of the "
+                        "matches where there is one: diagnostics twin_spread_deg, rotation_model_spread_deg, estimator_spread_deg; max_rotation_std_deg = "
                         f"{max_rotation_std_deg:g}): see rotation_covariance"
                     )
             else:
@@ -476,6 +479,8 @@ def finish(
                         "the rest (a near surface, or objects that moved; two views cannot tell)"
                     )
     if status == "too_few_inliers":
+        for k in ("estimator_spread_deg", "estimator_translation_spread_deg"):  # of a covariance not reported
+            diag.pop(k, None)
         # inliers that chance explains, or too few to estimate their noise from, do not determine the pose
         # (a handful fitted exactly gave deviations of 1e-14 deg to a pose 160 deg off): no covariance
         unc = {**unc, "rotation_covariance": None, "translation_covariance": None, "rotation_std_deg": np.inf, "translation_std_deg": np.inf}

@@ -564,7 +564,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
         diag.update(rival_R=rivals[0][0], rival_t=rivals[0][1], rival_distance=float(o.rival_distance), rivals=rivals)
     R, t = select_by_support(r.R, r.t, f1, f2, tau)
     if o.final == "cauchy":
-        diag.update(tau_effective=tau, sampson_final=True)
+        diag["tau_effective"] = tau
         if o.refine:
             inl = v_sampson(R, t, f1, f2) < tau
             if np.count_nonzero(inl) >= 6:
@@ -572,9 +572,10 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                 Rc, tc, _ = _core.refine_sampson(c(R), c(t), c(f1[inl]), c(f2[inl]), None, loss="cauchy", loss_scale=float(tau), max_iterations=100, tol=1e-12)
                 if np.all(np.isfinite(Rc)) and np.all(np.isfinite(tc)):
                     R, t = Rc, tc
+                    diag["sampson_final"] = True  # the pose is a Sampson fit: no estimator spread (result.finish)
         return R, t, None, r.num_iterations, diag
     if o.final == "ml":
-        diag.update(tau_effective=tau, sampson_final=True)
+        diag["tau_effective"] = tau
         iterations = r.num_iterations
         if o.refine:
             T = float(o.ml_range) * tau
@@ -604,6 +605,9 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
             if best is not None:
                 R0, t0 = R, t
                 R, t, m = best
+                # the ML pose (or the cross-fit's EM pose below) is a Sampson fit: no estimator spread
+                # (result.finish); without it the pose is the pose-only choice's, which may be algebraic
+                diag["sampson_final"] = True
                 if o.ml_folds > 1:
                     tails, start = (float(m["nu"]), float(m["alpha"])), (float(m["sigma"]), float(m["inlier_fraction"]))
                     cf = _cross_fit(R, t, f1, f2, T_used, float(m["decision_gauss"]), student, noise_scales, int(o.ml_folds), tails, start)

@@ -74,6 +74,10 @@ def checked_count(value: object, name: str, minimum: int = 0) -> int:
     """A whole number ``>= minimum`` (an integral float or a 0-d array is accepted; a bool or a string is not)."""
     if isinstance(value, (bool, np.bool_, str, bytes)):
         raise InputError(f"{name} must be a whole number >= {minimum}, got {value!r}")
+    if isinstance(value, (int, np.integer)):  # exactly (through float64 2**64 - 1 became 2**64)
+        if int(value) < minimum:
+            raise InputError(f"{name} must be a whole number >= {minimum}, got {value!r}")
+        return int(value)
     try:
         v = float(np.asarray(value, dtype=np.float64))
     except (TypeError, ValueError):

@@ -30,7 +30,7 @@ from ..api import estimate_relative_pose
 from ..cameras import OPENCV_TO_COLMAP_PX
 from ..features import Features, extract_features, match_features, match_noise_scales, unreadable_images
 from ..geometry import InputError, bearings_from_normalized, bearings_from_pixels, pair_focal
-from ..options import MANY_PAIRS_MAX_ITERATIONS
+from ..options import MANY_PAIRS_MAX_ITERATIONS, SEED_LIMIT
 from .inputs import checked_pairs
 from .tracks import Tracks
 from .viewgraph import ViewGraph
@@ -117,6 +117,8 @@ class PairwiseOptions:
             raise InputError(f"ratio must be a number in (0, 1] (Lowe's ratio test), got {self.ratio!r}")
         keep("min_matches", checked_count(self.min_matches, "min_matches", 6))
         keep("seed", checked_count(self.seed, "seed"))
+        if self.seed >= SEED_LIMIT:
+            raise InputError(f"seed must be an integer in [0, 2**64), got {self.seed!r}")
         if self.threshold_px is not None:
             keep("threshold_px", checked_positive(self.threshold_px, "threshold_px"))
         for name in ("mutual", "use_scores", "use_noise_scales"):
@@ -383,8 +385,8 @@ def _available_cores() -> int:
 
 def pair_seed(seed: int, i: int, j: int, n: int) -> int:
     """The seed of pair ``i < j`` of ``n`` images: ``seed`` plus the pair's index in the
-    lexicographic list of all ``n (n - 1) / 2`` pairs (with all pairs matched, its position)."""
-    return int(seed) + i * n - i * (i + 1) // 2 + (j - i - 1)
+    lexicographic list of all ``n (n - 1) / 2`` pairs (with all pairs matched, its position), modulo 2**64."""
+    return (int(seed) + i * n - i * (i + 1) // 2 + (j - i - 1)) % SEED_LIMIT  # the core's seeds are 64-bit
 
 
 def image_view_graph(
