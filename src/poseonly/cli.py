@@ -131,7 +131,10 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print("ground truth:")
     print(_fmt_pose(d["R_gt"], d["t_gt"]))
     print(f"rotation error: {d['rotation_error_deg']:.4f} deg, translation direction error: {d['translation_error_deg']:.3f} deg")
-    print(f"deviation (1 sigma, first order, with the spread to other fits of the matches; not the calibration's errors): rotation {d['rotation_std_deg']:.4f} deg, translation direction {d['translation_std_deg']:.3f} deg")
+    print(
+        "deviation (1 sigma, first order, with the spread to other fits of the matches; not the calibration's errors): "
+        f"rotation {d['rotation_std_deg']:.4f} deg, translation direction {d['translation_std_deg']:.3f} deg"
+    )
     print(f"time: features+matching {d['time_features_s']:.2f} s, robust estimation {d['time_estimate_s'] * 1e3:.1f} ms")
     if "drawing" in d:
         print(f"match drawing: {d['drawing']} (green inliers, red outliers)")
