@@ -2,9 +2,10 @@
 
 A dataclass's generated ``__eq__`` compares its fields as a tuple, and numpy arrays answer ``==``
 elementwise, so two results with arrays raised "The truth value of an array ... is ambiguous" unless
-they were the same object. :class:`ValueEquality` compares field by field instead: arrays by shape,
-dtype kind and values (NaN equal to NaN, as a repeated run's result is equal to itself), dicts, lists
-and tuples recursively, floats with NaN equal to NaN.
+they were the same object. :class:`ValueEquality` compares field by field instead: arrays by shape
+and values (as numpy compares them: ``[True, False]`` equals ``[1, 0]``; NaN equal to NaN in float
+arrays, as a repeated run's result is equal to itself), dicts, lists and tuples recursively, floats with
+NaN equal to NaN.
 """
 
 from __future__ import annotations
