@@ -318,3 +318,19 @@ def test_the_estimator_spread_ignores_the_translation_sign():
     assert d_plus["estimator_translation_spread_deg"] < 1.0
     assert abs(d_plus["estimator_translation_spread_deg"] - d_minus["estimator_translation_spread_deg"]) < 1e-6
     assert abs(a["translation_std_deg"] - b["translation_std_deg"]) < 1e-6
+
+
+@pytest.mark.parametrize("method", ["poseonly", "gnc-ransac", "lirp"])
+def test_matches_that_all_repeat_a_few_are_too_few_not_a_crash(method):
+    """1022 matches within 0.6 px of one pixel in each view (normalized coordinates passed with a K) are
+    one observation: too_few_inliers with a message that says so (the rotation search raised "at least 2
+    points are needed")."""
+    rng = np.random.default_rng(0)
+    K = np.array([[800.0, 0.0, 320.0], [0.0, 800.0, 240.0], [0.0, 0.0, 1.0]])
+    u1 = 320.0 + rng.uniform(-0.3, 0.3, (1022, 2))
+    u2 = 320.0 + rng.uniform(-0.3, 0.3, (1022, 2))
+    r = estimate_relative_pose(u1, u2, K, method=method)
+    assert r.status in ("too_few_inliers", "degenerate")
+    if r.status == "too_few_inliers":
+        assert "distinct" in r.message and r.rotation_covariance is None
+        json.dumps(r.to_dict(), allow_nan=False)

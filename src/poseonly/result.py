@@ -118,7 +118,9 @@ class RelativePoseResult(ValueEquality):
     the option ``threshold_px`` (the search's threshold): the default method's ML stage decides by the
     noise it estimates on the matches, and ``threshold_px`` is then that decision threshold, often below
     the option's (the search's is ``diagnostics["search_threshold_px"]``). The matches within another
-    distance ``d`` of the pose are ``residuals_px < d`` (Sampson errors in pixels).
+    distance ``d`` of the pose are ``residuals_px < d``: the Sampson error on the unit sphere (radians)
+    times the focal length (``focal_px``), the pixel Sampson error near the image centre and 0.8-0.96x it
+    toward a pinhole image's borders (a trial's real pairs), where the same angle is more pixels.
 
     Shapes: ``R (3, 3)``, ``t (3,)`` (unit), ``E (3, 3)``, ``inliers (n,)`` bool, ``weights (n,)``,
     ``residuals_px (n,)`` (NaN when undefined), ``rotation_covariance (3, 3)``,
@@ -269,6 +271,11 @@ def _with_estimator_spread(unc: dict[str, Any], R: np.ndarray, t: np.ndarray, f1
     return _with_model_spread(unc, d, dt, t)
 
 
+# fewer distinct matches than a pose's minimal problem plus one cannot single out a pose (the paper's
+# LiRP needs 6); below this the status analysis's tests do not run
+MIN_DISTINCT_MATCHES = 6
+
+
 def finish(
     method: str,
     R: np.ndarray,
@@ -337,6 +344,33 @@ def finish(
     n_once, n_in_once = len(g1), int(np.count_nonzero(distinct(inl)))
     lnfa = log10_nfa(n_in_once, n_once, p_pose, num_tests, POSE_DOF)
     diag.update(chance_inliers=n * p_pose, chance_rate=p_pose, log10_nfa=lnfa, distinct_inliers=n_in_once)
+    if n_once < MIN_DISTINCT_MATCHES:
+        # matches that all repeat a few (e.g. normalized coordinates passed with a K: every pixel within a
+        # pixel of the principal point) are too few observations for any of the tests below (a trial: the
+        # rotation search raised "at least 2 points are needed" on 1022 such matches)
+        diag.update(rotation_std_deg=np.inf, translation_std_deg=np.inf, noise_sigma_px=float("nan"))
+        return RelativePoseResult(
+            R=R,
+            t=t,
+            E=essential_from_pose(R, t),
+            inliers=inl,
+            weights=weights,
+            residuals_px=v * focal,
+            num_inliers=n_in,
+            num_iterations=int(iters),
+            status="too_few_inliers",
+            message=(
+                f"{n} matches, but only {n_once} distinct (matches within {NEAR_DUPLICATE_PX:g} px of each other in both views "
+                f"count once; {MIN_DISTINCT_MATCHES} needed): they do not determine a pose (pixels passed as normalized "
+                "coordinates, or normalized coordinates with a K?)"
+            ),
+            method=method,
+            threshold_px=float(thr_px),
+            focal_px=focal,
+            parallax_deg=parallax_deg(R, f1, f2, inl),
+            time_s=time.perf_counter() - t0,
+            diagnostics=diag,
+        )
     # the rotation-only alternative is fitted at the search threshold at least: at a decision threshold
     # the pose itself shrank (an ML fit to a tight subset) a rotation would miss its own noisy inliers
     tau_rot = max(tau, tau_search)
