@@ -18,7 +18,8 @@ pycolmap = pytest.importorskip("pycolmap")
 
 from poseonly import rotation_error_deg
 from poseonly.cameras import Camera
-from poseonly.colmap_verify import homography_dlt, verify_database
+from poseonly.colmap_verify import verify_database
+from poseonly.io.colmap_geometry import homography_dlt
 
 SRC = str(Path(__file__).resolve().parents[1] / "src")
 CAM = Camera("OPENCV", 640, 480, (600.0, 600.0, 320.0, 240.0, -0.15, 0.02, 0.001, 0.0))
@@ -313,3 +314,35 @@ def test_guessed_focal_is_refused_unless_trusted(tmp_path, capsys):
         database_view_graph(path)
     ig, names = database_view_graph(path, trust_guessed_focal=True)
     assert len(names) == 4 and len(ig.graph) > 0
+
+
+def test_a_result_as_a_pycolmap_two_view_geometry():
+    """poseonly.io.colmap_geometry.to_two_view_geometry: the geometry colmap verify writes, in memory,
+    with COLMAP's conventions (cam2_from_cam1 = (R, t), F = K2^-T E K1^-1 up to scale)."""
+    from poseonly import estimate_relative_pose
+    from poseonly.geometry import InputError
+    from poseonly.io.colmap_geometry import to_two_view_geometry
+    from poseonly.sim import make_scene
+
+    sc = make_scene(150, camera="pinhole", noise_px=0.5, outlier_fraction=0.2, seed=2)
+    r = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K)
+    assert r.status == "ok"
+    matches = np.column_stack([np.arange(150) + 1000, np.arange(150)[::-1]])
+    g = to_two_view_geometry(r, matches, K1=sc.K, K2=sc.K)
+    assert g.config == pycolmap.TwoViewGeometryConfiguration.CALIBRATED
+    np.testing.assert_array_equal(np.asarray(g.inlier_matches), matches[r.inliers])
+    np.testing.assert_allclose(g.cam2_from_cam1.rotation.matrix(), r.R, atol=1e-12)
+    np.testing.assert_allclose(g.cam2_from_cam1.translation, r.t, atol=1e-12)
+    F = np.linalg.inv(sc.K).T @ r.E @ np.linalg.inv(sc.K)
+    np.testing.assert_allclose(np.asarray(g.F), F / np.linalg.norm(F), atol=1e-12)
+    from poseonly.features import sampson_distance
+
+    assert np.median(sampson_distance(sc.u1[r.inliers], sc.u2[r.inliers], np.asarray(g.F))) < 0.5  # pixels, 0.5 px noise
+    g0 = to_two_view_geometry(r)  # match i is keypoint i in both images; no K: no F
+    np.testing.assert_array_equal(np.asarray(g0.inlier_matches)[:, 0], np.flatnonzero(r.inliers))
+    rng = np.random.default_rng(0)
+    bad = estimate_relative_pose(rng.uniform(0, 640, (30, 2)), rng.uniform(0, 640, (30, 2)), sc.K, sc.K)
+    gb = to_two_view_geometry(bad)
+    assert gb.config == pycolmap.TwoViewGeometryConfiguration.DEGENERATE and len(np.asarray(gb.inlier_matches)) == 0
+    with pytest.raises(InputError, match="matches must be"):
+        to_two_view_geometry(r, matches[:-1])

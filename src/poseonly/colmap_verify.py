@@ -50,25 +50,13 @@ from .argtypes import jobs_int, non_negative_int, positive_float, positive_int
 from .batch import AUTO_THREADS_MAX_PAIRS, Pair, PairResult, estimate_relative_poses
 from .geometry import InputError, pair_focal
 from .io.colmap_db import ColmapDatabase, GeometryRow, refuse_guessed_focal
+from .io.colmap_geometry import ERROR_CONFIG, STATUS_CONFIG, two_view_fields
 from .options import MANY_PAIRS_MAX_ITERATIONS
 
 __all__ = ["MIN_MATCHES", "STATUS_CONFIG", "VerifySummary", "add_arguments", "run_cli", "verify_database"]
 
-STATUS_CONFIG = {
-    "ok": "CALIBRATED",
-    "planar_ambiguous": "PLANAR_OR_PANORAMIC",
-    "ambiguous": "MULTIPLE",
-    # the inliers single out the epipolar geometry, the rotation is only poorly determined: COLMAP gets the
-    # inlier matches as calibrated two-view geometry (its bundle adjustment re-estimates every pose)
-    "uncertain": "CALIBRATED",
-    "pure_rotation": "PANORAMIC",
-    "too_few_inliers": "DEGENERATE",
-    "degenerate": "DEGENERATE",
-}
-ERROR_CONFIG = "UNDEFINED"
 MIN_MATCHES = 6  # fewer valid matches cannot determine a pose: DEGENERATE without estimating
 WRITE_EVERY = 256  # pairs per write transaction
-_WITH_INLIERS = ("CALIBRATED", "PLANAR_OR_PANORAMIC", "PANORAMIC")
 
 
 @dataclass
@@ -84,29 +72,6 @@ class VerifySummary:
     configs: Counter = field(default_factory=Counter)
     errors: dict[int, str] = field(default_factory=dict)
     time_s: float = 0.0
-
-
-def homography_dlt(u1: np.ndarray, u2: np.ndarray) -> np.ndarray | None:
-    """Normalized DLT homography ``u2 ~ H u1`` of pixel matches ``(n, 2)``, ``n >= 4`` (Hartley &
-    Zisserman Alg. 4.2); ``None`` when degenerate. ``H (3, 3)`` with ``H[2, 2] = 1`` when possible."""
-    if len(u1) < 4:
-        return None
-
-    def norm(u: np.ndarray) -> np.ndarray:
-        c = u.mean(axis=0)
-        s = np.sqrt(2.0) / max(float(np.mean(np.linalg.norm(u - c, axis=1))), 1e-12)
-        return np.array([[s, 0, -s * c[0]], [0, s, -s * c[1]], [0, 0, 1.0]])
-
-    T1, T2 = norm(u1), norm(u2)
-    a = np.column_stack([u1, np.ones(len(u1))]) @ T1.T
-    b = np.column_stack([u2, np.ones(len(u2))]) @ T2.T
-    z = np.zeros((len(a), 3))
-    A = np.concatenate([np.hstack([z, -b[:, 2:3] * a, b[:, 1:2] * a]), np.hstack([b[:, 2:3] * a, z, -b[:, 0:1] * a])])
-    _, s, Vt = np.linalg.svd(A, full_matrices=False)
-    if s[-2] < 1e-12 * s[0]:
-        return None
-    H = np.linalg.inv(T2) @ Vt[-1].reshape(3, 3) @ T1
-    return H / H[2, 2] if abs(H[2, 2]) > 1e-12 * np.abs(H).max() else H / np.abs(H).max()
 
 
 class _Source:
@@ -163,21 +128,12 @@ class _Source:
         if r is None:
             self.errors[pid] = str(pr.error)
             return GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2)))
-        config = STATUS_CONFIG.get(r.status, ERROR_CONFIG)
-        if config not in _WITH_INLIERS:
-            return GeometryRow(i1, i2, config, np.zeros((0, 2)))
-        inl = m[r.inliers]
         c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
-        F = None
-        if c1.is_undistorted and c2.is_undistorted:
-            F = np.linalg.inv(c2.K).T @ r.E @ np.linalg.inv(c1.K)
-            F = F / np.linalg.norm(F)
-        H = None
-        if config != "CALIBRATED":
-            H = homography_dlt(self.db.keypoints(i1)[inl[:, 0]], self.db.keypoints(i2)[inl[:, 1]])
-        t = np.zeros(3) if config == "PANORAMIC" else r.t
-        E = None if config == "PANORAMIC" else r.E
-        return GeometryRow(i1, i2, config, inl, E=E, F=None if config == "PANORAMIC" else F, H=H, R=r.R, t=t)
+        pinhole = c1.is_undistorted and c2.is_undistorted  # a distorted camera has no F
+        with_h = STATUS_CONFIG.get(r.status, ERROR_CONFIG) in ("PLANAR_OR_PANORAMIC", "PANORAMIC")  # keypoints read only for H
+        kp1, kp2 = (self.db.keypoints(i1), self.db.keypoints(i2)) if with_h else (None, None)
+        f = two_view_fields(r, m, c1.K if pinhole else None, c2.K if pinhole else None, keypoints1=kp1, keypoints2=kp2)
+        return GeometryRow(i1, i2, f.config, f.inlier_matches, E=f.E, F=f.F, H=f.H, R=f.R, t=f.t)
 
 
 def verify_database(

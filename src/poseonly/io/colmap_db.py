@@ -28,6 +28,7 @@ import numpy as np
 from .._pycolmap import import_pycolmap
 from ..cameras import Camera, as_camera
 from ..geometry import InputError
+from .colmap_geometry import TwoViewFields, pycolmap_geometry_kwargs
 from .pair_list import parse_pair_names
 
 __all__ = [
@@ -294,16 +295,7 @@ class ColmapDatabase:
         k = 0
         with pc.DatabaseTransaction(self.db):
             for r in rows:
-                kw: dict[str, Any] = {
-                    "config": pc.TwoViewGeometryConfiguration.__members__[r.config],
-                    "inlier_matches": np.ascontiguousarray(r.inlier_matches, dtype=np.uint32).reshape(-1, 2),
-                }
-                for name in ("E", "F", "H"):
-                    m = getattr(r, name)
-                    if m is not None:
-                        kw[name] = np.asarray(m, dtype=float)
-                if r.R is not None and r.t is not None:
-                    kw["cam2_from_cam1"] = pc.Rigid3d(pc.Rotation3d(np.asarray(r.R, float)), np.asarray(r.t, float))
+                kw = pycolmap_geometry_kwargs(TwoViewFields(r.config, r.inlier_matches, E=r.E, F=r.F, H=r.H, R=r.R, t=r.t), pc)
                 if self.db.exists_two_view_geometry(r.image_id1, r.image_id2):
                     self.db.delete_two_view_geometry(r.image_id1, r.image_id2)
                 self.db.write_two_view_geometry(r.image_id1, r.image_id2, pc.TwoViewGeometry(**kw))
