@@ -346,3 +346,5 @@ def test_a_result_as_a_pycolmap_two_view_geometry():
     assert gb.config == pycolmap.TwoViewGeometryConfiguration.DEGENERATE and len(np.asarray(gb.inlier_matches)) == 0
     with pytest.raises(InputError, match="matches must be"):
         to_two_view_geometry(r, matches[:-1])
+    with pytest.raises(InputError, match=r"\[0, 2\*\*32\)"):  # COLMAP's uint32 would wrap 2**32 to 0
+        to_two_view_geometry(r, matches + 2**32)

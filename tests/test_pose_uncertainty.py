@@ -320,6 +320,19 @@ def test_the_estimator_spread_ignores_the_translation_sign():
     assert abs(a["translation_std_deg"] - b["translation_std_deg"]) < 1e-6
 
 
+@pytest.mark.parametrize("method", ["poseonly", "gnc-ransac", "gnc-irls", "lirp"])
+def test_matches_of_a_few_points_repeated_get_a_status_not_an_error(method):
+    """200 matches that repeat 4 and 7 pixels (1e-7 px jitter): the GNC methods' own pose was not a rotation
+    and LiGTopt's input check blamed the caller ("R must be a rotation matrix", a review); now a status."""
+    K = np.array([[800.0, 0.0, 320.0], [0.0, 800.0, 240.0], [0.0, 0.0, 1.0]])
+    p1, p2 = np.random.default_rng(0).uniform(0, 640, (4, 2)), np.random.default_rng(1).uniform(0, 640, (7, 2))
+    for s in range(6):
+        rng = np.random.default_rng(s)
+        u1 = p1[rng.integers(0, 4, 200)] + rng.uniform(-1e-7, 1e-7, (200, 2))
+        u2 = p2[rng.integers(0, 7, 200)] + rng.uniform(-1e-7, 1e-7, (200, 2))
+        assert estimate_relative_pose(u1, u2, K, method=method).status in ("too_few_inliers", "degenerate")
+
+
 @pytest.mark.parametrize("method", ["poseonly", "gnc-ransac", "lirp"])
 def test_matches_that_all_repeat_a_few_are_too_few_not_a_crash(method):
     """1022 matches within 0.6 px of one pixel in each view (normalized coordinates passed with a K) are

@@ -45,6 +45,7 @@ STATUS_CONFIG = {
     "degenerate": "DEGENERATE",
 }
 ERROR_CONFIG = "UNDEFINED"
+KEYPOINT_INDEX_LIMIT = 2**32  # COLMAP stores keypoint indices as uint32
 WITH_INLIERS = ("CALIBRATED", "PLANAR_OR_PANORAMIC", "PANORAMIC")
 
 
@@ -106,8 +107,8 @@ def two_view_fields(
         m = np.column_stack([idx, idx])
     else:
         m = np.asarray(matches)
-        if m.ndim != 2 or m.shape != (n, 2) or m.dtype.kind not in "iu" or (m.size and m.min() < 0):
-            raise InputError(f"matches must be non-negative keypoint indices of shape ({n}, 2) (the result's matches), got {m.dtype} {m.shape}")
+        if m.ndim != 2 or m.shape != (n, 2) or m.dtype.kind not in "iu" or (m.size and (m.min() < 0 or m.max() >= KEYPOINT_INDEX_LIMIT)):
+            raise InputError(f"matches must be keypoint indices in [0, 2**32) (COLMAP's point2D_idx) of shape ({n}, 2), the result's matches; got {m.dtype} {m.shape}")
     config = STATUS_CONFIG.get(result.status, ERROR_CONFIG)
     if config not in WITH_INLIERS:
         return TwoViewFields(config, np.zeros((0, 2), dtype=np.int64))

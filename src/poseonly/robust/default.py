@@ -15,6 +15,7 @@ import numpy as np
 
 from .. import _core
 from ..analysis import REFINE_SOLVER, support
+from ..geometry import InputError
 from ..median import median
 from ..options import PoseonlyOptions
 from ..residuals import get_residual, v_sampson, v_sampson_chiral
@@ -107,9 +108,17 @@ def refine_ligt(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, in
     reprojection angle), which measured as accurate as Sampson/ML refinement while the paper's
     weighting is not better than LiRP itself (docs/RESULTS.md).
     """
+    from ..refine._common import check_pose
     from ..refine.ligt import ligt_refine
 
     if inl.sum() < 6:
+        return R, t
+    try:
+        check_pose(R, t)
+    except InputError:
+        # the method's own pose is not one (a GNC solve on matches that repeat a few points: a user would
+        # read "R must be a rotation matrix" as a fault of an R they never passed): it stays unrefined,
+        # and the status analysis reports it (degenerate)
         return R, t
     r = ligt_refine(R, t, f1[inl], f2[inl], loss="cauchy", loss_scale=tau, normalization=normalization, solver=REFINE_SOLVER)
     if np.all(np.isfinite(r.R)) and np.all(np.isfinite(r.t)):
