@@ -3,7 +3,7 @@
 Convention: ``X2 = R X1 + t`` (camera 1 -> camera 2), ``E = [t]x R``, ``f2^T E f1 = 0``, unit ``t``.
 """
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .api import DEFAULT_METHOD, METHODS, RelativePoseResult, estimate_relative_pose, gnc_irls, gnc_ransac, lirp
 from .batch import estimate_relative_poses
@@ -43,12 +43,38 @@ _LAZY_SUBMODULES = frozenset(
 )
 
 
-def __getattr__(name: str) -> Any:
-    if name in _LAZY_SUBMODULES:
-        import importlib
+if TYPE_CHECKING:  # the type checker sees the submodules themselves (a misspelt name stays an error)
+    from . import (  # noqa: F401
+        analysis,
+        batch,
+        cameras,
+        cli,
+        colmap_verify,
+        estimator,
+        experiments,
+        features,
+        geometry,
+        io,
+        options,
+        pipeline,
+        refine,
+        residuals,
+        result,
+        robust,
+        sfm,
+        sim,
+        sim_hard,
+        solvers,
+        twin,
+    )
+else:
 
-        return importlib.import_module(f"{__name__}.{name}")
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    def __getattr__(name: str) -> Any:
+        if name in _LAZY_SUBMODULES:
+            import importlib
+
+            return importlib.import_module(f"{__name__}.{name}")
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 __all__ = [
