@@ -175,3 +175,65 @@ def test_stale_temp_of_dead_pid_removed(tmp_path):
     os.utime(legacy, (old, old))
     atomic_write_text(tmp_path / "r.md", json.dumps({"a": 1}))
     assert sorted(f.name for f in tmp_path.iterdir()) == ["r.md"]
+
+
+def _small_reconstruction(points: int = 3000):
+    pycolmap = pytest.importorskip("pycolmap")
+    rec = pycolmap.Reconstruction()
+    rec.add_camera_with_trivial_rig(pycolmap.Camera(model="PINHOLE", width=640, height=480, params=[500.0, 500.0, 320.0, 240.0], camera_id=1))
+    kp = np.random.default_rng(0).uniform(0, 480, (points, 2))
+    for k in (1, 2):
+        pose = pycolmap.Rigid3d(np.concatenate([np.eye(3), np.array([[k - 1.0], [0.0], [0.0]])], axis=1))
+        rec.add_image_with_trivial_frame(pycolmap.Image(name=f"{k}.jpg", keypoints=kp, camera_id=1, image_id=k), pose)
+    for i in range(points):
+        track = pycolmap.Track()
+        track.add_element(1, i)
+        track.add_element(2, i)
+        rec.add_point3D(np.array([0.0, 0.0, 5.0 + i * 1e-3]), track, np.array([128, 128, 128], np.uint8))
+    return rec
+
+
+def test_colmap_model_that_does_not_read_back_is_an_error_and_keeps_the_old_one(tmp_path):
+    """pycolmap's model writers do not report a failed write: a full disk (here a file-size limit) cut
+    images.bin / points3D.bin short and ``poseonly sfm`` reported success (a reliability trial). The
+    writer reads the model back: an OSError, the previous model in place, no temp folder left."""
+    from poseonly.sfm.export import _model_counts, write_colmap_model
+
+    rec = _small_reconstruction()
+    dst = tmp_path / "sparse" / "0"
+    write_colmap_model(rec, dst)
+    assert _model_counts(type(rec)(str(dst))) == (1, 2, 3000, 6000)
+    code = textwrap.dedent(
+        f"""
+        import resource, sys
+        sys.path.insert(0, {str(Path(__file__).resolve().parent)!r})
+        from test_writers_kill import _small_reconstruction
+        from poseonly.sfm.export import write_colmap_model
+        rec = _small_reconstruction(20000)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (100_000, 100_000))
+        try:
+            write_colmap_model(rec, {str(dst)!r})
+        except OSError as exc:
+            print("OSError", exc)
+        """
+    )
+    env = dict(os.environ, PYTHONPATH=SRC)
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert "OSError writing the COLMAP model" in out.stdout, out.stdout + out.stderr
+    assert _model_counts(type(rec)(str(dst))) == (1, 2, 3000, 6000)
+    assert sorted(p.name for p in dst.parent.iterdir()) == ["0"]
+
+
+def test_ply_and_figure_writers_use_the_atomic_scheme(tmp_path):
+    """The sfm PLY and figure writers publish through ``atomic_open`` (a killed write leaves a temp file
+    that the next write sweeps; a fixed ``NAME.tmp.png`` made two runs into one folder fail): nothing
+    but the targets after a write."""
+    from poseonly.sfm.export import plot_reconstruction, write_ply
+
+    pts = np.random.default_rng(1).standard_normal((50, 3))
+    write_ply(tmp_path / "pts.ply", pts, cameras=np.zeros((2, 3)))
+    data = (tmp_path / "pts.ply").read_bytes()
+    assert data.startswith(b"ply\n") and len(data) == data.index(b"end_header\n") + 11 + 52 * 15
+    pytest.importorskip("matplotlib")
+    assert plot_reconstruction(tmp_path / "fig.png", pts, np.zeros((2, 3)), np.stack([np.eye(3)] * 2)) is not None
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fig.png", "pts.ply"]

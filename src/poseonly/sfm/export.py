@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._fileutil import publish
+from .._fileutil import atomic_open, atomic_savefig
 from .._pycolmap import import_pycolmap
 from ..geometry import InputError
 from .tracks import Tracks
@@ -134,6 +134,30 @@ def _replace_dir(tmp: Path, dst: Path) -> None:
         os.replace(tmp, dst)
 
 
+def _model_counts(rec: Any) -> tuple[int, int, int, int]:
+    return (rec.num_cameras(), rec.num_images(), rec.num_points3D(), sum(p.track.length() for p in rec.points3D.values()))
+
+
+def _check_written_model(rec: Any, tmp: Path, dst: Path) -> None:
+    """Read the model written into ``tmp`` back and fsync its files: pycolmap's writers do not report a
+    failed write (a full disk left ``images.bin`` and ``points3D.bin`` cut short, and the run reported
+    success; a reliability trial), so a model that does not read back as written is an ``OSError`` and
+    the previous ``dst`` stays."""
+    want = _model_counts(rec)
+    try:
+        got = _model_counts(type(rec)(str(tmp)))
+    except Exception as exc:  # pycolmap raises IndexError, MemoryError, RuntimeError ... on a cut file
+        raise OSError(f"writing the COLMAP model {dst} failed: it does not read back ({type(exc).__name__}: {exc}); is the disk full?") from None
+    if got != want:
+        raise OSError(
+            f"writing the COLMAP model {dst} failed: it reads back with (cameras, images, points, observations) = {got}, "
+            f"not {want}; is the disk full?"
+        )
+    for f in tmp.iterdir():
+        with open(f, "rb") as fh:
+            os.fsync(fh.fileno())
+
+
 def write_colmap_model(rec: Any, folder: str | os.PathLike, binary: bool = True) -> Path:
     """Write ``rec`` as a COLMAP model (``cameras``, ``images``, ``points3D``, ``rigs``, ``frames``;
     binary or text) into ``folder``, atomically."""
@@ -142,6 +166,7 @@ def write_colmap_model(rec: Any, folder: str | os.PathLike, binary: bool = True)
     tmp = Path(tempfile.mkdtemp(dir=dst.parent, prefix=dst.name + ".tmp"))
     try:
         (rec.write_binary if binary else rec.write_text)(str(tmp))
+        _check_written_model(rec, tmp, dst)
         mask = os.umask(0)
         os.umask(mask)
         os.chmod(tmp, 0o777 & ~mask)  # mkdtemp makes 0700; a plain mkdir would not
@@ -173,17 +198,9 @@ def write_ply(path: str | os.PathLike, points: np.ndarray, colors: np.ndarray | 
         "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n"
     ).encode()
     dst = Path(path)
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=dst.parent, suffix=".ply.tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(header)
-            fh.write(rec.tobytes())
-        publish(tmp, dst)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with atomic_open(dst, "wb") as fh:
+        fh.write(header)
+        fh.write(rec.tobytes())
     return dst
 
 
@@ -219,10 +236,7 @@ def plot_reconstruction(
     span = np.ptp(np.concatenate([P, C]), axis=0) if len(P) + len(C) else np.ones(3)
     ax.set_box_aspect(tuple(np.maximum(span, 1e-3 * max(float(span.max()), 1e-12))))  # true proportions
     ax.set_title(f"{len(C)} cameras, {len(points)} points (rotation averaging + LiGT, no BA)")
-    dst = Path(path)
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    tmp = dst.with_name(dst.stem + ".tmp" + dst.suffix)
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    os.replace(tmp, dst)
-    return dst
+    try:
+        return atomic_savefig(fig, path, dpi=110, bbox_inches="tight")
+    finally:
+        plt.close(fig)
