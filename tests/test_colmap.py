@@ -348,3 +348,36 @@ def test_a_result_as_a_pycolmap_two_view_geometry():
         to_two_view_geometry(r, matches[:-1])
     with pytest.raises(InputError, match=r"\[0, 2\*\*32\)"):  # COLMAP's uint32 would wrap 2**32 to 0
         to_two_view_geometry(r, matches + 2**32)
+
+
+def test_database_references_and_bad_keypoints_are_named_not_tracebacks(tmp_path):
+    """A reliability trial: an image whose camera row is missing, matches of an image id the images table
+    lacks (KeyError tracebacks before) and one NaN keypoint no match uses (it stopped the whole run)."""
+    from poseonly.sfm.colmap_db import database_view_graph
+
+    path = tmp_path / "db.db"
+    make_db(path, n_images=3, n_points=60)
+    with closing(sqlite3.connect(path)) as con:
+        con.execute("UPDATE images SET camera_id = 99 WHERE image_id = 3")
+        con.commit()
+    with pytest.raises(ValueError, match="refers to camera 99, which is not in the database"):
+        verify_database(path, progress=False)
+    with pytest.raises(ValueError, match="refers to camera 99, which is not in the database"):
+        database_view_graph(path)
+    path = tmp_path / "db2.db"
+    _, ids = make_db(path, n_images=3, n_points=60)
+    db = pycolmap.Database.open(str(path))
+    kp = np.asarray(db.read_keypoints(ids[2]), dtype=np.float32)
+    db.close()
+    with closing(sqlite3.connect(path)) as con:  # a keypoint row no match uses, stored as NaN
+        blob = np.vstack([kp, np.full((1, kp.shape[1]), np.nan, np.float32)]).astype(np.float32)
+        con.execute("UPDATE keypoints SET rows = ?, data = ? WHERE image_id = ?", (len(blob), blob.tobytes(), ids[2]))
+        con.commit()
+    db = pycolmap.Database.open(str(path))
+    db.write_matches(ids[0], 50, np.array([[k, k] for k in range(30)], np.uint32))  # image 50 does not exist
+    db.close()
+    s = verify_database(path, progress=False)
+    missing = int(pycolmap.image_pair_to_pair_id(ids[0], 50))
+    assert s.written == 4 and s.configs["UNDEFINED"] == 1 and list(s.errors) == [missing]  # the NaN keypoint is no error
+    assert "image id 50 has matches but is not in the database's images table" in s.errors[missing]
+    _check_consistent(path)

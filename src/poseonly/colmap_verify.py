@@ -88,7 +88,12 @@ class _Source:
     def bearings(self, image_id: int) -> np.ndarray:
         b = self._bear.get(image_id)
         if b is None:
-            b = self.db.cameras[image_id].unproject(self.db.keypoints(image_id), invalid="nan")
+            kp = self.db.keypoints(image_id)
+            finite = np.isfinite(kp).all(axis=1)
+            b = np.full((len(kp), 3), np.nan)
+            # a keypoint stored as NaN / inf is an unusable keypoint of its pairs, not an error of the run
+            # (one such keypoint stopped a whole verify; a reliability trial)
+            b[finite] = self.db.cameras[image_id].unproject(kp[finite], invalid="nan")
             if len(self._bear) > 512:
                 self._bear.pop(next(iter(self._bear)))
             self._bear[image_id] = b
@@ -96,6 +101,11 @@ class _Source:
 
     def __iter__(self) -> Iterator[Pair]:
         for pid, i1, i2 in self.todo:
+            missing = [i for i in (i1, i2) if i not in self.db.cameras and i not in self.db.unsupported]
+            if missing:  # matches of an image id the images table does not have
+                self.direct.append(GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2))))
+                self.errors[pid] = f"image id {missing[0]} has matches but is not in the database's images table"
+                continue
             if i1 in self.db.unsupported or i2 in self.db.unsupported:
                 msg = self.db.unsupported.get(i1) or self.db.unsupported[i2]
                 self.direct.append(GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2))))

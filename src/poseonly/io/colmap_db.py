@@ -53,7 +53,7 @@ class DatabaseUnavailableError(OSError):
     as one line and exit with 2)."""
 
 
-def _unavailable(path: str | Path, exc: BaseException, doing: str) -> DatabaseUnavailableError:
+def database_unavailable(path: str | Path, exc: BaseException, doing: str) -> DatabaseUnavailableError:
     """The :class:`DatabaseUnavailableError` of an SQLite or pycolmap error ``exc`` while ``doing``."""
     text = str(exc)
     low = text.lower()
@@ -156,7 +156,7 @@ def matched_pair_ids(path: str | Path) -> list[int]:
     except sqlite3.OperationalError as exc:  # an SQLite file it cannot read now (not a wrong file)
         if "not a database" in str(exc):
             raise InputError(f"{path} is not an SQLite database: {exc}") from None
-        raise _unavailable(path, exc, "reading its matched pairs") from None
+        raise database_unavailable(path, exc, "reading its matched pairs") from None
     except sqlite3.DatabaseError as exc:
         raise InputError(f"{path} is not an SQLite database: {exc}") from None
 
@@ -177,7 +177,7 @@ def check_writable(path: str | Path) -> None:
             con.execute("BEGIN IMMEDIATE")
             con.rollback()
     except sqlite3.DatabaseError as exc:
-        raise _unavailable(path, exc, "before writing") from None
+        raise database_unavailable(path, exc, "before writing") from None
 
 
 class ColmapDatabase:
@@ -194,7 +194,7 @@ class ColmapDatabase:
         try:
             self.db = self._pc.Database.open(str(p))
         except RuntimeError as exc:  # pycolmap: "No registered database factory succeeded" (its log says why)
-            raise _unavailable(p, exc, "opening it with pycolmap") from None
+            raise database_unavailable(p, exc, "opening it with pycolmap") from None
         self._pairs: list[tuple[int, int, int]] = []
         for pid in pair_ids:
             i1, i2 = self._pc.pair_id_to_image_pair(pid)
@@ -208,7 +208,10 @@ class ColmapDatabase:
         # image id -> its camera's description where COLMAP guessed the focal length (guessed_focal)
         self.guessed: dict[int, str] = {}
         for im in images:
-            c = cams[im.camera_id]
+            c = cams.get(im.camera_id)
+            if c is None:  # (a KeyError traceback before; a reliability trial)
+                self.unsupported[int(im.image_id)] = f"image {im.name!r} (id {im.image_id}) refers to camera {im.camera_id}, which is not in the database"
+                continue
             g = guessed_focal(c)
             if g is not None:
                 self.guessed[int(im.image_id)] = g
@@ -288,7 +291,7 @@ class ColmapDatabase:
         try:
             return self._write(rows)
         except RuntimeError as exc:
-            raise _unavailable(self.path, exc, "writing two-view geometries; the batches written before are kept and a rerun resumes") from None
+            raise database_unavailable(self.path, exc, "writing two-view geometries; the batches written before are kept and a rerun resumes") from None
 
     def _write(self, rows: Iterable[GeometryRow]) -> int:
         pc = self._pc
@@ -312,5 +315,5 @@ class ColmapDatabase:
                         self.db.delete_two_view_geometry(i1, i2)
                         k += 1
         except RuntimeError as exc:
-            raise _unavailable(self.path, exc, "deleting two-view geometries; nothing was deleted") from None
+            raise database_unavailable(self.path, exc, "deleting two-view geometries; nothing was deleted") from None
         return k

@@ -20,7 +20,7 @@ import numpy as np
 from .._pycolmap import import_pycolmap
 from ..features import Features, match_noise_scales
 from ..geometry import InputError, pair_focal
-from ..io.colmap_db import guessed_focal, keypoint_scales, matched_pair_ids, refuse_guessed_focal
+from ..io.colmap_db import database_unavailable, guessed_focal, keypoint_scales, matched_pair_ids, refuse_guessed_focal
 from .pairwise import ImageGraph, PairwiseOptions, TwoView, map_ordered, pair_seed, two_view
 from .viewgraph import ViewGraph
 
@@ -51,7 +51,11 @@ def database_view_graph(
     opt = options or PairwiseOptions()
     wrap = progress or (lambda it, **_: it)
     t0 = time.perf_counter()
-    with pycolmap.Database.open(str(p)) as db:
+    try:
+        opened = pycolmap.Database.open(str(p))
+    except RuntimeError as exc:  # pycolmap: "No registered database factory succeeded" (a read-only file ...)
+        raise database_unavailable(p, exc, "opening it with pycolmap to read") from None
+    with opened as db:
         images = sorted(db.read_all_images(), key=lambda im: im.name)
         if len(images) < 2:
             raise InputError(f"{p} holds {len(images)} images; need at least two")
@@ -68,7 +72,9 @@ def database_view_graph(
         index = {im.image_id: k for k, im in enumerate(images)}
         feats, normalized, Ks, focal, cameras = [], [], [], [], []
         for im in images:
-            cam = cams[im.camera_id]
+            cam = cams.get(im.camera_id)
+            if cam is None:
+                raise InputError(f"{p}: image {im.name!r} (id {im.image_id}) refers to camera {im.camera_id}, which is not in the database")
             cameras.append({"model": str(cam.model_name), "width": int(cam.width), "height": int(cam.height), "params": [float(v) for v in np.asarray(cam.params)]})
             raw = np.asarray(db.read_keypoints(im.image_id), dtype=np.float64)
             raw = raw.reshape(len(raw), -1) if raw.size else np.zeros((0, 2))

@@ -149,10 +149,7 @@ def _check_written_model(rec: Any, tmp: Path, dst: Path) -> None:
     except Exception as exc:  # pycolmap raises IndexError, MemoryError, RuntimeError ... on a cut file
         raise OSError(f"writing the COLMAP model {dst} failed: it does not read back ({type(exc).__name__}: {exc}); is the disk full?") from None
     if got != want:
-        raise OSError(
-            f"writing the COLMAP model {dst} failed: it reads back with (cameras, images, points, observations) = {got}, "
-            f"not {want}; is the disk full?"
-        )
+        raise OSError(f"writing the COLMAP model {dst} failed: it reads back with (cameras, images, points, observations) = {got}, not {want}; is the disk full?")
     for f in tmp.iterdir():
         with open(f, "rb") as fh:
             os.fsync(fh.fileno())
