@@ -381,3 +381,49 @@ def test_database_references_and_bad_keypoints_are_named_not_tracebacks(tmp_path
     assert s.written == 4 and s.configs["UNDEFINED"] == 1 and list(s.errors) == [missing]  # the NaN keypoint is no error
     assert "image id 50 has matches but is not in the database's images table" in s.errors[missing]
     _check_consistent(path)
+
+
+def test_a_batch_the_disk_cannot_hold_is_an_oserror_not_an_abort(tmp_path, monkeypatch):
+    """pycolmap commits in a C++ destructor: a full disk aborted the process (SIGABRT; a reliability
+    trial). The writer checks the file system's free space before each batch: ENOSPC with the numbers,
+    nothing written."""
+    import errno
+    from types import SimpleNamespace
+
+    import poseonly.io.colmap_db as cdb
+
+    path = tmp_path / "db.db"
+    make_db(path, n_images=3, n_points=60)
+    monkeypatch.setattr(cdb.os, "statvfs", lambda p: SimpleNamespace(f_bavail=100, f_frsize=4096))
+    with pytest.raises(OSError, match="bytes free on its file system") as e:
+        verify_database(path, progress=False)
+    assert e.value.errno == errno.ENOSPC
+    assert _rows(path) == []
+
+
+def test_an_interrupted_overwrite_leaves_every_pair_a_row(tmp_path, monkeypatch):
+    """``overwrite`` replaces rows batch by batch: a run stopped after its first batch leaves the other
+    pairs their old rows (it deleted every selected row first, so a kill lost them; a reliability trial)."""
+    from poseonly.io.colmap_db import ColmapDatabase
+
+    path = tmp_path / "db.db"
+    make_db(path, n_images=4, n_points=60)
+    verify_database(path, progress=False, threshold_px=3.0)
+    old = {r[0]: r for r in _rows(path)}
+    assert len(old) == 6
+    calls = []
+    write = ColmapDatabase.write_geometries
+
+    def stop_after_first(self, rows):
+        if calls:
+            raise KeyboardInterrupt
+        calls.append(1)
+        return write(self, rows)
+
+    monkeypatch.setattr(ColmapDatabase, "write_geometries", stop_after_first)
+    with pytest.raises(KeyboardInterrupt):
+        verify_database(path, progress=False, overwrite=True, write_every=2)
+    new = {r[0]: r for r in _rows(path)}
+    assert sorted(new) == sorted(old)  # every pair has a row
+    assert 1 <= sum(new[k] != old[k] for k in new) <= 2  # only the first batch (two rows) is the new run's (1 px, not 3)
+    _check_consistent(path)

@@ -26,7 +26,9 @@ matched database do not overlap, and their searches run to the cap); ``max_itera
 Rows are written in transactions of ``write_every`` pairs, so a killed run leaves every pair either
 complete or absent. A rerun skips pairs that already have a geometry, of any configuration (it
 resumes; COLMAP's own matcher writes ``UNDEFINED`` rows for the pairs it rejects); ``overwrite=True``
-first deletes the selected pairs' geometries (one transaction), e.g. those of COLMAP's own verifier. A camera poseonly
+replaces the selected pairs' geometries (e.g. those of COLMAP's own verifier) batch by batch, so an
+interrupted run leaves each pair with its old row or its new one, never none (it deleted them all first
+until a reliability trial; a rerun with ``overwrite`` starts over). A camera poseonly
 cannot lift to bearings is refused before anything is written (:class:`poseonly.geometry.InputError`),
 a database another process has locked, or that cannot be written, too
 (:class:`poseonly.io.colmap_db.DatabaseUnavailableError`, an ``OSError``; a lock taken mid-run ends the
@@ -223,8 +225,6 @@ def verify_database(
                 (db.guessed[i] for _, i1, i2 in todo for i in (i1, i2) if i in db.guessed),
                 "Give the calibration (--camera-model / --camera-params; camera= in Python), or use the guess (--trust-guessed-focal; trust_guessed_focal=True).",
             )
-        if overwrite:
-            db.delete_geometries([(i1, i2) for _, i1, i2 in pairs])
         summary.skipped = len(pairs) - len(todo)
         if backend == "auto":  # the pairs stream from the database (no len): decided on the pairs to verify
             backend = "threads" if len(todo) < AUTO_THREADS_MAX_PAIRS else "processes"

@@ -14,6 +14,7 @@ to camera 2 (our ``X2 = R X1 + t``).
 
 from __future__ import annotations
 
+import errno
 import os
 import sqlite3
 from collections import OrderedDict
@@ -75,6 +76,14 @@ def keypoint_scales(raw: np.ndarray) -> np.ndarray | None:
         return None
     s = raw[:, 2].copy() if raw.shape[1] == 4 else np.sqrt(np.abs(raw[:, 2] * raw[:, 5] - raw[:, 3] * raw[:, 4]))
     return s if bool(np.all(np.isfinite(s) & (s > 0))) else None
+
+
+# the free space a batch of rows needs (ColmapDatabase._check_free_space): a row's fixed part (pair id,
+# config, F, E, H, qvec, tvec, index entries: ~300 bytes) plus 8 bytes an inlier match, counted this many
+# times (the write-ahead log, the database file after the checkpoint, a journal), plus a margin
+ROW_BYTES = 512
+FREE_SPACE_FACTOR = 3
+FREE_SPACE_MARGIN = 4 << 20
 
 
 @dataclass
@@ -295,6 +304,8 @@ class ColmapDatabase:
 
     def _write(self, rows: Iterable[GeometryRow]) -> int:
         pc = self._pc
+        rows = list(rows)
+        self._check_free_space(rows)
         k = 0
         with pc.DatabaseTransaction(self.db):
             for r in rows:
@@ -305,15 +316,22 @@ class ColmapDatabase:
                 k += 1
         return k
 
-    def delete_geometries(self, pairs: Iterable[tuple[int, int]]) -> int:
-        """Delete the stored geometries of ``(image_id1, image_id2)`` pairs in one transaction."""
-        k = 0
+    def _check_free_space(self, rows: list[GeometryRow]) -> None:
+        """:class:`OSError` unless the database's file system has room for the batch: pycolmap commits in
+        a C++ destructor, and a failed commit (a full disk) aborts the process (SIGABRT, a C++ stack
+        trace; a reliability trial) where no Python code can catch it. The batch's rows, counted
+        ``FREE_SPACE_FACTOR`` times (the write-ahead log, then its checkpoint into the file) plus
+        ``FREE_SPACE_MARGIN`` bytes, must fit. A limit the file system does not report (``ulimit -f``, a
+        quota) is not seen."""
+        need = FREE_SPACE_FACTOR * sum(ROW_BYTES + 8 * len(r.inlier_matches) for r in rows) + FREE_SPACE_MARGIN
         try:
-            with self._pc.DatabaseTransaction(self.db):
-                for i1, i2 in pairs:
-                    if self.db.exists_two_view_geometry(i1, i2):
-                        self.db.delete_two_view_geometry(i1, i2)
-                        k += 1
-        except RuntimeError as exc:
-            raise database_unavailable(self.path, exc, "deleting two-view geometries; nothing was deleted") from None
-        return k
+            st = os.statvfs(self.path.resolve().parent)
+        except OSError:  # pragma: no cover - a file system without statvfs: nothing to check
+            return
+        free = st.f_bavail * st.f_frsize
+        if free < need:
+            raise OSError(
+                errno.ENOSPC,
+                f"cannot write to the COLMAP database {self.path}: {free} bytes free on its file system, a batch of {len(rows)} rows"
+                f" needs about {need}; the batches written before are kept and a rerun resumes",
+            )
