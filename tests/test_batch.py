@@ -272,3 +272,15 @@ def test_unhashable_and_duplicate_keys_are_refused():
         list(poseonly.estimate_relative_poses([Pair(p[0].x1, p[0].x2, key=(0, 1), camera1=CAM), Pair(p[1].x1, p[1].x2, key=(np.int64(0), 1), camera1=CAM)], progress=False))
     with pytest.raises(ValueError, match="keys must be unique"):
         list(poseonly.estimate_relative_poses([Pair(p[0].x1, p[0].x2, camera1=CAM), Pair(p[1].x1, p[1].x2, key=0, camera1=CAM)], progress=False))
+
+
+@pytest.mark.parametrize("seed", [-1, np.int64(-5), 2**64])
+def test_batch_seeds_have_the_single_pair_range(seed):
+    """A base seed outside [0, 2**64) is refused as the single-pair API refuses it (a reliability trial:
+    the batch ran -1 and 2**64), and so is a pair's own."""
+    pairs = _pairs(1)
+    with pytest.raises(ValueError, match=r"\[0, 2\*\*64\)"):
+        list(poseonly.estimate_relative_poses(pairs, progress=False, seed=seed))
+    p = Pair(pairs[0].x1, pairs[0].x2, camera1=CAM, key="k", options={"seed": seed})
+    (r,) = poseonly.estimate_relative_poses([p], progress=False)
+    assert r.result is None and "[0, 2**64)" in str(r.error)

@@ -7,9 +7,10 @@ import argparse
 from collections.abc import Callable
 
 from .geometry import InputError
+from .options import SEED_LIMIT
 from .sfm.choices import checked_sigma_deg
 
-__all__ = ["jobs_int", "non_negative_float", "non_negative_int", "positive_degrees", "positive_float", "positive_int"]
+__all__ = ["jobs_int", "non_negative_float", "non_negative_int", "positive_degrees", "positive_float", "positive_int", "seed_int"]
 
 
 def _int_in(text: str, ok: Callable[[int], bool], what: str) -> int:
@@ -31,6 +32,11 @@ def positive_int(text: str) -> int:
 def non_negative_int(text: str) -> int:
     """An integer >= 0 (seeds, counts where 0 means "all")."""
     return _int_in(text, lambda v: v >= 0, "an integer >= 0")
+
+
+def seed_int(text: str) -> int:
+    """A seed: an integer in ``[0, 2**64)`` (the core's seeds are 64-bit; the Python API's range)."""
+    return _int_in(text, lambda v: 0 <= v < SEED_LIMIT, "an integer in [0, 2**64)")
 
 
 def jobs_int(text: str) -> int:

@@ -40,6 +40,7 @@ import numpy as np
 from ._equality import ValueEquality
 from .api import RelativePoseResult, estimate_relative_pose
 from .geometry import InputError
+from .options import SEED_LIMIT
 
 __all__ = ["AUTO_THREADS_MAX_PAIRS", "BACKENDS", "DASK_CHUNK", "POOL_CHUNK", "Pair", "PairResult", "canonical_key", "estimate_relative_poses", "pair_seed"]
 
@@ -165,7 +166,7 @@ _PAIR_FIELDS_IN_OPTIONS = ("x1", "x2", "K1", "K2", "camera1", "camera2")
 def _pair_options(pair: Pair, options: dict[str, Any]) -> tuple[dict[str, Any], int]:
     """The batch's options with the pair's own, and the pair's base seed; :class:`InputError` for a
     pair whose ``options`` are not a dict of option names, name its points or cameras, or hold a seed
-    that is not a whole number (any integer: :func:`pair_seed` hashes it)."""
+    that is not a whole number in ``[0, 2**64)`` (as the single-pair API; :func:`pair_seed` hashes it)."""
     own = pair.options
     if not isinstance(own, Mapping) or not all(isinstance(k, str) for k in own):
         raise InputError(f"the pair's options must be a dict of option names, got {own!r}")
@@ -175,8 +176,8 @@ def _pair_options(pair: Pair, options: dict[str, Any]) -> tuple[dict[str, Any], 
     opts = {**options, **own}
     seed = opts.pop("seed", 0)
     whole = isinstance(seed, (int, np.integer)) or (isinstance(seed, (float, np.floating)) and np.isfinite(seed) and seed == round(seed))
-    if isinstance(seed, (bool, np.bool_)) or not whole:
-        raise InputError(f"a pair's seed must be a whole number (the base of its pair_seed), got {seed!r}")
+    if isinstance(seed, (bool, np.bool_)) or not whole or not 0 <= int(seed) < SEED_LIMIT:
+        raise InputError(f"a pair's seed must be a whole number in [0, 2**64) (the base of its pair_seed), got {seed!r}")
     return opts, int(seed)
 
 
@@ -225,8 +226,9 @@ def _check_options(options: dict[str, Any]) -> None:
     """Fail fast on invalid options: run them once on a fixed, well-posed problem of
     :data:`_CHECK_POINTS` points (enough for the methods' sample sizes)."""
     seed = options.get("seed", 0)
-    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool):
-        raise InputError(f"seed must be an int for a batch (each pair's seed is derived from it), got {options['seed']!r}")
+    if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or not 0 <= int(seed) < SEED_LIMIT:
+        # the single-pair API's range (a reliability trial: -1 and 2**64 ran here and were refused there)
+        raise InputError(f"seed must be an int in [0, 2**64) for a batch (each pair's seed is derived from it), got {options['seed']!r}")
     rng = np.random.default_rng(0)
     X = rng.uniform(-1, 1, (_CHECK_POINTS, 3)) + [0, 0, 5]
     f1 = X / np.linalg.norm(X, axis=1)[:, None]

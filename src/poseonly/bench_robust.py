@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from ._fileutil import atomic_write_text, new_results_dir
-from .argtypes import non_negative_int, positive_int
+from .argtypes import positive_int, seed_int
 from .experiments.report import machine, markdown_table, progress, savefig, single_thread, write_json
 from .geometry import rotation_error_deg
 from .sim import Scene, make_scene
@@ -187,7 +187,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--trials", type=positive_int, default=None, help="seeded scenes per cell (default 200; 2 with --quick)")
     ap.add_argument("--quick", action="store_true", help="2 trials, outliers 0 / 0.5 / 0.8, pinhole only (an explicit --trials or --cameras wins)")
     ap.add_argument("--cameras", nargs="+", default=None, choices=["wide", "pinhole"], help="cameras to run (default both; pinhole with --quick)")
-    ap.add_argument("--seed", type=non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
+    ap.add_argument("--seed", type=seed_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     ap.add_argument("--out", default=None, help="output folder (default: a new folder poseonly-robust-<date>-<time> under the working directory)")
     args = ap.parse_args(argv)
     outliers = (0.0, 0.5, 0.8) if args.quick else OUTLIERS

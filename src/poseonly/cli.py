@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from .argtypes import non_negative_int, positive_int
+from .argtypes import non_negative_int, positive_int, seed_int
 
 
 class CLIError(Exception):
@@ -326,7 +326,7 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--no-draw", action="store_true", help="do not write the match drawing")
     d.add_argument("--json", action="store_true", help="print the result as strict JSON")
     d.add_argument("--method", default="poseonly", choices=METHOD_CHOICES, help=METHOD_HELP)
-    d.add_argument("--seed", type=non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
+    d.add_argument("--seed", type=seed_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     d.set_defaults(func=cmd_demo)
 
     r = sub.add_parser("relpose", help="relative pose of two images (or of a matches file)")
@@ -354,7 +354,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--threshold", type=float, default=None, help="inlier threshold in pixels (default: the method's; 1 px for the default method)")
     r.add_argument("--ratio", type=float, default=0.8, help="Lowe ratio")
     r.add_argument("--cache", help="feature cache directory")
-    r.add_argument("--seed", type=non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
+    r.add_argument("--seed", type=seed_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     r.add_argument("--json", action="store_true", help="print the result as strict JSON (R, t, E, inlier indices, status, threshold, timings)")
     r.add_argument("--save", metavar="OUT.npz", help="write R, t, E, the inlier mask and the status to an .npz (atomically)")
     r.add_argument("--draw", metavar="OUT.png", help="write a drawing of the matches (inliers green, outliers red, a legend with the counts); needs IMG1 IMG2, also with --matches")
@@ -385,7 +385,7 @@ def build_parser() -> argparse.ArgumentParser:
         ep.add_argument("--trials", type=positive_int, default=None, help="Monte Carlo trials (default: the paper's)")
         ep.add_argument("--quick", action="store_true", help="a few trials (smoke test)")
         ep.add_argument("--out", default=None, help=f"output folder for tables and figures (default: a new folder poseonly-{name}-<date>-<time> under the working directory)")
-        ep.add_argument("--seed", type=non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
+        ep.add_argument("--seed", type=seed_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
         try:
             experiments.load(name).add_arguments(ep)
         except ImportError:

@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 
 from .api import DEFAULT_METHOD, METHODS
-from .argtypes import jobs_int, non_negative_int, positive_float, positive_int
+from .argtypes import jobs_int, positive_float, positive_int, seed_int
 from .batch import AUTO_THREADS_MAX_PAIRS, Pair, PairResult, estimate_relative_poses
 from .geometry import InputError, pair_focal
 from .io.colmap_db import ColmapDatabase, GeometryRow, refuse_guessed_focal
@@ -267,7 +267,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="inlier threshold in pixels (default: the method's, 1 px for the default method)",
     )
     p.add_argument("--method", default=DEFAULT_METHOD, choices=METHODS, help=f"estimation method (default {DEFAULT_METHOD})")
-    p.add_argument("--seed", type=non_negative_int, default=0, help="base seed; each pair's seed derives from it and the pair id")
+    p.add_argument("--seed", type=seed_int, default=0, help="base seed; each pair's seed derives from it and the pair id")
     p.add_argument(
         "--max-iterations",
         type=positive_int,

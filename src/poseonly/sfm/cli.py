@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from .._pycolmap import import_pycolmap
-from ..argtypes import non_negative_int, positive_degrees, positive_float, positive_int
+from ..argtypes import non_negative_int, positive_degrees, positive_float, positive_int, seed_int
 from ..geometry import InputError
 from ..io.pair_list import parse_pair_names
 from .choices import LIGT_NORMALIZATIONS, LIGT_REWEIGHT, ROTATION_WEIGHTS
@@ -380,7 +380,7 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--cache", help="feature / match cache (default OUT/cache)")
     s.add_argument("--text", action="store_true", help="write the COLMAP model as text")
     s.add_argument("--no-progress", action="store_true", help="no progress bars")
-    s.add_argument("--seed", type=non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
+    s.add_argument("--seed", type=seed_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     s.add_argument(
         "--jobs",
         type=int,
@@ -431,6 +431,6 @@ def add_parsers(sub: Any, esub: Any) -> None:
 
     e = esub.add_parser("global", help="global SfM on Strecha scenes against the ground truth")
     e.add_argument("--out", default=None, help="output folder (default: a new folder poseonly-global-<date>-<time> under the working directory)")
-    e.add_argument("--seed", type=non_negative_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
+    e.add_argument("--seed", type=seed_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     global_sfm.add_arguments(e)
     e.set_defaults(func=_cmd_global)
