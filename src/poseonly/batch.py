@@ -210,10 +210,17 @@ def _chunks(pairs: Iterable[Any], size: int) -> Iterator[list[tuple[int, Pair]]]
     buf: list[tuple[int, Pair]] = []
     seen: dict[Hashable, int] = {}
     for i, p in enumerate(pairs):
-        pair = _as_pair(p, i)
-        first = seen.setdefault(canonical_key(pair.key), i)
-        if first != i:
-            raise InputError(f"pair {i}: its key {pair.key!r} is pair {first}'s too (an unkeyed pair's key is its position): keys must be unique")
+        try:
+            pair = _as_pair(p, i)
+            first = seen.setdefault(canonical_key(pair.key), i)
+            if first != i:
+                raise InputError(f"pair {i}: its key {pair.key!r} is pair {first}'s too (an unkeyed pair's key is its position): keys must be unique")
+        except InputError:
+            # the pairs before a malformed one are run, whatever the chunking and scheduling (a reliability
+            # trial: with two workers the results of pairs already done were dropped, depending on timing)
+            if buf:
+                yield buf
+            raise
         buf.append((i, pair))
         if len(buf) >= size:
             yield buf
@@ -346,6 +353,29 @@ def _importing_main() -> bool:
     return False
 
 
+class _Feed:
+    """The chunks of a parallel batch: ``next()`` gives the next chunk or None at the end or at a malformed
+    pair, whose :class:`InputError` ``raise_error()`` raises once the chunks before it are done (so the
+    pairs run and yielded do not depend on the scheduling)."""
+
+    def __init__(self, chunks: Iterator[list[tuple[int, Pair]]]) -> None:
+        self._chunks = chunks
+        self._error: InputError | None = None
+
+    def next(self) -> list[tuple[int, Pair]] | None:
+        if self._error is not None:
+            return None
+        try:
+            return next(self._chunks, None)
+        except InputError as exc:
+            self._error = exc
+            return None
+
+    def raise_error(self) -> None:
+        if self._error is not None:
+            raise self._error
+
+
 def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processes") -> Iterator[list[PairResult]]:
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, Executor, ProcessPoolExecutor, ThreadPoolExecutor, wait
@@ -367,14 +397,12 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
         else:  # pragma: no cover - Windows
             ctx = mp.get_context("spawn")
         ex = ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx)
-    chunks = _chunks(pairs, chunk_size)
+    chunks = _Feed(_chunks(pairs, chunk_size))
     limit = IN_FLIGHT_PER_WORKER * n_jobs
     try:
         pending = set()
-        for c in chunks:
+        while len(pending) < limit and (c := chunks.next()) is not None:
             pending.add(ex.submit(_run_chunk, c, options))
-            if len(pending) >= limit:
-                break
         started = False  # a chunk finished: the workers got past their start-up
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
@@ -388,9 +416,10 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
                     raise
                 started = True
                 yield res
-                nxt = next(chunks, None)
+                nxt = chunks.next()
                 if nxt is not None:
                     pending.add(ex.submit(_run_chunk, nxt, options))
+        chunks.raise_error()
     finally:  # also when the caller stops iterating early: queued chunks are dropped, not run
         ex.shutdown(wait=True, cancel_futures=True)
 
@@ -402,20 +431,19 @@ def _dask(pairs, client, chunk_size: int | None, total: int | None, retries: int
     cl = Client(client) if own else client
     try:
         nworkers = max(1, sum(int(w.get("nthreads", 1)) for w in cl.scheduler_info()["workers"].values()))
-        chunks = _chunks(pairs, chunk_size or _auto_chunk(DASK_CHUNK, total, nworkers))
+        chunks = _Feed(_chunks(pairs, chunk_size or _auto_chunk(DASK_CHUNK, total, nworkers)))
         futs = []
-        for c in chunks:
+        while len(futs) < IN_FLIGHT_PER_WORKER * nworkers and (c := chunks.next()) is not None:
             futs.append(cl.submit(_run_chunk, c, options, pure=False, retries=retries))
-            if len(futs) >= IN_FLIGHT_PER_WORKER * nworkers:
-                break
         ac = as_completed(futs)
         for fut in ac:
             res = fut.result()
             fut.release()
-            nxt = next(chunks, None)
+            nxt = chunks.next()
             if nxt is not None:
                 ac.add(cl.submit(_run_chunk, nxt, options, pure=False, retries=retries))
             yield res
+        chunks.raise_error()
     finally:
         if own:
             cl.close()
