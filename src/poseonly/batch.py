@@ -400,7 +400,7 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
     chunks = _Feed(_chunks(pairs, chunk_size))
     limit = IN_FLIGHT_PER_WORKER * n_jobs
     try:
-        pending = set()
+        pending: set[Any] = set()
         while len(pending) < limit and (c := chunks.next()) is not None:
             pending.add(ex.submit(_run_chunk, c, options))
         started = False  # a chunk finished: the workers got past their start-up
@@ -432,7 +432,7 @@ def _dask(pairs, client, chunk_size: int | None, total: int | None, retries: int
     try:
         nworkers = max(1, sum(int(w.get("nthreads", 1)) for w in cl.scheduler_info()["workers"].values()))
         chunks = _Feed(_chunks(pairs, chunk_size or _auto_chunk(DASK_CHUNK, total, nworkers)))
-        futs = []
+        futs: list[Any] = []
         while len(futs) < IN_FLIGHT_PER_WORKER * nworkers and (c := chunks.next()) is not None:
             futs.append(cl.submit(_run_chunk, c, options, pure=False, retries=retries))
         ac = as_completed(futs)
