@@ -375,3 +375,28 @@ def test_match_features_float64_beyond_float32_range_and_small_blocks(monkeypatc
         np.testing.assert_array_equal(match_features(d1 * s, d2 * s, mutual=True), ref)
     monkeypatch.setattr(feat, "MATCH_BLOCK_BYTES", 8)
     np.testing.assert_array_equal(match_features(d1, d2, mutual=True), ref)
+
+
+def test_a_cache_that_cannot_be_written_is_a_warning_not_an_error(tmp_path: Path, demo, monkeypatch) -> None:
+    """A full cache disk ended ``poseonly relpose --cache`` (ENOSPC; a reliability trial): a cache entry
+    that cannot be written warns once per folder and the features are returned."""
+    import errno
+
+    import poseonly._fileutil as fu
+
+    img = tmp_path / "img.jpg"
+    img.write_bytes(demo.image1.read_bytes())
+
+    def full(path, **arrays):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(fu, "atomic_savez", full)
+    monkeypatch.setattr(fu, "_CACHE_WARNED", set())
+    with pytest.warns(RuntimeWarning, match="cannot write to the cache folder .*No space left on device"):
+        f = extract_features(img, max_features=300, cache_dir=tmp_path / "cache")
+    assert len(f.keypoints) == 300
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the second failure in the same folder is silent
+        extract_features(img, max_features=200, cache_dir=tmp_path / "cache")

@@ -237,3 +237,25 @@ def test_ply_and_figure_writers_use_the_atomic_scheme(tmp_path):
     pytest.importorskip("matplotlib")
     assert plot_reconstruction(tmp_path / "fig.png", pts, np.zeros((2, 3)), np.stack([np.eye(3)] * 2)) is not None
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fig.png", "pts.ply"]
+
+
+def test_a_failed_write_names_its_file_and_leaves_no_temp(tmp_path):
+    """``ulimit -f`` (EFBIG) during an atomic write: the error names the target (a bare "[Errno 27] File too
+    large" did not; a reliability trial), the target keeps its old content, no temp file is left."""
+    target = tmp_path / "out.bin"
+    target.write_bytes(b"old")
+    code = textwrap.dedent(
+        f"""
+        import resource, signal
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))
+        from poseonly._fileutil import atomic_write_bytes
+        try:
+            atomic_write_bytes({str(target)!r}, b"x" * 100000)
+        except OSError as exc:
+            print(type(exc).__name__, exc.errno, exc)
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", code], env=dict(os.environ, PYTHONPATH=SRC), capture_output=True, text=True, timeout=60)
+    assert f"OSError 27 [Errno 27] cannot write {target}" in out.stdout, out.stdout + out.stderr
+    assert target.read_bytes() == b"old" and sorted(p.name for p in tmp_path.iterdir()) == ["out.bin"]

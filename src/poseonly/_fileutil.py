@@ -18,6 +18,7 @@ import os
 import tempfile
 import threading
 import time
+import warnings
 import zipfile
 import zlib
 from collections.abc import Iterator
@@ -32,6 +33,7 @@ __all__ = [
     "atomic_savez",
     "atomic_write_bytes",
     "atomic_write_text",
+    "cache_savez",
     "clean_stale_temps",
     "sweep_stale_temps",
     "new_results_dir",
@@ -175,6 +177,12 @@ def atomic_open(path: str | os.PathLike, mode: str = "w", **kw: Any) -> Iterator
             fh.flush()
             os.fsync(fh.fileno())
         publish(tmp, path)
+    except OSError as exc:  # name the target (a bare "[Errno 27] File too large" said nothing; a reliability trial)
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        if str(path) in str(exc):
+            raise
+        raise type(exc)(exc.errno, f"cannot write {path}: {exc.strerror or exc}") from exc
     except BaseException:
         with contextlib.suppress(OSError):
             os.unlink(tmp)
@@ -245,3 +253,23 @@ def atomic_savez(path: str | os.PathLike, **arrays: Any) -> None:
 
     with atomic_open(path, "wb") as fh:
         np.savez(fh, **arrays)
+
+
+_CACHE_WARNED: set[str] = set()  # cache directories whose failed write was reported (once each)
+
+
+def cache_savez(path: str | os.PathLike, **arrays: Any) -> bool:
+    """:func:`atomic_savez` for an optional cache entry: a failed write (a full disk, a read-only
+    folder) is a ``RuntimeWarning`` naming the folder, once per folder, and the caller goes on without
+    the entry (a reliability trial: a full cache disk ended the pose estimate). False if not written."""
+    try:
+        atomic_savez(path, **arrays)
+        return True
+    except OSError as exc:
+        folder = str(Path(path).parent)
+        with _SWEPT_LOCK:
+            first = folder not in _CACHE_WARNED
+            _CACHE_WARNED.add(folder)
+        if first:
+            warnings.warn(f"cannot write to the cache folder {folder} ({exc.strerror or exc}); going on without caching there", RuntimeWarning, stacklevel=2)
+        return False

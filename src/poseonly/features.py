@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ._fileutil import CACHE_READ_ERRORS, atomic_savez, sweep_stale_temps
+from ._fileutil import CACHE_READ_ERRORS, atomic_savez, cache_savez, sweep_stale_temps
 from .geometry import InputError, as_real_array, check_intrinsics, essential_from_pose
 
 __all__ = [
@@ -286,7 +286,7 @@ def extract_features(
     kp, desc, sizes = _sift(gray, max_features)
     feats = Features(kp, desc, (gray.shape[1], gray.shape[0]), sizes)
     if cache is not None:
-        atomic_savez(cache, keypoints=kp, descriptors=desc, image_size=np.array(feats.image_size, dtype=np.int64), sizes=sizes)
+        cache_savez(cache, keypoints=kp, descriptors=desc, image_size=np.array(feats.image_size, dtype=np.int64), sizes=sizes)
     return feats
 
 

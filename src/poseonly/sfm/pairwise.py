@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from .._fileutil import CACHE_READ_ERRORS, atomic_savez
+from .._fileutil import CACHE_READ_ERRORS, cache_savez
 from ..api import estimate_relative_pose
 from ..cameras import OPENCV_TO_COLMAP_PX
 from ..features import Features, extract_features, match_features, match_noise_scales, unreadable_images
@@ -284,7 +284,7 @@ def _matches(fa: Features, fb: Features, da: str, db: str, opt: PairwiseOptions,
                 pass
     idx, scores = match_features(fa.descriptors, fb.descriptors, ratio=opt.ratio, mutual=opt.mutual, return_scores=True)
     if f is not None:
-        atomic_savez(f, idx=idx, scores=scores)
+        cache_savez(f, idx=idx, scores=scores)
     return idx, scores
 
 
@@ -341,7 +341,7 @@ def two_view(
     r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, seed=seed, scores=scores, noise_scales=noise_scales, **options, **extra)
     out = TwoView(np.asarray(r.R), np.asarray(r.t), np.asarray(r.inliers, dtype=bool), int(r.num_inliers), str(r.status))
     if f is not None:
-        atomic_savez(f, R=out.R, t=out.t, inliers=out.inliers, num_inliers=np.array(out.num_inliers), status=np.array(out.status))
+        cache_savez(f, R=out.R, t=out.t, inliers=out.inliers, num_inliers=np.array(out.num_inliers), status=np.array(out.status))
     return out
 
 
