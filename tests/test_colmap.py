@@ -427,3 +427,19 @@ def test_an_interrupted_overwrite_leaves_every_pair_a_row(tmp_path, monkeypatch)
     assert sorted(new) == sorted(old)  # every pair has a row
     assert 1 <= sum(new[k] != old[k] for k in new) <= 2  # only the first batch (two rows) is the new run's (1 px, not 3)
     _check_consistent(path)
+
+
+def test_a_pair_id_colmap_does_not_write_is_refused(tmp_path):
+    """A pair stored under (larger, smaller) image ids: pycolmap reads and writes it as its canonical twin
+    (a reliability trial: its row overwrote the twin's, or its matches were never read)."""
+    from poseonly.sfm.colmap_db import database_view_graph
+
+    path = tmp_path / "db.db"
+    make_db(path, n_images=3, n_points=40)
+    with closing(sqlite3.connect(path)) as con:
+        con.execute("UPDATE matches SET pair_id = ? WHERE pair_id = ?", (2 * 2147483647 + 1, 2147483647 + 2))
+        con.commit()
+    for run in (lambda: verify_database(path, progress=False), lambda: database_view_graph(path)):
+        with pytest.raises(ValueError, match="image ids 2 > 1"):
+            run()
+    assert _rows(path) == []

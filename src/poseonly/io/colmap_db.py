@@ -208,6 +208,17 @@ class ColmapDatabase:
         for pid in pair_ids:
             i1, i2 = self._pc.pair_id_to_image_pair(pid)
             self._pairs.append((pid, int(i1), int(i2)))
+        # COLMAP stores a pair under the id of (smaller image id, larger): a pair stored the other way round
+        # is read and written by pycolmap as its canonical twin (a reliability trial: its row overwrote the
+        # canonical pair's, or it was written DEGENERATE with its matches never read)
+        twisted = [(pid, i1, i2) for pid, i1, i2 in self._pairs if i1 > i2]
+        if twisted:
+            self.db.close()
+            pid, i1, i2 = twisted[0]
+            raise InputError(
+                f"{p}: {len(twisted)} pairs of the matches table have a pair id COLMAP does not write (e.g. {pid}: image ids {i1} > {i2};"
+                " COLMAP's pair id is that of the smaller image id first); the database was not written through COLMAP's API"
+            )
         self._kp: OrderedDict[int, tuple[np.ndarray, np.ndarray | None]] = OrderedDict()
         images = self.db.read_all_images()
         cams = {c.camera_id: c for c in self.db.read_all_cameras()}

@@ -89,6 +89,8 @@ def database_view_graph(
     pairs = []
     for pid, m in zip(pair_ids, matches):
         a, b = pycolmap.pair_id_to_image_pair(pid)
+        if a > b:  # COLMAP writes the smaller image id first (as poseonly colmap verify, which refuses this too)
+            raise InputError(f"{p}: pair id {pid} of the matches table has image ids {a} > {b}, which COLMAP does not write; the database was not written through COLMAP's API")
         if a not in index or b not in index:
             continue
         i, j = index[a], index[b]
