@@ -443,3 +443,23 @@ def test_a_pair_id_colmap_does_not_write_is_refused(tmp_path):
         with pytest.raises(ValueError, match="image ids 2 > 1"):
             run()
     assert _rows(path) == []
+
+
+def test_malformed_blobs_are_per_pair_errors_and_bad_camera_rows_name_the_database(tmp_path):
+    """pycolmap's check failures on a malformed blob ended the whole run with a message naming nothing (a
+    reliability trial): a pair whose matches blob is short is UNDEFINED with the images named; a camera
+    row pycolmap cannot read is an error naming the database."""
+    path = tmp_path / "db.db"
+    make_db(path, n_images=3, n_points=40)
+    with closing(sqlite3.connect(path)) as con:
+        pid, data = con.execute("SELECT pair_id, data FROM matches ORDER BY pair_id LIMIT 1").fetchone()
+        con.execute("UPDATE matches SET data = ? WHERE pair_id = ?", (data[: len(data) // 2], pid))
+        con.commit()
+    s = verify_database(path, progress=False)
+    assert s.written == 3 and list(s.errors) == [pid]
+    assert "pycolmap cannot read the keypoints or matches of images 'im0.jpg', 'im1.jpg'" in s.errors[pid]
+    with closing(sqlite3.connect(path)) as con:
+        con.execute("UPDATE cameras SET model = 77")
+        con.commit()
+    with pytest.raises(ValueError, match="db.db: pycolmap cannot read its images or cameras"):
+        verify_database(path, progress=False, overwrite=True)

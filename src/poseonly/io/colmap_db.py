@@ -220,8 +220,12 @@ class ColmapDatabase:
                 " COLMAP's pair id is that of the smaller image id first); the database was not written through COLMAP's API"
             )
         self._kp: OrderedDict[int, tuple[np.ndarray, np.ndarray | None]] = OrderedDict()
-        images = self.db.read_all_images()
-        cams = {c.camera_id: c for c in self.db.read_all_cameras()}
+        try:
+            images = self.db.read_all_images()
+            cams = {c.camera_id: c for c in self.db.read_all_cameras()}
+        except (RuntimeError, ValueError) as exc:  # a malformed row ("Camera model does not exist", a params count)
+            self.db.close()
+            raise InputError(f"{p}: pycolmap cannot read its images or cameras: {str(exc).strip().splitlines()[-1]}") from None
         self.image_names = {int(im.image_id): str(im.name) for im in images}
         self.cameras: dict[int, Camera] = {}
         self.unsupported: dict[int, str] = {}
