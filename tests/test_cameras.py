@@ -287,3 +287,25 @@ def test_relpose_cli_reports_inliers_as_the_files_rows(tmp_path, capsys):
     assert d["num_dropped"] == 10 and min(d["inliers"]) >= 10 and len(d["inliers"]) >= 110
     saved = np.load(tmp_path / "out.npz")["inliers"]
     assert saved.shape == (130,) and not saved[:10].any() and np.flatnonzero(saved).tolist() == d["inliers"]
+
+
+@pytest.mark.parametrize(
+    "model, params, size",
+    [
+        ("OPENCV_FISHEYE", (348.0, 348.0, 640.0, 480.0, -0.197, 0.139, 0.135, -0.038), (1280, 960)),
+        ("FULL_OPENCV", (500.0, 500.0, 640.0, 480.0, 0.8, -0.5, 0.0005, 0.0003, 0.1, 1.2, -0.3, 0.05), (1280, 960)),
+    ],
+)
+def test_strong_distortion_lifts_every_in_image_pixel(model, params, size):
+    """Newton's method from the distorted point oscillates or lands past the fold on these cameras (a SLAM
+    user's trial: the fisheye's corner pixel, whose ray is 80.88 deg off-axis, and 919 pixels of the
+    rational camera were refused as "outside the invertible region"); the fallback (a bracketed radial
+    root, damped Newton) lifts every pixel of the image, and each ray projects back onto its pixel."""
+    cam = Camera(model, size[0], size[1], params)
+    g = np.stack(np.meshgrid(np.linspace(0, size[0], 81), np.linspace(0, size[1], 61)), -1).reshape(-1, 2)
+    rays = cam.unproject(g)
+    assert np.all(np.isfinite(rays))
+    assert np.allclose(cam.project(rays), g, atol=1e-7, rtol=0)
+    if model == "OPENCV_FISHEYE":
+        corner = cam.unproject(np.array([[0.0, 0.0]]))[0]
+        assert abs(np.degrees(np.arccos(corner[2] / np.linalg.norm(corner))) - 80.8818) < 1e-3

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace poseonly {
 
@@ -65,6 +66,102 @@ double first_fold(D dh, double hi) {
 // the largest undistorted radius tan(theta) whose fold a Brown model is checked for (89.9 deg off-axis)
 constexpr double kBrownFoldMaxRadius = 573.0;
 
+// The fallback where Newton's method from the distorted point fails (it can oscillate, or overshoot past
+// the fold onto a later branch, on strong distortion; a SLAM user's trial: in-image pixels of a fisheye
+// and of a rational camera refused): the root of an increasing map g on [0, hi] with g(0) <= target,
+// Newton steps kept inside a shrinking bracket (bisection where a step leaves it); NaN where g(hi) <
+// target (no root on the physical branch).
+constexpr int kBracketIterations = 200;
+
+template <class G>
+double bracketed_root(G g, double target, double hi, double tol) {
+  double val, d;
+  g(hi, &val, &d);
+  if (!(val >= target)) return std::numeric_limits<double>::quiet_NaN();
+  double a = 0.0, b = hi, x = std::min(target, hi);
+  for (int it = 0; it < kBracketIterations; ++it) {
+    g(x, &val, &d);
+    if (val == target) return x;
+    (val < target ? a : b) = x;
+    double nx = x - (val - target) / d;
+    if (!(nx > a && nx < b)) nx = 0.5 * (a + b);
+    if (std::abs(nx - x) <= tol * std::max(1.0, nx) || b - a <= tol * std::max(1.0, b)) return nx;
+    x = nx;
+  }
+  return x;
+}
+
+// Brown's distortion residual F = distort(u, v) - (x, y) and its Jacobian (the Newton loop's terms).
+inline void brown_residual(double u, double v, double x, double y, const double k[8], double* fu, double* fv, double J[4]) {
+  const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3], k3 = k[4], k4 = k[5], k5 = k[6], k6 = k[7];
+  const double r2 = u * u + v * v;
+  const double num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+  const double den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
+  const double dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2);
+  const double dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2);
+  const double rad = num / den;
+  const double drad = (dnum * den - num * dden) / (den * den);
+  const double uv = u * v;
+  *fu = u * rad + 2.0 * p1 * uv + p2 * (r2 + 2.0 * u * u) - x;
+  *fv = v * rad + 2.0 * p2 * uv + p1 * (r2 + 2.0 * v * v) - y;
+  J[0] = rad + 2.0 * u * u * drad + 2.0 * p1 * v + 6.0 * p2 * u;
+  J[1] = 2.0 * u * v * drad + 2.0 * p1 * u + 2.0 * p2 * v;
+  J[2] = 2.0 * u * v * drad + 2.0 * p2 * v + 2.0 * p1 * u;
+  J[3] = rad + 2.0 * v * v * drad + 2.0 * p2 * u + 6.0 * p1 * v;
+}
+
+// The Brown fallback: the radial map's root on its first branch (tangential terms left out) as the start,
+// then Newton steps halved until the residual decreases. True where the steps converged.
+constexpr int kDampedHalvings = 40;
+
+bool undistort_brown_fallback(double x, double y, const double k[8], double r_fold, double tol, int max_iter, double* u, double* v) {
+  const double k1 = k[0], k2 = k[1], k3 = k[4], k4 = k[5], k5 = k[6], k6 = k[7];
+  const double rd = std::hypot(x, y);
+  if (!(rd > 0.0) || !std::isfinite(rd)) return false;
+  const double ru = bracketed_root(
+      [&](double r, double* h, double* dh) {
+        const double r2 = r * r;
+        const double num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+        const double den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
+        const double dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2);
+        const double dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2);
+        *h = r * num / den;
+        *dh = num / den + 2.0 * r2 * (dnum * den - num * dden) / (den * den);
+      },
+      rd, std::min(r_fold, kBrownFoldMaxRadius), tol);
+  if (!std::isfinite(ru)) return false;
+  double cu = x * (ru / rd), cv = y * (ru / rd);
+  double fu, fv, J[4];
+  brown_residual(cu, cv, x, y, k, &fu, &fv, J);
+  double norm = std::hypot(fu, fv);
+  for (int it = 0; it < max_iter; ++it) {
+    const double det = J[0] * J[3] - J[1] * J[2];
+    const double du = (J[3] * fu - J[1] * fv) / det, dv = (J[0] * fv - J[2] * fu) / det;
+    if (!std::isfinite(du) || !std::isfinite(dv)) return false;
+    double s = 1.0, nu = cu, nv = cv, nfu = fu, nfv = fv, nJ[4] = {J[0], J[1], J[2], J[3]};
+    bool better = false;
+    for (int h = 0; h <= kDampedHalvings && !better; ++h, s *= 0.5) {
+      nu = cu - s * du;
+      nv = cv - s * dv;
+      brown_residual(nu, nv, x, y, k, &nfu, &nfv, nJ);
+      better = std::hypot(nfu, nfv) < norm;
+    }
+    const double step = std::hypot(nu - cu, nv - cv);
+    cu = nu;
+    cv = nv;
+    if (better) {
+      fu = nfu;
+      fv = nfv;
+      norm = std::hypot(fu, fv);
+      for (int c = 0; c < 4; ++c) J[c] = nJ[c];
+    }
+    if (step <= tol * std::max(1.0, std::hypot(cu, cv)) || !better) break;
+  }
+  *u = cu;
+  *v = cv;
+  return std::isfinite(cu) && std::isfinite(cv);
+}
+
 }  // namespace
 
 void undistort_brown(const double* xd, const double* yd, int n, const double k[8], double tol, int max_iter, double* u_out, double* v_out,
@@ -117,6 +214,12 @@ void undistort_brown(const double* xd, const double* yd, int n, const double k[8
     double ru, rv;
     distort_brown(u, v, k, &ru, &rv);
     good = good && std::hypot(ru - x, rv - y) <= 1e-9 * std::max(1.0, std::hypot(x, y));
+    if (!good && undistort_brown_fallback(x, y, k, r_fold, tol, max_iter, &u, &v)) {  // the same checks
+      fold_terms(u, v, k, &rad, &det);
+      distort_brown(u, v, k, &ru, &rv);
+      good = rad > 0.0 && det > 0.0 && (r_fold >= kBrownFoldMaxRadius || std::hypot(u, v) < r_fold) &&
+             std::hypot(ru - x, rv - y) <= 1e-9 * std::max(1.0, std::hypot(x, y));
+    }
     u_out[i] = u;
     v_out[i] = v;
     ok[i] = good;
@@ -151,8 +254,14 @@ void undistort_fisheye(const double* rd, int n, const double k[4], double tol, i
       done = std::abs(step) <= tol * std::max(1.0, th);
     }
     poly(th, &g, &dg);
+    bool good = done && std::isfinite(th) && th >= 0.0 && th < th_max && dg > 0.0 && std::abs(g - r) <= 1e-9 * std::max(1.0, r);
+    if (!good && r >= 0.0 && std::isfinite(r)) {  // the fallback: the polynomial increases on [0, th_max]
+      th = bracketed_root(poly, r, th_max, tol);
+      poly(th, &g, &dg);
+      good = std::isfinite(th) && th >= 0.0 && th < th_max && dg > 0.0 && std::abs(g - r) <= 1e-9 * std::max(1.0, r);
+    }
     theta_out[i] = th;
-    ok[i] = done && std::isfinite(th) && th >= 0.0 && th < th_max && dg > 0.0 && std::abs(g - r) <= 1e-9 * std::max(1.0, r);
+    ok[i] = good;
   }
 }
 

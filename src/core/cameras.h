@@ -1,7 +1,8 @@
 // Undistortion of normalized image coordinates (poseonly.cameras.Camera.unproject; numpy reference:
 // tests/reference/cameras.py). Newton's method per point with the analytic Jacobian, stopping at a
-// relative step of `tol` or after `max_iter` steps; the same operations, in the same order, as the
-// numpy reference, so the roots are the same floats.
+// relative step of `tol` or after `max_iter` steps; where it fails, a fallback from the radial map's
+// root on its first branch (bracketed), damped Newton for Brown-Conrady; the same operations, in the
+// same order, as the numpy reference, so the roots are the same floats.
 #pragma once
 
 #include <cstdint>

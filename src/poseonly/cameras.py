@@ -18,9 +18,13 @@ equations as COLMAP's ``src/colmap/sensor/models.h``) and lifts pixels ``(n, 2)`
 Undistortion is Newton's method per point with the analytic Jacobian (2-D for the Brown-Conrady
 models, 1-D in ``theta`` for the fisheye), started at the distorted point and stopped when its step is
 below :data:`NEWTON_TOL` (relative), in the core with the GIL released (``src/core/cameras.cpp``; the
-numpy version it replaced, the same roots bit for bit, is ``tests/reference/cameras.py``). Points
-where it does not converge to the physical root (outside the region where the distortion is
-invertible) raise :class:`ValueError` naming how many and the first index.
+numpy version it replaced, the same roots bit for bit, is ``tests/reference/cameras.py``). Where it
+fails (on strong distortion it can oscillate, or land past the radial map's first fold: a SLAM user's
+trial found in-image pixels of a fisheye and of a rational camera refused), a fallback takes over: the
+root of the increasing radial map on its first branch (a bracketed Newton / bisection; for the fisheye
+it is the root), then, for Brown-Conrady, Newton steps halved until the residual decreases. Points
+with no root on the physical branch (outside the region where the distortion is invertible) raise
+:class:`ValueError` naming how many and the first index.
 
 Pixel convention: a camera maps pixels in the convention of its parameters, which
 :func:`poseonly.estimate_relative_pose` assumes its pixels share. COLMAP's parameters (``cameras.txt``, a

@@ -1,9 +1,13 @@
 """numpy reference of the undistortion (``poseonly.cameras.Camera.unproject``) as it was before the
 core's ``undistort_brown`` / ``undistort_fisheye``: Newton's method vectorised over the points, with
 the fold checks (radial factor and Jacobian determinant) evaluated at the root, as the core does. The
-core must give the same roots and verdicts (tests/test_cameras.py)."""
+core must give the same roots and verdicts (tests/test_cameras.py). Where Newton's method from the
+distorted point fails, the fallback of the core (a bracketed radial root as the start, damped Newton;
+a bracketed root for the fisheye), in scalar Python."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -75,6 +79,16 @@ def undistort_brown(xd, yd, k):
     ok &= (r_fold >= BROWN_FOLD_MAX_RADIUS) | (np.hypot(u, v) < r_fold)
     ru, rv = distort_brown(u, v, k)
     ok &= np.hypot(ru - xd, rv - yd) <= 1e-9 * np.maximum(1.0, np.hypot(xd, yd))
+    for i in np.flatnonzero(~ok):  # the fallback where Newton from the distorted point failed
+        root = brown_fallback(float(xd[i]), float(yd[i]), k, r_fold)
+        if root is None:
+            continue
+        a, b = np.array([root[0]]), np.array([root[1]])
+        rad, det = fold_terms(a, b, k)
+        ra, rb = distort_brown(a, b, k)
+        good = (rad > 0) & (det > 0) & ((r_fold >= BROWN_FOLD_MAX_RADIUS) | (np.hypot(a, b) < r_fold))
+        good &= np.hypot(ra - xd[i], rb - yd[i]) <= 1e-9 * max(1.0, math.hypot(xd[i], yd[i]))
+        u[i], v[i], ok[i] = root[0], root[1], bool(good[0])
     return u, v, ok
 
 
@@ -137,4 +151,102 @@ def undistort_fisheye(rd, k):
     g, dg = fisheye_poly(theta, k)
     th_max = first_fold(lambda th: fisheye_poly(th, k)[1], np.pi)
     ok = done & np.isfinite(theta) & (theta >= 0) & (theta < th_max) & (dg > 0) & (np.abs(g - rd) <= 1e-9 * np.maximum(1.0, rd))
+    for i in np.flatnonzero(~ok & (rd >= 0) & np.isfinite(rd)):  # the fallback: the polynomial increases on [0, th_max]
+        th = bracketed_root(lambda t: tuple(float(x) for x in fisheye_poly(t, k)), float(rd[i]), th_max)
+        g1, dg1 = fisheye_poly(th, k)
+        theta[i] = th
+        ok[i] = math.isfinite(th) and 0 <= th < th_max and dg1 > 0 and abs(g1 - rd[i]) <= 1e-9 * max(1.0, float(rd[i]))
     return theta, ok
+
+
+# --- the fallback where Newton's method from the distorted point fails (src/core/cameras.cpp) -------------
+BRACKET_ITERATIONS, DAMPED_HALVINGS = 200, 40
+
+
+def bracketed_root(g, target: float, hi: float, tol: float = NEWTON_TOL) -> float:
+    """The root of an increasing ``g`` (value, derivative) on ``[0, hi]``: Newton inside a shrinking
+    bracket, bisection where a step leaves it; NaN where ``g(hi) < target``."""
+    val, _ = g(hi)
+    if not val >= target:
+        return float("nan")
+    a, b, x = 0.0, hi, min(target, hi)
+    for _ in range(BRACKET_ITERATIONS):
+        val, d = g(x)
+        if val == target:
+            return x
+        if val < target:
+            a = x
+        else:
+            b = x
+        nx = x - (val - target) / d
+        if not (a < nx < b):
+            nx = 0.5 * (a + b)
+        if abs(nx - x) <= tol * max(1.0, nx) or b - a <= tol * max(1.0, b):
+            return nx
+        x = nx
+    return x
+
+
+def _brown_residual(u: float, v: float, x: float, y: float, k) -> tuple[float, float, tuple[float, float, float, float]]:
+    k1, k2, p1, p2, k3, k4, k5, k6 = (float(c) for c in k)
+    r2 = u * u + v * v
+    num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+    den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+    dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
+    dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
+    rad = num / den
+    drad = (dnum * den - num * dden) / (den * den)
+    uv = u * v
+    fu = u * rad + 2.0 * p1 * uv + p2 * (r2 + 2.0 * u * u) - x
+    fv = v * rad + 2.0 * p2 * uv + p1 * (r2 + 2.0 * v * v) - y
+    J = (
+        rad + 2.0 * u * u * drad + 2.0 * p1 * v + 6.0 * p2 * u,
+        2.0 * u * v * drad + 2.0 * p1 * u + 2.0 * p2 * v,
+        2.0 * u * v * drad + 2.0 * p2 * v + 2.0 * p1 * u,
+        rad + 2.0 * v * v * drad + 2.0 * p2 * u + 6.0 * p1 * v,
+    )
+    return fu, fv, J
+
+
+def brown_fallback(x: float, y: float, k, r_fold: float) -> tuple[float, float] | None:
+    """The radial root (tangential terms left out) as the start, then Newton steps halved until the
+    residual decreases; None where it does not apply."""
+    k1, k2, _, _, k3, k4, k5, k6 = (float(c) for c in k)
+    rd = math.hypot(x, y)
+    if not (rd > 0.0 and math.isfinite(rd)):
+        return None
+
+    def h(r):
+        r2 = r * r
+        num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6))
+        dnum = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2)
+        dden = k4 + r2 * (2.0 * k5 + 3.0 * k6 * r2)
+        return r * num / den, num / den + 2.0 * r2 * (dnum * den - num * dden) / (den * den)
+
+    ru = bracketed_root(h, rd, min(r_fold, BROWN_FOLD_MAX_RADIUS))
+    if not math.isfinite(ru):
+        return None
+    cu, cv = x * (ru / rd), y * (ru / rd)
+    fu, fv, J = _brown_residual(cu, cv, x, y, k)
+    norm = math.hypot(fu, fv)
+    for _ in range(NEWTON_MAX_ITER):
+        det = J[0] * J[3] - J[1] * J[2]
+        du, dv = (J[3] * fu - J[1] * fv) / det, (J[0] * fv - J[2] * fu) / det
+        if not (math.isfinite(du) and math.isfinite(dv)):
+            return None
+        s, better = 1.0, False
+        for _ in range(DAMPED_HALVINGS + 1):
+            nu, nv = cu - s * du, cv - s * dv
+            nfu, nfv, nJ = _brown_residual(nu, nv, x, y, k)
+            if math.hypot(nfu, nfv) < norm:
+                better = True
+                break
+            s *= 0.5
+        step = math.hypot(nu - cu, nv - cv)
+        cu, cv = nu, nv
+        if better:
+            fu, fv, J, norm = nfu, nfv, nJ, math.hypot(nfu, nfv)
+        if step <= NEWTON_TOL * max(1.0, math.hypot(cu, cv)) or not better:
+            break
+    return (cu, cv) if math.isfinite(cu) and math.isfinite(cv) else None
