@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from poseonly import estimate_relative_pose, rotation_error_deg
-from poseonly.cameras import MODELS, Camera, as_camera, from_opencv
+from poseonly.cameras import MODELS, Camera, as_camera, camera_from_text, from_opencv
 from poseonly.geometry import InputError, rotation_from_rotvec
 from poseonly.sim import default_K, make_scene
 
@@ -309,3 +309,20 @@ def test_strong_distortion_lifts_every_in_image_pixel(model, params, size):
     if model == "OPENCV_FISHEYE":
         corner = cam.unproject(np.array([[0.0, 0.0]]))[0]
         assert abs(np.degrees(np.arccos(corner[2] / np.linalg.norm(corner))) - 80.8818) < 1e-3
+
+
+def test_read_colmap_cameras(tmp_path):
+    """COLMAP's cameras.txt (a SLAM user's trial: a full line had no parser)."""
+    from poseonly.cameras import read_colmap_cameras
+
+    f = tmp_path / "cameras.txt"
+    f.write_text("# Camera list with one line of data per camera:\n\n1 OPENCV 640 480 500 502 320 240 -0.1 0.01 0.001 0.0\n2 PINHOLE 800 600 700 700 400 300\n")
+    cams = read_colmap_cameras(f)
+    assert sorted(cams) == [1, 2] and cams[1].model == "OPENCV" and cams[1].width == 640 and cams[2].focal_px == 700.0
+    assert cams[1] == camera_from_text("OPENCV", "500 502 320 240 -0.1 0.01 0.001 0.0", 640, 480)
+    with pytest.raises(ValueError, match="line 2: camera id 1 is given twice"):
+        read_colmap_cameras(["1 PINHOLE 8 6 7 7 4 3", "1 PINHOLE 8 6 7 7 4 3"])
+    with pytest.raises(ValueError, match="line 1: expected CAMERA_ID MODEL"):
+        read_colmap_cameras(["1 PINHOLE 8"])
+    with pytest.raises(ValueError, match="line 1: .*PINHOLE"):
+        read_colmap_cameras(["1 PINHOLE 8 6 7 7"])  # too few parameters

@@ -42,9 +42,11 @@ OpenCV distortion coefficients ``(k1, k2, p1, p2[, k3[, k4, k5, k6]])``.
 
 from __future__ import annotations
 
+import os
 import re
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -52,7 +54,7 @@ import numpy as np
 from . import _core
 from .geometry import InputError, pair_focal
 
-__all__ = ["MODELS", "NEWTON_TOL", "OPENCV_TO_COLMAP_PX", "Camera", "as_camera", "as_colmap_camera", "camera_from_text", "from_opencv", "lift_pair"]
+__all__ = ["MODELS", "NEWTON_TOL", "OPENCV_TO_COLMAP_PX", "Camera", "as_camera", "as_colmap_camera", "camera_from_text", "from_opencv", "lift_pair", "read_colmap_cameras"]
 
 # model name -> parameter names (COLMAP order)
 MODELS: dict[str, tuple[str, ...]] = {
@@ -379,6 +381,37 @@ def camera_from_text(model: str, params: str, width: int = 0, height: int = 0, n
         return Camera(model.upper(), int(width), int(height), values)
     except InputError as exc:
         raise InputError(f"{name}: {exc}") from None
+
+
+def read_colmap_cameras(source: str | os.PathLike | Iterable[str]) -> dict[int, Camera]:
+    """The cameras of a COLMAP ``cameras.txt`` (a path, or its lines): ``{camera_id: Camera}`` from the
+    lines ``CAMERA_ID MODEL WIDTH HEIGHT PARAMS...`` (``#`` comments and blank lines skipped); an
+    :class:`InputError` naming the line for a malformed one or a repeated id (a SLAM user's trial: a
+    ``cameras.txt`` line had no parser)."""
+    if isinstance(source, (str, os.PathLike)):
+        path = Path(source)
+        if not path.is_file():
+            raise InputError(f"cameras file not found: {path}")
+        lines, where = path.read_text(encoding="utf-8").splitlines(), str(path)
+    else:
+        lines, where = list(source), "cameras"
+    out: dict[int, Camera] = {}
+    for no, line in enumerate(lines, 1):
+        text = line.strip()
+        if not text or text.startswith("#"):
+            continue
+        f = text.split()
+        name = f"{where} line {no}"
+        if len(f) < 5:
+            raise InputError(f"{name}: expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS..., got {text!r}")
+        try:
+            cid, width, height = int(f[0]), int(f[2]), int(f[3])
+        except ValueError:
+            raise InputError(f"{name}: CAMERA_ID, WIDTH and HEIGHT must be integers, got {text!r}") from None
+        if cid in out:
+            raise InputError(f"{name}: camera id {cid} is given twice")
+        out[cid] = camera_from_text(f[1], " ".join(f[4:]), width, height, name)
+    return out
 
 
 def lift_pair(x1: Any, x2: Any, camera1: Any, camera2: Any = None) -> tuple[np.ndarray, np.ndarray, float]:
