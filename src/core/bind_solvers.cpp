@@ -2,6 +2,7 @@
 #include <nanobind/stl/optional.h>
 #include <nanobind/stl/string.h>
 
+#include <limits>
 #include <string>
 
 #include "arrays.h"
@@ -249,6 +250,37 @@ nb::tuple pose_covariance_py(const ArrayIn& R, const std::optional<ArrayIn>& t, 
   return nb::make_tuple(to_numpy(std::move(Cr), {3, 3}), to_numpy(std::move(Ct), {3, 3}), c.sigma, c.matches, c.ok);
 }
 
+using InlierMask = nb::ndarray<const bool, nb::ndim<1>, nb::c_contig, nb::device::cpu>;
+
+// (leverage (n,), veto (n,) uint8, group, tested): refine.h leverage_veto
+nb::tuple leverage_veto_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, const InlierMask& inliers,
+                           double decision, double max_leverage) {
+  const Points P = checked_points(f1, f2, 0);
+  if (static_cast<int>(inliers.shape(0)) != P.n) throw std::invalid_argument("inliers must have shape (n,)");
+  if (!(decision > 0.0) || !std::isfinite(decision)) throw std::invalid_argument("decision must be finite and > 0");
+  if (!(max_leverage > 0.0 && max_leverage <= 1.0)) throw std::invalid_argument("max_leverage must lie in (0, 1]");
+  const Pose pose = checked_pose(R, t);
+  static_assert(sizeof(bool) == 1, "numpy bool is one byte");
+  const auto* inl = reinterpret_cast<const uint8_t*>(inliers.data());
+  LeverageVeto v;
+  {
+    nb::gil_scoped_release release;
+    v = leverage_veto(P, inl, pose, decision, max_leverage);
+  }
+  const size_t n = static_cast<size_t>(P.n);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> Ro(9, nan), to(3, nan);
+  if (v.tested) {
+    const Vec3 tu = v.others.t.normalized();
+    for (int a = 0; a < 3; ++a) {
+      to[a] = tu(a);
+      for (int b = 0; b < 3; ++b) Ro[3 * a + b] = v.others.R(a, b);
+    }
+  }
+  return nb::make_tuple(to_numpy(std::move(v.leverage), {n}), to_numpy_t<uint8_t>(std::move(v.veto), {n}), v.group, v.tested,
+                        to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}));
+}
+
 nb::tuple refine_normal_equations_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, const VectorIn& x,
                                      const std::optional<VectorIn>& w, bool blocks, const std::string& loss, double loss_scale,
                                      bool weights_outside, const std::optional<VectorIn>& residual_weights) {
@@ -300,6 +332,12 @@ POSEONLY_BIND(solvers) {
         "LiGTopt (poseonly.refine.ligt.ligt_refine(..., solver='lm')): LM on IRLS normal equations of "
         "sum_i s^2 rho(|sqrt(w_i) L~_i t|^2 / s^2) with normalization none | theta2 | angular; other arguments as "
         "refine_sampson. Returns (R, unit t, stats dict).");
+  m.def("leverage_veto", &leverage_veto_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("inliers"),
+        nb::arg("decision"), nb::arg("max_leverage"),
+        "The leverage test (refine.h leverage_veto): each inlier's leverage h_i in the least-squares Sampson fit of the inliers "
+        "(inliers (n,) bool) at (R, t); the inliers with h_i > max_leverage tested together against the least-squares fit of "
+        "the others, vetoed where |r_i| > decision sqrt(1 + J_i H^-1 J_i^T) there. Returns (leverage (n,), veto (n,) uint8, "
+        "group size, tested, R (3, 3), unit t (3,) of the others' fit (NaN where not tested)).");
   m.def("pose_covariance", &pose_covariance_py, nb::arg("R"), nb::arg("t").none(), nb::arg("f1"), nb::arg("f2"),
         nb::arg("w") = nb::none(), nb::arg("threshold") = 0.0,
         "First-order covariance sigma^2 (J^T J)^-1 of the pose (R (3, 3), t (3,)) fitted by least squares on the Sampson "

@@ -749,4 +749,88 @@ PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pos
   return out;
 }
 
+namespace {
+
+// The inliers' Sampson errors and Jacobians at `pose` (the chart of refine_sampson at x = 0).
+void sampson_rows(const Points& p, const uint8_t* sel, const Pose& pose, std::vector<int>* idx, std::vector<double>* r, std::vector<Vec5>* J) {
+  Pose unit = pose;
+  unit.t /= unit.t.cwiseAbs().maxCoeff();
+  unit.t.normalize();
+  const Chart chart(unit);
+  const double x0[5] = {0, 0, 0, 0, 0};
+  Frame F;
+  chart.eval(x0, true, &F.R, &F.t, &F.Jl, &F.Jt);
+  idx->clear();
+  r->clear();
+  J->clear();
+  for (int i = 0; i < p.n; ++i) {
+    if (!sel[i]) continue;
+    double ri[1], Ji[1][5];
+    sampson_point(F, p.a(i), p.b(i), true, ri, Ji);
+    idx->push_back(i);
+    r->push_back(ri[0]);
+    J->push_back(Eigen::Map<const Vec5>(Ji[0]));
+  }
+}
+
+constexpr int kLeveragePeelRounds = 5;  // leverage_veto's rounds of peeling
+
+// H^-1 of the information of the rows J (false where it is not positive definite)
+bool inverse_information(const std::vector<Vec5>& J, Mat5* Hi) {
+  Mat5 H = Mat5::Zero();
+  for (const Vec5& j : J) H.noalias() += j * j.transpose();
+  return H.allFinite() && invert_information<5>(H, 1.0, Hi);
+}
+
+}  // namespace
+
+LeverageVeto leverage_veto(const Points& p, const uint8_t* inl, const Pose& pose, double decision, double max_leverage) {
+  LeverageVeto out;
+  out.leverage.assign(p.n, 0.0);
+  out.veto.assign(p.n, 0);
+  if (!pose.R.allFinite() || !pose.t.allFinite() || !(pose.t.cwiseAbs().maxCoeff() > 0.0)) return out;
+  std::vector<int> idx;
+  std::vector<double> r;
+  std::vector<Vec5> J;
+  std::vector<uint8_t> group(p.n, 0), bulk(inl, inl + p.n);
+  Pose fit = pose;
+  Mat5 Hi;
+  // peel: the matches of high leverage leave the fit, the others' fit is made again, and a match that
+  // now dominates it joins them (two wrong matches of leverage ~1 can mask a third of 0.07 that holds
+  // the same wrong direction once they are gone)
+  for (int round = 0; round < kLeveragePeelRounds; ++round) {
+    sampson_rows(p, bulk.data(), fit, &idx, &r, &J);
+    if (static_cast<int>(idx.size()) <= kRefineMinPoints || !inverse_information(J, &Hi)) return out;
+    int added = 0;
+    for (size_t k = 0; k < idx.size(); ++k) {
+      const double h = J[k].dot(Hi * J[k]);
+      if (round == 0) out.leverage[idx[k]] = h;
+      if (h > max_leverage) {
+        group[idx[k]] = 1;
+        bulk[idx[k]] = 0;
+        ++added;
+      }
+    }
+    out.group += added;
+    if (added == 0) break;
+    PointBuffer rest;
+    for (int i = 0; i < p.n; ++i)
+      if (bulk[i]) rest.push(p.f1 + 3 * i, p.f2 + 3 * i);
+    if (rest.view().n < kRefineMinPoints) return out;
+    fit = pose;
+    RefineOptions ro;
+    ro.max_iterations = 50;
+    refine_sampson(rest.view(), nullptr, ro, &fit);
+    if (!fit.R.allFinite() || !fit.t.allFinite()) return out;
+  }
+  if (out.group == 0) return out;
+  sampson_rows(p, bulk.data(), fit, &idx, &r, &J);
+  if (static_cast<int>(idx.size()) < kRefineMinPoints || !inverse_information(J, &Hi)) return out;
+  sampson_rows(p, group.data(), fit, &idx, &r, &J);
+  out.tested = true;
+  out.others = fit;
+  for (size_t k = 0; k < idx.size(); ++k) out.veto[idx[k]] = std::abs(r[k]) > decision * std::sqrt(1.0 + J[k].dot(Hi * J[k]));
+  return out;
+}
+
 }  // namespace poseonly

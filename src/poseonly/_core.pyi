@@ -172,6 +172,9 @@ def refine_ligt(
 def pose_covariance(
     R: NDArray[np.float64], t: NDArray[np.float64] | None, f1: NDArray[np.float64], f2: NDArray[np.float64], w: NDArray[np.float64] | None = None, threshold: float = 0.0
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float, int, bool]: ...
+def leverage_veto(
+    R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], inliers: NDArray[np.bool_], decision: float, max_leverage: float
+) -> tuple[NDArray[np.float64], NDArray[np.uint8], int, bool, NDArray[np.float64], NDArray[np.float64]]: ...
 def _refine_residuals(
     kind: int, R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], x: NDArray[np.float64], w: NDArray[np.float64] | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...

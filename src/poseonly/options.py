@@ -390,6 +390,17 @@ class PoseonlyOptions(CommonOptions):
         lo=0,
         hi=16,
     )
+    max_leverage: float = _opt(
+        0.5,
+        "real",
+        "the leverage test after the ML stage: inliers whose leverage in the least-squares fit of the inliers exceeds this"
+        " (the fit absorbs more than this share of their own residual) are tested against the fit of the others, with its"
+        " prediction uncertainty, and the ML pose is refitted without those it rejects (1: no test;"
+        " poseonly.robust.default.leverage_test)",
+        lo=0.0,
+        hi=1.0,
+        lo_open=True,
+    )
     research_noise: float = _opt(
         0.0,
         "real",

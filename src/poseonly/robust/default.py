@@ -518,6 +518,67 @@ def _cross_fit(
     return Rc, tc, int(vetoed)
 
 
+def leverage_test(
+    R: np.ndarray,
+    t: np.ndarray,
+    f1: np.ndarray,
+    f2: np.ndarray,
+    m: dict[str, Any],
+    T: float,
+    student: bool,
+    scales: np.ndarray | None,
+    max_leverage: float,
+    diag: dict[str, Any],
+) -> tuple[np.ndarray, np.ndarray, int] | None:
+    """The ML pose without the inliers it cannot vouch for, from the ML (or cross-fitted) pose ``(R, t)``
+    whose EM result is ``m``; None where nothing is vetoed or the refit fails.
+
+    An inlier of high leverage (``_core.leverage_veto``: the least-squares fit of the inliers absorbs
+    more than ``max_leverage`` of its residual) is judged by the fit of the other inliers, as a
+    prediction: the Gaussian decision threshold widened by that fit's uncertainty at the match
+    (``decision sqrt(1 + J H^-1 J^T)``). Its own residual cannot show that it is wrong: where the
+    translation is weakly constrained (a short baseline), two or three wrong matches of large parallax
+    lying near the epipolar lines of some direction pull the translation onto it and fit it exactly (a
+    SLAM user's trial: leverages 0.96 and 0.98, the translation 5 deg off with a deviation of 0.04
+    deg); the cross-fit's folds split them, and each fold's pose is still held by the others. The
+    refit is EM from ``(R, t)`` on every other match with ``m``'s inlier model, kept unless it loses
+    more than ``1 - ML_KEEP_TOLERANCE`` of the MSAC score, as the cross-fit's. Returns ``(R, t,
+    vetoed)``; ``diag`` gets the group's size and the others' fit (``leverage_others_R``, ``_t``), whose
+    distance from the returned pose :func:`poseonly.result.finish` adds to the covariance."""
+    c = np.ascontiguousarray
+    decision = float(m["decision_gauss"])
+    if not decision > 0:
+        return None
+    inl = v_sampson(R, t, f1, f2) < decision
+    _, veto, group, tested, R_others, t_others = _core.leverage_veto(c(R), c(t), c(f1), c(f2), inl, decision, float(max_leverage))
+    if tested:
+        # the fit without the matches it cannot vouch for: the status analysis adds the final pose's distance
+        # from it to the covariance (poseonly.result.finish), since those matches may still be wrong
+        diag.update(leverage_group=int(group), leverage_others_R=R_others, leverage_others_t=t_others)
+    keep = veto == 0
+    if not tested or keep.all():
+        return None
+    r = _core.ml_refine(
+        c(R),
+        c(t),
+        c(f1[keep]),
+        c(f2[keep]),
+        T,
+        rounds=ML_ROUNDS,
+        pose_tol=ML_POSE_TOL,
+        student=student,
+        scales=None if scales is None else c(scales[keep]),
+        nu=float(m["nu"]),
+        alpha=float(m["alpha"]),
+    )
+    if not (r["rounds"] > 0 and np.all(np.isfinite(r["R"])) and np.all(np.isfinite(r["t"]))):
+        return None
+    thr = decision
+    if msac_chiral(r["R"], r["t"], f1, f2, thr) < ML_KEEP_TOLERANCE * msac_chiral(R, t, f1, f2, thr):
+        return None
+    return r["R"], r["t"], int(np.count_nonzero(~keep))
+
+
 def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float, scores: np.ndarray | None = None, noise_scales: np.ndarray | None = None):
     """The default method; returns ``(R, t, weights | None, iterations, diagnostics)``.
 
@@ -625,6 +686,10 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                     if diag["cross_fit"]:
                         assert cf is not None
                         R, t, diag["cross_fit_vetoed"] = cf
+                if o.max_leverage < 1.0:
+                    lv = leverage_test(R, t, f1, f2, m, T_used, student, noise_scales, o.max_leverage, diag)
+                    if lv is not None:
+                        R, t, diag["leverage_vetoed"] = lv
                 # the inliers: more likely inliers than not under the Gaussian mixture at the ML pose
                 # (the t's heavy tail puts its own p = 1/2 point far out)
                 diag.update(
