@@ -196,7 +196,7 @@ def test_unguarded_script_gets_the_reason(tmp_path):
     import sys
     from pathlib import Path
 
-    env = {**__import__("os").environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
+    env = {**__import__("os").environ, "PYTHONPATH": str(Path(poseonly.__file__).resolve().parents[1])}  # the same poseonly (editable or wheel)
     script = tmp_path / "script.py"
     script.write_text(SCRIPT)
     r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300, env=env, cwd=tmp_path)

@@ -14,6 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import poseonly
+
 pycolmap = pytest.importorskip("pycolmap")
 
 from poseonly import rotation_error_deg
@@ -21,7 +23,9 @@ from poseonly.cameras import Camera
 from poseonly.colmap_verify import verify_database
 from poseonly.io.colmap_geometry import homography_dlt
 
-SRC = str(Path(__file__).resolve().parents[1] / "src")
+# the folder the poseonly of this process comes from (the source tree of an editable install, or
+# site-packages of a wheel): a child process imports the same one
+SRC = str(Path(poseonly.__file__).resolve().parents[1])
 CAM = Camera("OPENCV", 640, 480, (600.0, 600.0, 320.0, 240.0, -0.15, 0.02, 0.001, 0.0))
 
 

@@ -19,7 +19,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-SRC = str(Path(__file__).resolve().parents[1] / "src")
+import poseonly
+
+# the folder the poseonly of this process comes from (the source tree of an editable install, or
+# site-packages of a wheel): a child process imports the same one
+SRC = str(Path(poseonly.__file__).resolve().parents[1])
 KILLS = 4
 
 CHILD = {

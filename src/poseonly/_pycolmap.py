@@ -21,7 +21,10 @@ def import_pycolmap() -> ModuleType:
     thread, the SIGTERM handler Python had registered (``signal.SIG_DFL`` unless the program set one)
     is put back in place of glog's."""
     first = "pycolmap" not in sys.modules
-    import pycolmap
+    try:
+        import pycolmap
+    except ImportError as exc:  # name the extra (a packaging trial: a bare "No module named 'pycolmap'")
+        raise ImportError(f"pycolmap is required for this (COLMAP databases, models, two-view geometries); install it with pip install poseonly[colmap] ({exc})") from exc
 
     if first and threading.current_thread() is threading.main_thread():
         handler = signal.getsignal(signal.SIGTERM)

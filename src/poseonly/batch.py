@@ -425,7 +425,10 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
 
 
 def _dask(pairs, client, chunk_size: int | None, total: int | None, retries: int, options) -> Iterator[list[PairResult]]:
-    from dask.distributed import Client, as_completed
+    try:
+        from dask.distributed import Client, as_completed
+    except ImportError as exc:  # name the extra (a packaging trial: a bare "No module named 'dask'")
+        raise ImportError(f"dask.distributed is required for client=...; install it with pip install poseonly[dask] ({exc})") from exc
 
     own = isinstance(client, str)
     cl = Client(client) if own else client

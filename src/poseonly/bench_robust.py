@@ -28,7 +28,7 @@ import numpy as np
 
 from ._fileutil import atomic_write_text, new_results_dir
 from .argtypes import positive_int, seed_int
-from .experiments.report import machine, markdown_table, progress, savefig, single_thread, write_json
+from .experiments.report import machine, markdown_table, progress, pyplot, savefig, single_thread, write_json
 from .geometry import rotation_error_deg
 from .sim import Scene, make_scene
 
@@ -158,11 +158,11 @@ def to_markdown(res: dict) -> str:
 
 
 def _figure(res: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    """The figure (skipped without matplotlib, as the experiments' figures: the tables are written)."""
+    plt = pyplot()
+    if plt is None:
+        print("matplotlib is not installed: no figure (pip install poseonly[plot])")
+        return
     cams = sorted({r["camera"] for r in res["rows"]}, reverse=True)
     fig, axes = plt.subplots(len(cams), 2, figsize=(12, 4.2 * len(cams)), squeeze=False)
     for i, cam in enumerate(cams):
