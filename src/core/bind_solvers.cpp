@@ -277,7 +277,8 @@ nb::tuple leverage_veto_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn&
       for (int b = 0; b < 3; ++b) Ro[3 * a + b] = v.others.R(a, b);
     }
   }
-  return nb::make_tuple(to_numpy(std::move(v.leverage), {n}), to_numpy_t<uint8_t>(std::move(v.veto), {n}), v.group, v.tested,
+  if (v.group.size() != n) v.group.assign(n, 0);
+  return nb::make_tuple(to_numpy(std::move(v.leverage), {n}), to_numpy_t<uint8_t>(std::move(v.veto), {n}), to_numpy_t<uint8_t>(std::move(v.group), {n}), v.tested,
                         to_numpy(std::move(Ro), {3, 3}), to_numpy(std::move(to), {3}));
 }
 
@@ -337,7 +338,7 @@ POSEONLY_BIND(solvers) {
         "The leverage test (refine.h leverage_veto): each inlier's leverage h_i in the least-squares Sampson fit of the inliers "
         "(inliers (n,) bool) at (R, t); the inliers with h_i > max_leverage tested together against the least-squares fit of "
         "the others, vetoed where |r_i| > decision sqrt(1 + J_i H^-1 J_i^T) there. Returns (leverage (n,), veto (n,) uint8, "
-        "group size, tested, R (3, 3), unit t (3,) of the others' fit (NaN where not tested)).");
+        "group (n,) uint8 (the inliers peeled off), tested, R (3, 3), unit t (3,) of the others' fit (NaN where not tested)).");
   m.def("pose_covariance", &pose_covariance_py, nb::arg("R"), nb::arg("t").none(), nb::arg("f1"), nb::arg("f2"),
         nb::arg("w") = nb::none(), nb::arg("threshold") = 0.0,
         "First-order covariance sigma^2 (J^T J)^-1 of the pose (R (3, 3), t (3,)) fitted by least squares on the Sampson "

@@ -792,7 +792,10 @@ LeverageVeto leverage_veto(const Points& p, const uint8_t* inl, const Pose& pose
   std::vector<int> idx;
   std::vector<double> r;
   std::vector<Vec5> J;
-  std::vector<uint8_t> group(p.n, 0), bulk(inl, inl + p.n);
+  std::vector<uint8_t>& group = out.group;
+  group.assign(p.n, 0);
+  std::vector<uint8_t> bulk(inl, inl + p.n);
+  int peeled = 0;
   Pose fit = pose;
   Mat5 Hi;
   // peel: the matches of high leverage leave the fit, the others' fit is made again, and a match that
@@ -811,7 +814,7 @@ LeverageVeto leverage_veto(const Points& p, const uint8_t* inl, const Pose& pose
         ++added;
       }
     }
-    out.group += added;
+    peeled += added;
     if (added == 0) break;
     PointBuffer rest;
     for (int i = 0; i < p.n; ++i)
@@ -823,7 +826,7 @@ LeverageVeto leverage_veto(const Points& p, const uint8_t* inl, const Pose& pose
     refine_sampson(rest.view(), nullptr, ro, &fit);
     if (!fit.R.allFinite() || !fit.t.allFinite()) return out;
   }
-  if (out.group == 0) return out;
+  if (peeled == 0) return out;
   sampson_rows(p, bulk.data(), fit, &idx, &r, &J);
   if (static_cast<int>(idx.size()) < kRefineMinPoints || !inverse_information(J, &Hi)) return out;
   sampson_rows(p, group.data(), fit, &idx, &r, &J);

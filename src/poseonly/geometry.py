@@ -96,6 +96,15 @@ def rotation_from_rotvec(rv: np.ndarray) -> np.ndarray:
     return np.eye(3) + a * K + b * (K @ K)
 
 
+def rotvec_from_rotation(R: np.ndarray) -> np.ndarray:
+    """The inverse of :func:`rotation_from_rotvec`: rotation matrix ``(..., 3, 3)`` -> rotation vector
+    ``(..., 3)`` (angle in [0, pi]; scipy's, stable near 0 and pi)."""
+    from scipy.spatial.transform import Rotation
+
+    R = np.asarray(R, dtype=float)
+    return Rotation.from_matrix(R.reshape(-1, 3, 3)).as_rotvec().reshape(R.shape[:-2] + (3,))
+
+
 def project_to_so3(M: np.ndarray) -> np.ndarray:
     """Nearest rotation (Frobenius) to ``M`` ``(..., 3, 3)`` via SVD."""
     U, _, Vt = np.linalg.svd(np.asarray(M, dtype=float))

@@ -271,25 +271,6 @@ def _with_estimator_spread(unc: dict[str, Any], R: np.ndarray, t: np.ndarray, f1
     return _with_model_spread(unc, d, dt, t)
 
 
-def _with_leverage_spread(unc: dict[str, Any], R: np.ndarray, t: np.ndarray, others: tuple[np.ndarray, np.ndarray], diag: dict[str, Any]) -> dict[str, Any]:
-    """``unc`` with the distance from ``(R, t)`` to the fit of its inliers without those of high leverage
-    (``others``: :func:`poseonly.robust.default.leverage_test`) added as a model spread
-    (:func:`_with_model_spread`; ``diag["leverage_spread_deg"]``, ``["leverage_translation_spread_deg"]``).
-
-    A match whose residual the fit absorbs cannot show that it is wrong, so the covariance of a pose held
-    by such matches assumes what the data do not say (a SLAM user's trial: short baselines, the
-    translation 5 deg off with a deviation of 0.04 deg, held by two wrong matches of large parallax). Where
-    they are right the others' fit lies within its own, larger, uncertainty of the pose, and the spread
-    costs little."""
-    Ro, to = others
-    if not (np.all(np.isfinite(Ro)) and np.all(np.isfinite(to))):
-        return unc
-    d = float(np.radians(rotation_error_deg(R, Ro)))
-    dt = float(np.arccos(float(np.clip(abs(np.dot(_unit(t), _unit(to))), 0.0, 1.0))))  # sign-free, as the Sampson errors
-    diag.update(leverage_spread_deg=float(np.degrees(d)), leverage_translation_spread_deg=float(np.degrees(dt)))
-    return _with_model_spread(unc, d, dt, t)
-
-
 # fewer distinct matches than a pose's minimal problem plus one cannot single out a pose (the paper's
 # LiRP needs 6); below this the status analysis's tests do not run
 MIN_DISTINCT_MATCHES = 6
@@ -329,7 +310,6 @@ def finish(
     """
     tau_search = tau
     diag["search_threshold_px"] = float(tau_search * focal)
-    others = (diag.pop("leverage_others_R"), diag.pop("leverage_others_t")) if "leverage_others_R" in diag else None
     sampson_final = bool(diag.pop("sampson_final", False))
     # the uniqueness test's refined rivals, best first (the default method's; diag["rival_R"] alone
     # from a caller that gives one)
@@ -410,8 +390,9 @@ def finish(
         unc = pose_uncertainty(R, t, g1, g2, distinct(v < tau_rot), tau_rot)
         if not sampson_final:
             unc = _with_estimator_spread(unc, R, t, g1, g2, distinct(v < tau_rot), diag)
-        if others is not None:
-            unc = _with_leverage_spread(unc, R, t, others, diag)
+        if diag.get("leverage_spread_deg", 0.0) > 0 or diag.get("leverage_translation_spread_deg", 0.0) > 0:
+            # the pose's significant distance from its other inliers' fit (poseonly.robust.default.leverage_test)
+            unc = _with_model_spread(unc, float(np.radians(diag["leverage_spread_deg"])), float(np.radians(diag["leverage_translation_spread_deg"])), t)
     else:
         unc = pose_uncertainty(R_rot, None, g1, g2, distinct(rot_inl), _rotation_chord(tau_rot))
         diag["distinct_inliers"] = int(np.count_nonzero(distinct(rot_inl)))

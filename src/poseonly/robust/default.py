@@ -15,7 +15,7 @@ import numpy as np
 
 from .. import _core
 from ..analysis import REFINE_SOLVER, support
-from ..geometry import InputError
+from ..geometry import InputError, rotvec_from_rotation
 from ..median import median
 from ..options import PoseonlyOptions
 from ..residuals import get_residual, v_sampson, v_sampson_chiral
@@ -551,12 +551,13 @@ def leverage_test(
         return None
     inl = v_sampson(R, t, f1, f2) < decision
     _, veto, group, tested, R_others, t_others = _core.leverage_veto(c(R), c(t), c(f1), c(f2), inl, decision, float(max_leverage))
-    if tested:
-        # the fit without the matches it cannot vouch for: the status analysis adds the final pose's distance
-        # from it to the covariance (poseonly.result.finish), since those matches may still be wrong
-        diag.update(leverage_group=int(group), leverage_others_R=R_others, leverage_others_t=t_others)
+    if not tested:
+        return None
+    diag["leverage_group"] = int(np.count_nonzero(group))
+    others = (R_others, t_others, (inl & (group == 0)).astype(float), decision)
     keep = veto == 0
-    if not tested or keep.all():
+    if keep.all():
+        diag.update(_leverage_spread(R, t, f1, f2, others))
         return None
     r = _core.ml_refine(
         c(R),
@@ -575,8 +576,43 @@ def leverage_test(
         return None
     thr = decision
     if msac_chiral(r["R"], r["t"], f1, f2, thr) < ML_KEEP_TOLERANCE * msac_chiral(R, t, f1, f2, thr):
+        diag.update(_leverage_spread(R, t, f1, f2, others))
         return None
+    diag.update(_leverage_spread(r["R"], r["t"], f1, f2, others))
     return r["R"], r["t"], int(np.count_nonzero(~keep))
+
+
+# the leverage spread's gates: chi-square at 95 % with 3 (rotation) and 2 (translation direction) degrees of freedom
+LEVERAGE_SPREAD_CHI2_R = 7.81
+LEVERAGE_SPREAD_CHI2_T = 5.99
+
+
+def _leverage_spread(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, others: tuple[np.ndarray, np.ndarray, np.ndarray, float]) -> dict[str, float]:
+    """The distances (degrees) of the returned pose ``(R, t)`` from the least-squares fit of the inliers
+    without the high-leverage group (``others``: its ``R, t``, the mask of its matches and the decision
+    threshold that selected them), where significant: beyond the chi-square gate of that fit's own
+    first-order covariance (``poseonly.analysis.pose_uncertainty``'s, rotation and translation direction
+    apart); 0 otherwise. :func:`poseonly.result.finish` adds them to the covariance: a pose pulled
+    further from what its other inliers say than their precision explains rests on the group, whose
+    matches its residuals cannot vouch for (where the group is right the distance lies within that
+    precision, and the covariance is left as it is: the temple's well-posed pairs stayed `ok`)."""
+    Ro, to, mask, decision = others
+    out = {"leverage_spread_deg": 0.0, "leverage_translation_spread_deg": 0.0}
+    if not (np.all(np.isfinite(Ro)) and np.all(np.isfinite(to))):
+        return out
+    c = np.ascontiguousarray
+    Cr, Ct, _, _, ok = _core.pose_covariance(c(Ro), c(to), c(f1), c(f2), mask, threshold=float(decision))
+    if not ok:
+        return out
+    w = rotvec_from_rotation(R @ Ro.T)  # the left perturbation exp([w]x) Ro = R, as the covariance's
+    u, uo = t / np.linalg.norm(t), to / np.linalg.norm(to)
+    u = u if np.dot(u, uo) >= 0 else -u  # the Sampson errors do not see t's sign
+    dt = u - uo
+    if float(w @ np.linalg.pinv(Cr) @ w) > LEVERAGE_SPREAD_CHI2_R:
+        out["leverage_spread_deg"] = float(np.degrees(np.linalg.norm(w)))
+    if float(dt @ np.linalg.pinv(Ct) @ dt) > LEVERAGE_SPREAD_CHI2_T:
+        out["leverage_translation_spread_deg"] = float(np.degrees(np.arccos(np.clip(np.dot(u, uo), -1.0, 1.0))))
+    return out
 
 
 def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float, scores: np.ndarray | None = None, noise_scales: np.ndarray | None = None):
