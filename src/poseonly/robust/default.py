@@ -582,36 +582,34 @@ def leverage_test(
     return r["R"], r["t"], int(np.count_nonzero(~keep))
 
 
-# the leverage spread's gates: chi-square at 95 % with 3 (rotation) and 2 (translation direction) degrees of freedom
+# the leverage spread's gate on the rotation: chi-square at 95 % with 3 degrees of freedom
 LEVERAGE_SPREAD_CHI2_R = 7.81
-LEVERAGE_SPREAD_CHI2_T = 5.99
 
 
 def _leverage_spread(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, others: tuple[np.ndarray, np.ndarray, np.ndarray, float]) -> dict[str, float]:
     """The distances (degrees) of the returned pose ``(R, t)`` from the least-squares fit of the inliers
     without the high-leverage group (``others``: its ``R, t``, the mask of its matches and the decision
-    threshold that selected them), where significant: beyond the chi-square gate of that fit's own
-    first-order covariance (``poseonly.analysis.pose_uncertainty``'s, rotation and translation direction
-    apart); 0 otherwise. :func:`poseonly.result.finish` adds them to the covariance: a pose pulled
-    further from what its other inliers say than their precision explains rests on the group, whose
-    matches its residuals cannot vouch for (where the group is right the distance lies within that
-    precision, and the covariance is left as it is: the temple's well-posed pairs stayed `ok`)."""
+    threshold that selected them), which :func:`poseonly.result.finish` adds to the covariance: the group's
+    matches, whose residuals cannot vouch for them, may be wrong. The translation direction's always; the
+    rotation's where significant, beyond the chi-square gate of the others' fit's own first-order
+    covariance (``poseonly.analysis.pose_uncertainty``'s), else 0: the rotation decides the status, and
+    where the group is right its pull lies within that precision (ungated, five well-posed temple pairs,
+    0.2-2.4 deg off, became `uncertain`)."""
     Ro, to, mask, decision = others
     out = {"leverage_spread_deg": 0.0, "leverage_translation_spread_deg": 0.0}
     if not (np.all(np.isfinite(Ro)) and np.all(np.isfinite(to))):
         return out
-    c = np.ascontiguousarray
-    Cr, Ct, _, _, ok = _core.pose_covariance(c(Ro), c(to), c(f1), c(f2), mask, threshold=float(decision))
-    if not ok:
-        return out
-    w = rotvec_from_rotation(R @ Ro.T)  # the left perturbation exp([w]x) Ro = R, as the covariance's
     u, uo = t / np.linalg.norm(t), to / np.linalg.norm(to)
-    u = u if np.dot(u, uo) >= 0 else -u  # the Sampson errors do not see t's sign
-    dt = u - uo
-    if float(w @ np.linalg.pinv(Cr) @ w) > LEVERAGE_SPREAD_CHI2_R:
+    # the translation direction's always (sign-free, as the Sampson errors): it is what a short baseline
+    # leaves to a few matches (the trial's 46 % of `ok` poses beyond three deviations at a 0.05 baseline
+    # fall to 8 % with it, stay at 31 % with the gate; benchmarks/leverage_study.py), and the status does
+    # not read it
+    out["leverage_translation_spread_deg"] = float(np.degrees(np.arccos(np.clip(abs(np.dot(u, uo)), 0.0, 1.0))))
+    c = np.ascontiguousarray
+    Cr, _, _, _, ok = _core.pose_covariance(c(Ro), c(to), c(f1), c(f2), mask, threshold=float(decision))
+    w = rotvec_from_rotation(R @ Ro.T)  # the left perturbation exp([w]x) Ro = R, as the covariance's
+    if ok and float(w @ np.linalg.pinv(Cr) @ w) > LEVERAGE_SPREAD_CHI2_R:
         out["leverage_spread_deg"] = float(np.degrees(np.linalg.norm(w)))
-    if float(dt @ np.linalg.pinv(Ct) @ dt) > LEVERAGE_SPREAD_CHI2_T:
-        out["leverage_translation_spread_deg"] = float(np.degrees(np.arccos(np.clip(np.dot(u, uo), -1.0, 1.0))))
     return out
 
 
