@@ -189,7 +189,7 @@ def test_valid_inputs_at_the_edges_stay_accepted():
         Pair(s.f1, s.f2, key="scores", options={"focal_px": 800.0, "scores": np.linspace(1, 0, 60)}),
         Pair(s.f1, s.f2, key="seed", options={"focal_px": 800.0, "seed": 7.0}),
     ]
-    out = {r.key: r for r in poseonly.estimate_relative_poses(pairs, seed=-1, progress=False)}
+    out = {r.key: r for r in poseonly.estimate_relative_poses(pairs, seed=2**64 - 1, progress=False)}  # the range's top
     assert all(r.error is None and r.result is not None for r in out.values()), {k: r.error for k, r in out.items()}
 
 

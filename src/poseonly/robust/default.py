@@ -641,7 +641,10 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
        and the status analysis keep the Gaussian mixture without the scales;
        then (``ml_folds > 1``) the inliers cross-fitted: each match classified by the ML pose of the
        other folds, and EM on that set (:func:`_cross_fit`; the ML pose deciding its own inliers picks
-       up outliers near its epipolar lines where the pose is weakly constrained);
+       up outliers near its epipolar lines where the pose is weakly constrained); then (``max_leverage
+       < 1``) the inliers of high leverage judged by the fit of the others and the pose refitted without
+       those it rejects (:func:`leverage_test`: a few wrong matches of large parallax can hold a short
+       baseline's translation and fit it exactly, where the folds split them);
        ``final="ligt"`` (the earlier default): LO at a noise-matched threshold, then angular LiGTopt;
        ``final="cauchy"`` (PoseLib's final step, for comparisons): Sampson LM with a Cauchy loss at
        ``tau`` on the matches within ``tau`` of the chosen pose;
