@@ -23,7 +23,10 @@ def _errors(**opts) -> np.ndarray:
 def test_cross_fit_beats_self_decided_inliers_at_low_parallax():
     # the ML pose deciding its own inliers picks up outliers near its epipolar lines (seeded: the
     # geometric-mean error over these 12 scenes drops by ~30 % with the cross-fit)
-    with_cf, without = _errors(), _errors(ml_folds=0)
+    # (the leverage test off in both: it takes a part of the cross-fit's work on these scenes, 0.70x alone,
+    # 0.67x with the cross-fit against the cross-fit's 0.64x: one scene of the 12, seed 6, 0.095 -> 0.179 deg
+    # where it vetoed a right match, and seed 0 0.0263 -> 0.0255)
+    with_cf, without = _errors(max_leverage=1.0), _errors(ml_folds=0, max_leverage=1.0)
     assert np.all(np.isfinite(with_cf))
     assert np.exp(np.mean(np.log(with_cf / without))) < 0.85
 
@@ -53,7 +56,7 @@ def _ml_pose(seed: int):
 
     c = sim_hard.low_parallax(parallax_deg=0.75, seed=seed)
     f1, f2 = bearings_from_pixels(c.u1, c.K), bearings_from_pixels(c.u2, c.K)
-    r = estimate_relative_pose(c.u1, c.u2, c.K, c.K, seed=seed, ml_folds=0)
+    r = estimate_relative_pose(c.u1, c.u2, c.K, c.K, seed=seed, ml_folds=0, max_leverage=1.0)  # the ML pose as it was
     tau = float(r.diagnostics["tau_effective"])
     T = float(PoseonlyOptions().ml_range) * tau
     best = default._ml_stage(r.R, r.t, f1, f2, tau, T)

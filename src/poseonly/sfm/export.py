@@ -135,7 +135,9 @@ def _replace_dir(tmp: Path, dst: Path) -> None:
 
 
 def _model_counts(rec: Any) -> tuple[int, int, int, int]:
-    return (rec.num_cameras(), rec.num_images(), rec.num_points3D(), sum(p.track.length() for p in rec.points3D.values()))
+    """(cameras, posed images, points, observations) of a pycolmap reconstruction (its writers keep the
+    images without a pose out of the files)."""
+    return (rec.num_cameras(), rec.num_reg_images(), rec.num_points3D(), sum(p.track.length() for p in rec.points3D.values()))
 
 
 def _check_written_model(rec: Any, tmp: Path, dst: Path) -> None:
