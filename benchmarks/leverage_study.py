@@ -8,6 +8,7 @@ over ``--scenes`` scenes: the `ok` poses' translation error (median / RMS / max,
 where the test vetoed a match.
 
     python benchmarks/leverage_study.py --scenes 30
+    OMP_NUM_THREADS=1 python benchmarks/leverage_study.py --time   # its cost: in-process A/B on pinhole scenes
 """
 
 from __future__ import annotations
@@ -55,7 +56,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--scenes", type=int, default=30)
     ap.add_argument("--baselines", type=float, nargs="+", default=[0.05, 0.1, 0.3, 1.0])
     ap.add_argument("--seed", type=int, default=11)
+    ap.add_argument("--time", action="store_true", help="instead: the default's time with / without the test (8 pinhole scenes, 300 matches, 15 alternating repeats)")
     a = ap.parse_args(argv)
+    if a.time:
+        return _time()
     cam = Camera("OPENCV", W, H, PARAMS)
     print("baseline  max_leverage  ok   t err median / RMS / max (deg)  t beyond 3 dev.  R beyond 3 dev.  vetoed")
     for bl in a.baselines:
@@ -76,6 +80,32 @@ def main(argv: list[str] | None = None) -> int:
                 f"        {np.mean(e[:, 1] > 3):6.2f}           {np.mean(e[:, 2] > 3):6.2f}       {int(e[:, 3].sum())}",
                 flush=True,
             )
+    return 0
+
+
+def _time() -> int:
+    import time
+
+    from poseonly.experiments._common import single_thread
+    from poseonly.sim import make_scene
+
+    single_thread()
+    for out in (0.0, 0.5):
+        scs = [make_scene(300, camera="pinhole", noise_px=0.5, outlier_fraction=out, seed=300 + s) for s in range(8)]
+        for ml in (1.0, 0.5):  # warm-up
+            for sc in scs:
+                poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, max_leverage=ml)
+        ratios = []
+        for rep in range(15):
+            ts = {}
+            for ml in (1.0, 0.5) if rep % 2 else (0.5, 1.0):
+                t0 = time.perf_counter()
+                for sc in scs:
+                    poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, max_leverage=ml)
+                ts[ml] = time.perf_counter() - t0
+            ratios.append(ts[0.5] / ts[1.0])
+        q = np.percentile(ratios, [25, 75])
+        print(f"pinhole, 300 matches, {100 * out:.0f} % outliers: with / without the test {np.median(ratios):.3f}x (quartiles {q[0]:.3f}-{q[1]:.3f})")
     return 0
 
 
