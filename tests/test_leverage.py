@@ -85,3 +85,19 @@ def test_short_baselines_translation_deviation_is_honest(max_leverage, most_beyo
         assert beyond >= 3, beyond  # the failure the test is for
     else:
         assert beyond <= most_beyond, beyond
+
+
+def test_a_bound_on_the_translation_deviation_makes_a_loose_direction_uncertain():
+    """``max_translation_std_deg`` (default inf: the status reads the rotation alone) lets a pipeline that
+    needs the direction call a short baseline's pose `uncertain`."""
+    import poseonly
+
+    cam, scenes = _short_baseline_scenes(3)
+    u1, u2, _, _ = scenes[0]
+    r = poseonly.estimate_relative_pose(u1, u2, camera1=cam)
+    sd = r.diagnostics["translation_std_deg"]
+    assert r.status == "ok" and 0.1 < sd < np.inf
+    loose = poseonly.estimate_relative_pose(u1, u2, camera1=cam, max_translation_std_deg=sd / 2)
+    assert loose.status == "uncertain" and "translation direction only to" in loose.message
+    assert np.array_equal(loose.R, r.R) and loose.diagnostics["translation_std_deg"] == sd
+    assert poseonly.estimate_relative_pose(u1, u2, camera1=cam, max_translation_std_deg=2 * sd).status == "ok"

@@ -255,7 +255,7 @@ def estimate_relative_pose(
             else:
                 R, t, w, iters, diag = RUNNERS[method](f1, f2, o, tau)
             diag["rank"] = rank
-            return finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, o.min_inliers, o.max_rotation_std_deg)
+            return finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, o.min_inliers, o.max_rotation_std_deg, o.max_translation_std_deg)
         except np.linalg.LinAlgError as exc:
             # valid but numerically extreme input (e.g. every bearing ~90 deg off the optical axis)
             # on which a solver's linear algebra fails: no pose, and the status says so

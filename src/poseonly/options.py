@@ -204,6 +204,16 @@ class CommonOptions:
         lo_open=True,
         inf=True,
     )
+    max_translation_std_deg: float = _opt(
+        float("inf"),
+        "real",
+        "the largest standard deviation of the translation direction (degrees, diagnostics translation_std_deg) of an ok pose; above"
+        " it, or where it cannot be estimated, the status is uncertain (inf, the default: the status reads the rotation alone; a"
+        " pipeline that needs the direction, e.g. translation averaging, can set a bound)",
+        lo=0.0,
+        lo_open=True,
+        inf=True,
+    )
 
     def check(self) -> None:
         """Check every field against its :class:`Spec` (raises :class:`InputError`)."""

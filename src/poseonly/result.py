@@ -291,6 +291,7 @@ def finish(
     diag: dict[str, Any],
     min_inliers: int = 15,
     max_rotation_std_deg: float = MAX_ROTATION_STD_DEG,
+    max_translation_std_deg: float = float("inf"),
 ) -> RelativePoseResult:
     """Inliers, residuals, analysis and status of a method's final model ``(R, t)``.
 
@@ -306,7 +307,8 @@ def finish(
     a rival pose (``diag["rivals"]``, the default method's uniqueness test: the refined models the
     search kept in other basins, best first; or ``diag["rival_R"]``) that explains as many matches of
     its own -> ``ambiguous``; a rotation standard deviation above
-    ``max_rotation_std_deg`` -> ``uncertain``; else ``ok``.
+    ``max_rotation_std_deg``, or of the translation direction above ``max_translation_std_deg`` -> ``uncertain``;
+    else ``ok``.
     """
     tau_search = tau
     diag["search_threshold_px"] = float(tau_search * focal)
@@ -505,9 +507,17 @@ def finish(
                     msg = (
                         f"{n_in} inliers within {thr_px:g} px single out the pose, but they determine its rotation only to "
                         f"{unc['rotation_std_deg']:.2f} deg (one standard deviation, first order, with the spread to other fits of the "
-                        "matches where there is one: diagnostics twin_spread_deg, rotation_model_spread_deg, estimator_spread_deg; max_rotation_std_deg = "
+                        "matches where there is one: diagnostics twin_spread_deg, rotation_model_spread_deg, estimator_spread_deg, leverage_spread_deg; max_rotation_std_deg = "
                         f"{max_rotation_std_deg:g}): see rotation_covariance"
                     )
+            elif max_translation_std_deg < np.inf and not unc["translation_std_deg"] <= max_translation_std_deg:
+                status = "uncertain"
+                msg = (
+                    f"{n_in} inliers within {thr_px:g} px single out the pose, but they determine its translation direction only to "
+                    f"{unc['translation_std_deg']:.2f} deg (one standard deviation, with the spread to other fits of the matches: "
+                    f"diagnostics leverage_translation_spread_deg, twin_spread_deg; max_translation_std_deg = {max_translation_std_deg:g}): see "
+                    "translation_covariance"
+                )
             else:
                 status, msg = "ok", f"{n_in} inliers within {thr_px:g} px (expected false alarms 10^{lnfa:.0f})"
                 if minority:
