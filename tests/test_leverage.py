@@ -101,3 +101,16 @@ def test_a_bound_on_the_translation_deviation_makes_a_loose_direction_uncertain(
     assert loose.status == "uncertain" and "translation direction only to" in loose.message
     assert np.array_equal(loose.R, r.R) and loose.diagnostics["translation_std_deg"] == sd
     assert poseonly.estimate_relative_pose(u1, u2, camera1=cam, max_translation_std_deg=2 * sd).status == "ok"
+
+
+def test_no_valid_pose_is_not_tested():
+    """A search that scored no hypothesis leaves a placeholder R (here diag(0, 0, 1)) for the status to call
+    degenerate: the leverage test leaves it alone (the fuzz: 18 of 3000 cases raised the core's "R must be a
+    rotation matrix")."""
+    from poseonly.robust.default import leverage_test
+
+    sc = make_scene(60, camera="pinhole", noise_px=0.5, seed=2)
+    m = {"decision_gauss": 1e-3, "nu": 30.0, "alpha": 0.0}
+    diag: dict = {}
+    assert leverage_test(np.diag([0.0, 0.0, 1.0]), np.array([0.0, 0.0, -1.0]), sc.f1, sc.f2, m, 0.01, True, None, 0.5, diag) is None
+    assert diag == {}

@@ -105,6 +105,30 @@ def rotvec_from_rotation(R: np.ndarray) -> np.ndarray:
     return Rotation.from_matrix(R.reshape(-1, 3, 3)).as_rotvec().reshape(R.shape[:-2] + (3,))
 
 
+# a returned R must satisfy |R^T R - I|_max < ORTHO_TOL and det R > 0 (else no valid pose was found; the core's
+# checked poses use the same bound)
+ORTHO_TOL = 1e-6
+
+
+def valid_pose(R: np.ndarray, t: np.ndarray) -> bool:
+    """``R (3, 3)`` a finite rotation and ``t (3,)`` finite and non-zero.
+
+    Checked in Python floats (nine products per entry of ``R^T R``: a tenth of the numpy version's
+    time, which this per-pair check paid in the status analysis); ``R^T R - I`` and ``det R`` as
+    numpy rounds them to within the tolerance's resolution."""
+    R, t = np.asarray(R, float), np.asarray(t, float)
+    if R.shape != (3, 3) or t.shape != (3,):
+        return False
+    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
+    tx, ty, tz = t.tolist()
+    if not all(math.isfinite(x) for x in (a, b, c, d, e, f, g, h, i, tx, ty, tz)):
+        return False
+    cols = ((a, d, g), (b, e, h), (c, f, i))
+    ortho = max(abs(sum(p * q for p, q in zip(cols[j], cols[k])) - (1.0 if j == k else 0.0)) for j in range(3) for k in range(3))
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    return ortho < ORTHO_TOL and det > 0 and max(abs(tx), abs(ty), abs(tz)) > 0
+
+
 def project_to_so3(M: np.ndarray) -> np.ndarray:
     """Nearest rotation (Frobenius) to ``M`` ``(..., 3, 3)`` via SVD."""
     U, _, Vt = np.linalg.svd(np.asarray(M, dtype=float))

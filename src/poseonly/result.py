@@ -7,7 +7,6 @@ analysis of :mod:`poseonly.analysis` and decides the status (``ok`` means "trust
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -33,7 +32,7 @@ from .analysis import (
     rival_test,
     rotation_explains_most,
 )
-from .geometry import essential_from_pose, rotation_error_deg
+from .geometry import essential_from_pose, rotation_error_deg, valid_pose
 from .options import MAX_ROTATION_STD_DEG
 from .residuals import v_sampson
 
@@ -42,8 +41,6 @@ __all__ = ["STATUSES", "RelativePoseResult", "degenerate_result", "finish", "val
 STATUSES = ("ok", "planar_ambiguous", "ambiguous", "uncertain", "pure_rotation", "too_few_inliers", "degenerate")
 
 
-# a returned R must satisfy |R^T R - I|_max < ORTHO_TOL and det R > 0 (else no valid pose was found)
-ORTHO_TOL = 1e-6
 # two matches within this many pixels of each other in both views are one observation for the status
 # (finish): the same keypoint detected twice has correlated errors; distinct features are further apart.
 # The angle is capped (0.5 px at a focal of 500 px): a focal of a few pixels, valid input, would otherwise
@@ -188,25 +185,6 @@ class RelativePoseResult(ValueEquality):
         d["rotation_covariance"] = None if self.rotation_covariance is None else _json_array(self.rotation_covariance)
         d["translation_covariance"] = None if self.translation_covariance is None else _json_array(self.translation_covariance)
         return d
-
-
-def valid_pose(R: np.ndarray, t: np.ndarray) -> bool:
-    """``R (3, 3)`` a finite rotation and ``t (3,)`` finite and non-zero.
-
-    Checked in Python floats (nine products per entry of ``R^T R``: a tenth of the numpy version's
-    time, which this per-pair check paid in the status analysis); ``R^T R - I`` and ``det R`` as
-    numpy rounds them to within the tolerance's resolution."""
-    R, t = np.asarray(R, float), np.asarray(t, float)
-    if R.shape != (3, 3) or t.shape != (3,):
-        return False
-    (a, b, c), (d, e, f), (g, h, i) = R.tolist()
-    tx, ty, tz = t.tolist()
-    if not all(math.isfinite(x) for x in (a, b, c, d, e, f, g, h, i, tx, ty, tz)):
-        return False
-    cols = ((a, d, g), (b, e, h), (c, f, i))
-    ortho = max(abs(sum(p * q for p, q in zip(cols[j], cols[k])) - (1.0 if j == k else 0.0)) for j in range(3) for k in range(3))
-    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
-    return ortho < ORTHO_TOL and det > 0 and max(abs(tx), abs(ty), abs(tz)) > 0
 
 
 def _unit(t: np.ndarray) -> np.ndarray:

@@ -15,7 +15,7 @@ import numpy as np
 
 from .. import _core
 from ..analysis import REFINE_SOLVER, support
-from ..geometry import InputError, rotvec_from_rotation
+from ..geometry import InputError, rotvec_from_rotation, valid_pose
 from ..median import median
 from ..options import PoseonlyOptions
 from ..residuals import get_residual, v_sampson, v_sampson_chiral
@@ -547,7 +547,7 @@ def leverage_test(
     distance from the returned pose :func:`poseonly.result.finish` adds to the covariance."""
     c = np.ascontiguousarray
     decision = float(m["decision_gauss"])
-    if not decision > 0:
+    if not decision > 0 or not valid_pose(R, t):  # (a search that scored no hypothesis leaves a placeholder R; the fuzz)
         return None
     inl = v_sampson(R, t, f1, f2) < decision
     _, veto, group, tested, R_others, t_others = _core.leverage_veto(c(R), c(t), c(f1), c(f2), inl, decision, float(max_leverage))
