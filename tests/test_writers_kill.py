@@ -158,7 +158,10 @@ def test_bench_speed_report_is_atomic(tmp_path, monkeypatch):
     the committed report, docs/results/speed.json, so that both are written)."""
     from poseonly import bench_speed
 
-    data = json.loads((Path(__file__).resolve().parents[1] / "docs" / "results" / "speed.json").read_text())
+    src = Path(__file__).resolve().parents[1] / "docs" / "results" / "speed.json"
+    if not src.is_file():  # the sdist leaves docs/results out
+        pytest.skip("docs/results/speed.json is not here (an unpacked sdist)")
+    data = json.loads(src.read_text())
     calls = []
     monkeypatch.setattr(bench_speed, "atomic_write_text", lambda p, text: calls.append(Path(p).name))
     bench_speed.write_report(data, tmp_path)

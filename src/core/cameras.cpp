@@ -146,16 +146,15 @@ bool undistort_brown_fallback(double x, double y, const double k[8], double r_fo
       brown_residual(nu, nv, x, y, k, &nfu, &nfv, nJ);
       better = std::hypot(nfu, nfv) < norm;
     }
+    if (!better) break;  // no halving decreases the residual: the point stays where it is
     const double step = std::hypot(nu - cu, nv - cv);
     cu = nu;
     cv = nv;
-    if (better) {
-      fu = nfu;
-      fv = nfv;
-      norm = std::hypot(fu, fv);
-      for (int c = 0; c < 4; ++c) J[c] = nJ[c];
-    }
-    if (step <= tol * std::max(1.0, std::hypot(cu, cv)) || !better) break;
+    fu = nfu;
+    fv = nfv;
+    norm = std::hypot(fu, fv);
+    for (int c = 0; c < 4; ++c) J[c] = nJ[c];
+    if (step <= tol * std::max(1.0, std::hypot(cu, cv))) break;
   }
   *u = cu;
   *v = cv;

@@ -87,7 +87,7 @@ def undistort_brown(xd, yd, k):
         rad, det = fold_terms(a, b, k)
         ra, rb = distort_brown(a, b, k)
         good = (rad > 0) & (det > 0) & ((r_fold >= BROWN_FOLD_MAX_RADIUS) | (np.hypot(a, b) < r_fold))
-        good &= np.hypot(ra - xd[i], rb - yd[i]) <= 1e-9 * max(1.0, math.hypot(xd[i], yd[i]))
+        good &= np.hypot(ra - xd[i], rb - yd[i]) <= 1e-9 * max(1.0, np.hypot(xd[i], yd[i]))
         u[i], v[i], ok[i] = root[0], root[1], bool(good[0])
     return u, v, ok
 
@@ -212,7 +212,7 @@ def brown_fallback(x: float, y: float, k, r_fold: float) -> tuple[float, float] 
     """The radial root (tangential terms left out) as the start, then Newton steps halved until the
     residual decreases; None where it does not apply."""
     k1, k2, _, _, k3, k4, k5, k6 = (float(c) for c in k)
-    rd = math.hypot(x, y)
+    rd = np.hypot(x, y)
     if not (rd > 0.0 and math.isfinite(rd)):
         return None
 
@@ -229,7 +229,7 @@ def brown_fallback(x: float, y: float, k, r_fold: float) -> tuple[float, float] 
         return None
     cu, cv = x * (ru / rd), y * (ru / rd)
     fu, fv, J = _brown_residual(cu, cv, x, y, k)
-    norm = math.hypot(fu, fv)
+    norm = np.hypot(fu, fv)
     for _ in range(NEWTON_MAX_ITER):
         det = J[0] * J[3] - J[1] * J[2]
         du, dv = (J[3] * fu - J[1] * fv) / det, (J[0] * fv - J[2] * fu) / det
@@ -239,14 +239,15 @@ def brown_fallback(x: float, y: float, k, r_fold: float) -> tuple[float, float] 
         for _ in range(DAMPED_HALVINGS + 1):
             nu, nv = cu - s * du, cv - s * dv
             nfu, nfv, nJ = _brown_residual(nu, nv, x, y, k)
-            if math.hypot(nfu, nfv) < norm:
+            if np.hypot(nfu, nfv) < norm:
                 better = True
                 break
             s *= 0.5
-        step = math.hypot(nu - cu, nv - cv)
+        if not better:  # no halving decreases the residual: the point stays where it is
+            break
+        step = np.hypot(nu - cu, nv - cv)
         cu, cv = nu, nv
-        if better:
-            fu, fv, J, norm = nfu, nfv, nJ, math.hypot(nfu, nfv)
-        if step <= NEWTON_TOL * max(1.0, math.hypot(cu, cv)) or not better:
+        fu, fv, J, norm = nfu, nfv, nJ, np.hypot(nfu, nfv)
+        if step <= NEWTON_TOL * max(1.0, np.hypot(cu, cv)):
             break
     return (cu, cv) if math.isfinite(cu) and math.isfinite(cv) else None
