@@ -120,7 +120,8 @@ PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pos
 struct LeverageVeto {
   std::vector<double> leverage;  // (n,), 0 for a non-inlier
   std::vector<uint8_t> veto;     // (n,)
-  std::vector<uint8_t> group;    // (n,): the inliers peeled off (leverage above max_leverage in a fit)
+  std::vector<uint8_t> group;    // (n,): the inliers peeled off (leverage above max_leverage in a fit); may be
+                                 // non-empty where tested is false (the peeling stopped early): then unused
   bool tested = false;
   Pose others;                   // the last least-squares fit of the other inliers (where tested)
 };

@@ -180,7 +180,7 @@ def atomic_open(path: str | os.PathLike, mode: str = "w", **kw: Any) -> Iterator
     except OSError as exc:  # name the target (a bare "[Errno 27] File too large" said nothing; a reliability trial)
         with contextlib.suppress(OSError):
             os.unlink(tmp)
-        if str(path) in str(exc):
+        if str(path) in str(exc) or exc.errno is None:
             raise
         raise type(exc)(exc.errno, f"cannot write {path}: {exc.strerror or exc}") from exc
     except BaseException:

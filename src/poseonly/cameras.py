@@ -392,7 +392,10 @@ def read_colmap_cameras(source: str | os.PathLike | Iterable[str]) -> dict[int, 
         path = Path(source)
         if not path.is_file():
             raise InputError(f"cameras file not found: {path}")
-        lines, where = path.read_text(encoding="utf-8").splitlines(), str(path)
+        try:
+            lines, where = path.read_text(encoding="utf-8").splitlines(), str(path)
+        except UnicodeDecodeError as exc:
+            raise InputError(f"cameras file {path} is not UTF-8 text ({exc.reason} at byte {exc.start})") from None
     else:
         lines, where = list(source), "cameras"
     out: dict[int, Camera] = {}
@@ -408,6 +411,8 @@ def read_colmap_cameras(source: str | os.PathLike | Iterable[str]) -> dict[int, 
             cid, width, height = int(f[0]), int(f[2]), int(f[3])
         except ValueError:
             raise InputError(f"{name}: CAMERA_ID, WIDTH and HEIGHT must be integers, got {text!r}") from None
+        if cid < 0:
+            raise InputError(f"{name}: camera id {cid} is negative")
         if cid in out:
             raise InputError(f"{name}: camera id {cid} is given twice")
         out[cid] = camera_from_text(f[1], " ".join(f[4:]), width, height, name)

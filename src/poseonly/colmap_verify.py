@@ -119,7 +119,7 @@ class _Source:
             except (RuntimeError, ValueError) as exc:  # pycolmap on a malformed blob ("Check failed: matrix.size() ..."): this pair's
                 self.direct.append(GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2))))
                 what = f"images {self.db.image_names.get(i1, i1)!r}, {self.db.image_names.get(i2, i2)!r}"
-                self.errors[pid] = f"pycolmap cannot read the keypoints or matches of {what}: {str(exc).strip().splitlines()[-1]}"
+                self.errors[pid] = f"pycolmap cannot read the keypoints or matches of {what}: {(str(exc).strip().splitlines() or [type(exc).__name__])[-1]}"
                 continue
             if len(m) and (m[:, 0].max() >= len(b1) or m[:, 1].max() >= len(b2) or m.min() < 0):
                 self.direct.append(GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2))))

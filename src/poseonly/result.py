@@ -504,7 +504,7 @@ def finish(
                         "the rest (a near surface, or objects that moved; two views cannot tell)"
                     )
     if status == "too_few_inliers":
-        for key in ("estimator_spread_deg", "estimator_translation_spread_deg"):  # of a covariance not reported
+        for key in ("estimator_spread_deg", "estimator_translation_spread_deg", "leverage_spread_deg", "leverage_translation_spread_deg"):  # of a covariance not reported
             diag.pop(key, None)
         # inliers that chance explains, or too few to estimate their noise from, do not determine the pose
         # (a handful fitted exactly gave deviations of 1e-14 deg to a pose 160 deg off): no covariance

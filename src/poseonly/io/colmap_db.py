@@ -225,7 +225,7 @@ class ColmapDatabase:
             cams = {c.camera_id: c for c in self.db.read_all_cameras()}
         except (RuntimeError, ValueError) as exc:  # a malformed row ("Camera model does not exist", a params count)
             self.db.close()
-            raise InputError(f"{p}: pycolmap cannot read its images or cameras: {str(exc).strip().splitlines()[-1]}") from None
+            raise InputError(f"{p}: pycolmap cannot read its images or cameras: {(str(exc).strip().splitlines() or [type(exc).__name__])[-1]}") from None
         self.image_names = {int(im.image_id): str(im.name) for im in images}
         self.cameras: dict[int, Camera] = {}
         self.unsupported: dict[int, str] = {}

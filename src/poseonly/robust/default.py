@@ -542,7 +542,9 @@ def leverage_test(
     SLAM user's trial: leverages 0.96 and 0.98, the translation 5 deg off with a deviation of 0.04
     deg); the cross-fit's folds split them, and each fold's pose is still held by the others. The
     refit is EM from ``(R, t)`` on every other match with ``m``'s inlier model, kept unless it loses
-    more than ``1 - ML_KEEP_TOLERANCE`` of the MSAC score, as the cross-fit's. Returns ``(R, t,
+    more than ``1 - ML_KEEP_TOLERANCE`` of the cheirality-aware MSAC score at the decision threshold
+    against ``(R, t)`` (the cross-fit compares with the search's pose at the larger of the search
+    threshold and the decision; here both poses are ML fits of the same mixture). Returns ``(R, t,
     vetoed)``; ``diag`` gets the group's size and the others' fit (``leverage_others_R``, ``_t``), whose
     distance from the returned pose :func:`poseonly.result.finish` adds to the covariance."""
     c = np.ascontiguousarray
