@@ -522,3 +522,37 @@ def test_image_files_by_extension_any_case(tmp_path):
         (tmp_path / n).write_bytes(b"x")
     (tmp_path / "g.jpg").mkdir()
     assert sorted(p.name for p in tmp_path.iterdir() if is_image_file(p)) == ["a.JPG", "b.tif", "c.TIFF", "d.png", "e.webp"]
+
+
+def test_a_failed_write_leaves_the_previous_outputs_whole(tmp_path, monkeypatch, capsys):
+    """Every output goes into a staging folder and moves into place once all are written: a write that
+    fails (here the COLMAP model's, as on a full disk) leaves the previous run's poses.json, point cloud and
+    model as they were, and no staging folder (a reliability trial: a new points.ply beside the old rest)."""
+    cv2 = pytest.importorskip("cv2")
+    pytest.importorskip("pycolmap")
+    if not (SCENE / "images" / "K.txt").is_file():
+        pytest.skip("shared Strecha data not available")
+    d = tmp_path / "imgs"
+    d.mkdir()
+    for f in sorted((SCENE / "images").glob("*.jpg"))[:4]:
+        cv2.imwrite(str(d / f.name), cv2.resize(cv2.imread(str(f)), None, fx=0.25, fy=0.25, interpolation=cv2.INTER_AREA))
+    K = np.loadtxt(SCENE / "images" / "K.txt")
+    K[:2] *= 0.25
+    np.savetxt(tmp_path / "K.txt", K)
+    out = tmp_path / "o"
+    args = ["sfm", str(d), "--K", str(tmp_path / "K.txt"), "--out", str(out), "--max-features", "1500", "--no-progress"]
+    assert main(args) == 0
+    before = {p.relative_to(out).as_posix(): p.read_bytes() for p in out.rglob("*") if p.is_file() and "cache" not in p.parts}
+    assert {"poses.json", "points.ply"} <= set(before)
+
+    import poseonly.sfm.export as export
+
+    def full(*a, **k):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(export, "write_colmap_model", full)
+    assert main([*args, "--seed", "3"]) == 2
+    assert "No space left on device" in capsys.readouterr().err
+    after = {p.relative_to(out).as_posix(): p.read_bytes() for p in out.rglob("*") if p.is_file() and "cache" not in p.parts}
+    assert after == before
+    assert not [p.name for p in out.iterdir() if p.name.startswith(".staging.")]

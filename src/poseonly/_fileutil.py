@@ -35,6 +35,7 @@ __all__ = [
     "atomic_write_text",
     "cache_savez",
     "clean_stale_temps",
+    "staging_dir",
     "sweep_stale_temps",
     "new_results_dir",
     "remove_empty_results_dirs",
@@ -273,3 +274,19 @@ def cache_savez(path: str | os.PathLike, **arrays: Any) -> bool:
         if first:
             warnings.warn(f"cannot write to the cache folder {folder} ({exc.strerror or exc}); going on without caching there", RuntimeWarning, stacklevel=2)
         return False
+
+
+def staging_dir(parent: str | os.PathLike) -> Path:
+    """A new hidden folder in ``parent`` (``.staging.HOST-PID.RANDOM.poseonly-tmp``, on the same file system)
+    where a writer of several outputs puts them all before moving them into place: a failed write leaves
+    the previous set whole (a reliability trial: a full disk left one new file among old ones). The
+    staging folders of this host's dead processes in ``parent`` are removed first."""
+    import shutil
+
+    d = Path(parent)
+    d.mkdir(parents=True, exist_ok=True)
+    now = time.time()
+    for f in d.iterdir():
+        if f.name.startswith(".staging.") and f.is_dir() and not f.is_symlink() and _stale(f, now):
+            shutil.rmtree(f, ignore_errors=True)
+    return Path(tempfile.mkdtemp(dir=d, prefix=f".staging.{HOST}-{os.getpid()}.", suffix=TMP_SUFFIX))

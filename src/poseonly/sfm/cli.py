@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import shutil
 import time
 from collections import Counter
 from pathlib import Path
@@ -96,7 +98,7 @@ def _camera_arg(args: argparse.Namespace) -> dict[str, Any] | None:
 
 
 def cmd_sfm(args: argparse.Namespace) -> int:
-    from .._fileutil import atomic_write_text
+    from .._fileutil import staging_dir
     from ..io.calibration import read_K
     from .pairwise import PairwiseOptions, image_view_graph, parse_estimator_options
     from .pipeline import MIN_MODEL_VIEWS, GlobalOptions, num_stages, run_global_models
@@ -186,8 +188,28 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     print(f"models: {len(models)} ({', '.join(str(int(np.sum(model_of == k))) for k in range(len(models)))} images)")
     previous = _previous_outputs(out)  # read before this run writes over them
     poses: dict[str, Any] = {"convention": "X_cam = R (X_world - c)", "status": "", "models": [], "images": []}
+    # every output is written into a staging folder first and moved into place once all are written: a
+    # failed write (a full disk) leaves the previous run's set whole (a reliability trial: a new points.ply
+    # beside the old poses.json and model)
+    stage = staging_dir(out)
+    try:
+        _write_outputs(stage, out, poses, models, model_of, images, ig, args)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    _remove_stale(out, previous - _model_outputs(out, poses["models"]))
+    print(f"total {time.perf_counter() - t0:.1f} s; outputs in {out}")
+    return 0
+
+
+def _write_outputs(stage: Path, out: Path, poses: dict[str, Any], models: list[Any], model_of: np.ndarray, images: list[Path], ig: Any, args: argparse.Namespace) -> None:
+    """Write every model's files and poses.json into ``stage``, then move them into ``out`` (poses.json
+    last; a model folder replaced whole)."""
+    from .._fileutil import atomic_write_text
+    from .export import replace_dir
+    from .pipeline import MIN_MODEL_VIEWS
+
     for k, res in enumerate(models):
-        poses["models"].append(_write_model(k, res, images, ig, out, args))
+        poses["models"].append(_write_model(k, res, images, ig, stage, args, out))
     poses["status"] = poses["models"][0]["status"]
     if poses["status"] == "translation_undetermined":
         poses["reason"] = poses["models"][0]["reason"]
@@ -203,10 +225,17 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     unmodelled = int(np.sum(model_of < 0) - sum(m["views_not_posed"] for m in poses["models"]))
     if unmodelled > 0:
         print(f"in no model: {unmodelled} images (no trusted pair joins them to a model of at least {MIN_MODEL_VIEWS} images)")
-    atomic_write_text(out / "poses.json", json.dumps(poses, indent=1))
-    _remove_stale(out, previous - _model_outputs(out, poses["models"]))
-    print(f"total {time.perf_counter() - t0:.1f} s; outputs in {out}")
-    return 0
+    atomic_write_text(stage / "poses.json", json.dumps(poses, indent=1))
+    for m in poses["models"]:
+        for r in m.get("outputs", []):
+            if not r.startswith("sparse/"):
+                (out / r).parent.mkdir(parents=True, exist_ok=True)
+                os.replace(stage / r, out / r)
+    if (stage / "sparse").is_dir():
+        for d in sorted((stage / "sparse").iterdir()):
+            (out / "sparse").mkdir(exist_ok=True)
+            replace_dir(d, out / "sparse" / d.name)
+    os.replace(stage / "poses.json", out / "poses.json")
 
 
 def _model_outputs(out: Path, models: list[Any]) -> set[Path]:
@@ -260,9 +289,10 @@ def _suffix(k: int) -> str:
     return "" if k == 0 else f"_{k}"
 
 
-def _write_model(k: int, res: Any, images: list[Path], ig: Any, out: Path, args: argparse.Namespace) -> dict[str, Any]:
-    """Print model ``k``'s summary and write its point cloud, figure and COLMAP model (``sparse/k``);
-    returns its entry of poses.json's ``models``."""
+def _write_model(k: int, res: Any, images: list[Path], ig: Any, out: Path, args: argparse.Namespace, shown: Path) -> dict[str, Any]:
+    """Print model ``k``'s summary and write its point cloud, figure and COLMAP model (``sparse/k``) into
+    ``out`` (the staging folder; the messages name their places in ``shown``); returns its entry of
+    poses.json's ``models``."""
     from .export import colmap_model_of, plot_reconstruction, point_colors, write_colmap_model, write_ply
 
     est = np.all(np.isfinite(res.centres), axis=1)
@@ -296,7 +326,7 @@ def _write_model(k: int, res: Any, images: list[Path], ig: Any, out: Path, args:
     fig = plot_reconstruction(out / f"reconstruction{sfx}.png", rec.points[rec.valid], res.centres, res.rotations, colors[rec.valid])
     if fig is not None:
         entry["outputs"].append(f"reconstruction{sfx}.png")
-        print(f"model {k}: figure: {fig}")
+        print(f"model {k}: figure: {shown / fig.name}")
     try:
         import_pycolmap()
     except ImportError:
@@ -305,7 +335,7 @@ def _write_model(k: int, res: Any, images: list[Path], ig: Any, out: Path, args:
         model = colmap_model_of([p.name for p in images], ig, res, colors)
         folder = write_colmap_model(model, out / "sparse" / str(k), binary=not args.text)
         entry["outputs"] += sorted(f.relative_to(out).as_posix() for f in folder.iterdir() if f.is_file())
-        print(f"model {k}: COLMAP model: {out / 'sparse' / str(k)} ({model.num_reg_images()} images, {model.num_points3D()} points)")
+        print(f"model {k}: COLMAP model: {shown / 'sparse' / str(k)} ({model.num_reg_images()} images, {model.num_points3D()} points)")
     return entry
 
 

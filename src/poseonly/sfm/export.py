@@ -22,7 +22,7 @@ if TYPE_CHECKING:
     from .pairwise import ImageGraph
     from .pipeline import GlobalResult
 
-__all__ = ["build_colmap_reconstruction", "colmap_model_of", "plot_reconstruction", "point_colors", "write_colmap_model", "write_ply"]
+__all__ = ["build_colmap_reconstruction", "colmap_model_of", "plot_reconstruction", "point_colors", "replace_dir", "write_colmap_model", "write_ply"]
 
 
 def point_colors(image_paths: Sequence[str | os.PathLike], keypoints: Sequence[np.ndarray], tracks: Tracks, base_obs: np.ndarray) -> np.ndarray:
@@ -122,7 +122,7 @@ def build_colmap_reconstruction(
     return rec
 
 
-def _replace_dir(tmp: Path, dst: Path) -> None:
+def replace_dir(tmp: Path, dst: Path) -> None:
     """Move the finished folder ``tmp`` to ``dst`` (an older ``dst`` is replaced only after)."""
     if dst.exists():
         old = Path(tempfile.mkdtemp(dir=dst.parent, prefix=dst.name + ".old"))
@@ -169,7 +169,7 @@ def write_colmap_model(rec: Any, folder: str | os.PathLike, binary: bool = True)
         mask = os.umask(0)
         os.umask(mask)
         os.chmod(tmp, 0o777 & ~mask)  # mkdtemp makes 0700; a plain mkdir would not
-        _replace_dir(tmp, dst)
+        replace_dir(tmp, dst)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
