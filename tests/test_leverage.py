@@ -118,8 +118,9 @@ def test_no_valid_pose_is_not_tested():
 
 def test_the_vetoed_matches_leave_the_ml_pose():
     """Scene 1 of the trial's short-baseline scenes: two wrong matches of high leverage are vetoed and the
-    ML pose refitted without them (translation 4.67 -> 3.37 deg, rotation 0.045 -> 0.026 deg off); the
-    translation's deviation then carries the distance to the others' fit (1.24 -> 3.32 deg)."""
+    ML pose refitted without them and without the matches the cross-fit removed (translation 4.67 -> 1.41
+    deg, rotation 0.045 -> 0.025 deg off; 3.37 deg when the refit saw the cross-fit's removed matches
+    again); the translation then lies within three of its deviations, where it lay beyond them."""
     import poseonly
     from poseonly.geometry import rotation_error_deg
 
@@ -134,4 +135,5 @@ def test_the_vetoed_matches_leave_the_ml_pose():
         return np.degrees(np.arccos(np.clip(r.t @ t, -1.0, 1.0)))
 
     assert t_err(on) < t_err(off) - 1.0 and rotation_error_deg(R, on.R) < rotation_error_deg(R, off.R)
-    assert d["leverage_translation_spread_deg"] > 1.0 and t_err(on) < 3 * d["translation_std_deg"] < t_err(off) * 3
+    assert t_err(on) < 2.0 and t_err(on) < 3 * d["translation_std_deg"]
+    assert t_err(off) > 3 * off.diagnostics["translation_std_deg"]

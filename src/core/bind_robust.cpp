@@ -318,7 +318,7 @@ nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, 
   return d;
 }
 
-// (R, t, vetoed, ok): the cross-fit (ml_refine.h ml_cross_fit); R, t are the input pose when nothing is vetoed
+// (R, t, vetoed, ok, veto (n,) uint8): the cross-fit (ml_refine.h ml_cross_fit); R, t are the input pose when nothing is vetoed
 nb::tuple ml_cross_fit_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double range, double decision,
                           int folds, int min_agree, bool student, const std::optional<VectorIn>& scales, std::optional<double> nu,
                           std::optional<double> alpha, std::optional<double> sigma_init, std::optional<double> g_init, int fold_rounds,
@@ -336,12 +336,15 @@ nb::tuple ml_cross_fit_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& 
   Pose out;
   int vetoed = 0;
   bool ok;
+  std::vector<uint8_t> veto;
   {
     nb::gil_scoped_release release;
-    ok = ml_cross_fit(P, pose_of(R, t), co, sc, &out, &vetoed);
+    ok = ml_cross_fit(P, pose_of(R, t), co, sc, &out, &vetoed, &veto);
   }
+  const size_t n = static_cast<size_t>(P.n);
+  if (veto.size() != n) veto.assign(n, 0);
   auto [Ro, to] = pose_arrays(out);
-  return nb::make_tuple(Ro, to, vetoed, ok);
+  return nb::make_tuple(Ro, to, vetoed, ok, to_numpy_t<uint8_t>(std::move(veto), {n}));
 }
 
 nb::tuple gnc_ransac(const BearingsIn& f1, const BearingsIn& f2, double theta, uint64_t seed, int sample_size,
@@ -498,7 +501,7 @@ POSEONLY_BIND(robust) {
         nb::arg("fold_lm_iterations"), nb::arg("fold_pose_tol"), nb::arg("final_rounds"), nb::arg("final_lm_iterations"), nb::arg("final_pose_tol"),
         "The default's cross-fitted inliers: match i in fold i % folds is classified by the ML pose (ml_refine, pose_only, EM from (R, t)) of "
         "the other folds (an inlier where its Sampson error is below `decision`); the pose's own inliers the other folds reject are vetoed "
-        "and EM from (R, t) runs on every other match. (R, t, vetoed, ok): ok False when a fold's EM failed or fewer than min_agree matches are "
+        "and EM from (R, t) runs on every other match. (R, t, vetoed, ok, veto (n,) uint8 the vetoed matches): ok False when a fold's EM failed or fewer than min_agree matches are "
         "inliers of both; with no veto the input pose.");
   m.def("gnc_ransac", &gnc_ransac, nb::arg("f1"), nb::arg("f2"), nb::arg("theta"), nb::arg("seed"), nb::arg("sample_size") = 30,
         nb::arg("max_iterations") = 50, nb::arg("adaptive") = false, nb::arg("confidence") = 0.99, nb::arg("gnc") = nb::dict(),

@@ -515,7 +515,8 @@ bool ml_ok(const MlResult& m) { return m.rounds > 0 && m.pose.R.allFinite() && m
 
 }  // namespace
 
-bool ml_cross_fit(const Points& P, const Pose& pose, const CrossFitOptions& opt, const double* scales, Pose* out, int* vetoed) {
+bool ml_cross_fit(const Points& P, const Pose& pose, const CrossFitOptions& opt, const double* scales, Pose* out, int* vetoed,
+                  std::vector<uint8_t>* veto_out) {
   const int n = P.n, folds = opt.folds;
   *vetoed = 0;
   if (folds < 2 || n < folds) return false;
@@ -549,6 +550,7 @@ bool ml_cross_fit(const Points& P, const Pose& pose, const CrossFitOptions& opt,
     *vetoed = 0;
     return false;
   }
+  if (veto_out) veto_out->assign(veto.begin(), veto.end());
   if (*vetoed == 0) {
     *out = pose;
     return true;

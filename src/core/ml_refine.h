@@ -19,6 +19,9 @@
 // structured outliers beyond T, and the inlier decision p_i >= 1/2 follows the measured noise.
 #pragma once
 
+#include <cstdint>
+#include <vector>
+
 #include <cmath>
 
 #include "common.h"
@@ -93,6 +96,8 @@ struct CrossFitOptions {
   MlOptions final;
 };
 
-bool ml_cross_fit(const Points& P, const Pose& pose, const CrossFitOptions& opt, const double* scales, Pose* out, int* vetoed);
+// veto (optional): the vetoed matches, (n,) 0 / 1.
+bool ml_cross_fit(const Points& P, const Pose& pose, const CrossFitOptions& opt, const double* scales, Pose* out, int* vetoed,
+                  std::vector<uint8_t>* veto_out = nullptr);
 
 }  // namespace poseonly

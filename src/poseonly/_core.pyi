@@ -118,7 +118,7 @@ def ml_cross_fit(
     final_rounds: int,
     final_lm_iterations: int,
     final_pose_tol: float,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], int, bool]: ...
+) -> tuple[NDArray[np.float64], NDArray[np.float64], int, bool, NDArray[np.uint8]]: ...
 def gnc_ransac(
     f1: NDArray[np.float64],
     f2: NDArray[np.float64],

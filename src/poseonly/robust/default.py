@@ -455,11 +455,11 @@ def _cross_fit(
     folds: int,
     tails: tuple[float, float] | None = None,
     start: tuple[float, float] | None = None,
-) -> tuple[np.ndarray, np.ndarray, int] | None:
+) -> tuple[np.ndarray, np.ndarray, int, np.ndarray] | None:
     """The ML pose without the inliers the cross-fit vetoes, from the ML pose ``(R, t)``; or None.
 
-    Returns ``(R, t, vetoed)``: the pose and the number of the ML pose's inliers the cross-fit removed
-    (``(R, t, 0)`` unchanged when it removes none).
+    Returns ``(R, t, vetoed, veto)``: the pose, the number of the ML pose's inliers the cross-fit removed
+    (``(R, t, 0, ...)`` unchanged when it removes none) and their mask ``(n,)``.
 
     The ML pose decides its own inliers: a pose free to move along a weakly constrained direction (low
     parallax, a narrow field of points) can pick up a few outliers that happen to lie near its epipolar
@@ -489,7 +489,7 @@ def _cross_fit(
     nu, alpha = tails if tails is not None else (None, None)
     s0, g0 = start if start is not None and np.isfinite(start[0]) and start[0] > 0.0 and 0.0 < start[1] < 1.0 else (None, None)
     c = np.ascontiguousarray
-    Rc, tc, vetoed, ok = _core.ml_cross_fit(
+    Rc, tc, vetoed, ok, veto = _core.ml_cross_fit(
         c(R),
         c(t),
         c(f1),
@@ -514,8 +514,8 @@ def _cross_fit(
     if not ok:
         return None
     if vetoed == 0:
-        return R, t, 0
-    return Rc, tc, int(vetoed)
+        return R, t, 0, veto.astype(bool)
+    return Rc, tc, int(vetoed), veto.astype(bool)
 
 
 def leverage_test(
@@ -529,6 +529,7 @@ def leverage_test(
     scales: np.ndarray | None,
     max_leverage: float,
     diag: dict[str, Any],
+    excluded: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, int] | None:
     """The ML pose without the inliers it cannot vouch for, from the ML (or cross-fitted) pose ``(R, t)``
     whose EM result is ``m``; None where nothing is vetoed or the refit fails.
@@ -541,7 +542,8 @@ def leverage_test(
     lying near the epipolar lines of some direction pull the translation onto it and fit it exactly (a
     SLAM user's trial: leverages 0.96 and 0.98, the translation 5 deg off with a deviation of 0.04
     deg); the cross-fit's folds split them, and each fold's pose is still held by the others. The
-    refit is EM from ``(R, t)`` on every other match with ``m``'s inlier model, kept unless it loses
+    refit is EM from ``(R, t)`` on every other match (less those the cross-fit removed, ``excluded``,
+    which the pose's own EM did not see either) with ``m``'s inlier model, kept unless it loses
     more than ``1 - ML_KEEP_TOLERANCE`` of the cheirality-aware MSAC score at the decision threshold
     against ``(R, t)`` (the cross-fit compares with the search's pose at the larger of the search
     threshold and the decision; here both poses are ML fits of the same mixture). Returns ``(R, t,
@@ -552,15 +554,17 @@ def leverage_test(
     if not decision > 0 or not valid_pose(R, t):  # (a search that scored no hypothesis leaves a placeholder R; the fuzz)
         return None
     inl = v_sampson(R, t, f1, f2) < decision
+    out = np.zeros(len(f1), bool) if excluded is None else np.asarray(excluded, bool)
+    inl &= ~out
     _, veto, group, tested, R_others, t_others = _core.leverage_veto(c(R), c(t), c(f1), c(f2), inl, decision, float(max_leverage))
     if not tested:
         return None
     diag["leverage_group"] = int(np.count_nonzero(group))
     others = (R_others, t_others, (inl & (group == 0)).astype(float), decision)
-    keep = veto == 0
-    if keep.all():
+    if not veto.any():
         diag.update(_leverage_spread(R, t, f1, f2, others))
         return None
+    keep = (veto == 0) & ~out  # the refit sees what the pose's own EM saw, less the vetoed matches
     r = _core.ml_refine(
         c(R),
         c(t),
@@ -581,7 +585,7 @@ def leverage_test(
         diag.update(_leverage_spread(R, t, f1, f2, others))
         return None
     diag.update(_leverage_spread(r["R"], r["t"], f1, f2, others))
-    return r["R"], r["t"], int(np.count_nonzero(~keep))
+    return r["R"], r["t"], int(np.count_nonzero(veto))
 
 
 # the leverage spread's gate on the rotation: chi-square at 95 % with 3 degrees of freedom
@@ -717,6 +721,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                 # the ML pose (or the cross-fit's EM pose below) is a Sampson fit: no estimator spread
                 # (result.finish); without it the pose is the pose-only choice's, which may be algebraic
                 diag["sampson_final"] = True
+                excluded = None  # the matches the cross-fit removed (its pose's EM did not see them)
                 if o.ml_folds > 1:
                     tails, start = (float(m["nu"]), float(m["alpha"])), (float(m["sigma"]), float(m["inlier_fraction"]))
                     cf = _cross_fit(R, t, f1, f2, T_used, float(m["decision_gauss"]), student, noise_scales, int(o.ml_folds), tails, start)
@@ -724,9 +729,9 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                     diag["cross_fit"] = cf is not None and msac_chiral(cf[0], cf[1], f1, f2, thr) >= ML_KEEP_TOLERANCE * msac_chiral(R0, t0, f1, f2, thr)
                     if diag["cross_fit"]:
                         assert cf is not None
-                        R, t, diag["cross_fit_vetoed"] = cf
+                        R, t, diag["cross_fit_vetoed"], excluded = cf
                 if o.max_leverage < 1.0:
-                    lv = leverage_test(R, t, f1, f2, m, T_used, student, noise_scales, o.max_leverage, diag)
+                    lv = leverage_test(R, t, f1, f2, m, T_used, student, noise_scales, o.max_leverage, diag, excluded)
                     if lv is not None:
                         R, t, diag["leverage_vetoed"] = lv
                 # the inliers: more likely inliers than not under the Gaussian mixture at the ML pose
