@@ -17,6 +17,16 @@ PARAMS = {
     "OPENCV": [800, 810, 320, 240, -0.2, 0.05, 0.001, -0.002],
     "OPENCV_FISHEYE": [400, 410, 320, 240, 0.05, -0.01, 0.003, -0.0005],
     "FULL_OPENCV": [800, 810, 320, 240, -0.2, 0.05, 0.001, -0.002, 0.01, 0.02, 0.003, 0.001],
+    "FOV": [500, 505, 320, 240, 0.9],
+    "SIMPLE_RADIAL_FISHEYE": [400, 320, 240, 0.05],
+    "RADIAL_FISHEYE": [400, 320, 240, 0.05, -0.01],
+    "THIN_PRISM_FISHEYE": [400, 410, 320, 240, 0.05, -0.01, 0.001, -0.002, 0.003, -0.0005, 0.001, -0.001],
+    "RAD_TAN_THIN_PRISM_FISHEYE": [400, 410, 320, 240, 0.05, -0.01, 0.003, -0.0005, 0.0001, -0.00001, 0.001, -0.002, 0.001, -0.0005, 0.0008, 0.0002],
+    "SIMPLE_DIVISION": [800, 320, 240, -0.1],
+    "DIVISION": [800, 810, 320, 240, -0.15],
+    "SIMPLE_FISHEYE": [400, 320, 240],
+    "FISHEYE": [400, 410, 320, 240],
+    "EUCM": [400, 410, 320, 240, 0.6, 1.1],
 }
 assert set(PARAMS) == set(MODELS)
 
@@ -350,3 +360,109 @@ def test_core_fallback_equals_the_numpy_reference():
     assert okr.all() and (~plain).sum() > 500  # every pixel lifted, hundreds by the fallback
     assert np.array_equal(ok.astype(bool), okr)
     assert np.array_equal(u, ur) and np.array_equal(v, vr)
+
+
+@pytest.mark.parametrize(
+    "model, params",
+    [
+        ("RADIAL_FISHEYE", (300.0, 500.0, 500.0, 0.02, -0.003)),
+        ("FISHEYE", (300.0, 310.0, 500.0, 500.0)),
+        ("THIN_PRISM_FISHEYE", (300.0, 300.0, 500.0, 500.0, 0.02, -0.003, 0.001, -0.001, 0.0005, -0.0001, 0.002, -0.001)),
+        ("RAD_TAN_THIN_PRISM_FISHEYE", (300.0, 300.0, 500.0, 500.0, 0.02, -0.003, 0.0005, -0.0001, 1e-5, -1e-6, 0.001, -0.001, 0.001, 0.0002, -0.001, 0.0001)),
+        ("SIMPLE_DIVISION", (300.0, 500.0, 500.0, -0.4)),
+        ("EUCM", (300.0, 300.0, 500.0, 500.0, 0.65, 1.2)),
+    ],
+)
+def test_wide_models_beyond_90_degrees(model, params):
+    """Rays up to 110 deg off the axis (behind the image plane, where COLMAP's normalized coordinates
+    mirror them) project and lift back onto themselves."""
+    cam = Camera(model, 1000, 1000, params)
+    rng = np.random.default_rng(5)
+    ang = np.radians(rng.uniform(0.0, 110.0, 300))
+    phi = rng.uniform(0, 2 * np.pi, 300)
+    b = np.column_stack([np.sin(ang) * np.cos(phi), np.sin(ang) * np.sin(phi), np.cos(ang)])
+    uv = cam.project(b)
+    assert np.all(np.isfinite(uv))
+    assert np.abs(cam.unproject(uv) - b).max() < 1e-9
+
+
+def _prism_oracle(model, params, uv):
+    """Bearings by scipy's root finder on the published distortion equations (independent of the core)."""
+    from scipy.optimize import root
+
+    from poseonly.cameras import _prism_distort, _prism_params
+
+    kind = {"THIN_PRISM_FISHEYE": 0, "RAD_TAN_THIN_PRISM_FISHEYE": 1}[model]
+    k = _prism_params(model, tuple(params))
+    fx, fy, cx, cy = params[:4]
+    out = []
+    for x, y in uv:
+        xd, yd = (x - cx) / fx, (y - cy) / fy
+        sol = root(lambda p: np.array(_prism_distort(kind, k, np.array([p[0]]), np.array([p[1]]))).ravel() - [xd, yd], [xd, yd], tol=1e-15)
+        uu, vv = sol.x
+        th = np.hypot(uu, vv)
+        out.append([uu * np.sin(th) / th, vv * np.sin(th) / th, np.cos(th)])
+    return np.array(out)
+
+
+@pytest.mark.parametrize("model", ["THIN_PRISM_FISHEYE", "RAD_TAN_THIN_PRISM_FISHEYE"])
+def test_prism_undistortion_equals_an_independent_root_finder(model):
+    cam = Camera(model, 640, 480, tuple(float(v) for v in PARAMS[model]))
+    uv = _pixels(n=60, seed=7)
+    assert np.abs(cam.unproject(uv) - _prism_oracle(model, PARAMS[model], uv)).max() < 1e-9
+
+
+def test_prism_without_tangential_terms_is_the_opencv_fisheye():
+    """THIN_PRISM_FISHEYE with p = s = 0 is OPENCV_FISHEYE (the same theta polynomial): the same rays,
+    up to the fold and past it (refused by both); with Newton cut to one step the fallback (the radial
+    part's bracketed root, then damped Newton) gives them too."""
+    from poseonly import _core
+    from poseonly.cameras import NEWTON_TOL, _prism_params
+
+    k = (-0.3, 0.02, 0.0, 0.0)
+    prism = Camera("THIN_PRISM_FISHEYE", 1000, 1000, (350.0, 350.0, 500.0, 500.0, k[0], k[1], 0.0, 0.0, k[2], k[3], 0.0, 0.0))
+    fish = Camera("OPENCV_FISHEYE", 1000, 1000, (350.0, 350.0, 500.0, 500.0, *k))
+    g = np.stack(np.meshgrid(np.linspace(0, 1000, 61), np.linspace(0, 1000, 61)), -1).reshape(-1, 2)
+    a, b = prism.unproject(g, invalid="nan"), fish.unproject(g, invalid="nan")
+    ok = np.isfinite(b).all(axis=1)
+    assert 0.2 < ok.mean() < 0.9  # the corners lie past the fold
+    assert np.array_equal(np.isfinite(a).all(axis=1), ok)
+    assert np.abs(a[ok] - b[ok]).max() < 1e-12
+    xd, yd = (g[:, 0] - 500.0) / 350.0, (g[:, 1] - 500.0) / 350.0
+    uu, vv, ok1 = _core.undistort_prism(xd, yd, 0, _prism_params("THIN_PRISM_FISHEYE", prism.params), NEWTON_TOL, 1)
+    assert np.array_equal(ok1.astype(bool), ok)
+    th = np.hypot(uu[ok], vv[ok])
+    assert np.abs(np.cos(th) - b[ok, 2]).max() < 1e-12
+    with pytest.raises(ValueError, match="did not converge for .* points"):
+        prism.unproject(g)
+
+
+def test_model_checks_and_pinhole_verdicts():
+    with pytest.raises(ValueError, match="EUCM camera needs 0 <= alpha <= 1 and beta > 0"):
+        Camera("EUCM", 0, 0, (300.0, 300.0, 0.0, 0.0, 1.2, 1.0))
+    with pytest.raises(ValueError, match="EUCM camera needs"):
+        Camera("EUCM", 0, 0, (300.0, 300.0, 0.0, 0.0, 0.5, 0.0))
+    assert Camera("EUCM", 0, 0, (300.0, 300.0, 0.0, 0.0, 0.0, 1.0)).is_undistorted
+    assert Camera("DIVISION", 0, 0, (300.0, 300.0, 0.0, 0.0, 0.0)).is_undistorted
+    assert Camera("FOV", 0, 0, (300.0, 300.0, 0.0, 0.0, 0.0)).is_undistorted
+    assert not Camera("FOV", 0, 0, (300.0, 300.0, 0.0, 0.0, 0.5)).is_undistorted
+    # an equidistant fisheye bends straight lines even with zero coefficients: no fundamental matrix
+    assert not Camera("FISHEYE", 0, 0, (300.0, 300.0, 0.0, 0.0)).is_undistorted
+    assert not Camera("OPENCV_FISHEYE", 0, 0, (300.0, 300.0, 0.0, 0.0, 0, 0, 0, 0)).is_undistorted
+    # FOV's image ends at r_d omega = pi / 2; a division model with k > 0 folds at k r^2 = 1
+    fov = Camera("FOV", 0, 0, (100.0, 100.0, 0.0, 0.0, 1.0))
+    assert np.isnan(fov.unproject(np.array([[170.0, 0.0]]), invalid="nan")).all()
+    div = Camera("SIMPLE_DIVISION", 0, 0, (100.0, 0.0, 0.0, 0.25))
+    assert np.isfinite(div.unproject(np.array([[190.0, 0.0]]))).all() and np.isnan(div.unproject(np.array([[210.0, 0.0]]), invalid="nan")).all()
+
+
+def test_opencv_fisheye_tuple_needs_its_flag():
+    """``(K, dist)`` with four coefficients is cv2.undistortPoints' (k1, k2, p1, p2); a cv2.fisheye user
+    passes ``(K, dist, True)`` (a trial: the 2-tuple read the fisheye's coefficients as OPENCV's and
+    returned poses 6-10 deg off as ``ok``)."""
+    K = np.array([[300.0, 0, 320], [0, 300.0, 240], [0, 0, 1]])
+    d = (0.02, -0.004, 0.001, -0.0002)
+    assert as_camera((K, d)).model == "OPENCV"
+    assert as_camera((K, d, True)) == as_camera({"K": K, "dist": d, "fisheye": True}) == from_opencv(K, d, fisheye=True)
+    with pytest.raises(ValueError, match="third item of a"):
+        as_camera((K, d, "fisheye"))

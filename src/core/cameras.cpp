@@ -264,4 +264,145 @@ void undistort_fisheye(const double* rd, int n, const double k[4], double tol, i
   }
 }
 
+namespace {
+
+// The thin-prism fisheye distortions of COLMAP's models.h on the equidistant coordinates (u, v): the
+// distorted point (x, y) and the Jacobian J = d(x, y) / d(u, v) (row-major).
+inline void prism_distort(int kind, const double k[12], double u, double v, double* x, double* y, double J[4]) {
+  if (kind == 0) {  // THIN_PRISM_FISHEYE: (k1, k2, p1, p2, k3, k4, sx1, sy1)
+    const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3], k3 = k[4], k4 = k[5], sx1 = k[6], sy1 = k[7];
+    const double r2 = u * u + v * v;
+    const double radial = r2 * (k1 + r2 * (k2 + r2 * (k3 + r2 * k4)));
+    const double dradial = k1 + r2 * (2.0 * k2 + r2 * (3.0 * k3 + r2 * 4.0 * k4));  // d radial / d r2
+    *x = u + u * radial + 2.0 * p1 * u * v + p2 * (r2 + 2.0 * u * u) + sx1 * r2;
+    *y = v + v * radial + 2.0 * p2 * u * v + p1 * (r2 + 2.0 * v * v) + sy1 * r2;
+    J[0] = 1.0 + radial + 2.0 * u * u * dradial + 2.0 * p1 * v + 6.0 * p2 * u + 2.0 * sx1 * u;
+    J[1] = 2.0 * u * v * dradial + 2.0 * p1 * u + 2.0 * p2 * v + 2.0 * sx1 * v;
+    J[2] = 2.0 * u * v * dradial + 2.0 * p2 * v + 2.0 * p1 * u + 2.0 * sy1 * u;
+    J[3] = 1.0 + radial + 2.0 * v * v * dradial + 2.0 * p2 * u + 6.0 * p1 * v + 2.0 * sy1 * v;
+    return;
+  }
+  // RAD_TAN_THIN_PRISM_FISHEYE: (k0, ..., k5, p0, p1, s0, s1, s2, s3)
+  const double p0 = k[6], p1 = k[7], s0 = k[8], s1 = k[9], s2 = k[10], s3 = k[11];
+  const double t2 = u * u + v * v;
+  double th = 0.0, dth = 0.0;  // th_radial - 1 and its derivative in t2, by Horner
+  for (int i = 5; i >= 0; --i) {
+    dth = dth * t2 + (i + 1) * k[i];
+    th = th * t2 + k[i];
+  }
+  th = 1.0 + th * t2;
+  const double a = th * u, b = th * v;  // the radially distorted point
+  // d(a, b) / d(u, v) = th I + 2 dth (u, v)^T (u, v)
+  const double A00 = th + 2.0 * dth * u * u, A01 = 2.0 * dth * u * v, A11 = th + 2.0 * dth * v * v;
+  const double r2 = a * a + b * b;
+  const double cx = s0 + 2.0 * s1 * r2, cy = s2 + 2.0 * s3 * r2;  // d(prism) / d r2
+  *x = a + 2.0 * p1 * a * b + p0 * (r2 + 2.0 * a * a) + r2 * (s0 + s1 * r2);
+  *y = b + 2.0 * p0 * a * b + p1 * (r2 + 2.0 * b * b) + r2 * (s2 + s3 * r2);
+  const double B00 = 1.0 + 2.0 * p1 * b + 6.0 * p0 * a + 2.0 * a * cx;
+  const double B01 = 2.0 * p1 * a + 2.0 * p0 * b + 2.0 * b * cx;
+  const double B10 = 2.0 * p0 * b + 2.0 * p1 * a + 2.0 * a * cy;
+  const double B11 = 1.0 + 2.0 * p0 * a + 6.0 * p1 * b + 2.0 * b * cy;
+  J[0] = B00 * A00 + B01 * A01;
+  J[1] = B00 * A01 + B01 * A11;
+  J[2] = B10 * A00 + B11 * A01;
+  J[3] = B10 * A01 + B11 * A11;
+}
+
+// The radial part of a thin-prism model, theta -> theta (1 + sum), and its derivative (the fold and the
+// fallback's start).
+inline void prism_radial(int kind, const double k[12], double t, double* h, double* dh) {
+  const double t2 = t * t;
+  double s = 0.0, ds = 0.0;
+  if (kind == 0) {
+    const double c[4] = {k[0], k[1], k[4], k[5]};
+    for (int i = 3; i >= 0; --i) {
+      s = s * t2 + c[i];
+      ds = ds * t2 + (2 * i + 3) * c[i];
+    }
+  } else {
+    for (int i = 5; i >= 0; --i) {
+      s = s * t2 + k[i];
+      ds = ds * t2 + (2 * i + 3) * k[i];
+    }
+  }
+  *h = t * (1.0 + s * t2);
+  *dh = 1.0 + ds * t2;
+}
+
+constexpr double kPrismPi = 3.141592653589793;
+
+bool prism_good(int kind, const double k[12], double u, double v, double x, double y, double th_max) {
+  if (!std::isfinite(u) || !std::isfinite(v)) return false;
+  double px, py, J[4];
+  prism_distort(kind, k, u, v, &px, &py, J);
+  const double t = std::hypot(u, v);
+  return t < th_max && J[0] * J[3] - J[1] * J[2] > 0.0 && std::hypot(px - x, py - y) <= 1e-9 * std::max(1.0, std::hypot(x, y));
+}
+
+}  // namespace
+
+void undistort_prism(const double* xd, const double* yd, int n, int kind, const double k[12], double tol, int max_iter, double* uu_out,
+                     double* vv_out, uint8_t* ok) {
+  const double th_max = first_fold(
+      [&](double t) {
+        double h, dh;
+        prism_radial(kind, k, t, &h, &dh);
+        return dh;
+      },
+      kPrismPi);
+  for (int i = 0; i < n; ++i) {
+    const double x = xd[i], y = yd[i];
+    double u = x, v = y;
+    bool done = false;
+    for (int it = 0; it < max_iter && !done; ++it) {
+      double px, py, J[4];
+      prism_distort(kind, k, u, v, &px, &py, J);
+      const double fu = px - x, fv = py - y;
+      const double det = J[0] * J[3] - J[1] * J[2];
+      const double du = (J[3] * fu - J[1] * fv) / det, dv = (J[0] * fv - J[2] * fu) / det;
+      u -= du;
+      v -= dv;
+      done = std::hypot(du, dv) <= tol * std::max(1.0, std::hypot(u, v));
+    }
+    bool good = done && prism_good(kind, k, u, v, x, y, th_max);
+    const double rd = std::hypot(x, y);
+    if (!good && rd > 0.0 && std::isfinite(rd)) {  // the fallback: the radial root, then damped Newton
+      const double t0 = bracketed_root([&](double t, double* h, double* dh) { prism_radial(kind, k, t, h, dh); }, rd, th_max, tol);
+      if (std::isfinite(t0)) {
+        double cu = x * (t0 / rd), cv = y * (t0 / rd), px, py, J[4];
+        prism_distort(kind, k, cu, cv, &px, &py, J);
+        double fu = px - x, fv = py - y, norm = std::hypot(fu, fv);
+        for (int it = 0; it < max_iter; ++it) {
+          const double det = J[0] * J[3] - J[1] * J[2];
+          const double du = (J[3] * fu - J[1] * fv) / det, dv = (J[0] * fv - J[2] * fu) / det;
+          if (!std::isfinite(du) || !std::isfinite(dv)) break;
+          double s = 1.0, nu = cu, nv = cv, nJ[4];
+          bool better = false;
+          for (int h = 0; h <= kDampedHalvings && !better; ++h, s *= 0.5) {
+            nu = cu - s * du;
+            nv = cv - s * dv;
+            prism_distort(kind, k, nu, nv, &px, &py, nJ);
+            better = std::hypot(px - x, py - y) < norm;
+          }
+          if (!better) break;
+          const double step = std::hypot(nu - cu, nv - cv);
+          cu = nu;
+          cv = nv;
+          fu = px - x;
+          fv = py - y;
+          norm = std::hypot(fu, fv);
+          for (int c = 0; c < 4; ++c) J[c] = nJ[c];
+          if (step <= tol * std::max(1.0, std::hypot(cu, cv))) break;
+        }
+        u = cu;
+        v = cv;
+        good = prism_good(kind, k, u, v, x, y, th_max);
+      }
+    }
+    uu_out[i] = u;
+    vv_out[i] = v;
+    ok[i] = good;
+  }
+}
+
 }  // namespace poseonly

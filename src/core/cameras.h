@@ -22,4 +22,14 @@ void undistort_brown(const double* xd, const double* yd, int n, const double k[8
 // to theta) and reproducing rd to 1e-9 (relative).
 void undistort_fisheye(const double* rd, int n, const double k[4], double tol, int max_iter, double* theta, uint8_t* ok);
 
+// COLMAP's thin-prism fisheye models, whose distortion acts on the equidistant coordinates (uu, vv) =
+// theta (x, y) / |(x, y)|: kind 0 THIN_PRISM_FISHEYE, k = (k1, k2, p1, p2, k3, k4, sx1, sy1, 0, 0, 0, 0);
+// kind 1 RAD_TAN_THIN_PRISM_FISHEYE (Aria's Fisheye624), k = (k0, ..., k5, p0, p1, s0, s1, s2, s3). For each
+// of the n distorted points (xd, yd): the equidistant (uu, vv) and ok = converged, finite, theta =
+// |(uu, vv)| before the radial part's first fold and below pi, the Jacobian's determinant > 0 at the root
+// and reproducing (xd, yd) to 1e-9 (relative). Newton's method from the distorted point with the analytic
+// Jacobian; where it fails, the radial part's bracketed root as the start of damped Newton (as Brown's).
+void undistort_prism(const double* xd, const double* yd, int n, int kind, const double k[12], double tol, int max_iter, double* uu,
+                     double* vv, uint8_t* ok);
+
 }  // namespace poseonly

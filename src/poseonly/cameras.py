@@ -3,28 +3,43 @@
 A :class:`Camera` holds a COLMAP camera model (the same names, parameter orders and distortion
 equations as COLMAP's ``src/colmap/sensor/models.h``) and lifts pixels ``(n, 2)`` to unit bearings
 ``(n, 3)`` (:meth:`Camera.unproject`) or projects camera-frame points ``(n, 3)`` to pixels
-(:meth:`Camera.project`). Supported natively (projection in numpy, undistortion in the compiled core):
+(:meth:`Camera.project`). Every perspective model of COLMAP 3.12 / 4 is supported natively (projection in
+numpy; iterative undistortion in the compiled core, closed forms in numpy):
 
-========================  ==========================================================
-``SIMPLE_PINHOLE``        ``f, cx, cy``
-``PINHOLE``               ``fx, fy, cx, cy``
-``SIMPLE_RADIAL``         ``f, cx, cy, k``
-``RADIAL``                ``f, cx, cy, k1, k2``
-``OPENCV``                ``fx, fy, cx, cy, k1, k2, p1, p2``
-``OPENCV_FISHEYE``        ``fx, fy, cx, cy, k1, k2, k3, k4`` (equidistant, ``theta_d(theta)``)
-``FULL_OPENCV``           ``fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6``
-========================  ==========================================================
+==============================  ==============================================================
+``SIMPLE_PINHOLE``              ``f, cx, cy``
+``PINHOLE``                     ``fx, fy, cx, cy``
+``SIMPLE_RADIAL``               ``f, cx, cy, k``
+``RADIAL``                      ``f, cx, cy, k1, k2``
+``OPENCV``                      ``fx, fy, cx, cy, k1, k2, p1, p2``
+``FULL_OPENCV``                 ``fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6``
+``OPENCV_FISHEYE``              ``fx, fy, cx, cy, k1, k2, k3, k4`` (equidistant, ``theta_d(theta)``)
+``SIMPLE_RADIAL_FISHEYE``       ``f, cx, cy, k`` (``OPENCV_FISHEYE`` with ``k1 = k``)
+``RADIAL_FISHEYE``              ``f, cx, cy, k1, k2``
+``SIMPLE_FISHEYE``, ``FISHEYE``   ``f, cx, cy`` / ``fx, fy, cx, cy`` (equidistant, no distortion)
+``THIN_PRISM_FISHEYE``          ``fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, sx1, sy1``
+``RAD_TAN_THIN_PRISM_FISHEYE``  ``fx, fy, cx, cy, k0 .. k5, p0, p1, s0 .. s3`` (Aria's Fisheye624)
+``FOV``                         ``fx, fy, cx, cy, omega`` (Devernay-Faugeras; closed form)
+``SIMPLE_DIVISION``, ``DIVISION`` ``f, cx, cy, k`` / ``fx, fy, cx, cy, k`` (Fitzgibbon; closed form)
+``EUCM``                        ``fx, fy, cx, cy, alpha, beta`` (closed form)
+==============================  ==============================================================
 
-Undistortion is Newton's method per point with the analytic Jacobian (2-D for the Brown-Conrady
-models, 1-D in ``theta`` for the fisheye), started at the distorted point and stopped when its step is
-below :data:`NEWTON_TOL` (relative), in the core with the GIL released (``src/core/cameras.cpp``; the
-numpy version it replaced, the same roots bit for bit, is ``tests/reference/cameras.py``). Where it
-fails (on strong distortion it can oscillate, or land past the radial map's first fold: a SLAM user's
-trial found in-image pixels of a fisheye and of a rational camera refused), a fallback takes over: the
-root of the increasing radial map on its first branch (a bracketed Newton / bisection; for the fisheye
-it is the root), then, for Brown-Conrady, Newton steps halved until the residual decreases. Points
-with no root on the physical branch (outside the region where the distortion is invertible) raise
-:class:`ValueError` naming how many and the first index.
+COLMAP's spherical ``EQUIRECTANGULAR`` model is not supported (it has no focal length for the
+pixel threshold). Where COLMAP's own unprojection is limited to the forward hemisphere (its
+normalized plane), the fisheye, division and EUCM models here return the rays their image covers
+beyond 90 deg as well (COLMAP's ``CamRayFromImg`` does the same for the fisheye models).
+
+Undistortion is Newton's method per point with the analytic Jacobian (2-D for the Brown-Conrady and
+thin-prism models, 1-D in ``theta`` for the fisheye polynomial), started at the distorted point and
+stopped when its step is below :data:`NEWTON_TOL` (relative), in the core with the GIL released
+(``src/core/cameras.cpp``; the numpy version it replaced, the same roots bit for bit, is
+``tests/reference/cameras.py``). Where it fails (on strong distortion it can oscillate, or land past
+the radial map's first fold: a SLAM user's trial found in-image pixels of a fisheye and of a rational
+camera refused), a fallback takes over: the root of the increasing radial map on its first branch (a
+bracketed Newton / bisection; for the fisheye polynomial it is the root), then, for the 2-D models,
+Newton steps halved until the residual decreases. Points with no root on the physical branch
+(outside the region where the distortion is invertible, or outside the image disc of a closed-form
+model) raise :class:`ValueError` naming how many and the first index.
 
 Pixel convention: a camera maps pixels in the convention of its parameters, which
 :func:`poseonly.estimate_relative_pose` assumes its pixels share. COLMAP's parameters (``cameras.txt``, a
@@ -36,8 +51,11 @@ adds :data:`OPENCV_TO_COLMAP_PX` first, and the COLMAP model it writes holds the
 
 :func:`as_camera` accepts a :class:`Camera`, a ``pycolmap.Camera`` (duck-typed: ``model_name``,
 ``width``, ``height``, ``params``; pycolmap is not imported), a PoseLib/COLMAP-style dict
-``{"model", "width", "height", "params"}``, a dict ``{"K", "dist"}`` or a tuple ``(K, dist)`` with
-OpenCV distortion coefficients ``(k1, k2, p1, p2[, k3[, k4, k5, k6]])``.
+``{"model", "width", "height", "params"}``, a dict ``{"K", "dist"[, "fisheye"]}`` or a tuple ``(K, dist)``
+with OpenCV distortion coefficients ``(k1, k2, p1, p2[, k3[, k4, k5, k6]])``. Four coefficients are
+``cv2.undistortPoints``' ``(k1, k2, p1, p2)``; ``cv2.fisheye``'s ``(k1, k2, k3, k4)`` need the flag:
+``(K, dist, True)`` or ``{"K": K, "dist": dist, "fisheye": True}`` (read as ``(k1, k2, p1, p2)``, a
+fisheye's coefficients give wrong poses: a user's trial, 6-10 deg off with status ``ok``).
 """
 
 from __future__ import annotations
@@ -65,7 +83,22 @@ MODELS: dict[str, tuple[str, ...]] = {
     "OPENCV": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2"),
     "OPENCV_FISHEYE": ("fx", "fy", "cx", "cy", "k1", "k2", "k3", "k4"),
     "FULL_OPENCV": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"),
+    "FOV": ("fx", "fy", "cx", "cy", "omega"),
+    "SIMPLE_RADIAL_FISHEYE": ("f", "cx", "cy", "k"),
+    "RADIAL_FISHEYE": ("f", "cx", "cy", "k1", "k2"),
+    "THIN_PRISM_FISHEYE": ("fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3", "k4", "sx1", "sy1"),
+    "RAD_TAN_THIN_PRISM_FISHEYE": ("fx", "fy", "cx", "cy", "k0", "k1", "k2", "k3", "k4", "k5", "p0", "p1", "s0", "s1", "s2", "s3"),
+    "SIMPLE_DIVISION": ("f", "cx", "cy", "k"),
+    "DIVISION": ("fx", "fy", "cx", "cy", "k"),
+    "SIMPLE_FISHEYE": ("f", "cx", "cy"),
+    "FISHEYE": ("fx", "fy", "cx", "cy"),
+    "EUCM": ("fx", "fy", "cx", "cy", "alpha", "beta"),
 }
+# the families (how a model maps pixels to bearings)
+_BROWN = frozenset({"SIMPLE_PINHOLE", "PINHOLE", "SIMPLE_RADIAL", "RADIAL", "OPENCV", "FULL_OPENCV"})
+_FISHEYE_POLY = frozenset({"OPENCV_FISHEYE", "SIMPLE_RADIAL_FISHEYE", "RADIAL_FISHEYE", "SIMPLE_FISHEYE", "FISHEYE"})
+_PRISM_KIND = {"THIN_PRISM_FISHEYE": 0, "RAD_TAN_THIN_PRISM_FISHEYE": 1}  # the core's undistort_prism kinds
+_DIVISION = frozenset({"SIMPLE_DIVISION", "DIVISION"})
 NEWTON_TOL = 1e-12  # relative step size at which Newton's undistortion stops
 # added to OpenCV pixels (integer values at pixel centres) to get COLMAP's (centres at + 0.5)
 OPENCV_TO_COLMAP_PX = 0.5
@@ -85,6 +118,34 @@ def _brown_params(model: str, p: np.ndarray) -> tuple[float, ...]:
     if model == "FULL_OPENCV":
         return tuple(float(v) for v in p[4:12])
     return (z,) * 8
+
+
+def _fisheye_params(model: str, p: tuple[float, ...]) -> tuple[float, float, float, float]:
+    """``(k1, k2, k3, k4)`` of ``theta_d = theta (1 + k1 theta^2 + ... + k4 theta^8)`` for the
+    equidistant fisheye family (zeros where absent)."""
+    if model == "OPENCV_FISHEYE":
+        return (p[4], p[5], p[6], p[7])
+    if model == "SIMPLE_RADIAL_FISHEYE":
+        return (p[3], 0.0, 0.0, 0.0)
+    if model == "RADIAL_FISHEYE":
+        return (p[3], p[4], 0.0, 0.0)
+    return (0.0, 0.0, 0.0, 0.0)  # SIMPLE_FISHEYE, FISHEYE: equidistant
+
+
+def _prism_params(model: str, p: tuple[float, ...]) -> np.ndarray:
+    """The 12 coefficients of the core's ``undistort_prism`` (``THIN_PRISM_FISHEYE``'s 8 padded)."""
+    k = np.zeros(12)
+    extra = p[4:]
+    k[: len(extra)] = extra
+    return k
+
+
+def _fisheye_bearings(uu: np.ndarray, vv: np.ndarray) -> np.ndarray:
+    """Equidistant coordinates (``theta = |(uu, vv)|`` off the axis) -> bearings ``(n, 3)`` (unnormalised)."""
+    theta = np.hypot(uu, vv)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(theta > _FISHEYE_EPS, np.sin(theta) / theta, 1.0)
+    return np.column_stack([uu * s, vv * s, np.cos(theta)])
 
 
 @dataclass(frozen=True)
@@ -119,6 +180,8 @@ class Camera:
             raise InputError(f"camera focal length must be > 0, got {self.focal_xy}")
         if self.width < 0 or self.height < 0:
             raise InputError(f"camera width/height must be >= 0, got {self.width}x{self.height}")
+        if self.model == "EUCM" and not (0.0 <= self.params[4] <= 1.0 and self.params[5] > 0.0):
+            raise InputError(f"EUCM camera needs 0 <= alpha <= 1 and beta > 0 (COLMAP's check), got alpha {self.params[4]}, beta {self.params[5]}")
 
     # -- parameters ------------------------------------------------------------------------------
 
@@ -146,8 +209,14 @@ class Camera:
 
     @property
     def is_undistorted(self) -> bool:
-        """True when the distortion parameters are all zero (a pinhole camera)."""
+        """True when the camera is a pinhole camera: a perspective model whose distortion parameters are
+        all zero (an EUCM with ``alpha = 0``). The fisheye models are never (equidistant at zero
+        distortion: straight lines bend)."""
+        if self.model in _FISHEYE_POLY or self.model in _PRISM_KIND:
+            return False
         n_base = 3 if MODELS[self.model][0] == "f" else 4  # focal(s) and principal point
+        if self.model == "EUCM":
+            return self.params[4] == 0.0
         return not any(self.params[n_base:])
 
     def to_dict(self) -> dict[str, Any]:
@@ -176,7 +245,7 @@ class Camera:
 
     def _fisheye_poly(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``theta_d(theta) = theta (1 + k1 t^2 + k2 t^4 + k3 t^6 + k4 t^8)`` and its derivative."""
-        k1, k2, k3, k4 = (float(c) for c in self.params[4:8])
+        k1, k2, k3, k4 = _fisheye_params(self.model, self.params)
         t2 = theta * theta
         poly = 1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4)))
         dpoly = 1.0 + t2 * (3.0 * k1 + t2 * (5.0 * k2 + t2 * (7.0 * k3 + t2 * 9.0 * k4)))
@@ -196,14 +265,29 @@ class Camera:
         (fx, fy), (cx, cy) = self.focal_xy, self.principal_point
         xd = (uv[:, 0] - cx) / fx
         yd = (uv[:, 1] - cy) / fy
-        if self.model == "OPENCV_FISHEYE":
+        if self.model in _FISHEYE_POLY:
             rd = np.hypot(xd, yd)
-            k = np.array([float(c) for c in self.params[4:8]], dtype=np.float64)
+            k = np.array(_fisheye_params(self.model, self.params), dtype=np.float64)
             theta, ok8 = _core.undistort_fisheye(np.ascontiguousarray(rd), k, NEWTON_TOL, NEWTON_MAX_ITER)  # Newton, GIL released
             ok = ok8.astype(bool)
             with np.errstate(divide="ignore", invalid="ignore"):
                 s = np.where(rd > _FISHEYE_EPS, np.sin(theta) / rd, 1.0)
             b = np.column_stack([xd * s, yd * s, np.cos(theta)])
+        elif self.model in _PRISM_KIND:
+            uu, vv, ok8 = _core.undistort_prism(
+                np.ascontiguousarray(xd), np.ascontiguousarray(yd), _PRISM_KIND[self.model], _prism_params(self.model, self.params), NEWTON_TOL, NEWTON_MAX_ITER
+            )
+            ok = ok8.astype(bool)
+            b = _fisheye_bearings(uu, vv)
+        elif self.model == "FOV":
+            b, ok = _fov_unproject(xd, yd, self.params[4])
+        elif self.model in _DIVISION:
+            kd = self.params[-1]  # Fitzgibbon: the ray (x, y, 1 + k r^2); past its fold (k r^2 = 1) a ray maps twice
+            r2 = xd * xd + yd * yd
+            ok = kd * r2 < 1.0 if kd > 0 else np.ones(len(xd), bool)
+            b = np.column_stack([xd, yd, 1.0 + kd * r2])
+        elif self.model == "EUCM":
+            b, ok = _eucm_unproject(xd, yd, self.params[4], self.params[5])
         else:
             if self.is_undistorted:
                 u, v = xd, yd
@@ -218,23 +302,116 @@ class Camera:
 
     def project(self, X: np.ndarray) -> np.ndarray:
         """Camera-frame points or bearings ``(n, 3)`` -> pixels ``(n, 2)``. Points with ``z <= 0`` give
-        NaN for the perspective models; the fisheye model maps any direction off the ``-z`` axis (NaN on it)."""
+        NaN for the perspective models (the FOV model too); the fisheye models map any direction off the
+        ``-z`` axis (NaN on it); the division and EUCM models map the directions their image covers (NaN
+        elsewhere)."""
         X = _check_points(X, 3, "X")
         (fx, fy), (cx, cy) = self.focal_xy, self.principal_point
-        if self.model == "OPENCV_FISHEYE":
+        if self.model in _FISHEYE_POLY or self.model in _PRISM_KIND:
             r = np.hypot(X[:, 0], X[:, 1])
             theta = np.arctan2(r, X[:, 2])
-            g, _ = self._fisheye_poly(theta)
+            # theta_d / r: the poly family's distorted radius, or the equidistant one for the thin-prism models
+            g = self._fisheye_poly(theta)[0] if self.model in _FISHEYE_POLY else theta
             with np.errstate(divide="ignore", invalid="ignore"):
                 s = np.where(r > _FISHEYE_EPS * np.abs(X[:, 2]), g / r, 1.0 / X[:, 2])
             s = np.where((r <= _FISHEYE_EPS * np.abs(X[:, 2])) & (X[:, 2] < 0), np.nan, s)  # the -z axis has no image
             with np.errstate(invalid="ignore"):
                 xd, yd = X[:, 0] * s, X[:, 1] * s
+            if self.model in _PRISM_KIND:
+                xd, yd = _prism_distort(_PRISM_KIND[self.model], _prism_params(self.model, self.params), xd, yd)
+        elif self.model == "FOV":
+            xd, yd = _fov_project(X, self.params[4])
+        elif self.model in _DIVISION:
+            xd, yd = _division_project(X, self.params[-1])
+        elif self.model == "EUCM":
+            xd, yd = _eucm_project(X, self.params[4], self.params[5])
         else:
             with np.errstate(divide="ignore", invalid="ignore"):
                 z = np.where(X[:, 2] > 0, X[:, 2], np.nan)
             xd, yd = self._distort_brown(X[:, 0] / z, X[:, 1] / z)
         return np.column_stack([fx * xd + cx, fy * yd + cy])
+
+
+def _prism_distort(kind: int, k: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """COLMAP's thin-prism distortions of equidistant coordinates ``(u, v)`` (the core's
+    ``prism_distort``, without the Jacobian): kind 0 ``THIN_PRISM_FISHEYE``, 1 ``RAD_TAN_THIN_PRISM_FISHEYE``."""
+    if kind == 0:
+        k1, k2, p1, p2, k3, k4, sx1, sy1 = k[:8]
+        r2 = u * u + v * v
+        radial = r2 * (k1 + r2 * (k2 + r2 * (k3 + r2 * k4)))
+        return (
+            u + u * radial + 2.0 * p1 * u * v + p2 * (r2 + 2.0 * u * u) + sx1 * r2,
+            v + v * radial + 2.0 * p2 * u * v + p1 * (r2 + 2.0 * v * v) + sy1 * r2,
+        )
+    p0, p1, s0, s1, s2, s3 = k[6:]
+    t2 = u * u + v * v
+    th = np.zeros_like(t2)
+    for c in k[5::-1]:
+        th = th * t2 + c
+    th = 1.0 + th * t2
+    a, b = th * u, th * v
+    r2 = a * a + b * b
+    return a + 2.0 * p1 * a * b + p0 * (r2 + 2.0 * a * a) + r2 * (s0 + s1 * r2), b + 2.0 * p0 * a * b + p1 * (r2 + 2.0 * b * b) + r2 * (s2 + s3 * r2)
+
+
+def _fov_unproject(xd: np.ndarray, yd: np.ndarray, omega: float) -> tuple[np.ndarray, np.ndarray]:
+    """FOV (Devernay-Faugeras): the ray at ``atan(tan(r_d omega) / (2 tan(omega / 2)))`` off the axis,
+    as the unnormalised ``(x sin(r_d w) / r_d, y sin(r_d w) / r_d, 2 tan(w / 2) cos(r_d w))`` with
+    ``w = |omega|`` (no division by a tangent near 90 deg); the image covers ``r_d w < pi / 2``."""
+    w = abs(omega)
+    if w == 0.0:
+        return np.column_stack([xd, yd, np.ones_like(xd)]), np.ones(len(xd), bool)
+    rd = np.hypot(xd, yd)
+    ang = rd * w
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(rd > _FISHEYE_EPS, np.sin(ang) / rd, w)
+    return np.column_stack([xd * s, yd * s, 2.0 * np.tan(0.5 * w) * np.cos(ang)]), ang < 0.5 * np.pi
+
+
+def _fov_project(X: np.ndarray, omega: float) -> tuple[np.ndarray, np.ndarray]:
+    """FOV: ``r_d = atan(2 r tan(omega / 2)) / omega`` of the normalised radius ``r`` (``z > 0``)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(X[:, 2] > 0, X[:, 2], np.nan)
+        w = abs(omega)
+        if w == 0.0:
+            return X[:, 0] / z, X[:, 1] / z
+        t2 = 2.0 * np.tan(0.5 * w)
+        rho = np.hypot(X[:, 0], X[:, 1])
+        f = np.where(rho > _FISHEYE_EPS * z, np.arctan2(rho * t2, z) / (rho * w), t2 / (z * w))
+        return X[:, 0] * f, X[:, 1] * f
+
+
+def _division_project(X: np.ndarray, k: float) -> tuple[np.ndarray, np.ndarray]:
+    """Division model: the point ``r (x, y)`` with ``r = 2 / (z + sqrt(z^2 - 4 k rho^2))`` (the root on
+    the first branch; NaN where the image does not reach the direction)."""
+    rho2 = X[:, 0] ** 2 + X[:, 1] ** 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        den = X[:, 2] + np.sqrt(X[:, 2] ** 2 - 4.0 * k * rho2)
+        r = np.where(den > 0, 2.0 / den, np.nan)
+    return X[:, 0] * r, X[:, 1] * r
+
+
+def _eucm_unproject(xd: np.ndarray, yd: np.ndarray, alpha: float, beta: float) -> tuple[np.ndarray, np.ndarray]:
+    """EUCM (Khomutenko et al. 2016): the ray ``(x, y, (1 - alpha^2 beta r^2) / (alpha sqrt(1 - (2 alpha -
+    1) beta r^2) + 1 - alpha))``; its image is the disc where the square root is real."""
+    r2 = xd * xd + yd * yd
+    rad = 1.0 - (2.0 * alpha - 1.0) * beta * r2
+    with np.errstate(invalid="ignore", divide="ignore"):
+        den = alpha * np.sqrt(rad) + (1.0 - alpha)
+        mz = (1.0 - alpha * alpha * beta * r2) / den
+    return np.column_stack([xd, yd, mz]), (rad >= 0) & (den > 0)
+
+
+def _eucm_project(X: np.ndarray, alpha: float, beta: float) -> tuple[np.ndarray, np.ndarray]:
+    """EUCM: ``(x, y) / (alpha d + (1 - alpha) z)``, ``d = sqrt(beta (x^2 + y^2) + z^2)``, for the
+    directions the model images (``z > -w d``, ``w = alpha / (1 - alpha)`` up to ``alpha = 1/2``, then
+    ``(1 - alpha) / alpha``)."""
+    d = np.sqrt(beta * (X[:, 0] ** 2 + X[:, 1] ** 2) + X[:, 2] ** 2)
+    w = alpha / (1.0 - alpha) if alpha <= 0.5 else (1.0 - alpha) / alpha
+    den = alpha * d + (1.0 - alpha) * X[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where((X[:, 2] > -w * d) & (den > 0), 1.0 / den, np.nan)
+    return X[:, 0] * s, X[:, 1] * s
 
 
 def _whole_pixels(v: Any, side: str) -> int:
@@ -339,10 +516,14 @@ def as_camera(spec: Any, name: str = "camera") -> Camera:
         except (TypeError, ValueError):
             raise InputError(f"{name}: camera params must be numeric") from None
         return Camera(model.upper(), spec.get("width", 0), spec.get("height", 0), params)
-    if isinstance(spec, tuple) and len(spec) == 2:
-        return from_opencv(spec[0], spec[1])
+    if isinstance(spec, tuple) and len(spec) in (2, 3):
+        fisheye = spec[2] if len(spec) == 3 else False
+        if not isinstance(fisheye, (bool, np.bool_)):
+            raise InputError(f"{name}: the third item of a (K, dist, fisheye) tuple must be True or False, got {fisheye!r}")
+        return from_opencv(spec[0], spec[1], fisheye=bool(fisheye))
     raise InputError(
-        f"{name} must be a poseonly Camera, a pycolmap.Camera, a dict {{model, width, height, params}}, a dict {{K, dist}} or a tuple (K, dist); got {type(spec).__name__}"
+        f"{name} must be a poseonly Camera, a pycolmap.Camera, a dict {{model, width, height, params}}, a dict {{K, dist}} or a tuple (K, dist) /"
+        f" (K, dist, fisheye); got {type(spec).__name__}"
     )
 
 

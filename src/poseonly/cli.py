@@ -340,7 +340,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--pp", type=float, nargs=2, metavar=("CX", "CY"), help="principal point in pixels (with --focal; default: the image centre)")
     r.add_argument(
         "--camera-model",
-        help="instead of a K: the camera model of the images, a COLMAP name (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE, FULL_OPENCV)",
+        help="instead of a K: the camera model of the images, a COLMAP name (any perspective model, e.g. PINHOLE, OPENCV, OPENCV_FISHEYE, FOV, EUCM; poseonly.cameras.MODELS)",
     )
     r.add_argument(
         "--camera-params",

@@ -390,7 +390,7 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--K", help="text file with the 3x3 calibration matrix of the (undistorted) images")
     s.add_argument(
         "--camera-model",
-        help="instead of --K: the images' camera model, a COLMAP name (SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, OPENCV_FISHEYE, FULL_OPENCV)",
+        help="instead of --K: the images' camera model, a COLMAP name (any perspective model, e.g. PINHOLE, OPENCV, OPENCV_FISHEYE, FOV, EUCM; poseonly.cameras.MODELS)",
     )
     s.add_argument(
         "--camera-params",

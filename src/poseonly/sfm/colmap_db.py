@@ -1,9 +1,10 @@
 """A view graph from a COLMAP database (``poseonly sfm --database colmap.db``; needs pycolmap).
 
-Read: cameras (any COLMAP model; keypoints are undistorted to normalized coordinates by
-``Camera.cam_from_img``), images (sorted by name; view ``k`` is the ``k``-th name), keypoints and
+Read: cameras (every perspective COLMAP model; keypoints are lifted to unit bearings by
+:meth:`poseonly.cameras.Camera.unproject`, which also gives a fisheye's rays beyond 90 deg: pycolmap's
+``cam_from_img`` returns normalized coordinates, which mirror them), images (sorted by name; view ``k`` is the ``k``-th name), keypoints and
 the putative ``matches`` table. Every pair with at least ``min_matches`` matches is estimated by
-:func:`poseonly.estimate_relative_pose` on the normalized coordinates (threshold in pixels at the
+:func:`poseonly.estimate_relative_pose` on the bearings (threshold in pixels at the
 focal of the two cameras, :func:`poseonly.geometry.pair_focal`); COLMAP's own two-view geometries are not used. The exported
 COLMAP model keeps the database's camera models and parameters.
 """
@@ -18,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .._pycolmap import import_pycolmap
+from ..cameras import as_camera
 from ..features import Features, match_noise_scales
 from ..geometry import InputError, pair_focal
 from ..io.colmap_db import database_unavailable, guessed_focal, keypoint_scales, matched_pair_ids, refuse_guessed_focal
@@ -80,10 +82,14 @@ def database_view_graph(
             raw = raw.reshape(len(raw), -1) if raw.size else np.zeros((0, 2))
             kp = raw[:, :2]
             feats.append(Features(kp, np.zeros((len(kp), 0), np.float32), (int(cam.width), int(cam.height)), keypoint_scales(raw)))
-            normalized.append(np.asarray(cam.cam_from_img(kp), dtype=np.float64).reshape(-1, 2) if len(kp) else np.zeros((0, 2)))
-            K = np.asarray(cam.calibration_matrix(), dtype=np.float64)
-            Ks.append(K)
-            focal.append(0.5 * (K[0, 0] + K[1, 1]))
+            native = as_camera(cam, f"{p}: camera {im.camera_id}")
+            lifted = np.full((len(kp), 3), np.nan)
+            finite = np.isfinite(kp).all(axis=1)  # a NaN keypoint leaves only its own matches out
+            if finite.any():
+                lifted[finite] = native.unproject(kp[finite], invalid="nan")
+            normalized.append(lifted)
+            Ks.append(native.K)
+            focal.append(native.focal_px)
         pair_ids, matches = db.read_all_matches()
     times = {"features": time.perf_counter() - t0, "matching": 0.0}
     pairs = []
@@ -103,7 +109,7 @@ def database_view_graph(
     stats: list[tuple[int, int, int, int, str]] = []
     putative: dict[tuple[int, int], np.ndarray] = {}
     cache = Path(cache_dir) if cache_dir is not None else None
-    # keypoints the camera model cannot undistort (pycolmap gives NaN beyond the invertible region)
+    # keypoints the camera model cannot lift (NaN beyond the invertible region or the image disc)
     valid: list[np.ndarray | None] = [None if np.isfinite(x).all() else np.asarray(np.isfinite(x).all(axis=1)) for x in normalized]
     t0 = time.perf_counter()
 
