@@ -66,7 +66,13 @@ def test_sfm_colmap_model_reads_back_and_matches_ground_truth(sfm_run):
     rec = pycolmap.Reconstruction(str(out / "sparse" / "0"))
     assert rec.num_reg_images() == N_IMAGES
     assert rec.num_points3D() > 100
-    assert _reprojection_error(rec) < 2.0
+    stored = np.mean([p.error for p in rec.points3D.values()])
+    assert 0 < stored < 2.0 and abs(stored - _reprojection_error(rec)) < 1e-6  # the stored errors are the points' errors
+    # COLMAP's pixel convention (centres at +0.5): the K given in OpenCV's, the principal point shifted
+    # (a user's trial: the --K model kept OpenCV's, 0.5 px off for COLMAP's tools that read the images)
+    K = np.loadtxt(SCENE / "images" / "K.txt")
+    (cam,) = rec.cameras.values()
+    np.testing.assert_allclose(cam.params, [K[0, 0], K[1, 1], K[0, 2] + 0.5, K[1, 2] + 0.5])
     ev = _camera_errors(rec, load_scene(SCENE))
     assert ev["rot_mean_deg_rotalign"] < 0.1
     assert ev["pos_mean_frac"] < 0.01
@@ -98,6 +104,9 @@ def test_sfm_command_bad_input(tmp_path, capsys):
     (tmp_path / "K.txt").write_text("800 0 320\n0 800 240\n0 0 1\n")
     assert main(["sfm", str(img), "--K", str(tmp_path / "K.txt"), "--out", str(tmp_path / "o"), "--max-images", "2"]) == 2
     assert "gives 2 images (--max-images 2 of 4)" in capsys.readouterr().err
+    # the image folder as --out: its reconstruction.png would be an image of the next run (a user's trial)
+    assert main(["sfm", str(img), "--K", str(tmp_path / "K.txt"), "--out", str(img / ".." / "imgs")]) == 2
+    assert "is the image folder" in capsys.readouterr().err
     # the database's matches decide its pairs: --pairs / --sequential are refused there, not ignored
     assert main(["sfm", str(img), "--database", str(tmp_path / "x.db"), "--out", str(tmp_path / "o"), "--sequential", "1"]) == 2
     assert "with --database" in capsys.readouterr().err
@@ -128,7 +137,13 @@ def test_sfm_command_from_colmap_database(tmp_path):
     rec = pycolmap.Reconstruction(str(out / "sparse" / "0"))
     assert rec.num_reg_images() == N_IMAGES
     assert rec.num_points3D() > 100
-    assert _reprojection_error(rec) < 2.0
+    stored = np.mean([p.error for p in rec.points3D.values()])
+    assert 0 < stored < 2.0 and abs(stored - _reprojection_error(rec)) < 1e-6  # the stored errors are the points' errors
+    # COLMAP's pixel convention (centres at +0.5): the K given in OpenCV's, the principal point shifted
+    # (a user's trial: the --K model kept OpenCV's, 0.5 px off for COLMAP's tools that read the images)
+    K = np.loadtxt(SCENE / "images" / "K.txt")
+    (cam,) = rec.cameras.values()
+    np.testing.assert_allclose(cam.params, [K[0, 0], K[1, 1], K[0, 2] + 0.5, K[1, 2] + 0.5])
 
 
 DISTORTION = (-0.05, 0.01)  # OPENCV k1, k2 of the warped images: ~20 px at the corners

@@ -337,4 +337,9 @@ def run_cli(args: argparse.Namespace) -> int:
         print(f"  {cfg}: {k}")
     if s.errors:
         print(f"  {len(s.errors)} pairs with invalid input (UNDEFINED), e.g. pair {next(iter(s.errors))}: {next(iter(s.errors.values()))}")
+    if camera is not None and s.written:  # a user's trial: COLMAP's mapper then started from the guessed focal
+        print(
+            "  note: --camera-model / --camera-params calibrated the estimation only; the database's cameras table is unchanged,"
+            " and COLMAP's mappers read their calibration from it (update it too, e.g. pycolmap.Database.update_camera)"
+        )
     return 0

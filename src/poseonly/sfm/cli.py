@@ -109,6 +109,8 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {out}: is a file; give a folder")
+    if out.resolve() == d.resolve():  # a user's trial: the next run read reconstruction.png as an image
+        raise InputError(f"--out {out} is the image folder: the outputs (reconstruction.png among them) would become images of the next run; give another folder")
     if args.database and args.K:
         raise InputError("give --K or --database (which holds the cameras), not both")
     t0 = time.perf_counter()
@@ -155,8 +157,11 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         resident = {} if args.resident_images is None else {"resident_images": args.resident_images}
         ig = image_view_graph(images, options=opt, cache_dir=cache, pairs=pairs, progress=prog, jobs=args.jobs, **lens, **resident)
         K = ig.K[0]
+    out_pairs = {(i, j) for i, j, _ in ig.graph.rejected}
+    rejected = Counter(st for i, j, _, _, st in ig.pair_stats if (i, j) in out_pairs)
+    why = f": {', '.join(f'{k} {v}' for k, v in sorted(rejected.items()))}" if rejected else ""
     print(
-        f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected "
+        f"pairs: {len(ig.graph)} edges kept, {len(ig.graph.rejected)} rejected{why} "
         f"(features {ig.times_s['features']:.1f} s, matching {ig.times_s['matching']:.1f} s, two-view {ig.times_s['two_view']:.1f} s)"
     )
     if len(ig.graph) == 0:

@@ -119,6 +119,7 @@ def build_colmap_reconstruction(
         for v, kp in zip(tracks.views[s][keep].tolist(), tracks.keypoints[s][keep].tolist()):
             track.add_element(v + 1, kp)
         rec.add_point3D(np.asarray(points[t], dtype=np.float64), track, col[t])
+    rec.update_point_3d_errors()  # each point's mean reprojection error (else stored as -1: a user's trial)
     return rec
 
 

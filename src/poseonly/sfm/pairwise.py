@@ -169,7 +169,8 @@ class ImageGraph:
     camera model, ``(m_k, 2)`` undistorted normalized coordinates or ``(m_k, 3)`` unit bearings (NaN
     rows where the model cannot undistort), ``None`` for pinhole ``K``; ``cameras``: per image, the
     COLMAP camera ``{"model", "width", "height", "params"}`` the keypoints were lifted through (the
-    exported COLMAP model's), ``None`` for pinhole ``K``; ``keypoint_offset``: what to add to the
+    exported COLMAP model's; from images with ``K`` a PINHOLE camera in COLMAP's pixel convention),
+    ``None`` where ``K`` holds the calibration in the keypoints' convention; ``keypoint_offset``: what to add to the
     features' keypoints to get the cameras' pixel convention (:data:`poseonly.cameras.OPENCV_TO_COLMAP_PX`
     for our OpenCV keypoints with COLMAP cameras, 0 otherwise)."""
 
@@ -552,7 +553,14 @@ def image_view_graph(
     times["two_view"] = te
     feats = [pool.base(i) for i in range(n)]
     if cams is None:
-        return ImageGraph(feats, Ks, graph, stats, times, putative, peak_resident_images=pool.peak_resident)
+        # the written COLMAP model in COLMAP's pixel convention, as with a camera model (a user's trial: with
+        # --K it kept OpenCV's, so COLMAP's tools that read the images saw a principal point 0.5 px off)
+        shift = OPENCV_TO_COLMAP_PX
+        pinholes = [
+            {"model": "PINHOLE", "width": int(f.image_size[0]), "height": int(f.image_size[1]), "params": [K[0, 0], K[1, 1], K[0, 2] + shift, K[1, 2] + shift]}
+            for K, f in zip(Ks, feats)
+        ]
+        return ImageGraph(feats, Ks, graph, stats, times, putative, None, pool.peak_resident, pinholes, OPENCV_TO_COLMAP_PX)
     normalized = [lift(i) for i in range(n)]
     cam_dicts = [{**c.to_dict(), "width": int(f.image_size[0]), "height": int(f.image_size[1])} for c, f in zip(cams, feats)]
     return ImageGraph(feats, Ks, graph, stats, times, putative, normalized, pool.peak_resident, cam_dicts, OPENCV_TO_COLMAP_PX)
