@@ -466,3 +466,53 @@ def test_opencv_fisheye_tuple_needs_its_flag():
     assert as_camera((K, d, True)) == as_camera({"K": K, "dist": d, "fisheye": True}) == from_opencv(K, d, fisheye=True)
     with pytest.raises(ValueError, match="third item of a"):
         as_camera((K, d, "fisheye"))
+
+
+def _random_params(model, rng):
+    p = []
+    for nm in MODELS[model]:
+        if nm in ("f", "fx", "fy"):
+            p.append(rng.uniform(200, 1500))
+        elif nm in ("cx", "cy"):
+            p.append(rng.uniform(200, 800))
+        elif nm == "omega":
+            p.append(rng.uniform(0.0, 2.0))
+        elif nm == "alpha":
+            p.append(rng.uniform(0, 1))
+        elif nm == "beta":
+            p.append(rng.uniform(0.2, 3))
+        elif nm == "k" and model in ("SIMPLE_DIVISION", "DIVISION"):
+            p.append(rng.normal(0, 0.3))
+        elif nm.startswith("k"):
+            p.append(rng.normal(0, 0.1))
+        else:
+            p.append(rng.normal(0, 0.003))
+    return tuple(p)
+
+
+@pytest.mark.parametrize("model", sorted(MODELS))
+def test_random_lenses_map_pixels_and_directions_consistently(model):
+    """A fuzz of random lenses of every model: a pixel that lifts projects back onto itself, and a
+    direction that projects lifts back onto itself (before, a direction past a Brown or fisheye map's
+    first fold came back folded into the image, onto a pixel whose ray is another direction)."""
+    rng = np.random.default_rng(11)
+    for _ in range(25):
+        cam = Camera(model, 1000, 1000, _random_params(model, rng))
+        uv = rng.uniform(-200, 1200, (200, 2))
+        b = cam.unproject(uv, invalid="nan")
+        ok = np.isfinite(b).all(axis=1)
+        if ok.any():
+            assert np.abs(cam.project(b[ok]) - uv[ok]).max() < 1e-6
+        d = rng.normal(size=(200, 3))
+        d /= np.linalg.norm(d, axis=1)[:, None]
+        px = cam.project(d)
+        fin = np.isfinite(px).all(axis=1)
+        if fin.any():
+            back = cam.unproject(px[fin], invalid="nan")
+            assert np.isfinite(back).all() and np.abs(back - d[fin]).max() < 1e-6
+
+
+def test_directions_past_the_fold_have_no_pixel():
+    cam = Camera("OPENCV", 0, 0, (500.0, 500.0, 0.0, 0.0, -0.3, 0.0, 0.0, 0.0))  # the radial map folds at r = 1.054
+    px = cam.project(np.array([[1.0, 0.0, 1.0], [1.2, 0.0, 1.0]]))
+    assert np.isfinite(px[0]).all() and np.isnan(px[1]).all()

@@ -50,6 +50,13 @@ def test_sfm_command_writes_outputs(sfm_run):
     n_vertex = int(head.split("element vertex ")[1].split()[0])
     assert n_vertex > 100 + N_IMAGES
     assert (out / "poses.json").is_file()
+    import json
+
+    poses = json.loads((out / "poses.json").read_text())
+    pairs = poses["pairs"]  # every matched pair's outcome (a pipeline trial: the rejected pairs' statuses were nowhere)
+    assert len(pairs) == N_IMAGES * (N_IMAGES - 1) // 2 and any(p["edge"] for p in pairs)
+    for p in pairs:
+        assert p["inliers"] <= p["matches"] and (("R" in p) == p["edge"]) and (p["edge"] or p["rejected"])
     assert (out / "reconstruction.png").stat().st_size > 1000
     mask = os.umask(0)
     os.umask(mask)
@@ -104,6 +111,8 @@ def test_sfm_command_bad_input(tmp_path, capsys):
     (tmp_path / "K.txt").write_text("800 0 320\n0 800 240\n0 0 1\n")
     assert main(["sfm", str(img), "--K", str(tmp_path / "K.txt"), "--out", str(tmp_path / "o"), "--max-images", "2"]) == 2
     assert "gives 2 images (--max-images 2 of 4)" in capsys.readouterr().err
+    assert main(["sfm", str(img), "--K", str(tmp_path / "K.txt"), "--out", str(tmp_path / "o"), "--trust-guessed-focal"]) == 2
+    assert "applies to --database" in capsys.readouterr().err
     # the image folder as --out: its reconstruction.png would be an image of the next run (a user's trial)
     assert main(["sfm", str(img), "--K", str(tmp_path / "K.txt"), "--out", str(img / ".." / "imgs")]) == 2
     assert "is the image folder" in capsys.readouterr().err
@@ -144,6 +153,13 @@ def test_sfm_command_from_colmap_database(tmp_path):
     K = np.loadtxt(SCENE / "images" / "K.txt")
     (cam,) = rec.cameras.values()
     np.testing.assert_allclose(cam.params, [K[0, 0], K[1, 1], K[0, 2] + 0.5, K[1, 2] + 0.5])
+    # --camera-model replaces the database's cameras, as in colmap verify (a pipeline trial)
+    out2 = tmp_path / "out2"
+    given = [K[0, 0] * 1.001, K[1, 1] * 1.001, K[0, 2] + 0.5, K[1, 2] + 0.5]
+    params = ",".join(repr(float(v)) for v in given)
+    assert main(["sfm", str(SCENE / "images"), "--database", str(db), "--out", str(out2), "--no-progress", "--camera-model", "PINHOLE", "--camera-params", params]) == 0
+    (cam2,) = pycolmap.Reconstruction(str(out2 / "sparse" / "0")).cameras.values()
+    np.testing.assert_allclose(cam2.params, given)
 
 
 DISTORTION = (-0.05, 0.01)  # OPENCV k1, k2 of the warped images: ~20 px at the corners

@@ -72,6 +72,7 @@ constexpr double kBrownFoldMaxRadius = 573.0;
 // Newton steps kept inside a shrinking bracket (bisection where a step leaves it); NaN where g(hi) <
 // target (no root on the physical branch).
 constexpr int kBracketIterations = 200;
+constexpr double kRootValueTol = 1e-9;  // |g(x) - target| (relative) at which a tiny step ends the search
 
 template <class G>
 double bracketed_root(G g, double target, double hi, double tol) {
@@ -84,7 +85,10 @@ double bracketed_root(G g, double target, double hi, double tol) {
     if (val == target) return x;
     (val < target ? a : b) = x;
     double nx = x - (val - target) / d;
-    if (!(nx > a && nx < b)) nx = 0.5 * (a + b);
+    // a tiny Newton step far from the target is no convergence (beside a rational model's pole the map's
+    // slope is huge: a fuzz of random lenses stopped there, at the bracket's end): bisect instead
+    const bool stalled = std::abs(nx - x) <= tol * std::max(1.0, nx) && !(std::abs(val - target) <= kRootValueTol * std::max(1.0, target));
+    if (!(nx > a && nx < b) || stalled) nx = 0.5 * (a + b);
     if (std::abs(nx - x) <= tol * std::max(1.0, nx) || b - a <= tol * std::max(1.0, b)) return nx;
     x = nx;
   }
@@ -163,12 +167,13 @@ bool undistort_brown_fallback(double x, double y, const double k[8], double r_fo
 
 }  // namespace
 
-void undistort_brown(const double* xd, const double* yd, int n, const double k[8], double tol, int max_iter, double* u_out, double* v_out,
-                     uint8_t* ok) {
-  const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3], k3 = k[4], k4 = k[5], k5 = k[6], k6 = k[7];
-  // the radial map r -> r rad(r^2) must increase from the centre to the root (its first fold bounds
-  // the physical branch; the local checks below cannot see a root on a later rising branch)
-  const double r_fold = first_fold(
+namespace {
+
+// the radial map r -> r rad(r^2) must increase from the centre to the root (its first fold bounds the
+// physical branch; the local checks cannot see a root on a later rising branch)
+double brown_fold(const double k[8]) {
+  const double k1 = k[0], k2 = k[1], k3 = k[4], k4 = k[5], k5 = k[6], k6 = k[7];
+  return first_fold(
       [&](double r) {
         const double r2 = r * r;
         const double num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
@@ -179,6 +184,26 @@ void undistort_brown(const double* xd, const double* yd, int n, const double k[8
         return num / den + 2.0 * r2 * (dnum * den - num * dden) / (den * den);
       },
       kBrownFoldMaxRadius);
+}
+
+constexpr double kFisheyePi = 3.141592653589793;
+
+double fisheye_fold(const double k[4]) {
+  const double k1 = k[0], k2 = k[1], k3 = k[2], k4 = k[3];
+  return first_fold(
+      [=](double th) {
+        const double t2 = th * th;
+        return 1.0 + t2 * (3.0 * k1 + t2 * (5.0 * k2 + t2 * (7.0 * k3 + t2 * 9.0 * k4)));
+      },
+      kFisheyePi);
+}
+
+}  // namespace
+
+void undistort_brown(const double* xd, const double* yd, int n, const double k[8], double tol, int max_iter, double* u_out, double* v_out,
+                     uint8_t* ok) {
+  const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3], k3 = k[4], k4 = k[5], k5 = k[6], k6 = k[7];
+  const double r_fold = brown_fold(k);
   for (int i = 0; i < n; ++i) {
     const double x = xd[i], y = yd[i];
     double u = x, v = y;
@@ -234,14 +259,7 @@ void undistort_fisheye(const double* rd, int n, const double k[4], double tol, i
   };
   // theta must lie before the polynomial's first fold and below pi (a direction past 180 deg folds back
   // onto one below it)
-  constexpr double kPi = 3.141592653589793;
-  const double th_max = first_fold(
-      [&](double th) {
-        double g, dg;
-        poly(th, &g, &dg);
-        return dg;
-      },
-      kPi);
+  const double th_max = fisheye_fold(k);
   for (int i = 0; i < n; ++i) {
     const double r = rd[i];
     double th = r, g, dg;
@@ -329,8 +347,6 @@ inline void prism_radial(int kind, const double k[12], double t, double* h, doub
   *dh = 1.0 + ds * t2;
 }
 
-constexpr double kPrismPi = 3.141592653589793;
-
 bool prism_good(int kind, const double k[12], double u, double v, double x, double y, double th_max) {
   if (!std::isfinite(u) || !std::isfinite(v)) return false;
   double px, py, J[4];
@@ -341,15 +357,19 @@ bool prism_good(int kind, const double k[12], double u, double v, double x, doub
 
 }  // namespace
 
-void undistort_prism(const double* xd, const double* yd, int n, int kind, const double k[12], double tol, int max_iter, double* uu_out,
-                     double* vv_out, uint8_t* ok) {
-  const double th_max = first_fold(
+static double prism_fold(int kind, const double k[12]) {
+  return first_fold(
       [&](double t) {
         double h, dh;
         prism_radial(kind, k, t, &h, &dh);
         return dh;
       },
-      kPrismPi);
+      kFisheyePi);
+}
+
+void undistort_prism(const double* xd, const double* yd, int n, int kind, const double k[12], double tol, int max_iter, double* uu_out,
+                     double* vv_out, uint8_t* ok) {
+  const double th_max = prism_fold(kind, k);
   for (int i = 0; i < n; ++i) {
     const double x = xd[i], y = yd[i];
     double u = x, v = y;

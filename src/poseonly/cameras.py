@@ -104,6 +104,8 @@ NEWTON_TOL = 1e-12  # relative step size at which Newton's undistortion stops
 OPENCV_TO_COLMAP_PX = 0.5
 NEWTON_MAX_ITER = 100
 _FISHEYE_EPS = 1e-12  # below this normalized radius a fisheye point is on the axis (no distortion)
+# a projected pixel must lift back onto its direction within this distance of unit vectors (radians)
+PROJECT_ROUND_TRIP_TOL = 1e-8
 
 
 def _brown_params(model: str, p: np.ndarray) -> tuple[float, ...]:
@@ -142,10 +144,10 @@ def _prism_params(model: str, p: tuple[float, ...]) -> np.ndarray:
 
 def _fisheye_bearings(uu: np.ndarray, vv: np.ndarray) -> np.ndarray:
     """Equidistant coordinates (``theta = |(uu, vv)|`` off the axis) -> bearings ``(n, 3)`` (unnormalised)."""
-    theta = np.hypot(uu, vv)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(all="ignore"):  # the rows of unconverged points (NaN or inf) are set to NaN by the caller
+        theta = np.hypot(uu, vv)
         s = np.where(theta > _FISHEYE_EPS, np.sin(theta) / theta, 1.0)
-    return np.column_stack([uu * s, vv * s, np.cos(theta)])
+        return np.column_stack([uu * s, vv * s, np.cos(theta)])
 
 
 @dataclass(frozen=True)
@@ -301,10 +303,13 @@ class Camera:
             return b / np.linalg.norm(b, axis=1)[:, None]
 
     def project(self, X: np.ndarray) -> np.ndarray:
-        """Camera-frame points or bearings ``(n, 3)`` -> pixels ``(n, 2)``. Points with ``z <= 0`` give
-        NaN for the perspective models (the FOV model too); the fisheye models map any direction off the
-        ``-z`` axis (NaN on it); the division and EUCM models map the directions their image covers (NaN
-        elsewhere)."""
+        """Camera-frame points or bearings ``(n, 3)`` -> pixels ``(n, 2)``: NaN for the directions the
+        camera does not image. Those are, for the perspective models (FOV too), ``z <= 0``; for the
+        fisheye models the ``-z`` axis; for the division and EUCM models the directions outside the
+        image their model covers; and, for the models undistorted iteratively, every direction whose
+        pixel :meth:`unproject` does not lift back onto it: past the distortion's first fold a
+        direction comes back folded into the image, onto a pixel whose ray is another direction (as
+        COLMAP's and OpenCV's projections give it; a fuzz of random lenses found them)."""
         X = _check_points(X, 3, "X")
         (fx, fy), (cx, cy) = self.focal_xy, self.principal_point
         if self.model in _FISHEYE_POLY or self.model in _PRISM_KIND:
@@ -329,7 +334,16 @@ class Camera:
             with np.errstate(divide="ignore", invalid="ignore"):
                 z = np.where(X[:, 2] > 0, X[:, 2], np.nan)
             xd, yd = self._distort_brown(X[:, 0] / z, X[:, 1] / z)
-        return np.column_stack([fx * xd + cx, fy * yd + cy])
+        px = np.column_stack([fx * xd + cx, fy * yd + cy])
+        iterative = self.model in _FISHEYE_POLY or self.model in _PRISM_KIND or (self.model in _BROWN and not self.is_undistorted)
+        fin = np.flatnonzero(np.isfinite(px).all(axis=1))
+        if iterative and len(fin) and not (self.model in _FISHEYE_POLY and not any(_fisheye_params(self.model, self.params))):
+            with np.errstate(all="ignore"):
+                back = self.unproject(px[fin], invalid="nan")
+                d = X[fin] / np.linalg.norm(X[fin], axis=1)[:, None]
+                off = ~(np.linalg.norm(back - d, axis=1) <= PROJECT_ROUND_TRIP_TOL)
+            px[fin[off]] = np.nan
+        return px
 
 
 def _prism_distort(kind: int, k: np.ndarray, u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -163,6 +163,9 @@ def undistort_fisheye(rd, k):
 BRACKET_ITERATIONS, DAMPED_HALVINGS = 200, 40
 
 
+ROOT_VALUE_TOL = 1e-9  # a tiny Newton step with the value farther than this from the target is a stall: bisect
+
+
 def bracketed_root(g, target: float, hi: float, tol: float = NEWTON_TOL) -> float:
     """The root of an increasing ``g`` (value, derivative) on ``[0, hi]``: Newton inside a shrinking
     bracket, bisection where a step leaves it; NaN where ``g(hi) < target``."""
@@ -179,7 +182,8 @@ def bracketed_root(g, target: float, hi: float, tol: float = NEWTON_TOL) -> floa
         else:
             b = x
         nx = x - (val - target) / d
-        if not (a < nx < b):
+        stalled = abs(nx - x) <= tol * max(1.0, nx) and not abs(val - target) <= ROOT_VALUE_TOL * max(1.0, target)
+        if not (a < nx < b) or stalled:
             nx = 0.5 * (a + b)
         if abs(nx - x) <= tol * max(1.0, nx) or b - a <= tol * max(1.0, b):
             return nx

@@ -87,8 +87,8 @@ def _camera_arg(args: argparse.Namespace) -> dict[str, Any] | None:
         return None
     if args.camera_model is None or args.camera_params is None:
         raise InputError("--camera-model and --camera-params go together (e.g. --camera-model SIMPLE_RADIAL --camera-params f,cx,cy,k)")
-    if args.K or args.database:
-        raise InputError("give one of --K, --camera-model / --camera-params and --database (which holds the cameras)")
+    if args.K:
+        raise InputError("give one of --K and --camera-model / --camera-params")
     from ..cameras import camera_from_text
     from ..options import check_camera_threshold
 
@@ -138,11 +138,20 @@ def cmd_sfm(args: argparse.Namespace) -> int:
                 raise InputError(f"{len(missing)} images of the database not found in {d}: {missing[:3]}")
 
         ig, names = database_view_graph(
-            args.database, options=opt, cache_dir=cache, progress=prog, jobs=args.jobs, check_names=images_exist, trust_guessed_focal=args.trust_guessed_focal
+            args.database,
+            options=opt,
+            cache_dir=cache,
+            progress=prog,
+            jobs=args.jobs,
+            check_names=images_exist,
+            trust_guessed_focal=args.trust_guessed_focal,
+            camera=camera,
         )
         images = [d / nm for nm in names]
         K = ig.K[0]
     else:
+        if args.trust_guessed_focal:
+            raise InputError("--trust-guessed-focal applies to --database (a COLMAP database whose cameras COLMAP guessed)")
         if not args.K and camera is None:
             raise InputError("give --K K.txt, --camera-model / --camera-params, or --database colmap.db (which holds the cameras)")
         images = sorted(p for p in d.iterdir() if is_image_file(p))
@@ -206,6 +215,26 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     return 0
 
 
+def _pair_records(ig: Any, images: list[Path], outliers: set[tuple[int, int]]) -> list[dict[str, Any]]:
+    """poses.json's ``pairs``: every matched pair's two-view outcome (a pipeline trial: the statuses of the
+    rejected pairs were nowhere): the images, putative matches, inliers, two-view status, whether it is a
+    view-graph edge (its relative pose ``R``, ``t`` with ``X_j = R X_i + t``) or why not, and whether
+    rotation averaging removed it as an outlier edge."""
+    edges = {(e.i, e.j): e for e in ig.graph.edges}
+    why = {(i, j): reason for i, j, reason in ig.graph.rejected}
+    out = []
+    for i, j, putative, inliers, status in ig.pair_stats:
+        a, b = min(i, j), max(i, j)
+        rec: dict[str, Any] = {"images": [images[a].name, images[b].name], "views": [a, b], "matches": int(putative), "inliers": int(inliers), "status": status}
+        e = edges.get((a, b))
+        if e is not None:
+            rec.update(edge=True, R=e.R.tolist(), t=e.t.tolist(), outlier_edge=(a, b) in outliers)
+        else:
+            rec.update(edge=False, rejected=why.get((a, b)))
+        out.append(rec)
+    return out
+
+
 def _write_outputs(stage: Path, out: Path, poses: dict[str, Any], models: list[Any], model_of: np.ndarray, images: list[Path], ig: Any, args: argparse.Namespace) -> None:
     """Write every model's files and poses.json into ``stage``, then move them into ``out`` (poses.json
     last; a model folder replaced whole)."""
@@ -226,6 +255,7 @@ def _write_outputs(stage: Path, out: Path, poses: dict[str, Any], models: list[A
             c = models[k].centres[v].tolist() if np.all(np.isfinite(models[k].centres[v])) else None
         poses["images"].append({"name": p.name, "model": k if k >= 0 else None, "R": R, "c": c})
     poses["outlier_edges"] = sorted({tuple(e) for res in models for e in res.rotation.outlier_edges})
+    poses["pairs"] = _pair_records(ig, images, {(min(e[0], e[1]), max(e[0], e[1])) for e in poses["outlier_edges"]})
     poses["times_s"] = {**ig.times_s, **{key: sum(res.times_s.get(key, 0.0) for res in models) for key in models[0].times_s}}
     unmodelled = int(np.sum(model_of < 0) - sum(m["views_not_posed"] for m in poses["models"]))
     if unmodelled > 0:
@@ -395,7 +425,8 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--K", help="text file with the 3x3 calibration matrix of the (undistorted) images")
     s.add_argument(
         "--camera-model",
-        help="instead of --K: the images' camera model, a COLMAP name (any perspective model, e.g. PINHOLE, OPENCV, OPENCV_FISHEYE, FOV, EUCM; poseonly.cameras.MODELS)",
+        help="instead of --K (or of a --database's cameras): the images' camera model, a COLMAP name (any perspective model, e.g. PINHOLE,"
+        " OPENCV, OPENCV_FISHEYE, FOV, EUCM; poseonly.cameras.MODELS)",
     )
     s.add_argument(
         "--camera-params",

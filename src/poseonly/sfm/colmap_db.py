@@ -15,6 +15,7 @@ import os
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -38,6 +39,7 @@ def database_view_graph(
     jobs: int = 1,
     check_names: Callable[[list[str]], None] | None = None,
     trust_guessed_focal: bool = False,
+    camera: Any = None,
 ) -> tuple[ImageGraph, list[str]]:
     """``(ImageGraph, image names)`` from the COLMAP database ``db_path``; the pairs are estimated on
     ``jobs`` threads (:func:`poseonly.sfm.pairwise.map_ordered`: the same graph for any number).
@@ -45,7 +47,10 @@ def database_view_graph(
     the images exist). A pair whose matches index keypoints its images do not have is rejected, as
     ``poseonly colmap verify`` marks it; the file is checked to be a COLMAP database and never changed.
     A database with a camera whose focal length COLMAP guessed (no prior focal length) is refused
-    (:func:`poseonly.io.colmap_db.refuse_guessed_focal`) unless ``trust_guessed_focal``."""
+    (:func:`poseonly.io.colmap_db.refuse_guessed_focal`) unless ``trust_guessed_focal``. ``camera``
+    (anything :func:`poseonly.cameras.as_camera` takes, in COLMAP's pixel convention) replaces every
+    image's database camera, as ``poseonly colmap verify --camera-model`` does (the exported model holds
+    it, with each image's size from the database)."""
     pycolmap = import_pycolmap()
 
     p = Path(db_path)
@@ -64,7 +69,8 @@ def database_view_graph(
         if check_names is not None:
             check_names([im.name for im in images])
         cams = {c.camera_id: c for c in db.read_all_cameras()}
-        if not trust_guessed_focal:
+        given = None if camera is None else as_camera(camera, "camera")
+        if not trust_guessed_focal and given is None:
             used = {im.camera_id for im in images}
             refuse_guessed_focal(
                 p,
@@ -77,12 +83,12 @@ def database_view_graph(
             cam = cams.get(im.camera_id)
             if cam is None:
                 raise InputError(f"{p}: image {im.name!r} (id {im.image_id}) refers to camera {im.camera_id}, which is not in the database")
-            cameras.append({"model": str(cam.model_name), "width": int(cam.width), "height": int(cam.height), "params": [float(v) for v in np.asarray(cam.params)]})
+            native = as_camera(cam, f"{p}: camera {im.camera_id}") if given is None else given
+            cameras.append({"model": native.model, "width": int(cam.width), "height": int(cam.height), "params": list(native.params)})
             raw = np.asarray(db.read_keypoints(im.image_id), dtype=np.float64)
             raw = raw.reshape(len(raw), -1) if raw.size else np.zeros((0, 2))
             kp = raw[:, :2]
             feats.append(Features(kp, np.zeros((len(kp), 0), np.float32), (int(cam.width), int(cam.height)), keypoint_scales(raw)))
-            native = as_camera(cam, f"{p}: camera {im.camera_id}")
             lifted = np.full((len(kp), 3), np.nan)
             finite = np.isfinite(kp).all(axis=1)  # a NaN keypoint leaves only its own matches out
             if finite.any():
