@@ -101,12 +101,17 @@ class _Source:
             self._bear[image_id] = b
         return b
 
+    def _names(self, i1: int, i2: int) -> str:
+        """The pair's images by name (by id where the images table lacks one), for its error message."""
+        a, b = (repr(self.db.image_names[i]) if i in self.db.image_names else f"id {i}" for i in (i1, i2))
+        return f"images {a}, {b}"
+
     def __iter__(self) -> Iterator[Pair]:
         for pid, i1, i2 in self.todo:
             missing = [i for i in (i1, i2) if i not in self.db.cameras and i not in self.db.unsupported]
             if missing:  # matches of an image id the images table does not have
                 self.direct.append(GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2))))
-                self.errors[pid] = f"image id {missing[0]} has matches but is not in the database's images table"
+                self.errors[pid] = f"{self._names(i1, i2)}: image id {missing[0]} has matches but is not in the database's images table"
                 continue
             if i1 in self.db.unsupported or i2 in self.db.unsupported:
                 msg = self.db.unsupported.get(i1) or self.db.unsupported[i2]
@@ -123,7 +128,7 @@ class _Source:
                 continue
             if len(m) and (m[:, 0].max() >= len(b1) or m[:, 1].max() >= len(b2) or m.min() < 0):
                 self.direct.append(GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2))))
-                self.errors[pid] = "matches index keypoints that do not exist"
+                self.errors[pid] = f"{self._names(i1, i2)}: matches index keypoints that do not exist"
                 continue
             valid = np.isfinite(b1[m[:, 0], 0]) & np.isfinite(b2[m[:, 1], 0])
             m = m[valid]
@@ -144,7 +149,7 @@ class _Source:
         i1, i2, m = self.pending.pop(pid)
         r = pr.result
         if r is None:
-            self.errors[pid] = str(pr.error)
+            self.errors[pid] = f"{self._names(i1, i2)}: {pr.error}"
             return GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2)))
         c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
         pinhole = c1.is_undistorted and c2.is_undistorted  # a distorted camera has no F
@@ -336,7 +341,7 @@ def run_cli(args: argparse.Namespace) -> int:
     for cfg, k in sorted(s.configs.items()):
         print(f"  {cfg}: {k}")
     if s.errors:
-        print(f"  {len(s.errors)} pairs with invalid input (UNDEFINED), e.g. pair {next(iter(s.errors))}: {next(iter(s.errors.values()))}")
+        print(f"  {len(s.errors)} pairs with invalid input (UNDEFINED), e.g. {next(iter(s.errors.values()))} (pair id {next(iter(s.errors))})")
     if camera is not None and s.written:  # a user's trial: COLMAP's mapper then started from the guessed focal
         print(
             "  note: --camera-model / --camera-params calibrated the estimation only; the database's cameras table is unchanged,"
