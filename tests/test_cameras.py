@@ -336,6 +336,12 @@ def test_read_colmap_cameras(tmp_path):
         read_colmap_cameras(["1 PINHOLE 8"])
     with pytest.raises(ValueError, match="line 1: .*PINHOLE"):
         read_colmap_cameras(["1 PINHOLE 8 6 7 7"])  # too few parameters
+    lines = ["1 PINHOLE 800 600 700 700 400 300", "2 EQUIRECTANGULAR 2000 1000 2000 1000"]
+    with pytest.raises(ValueError, match="line 2: .*unsupported camera model 'EQUIRECTANGULAR'"):
+        read_colmap_cameras(lines)
+    assert sorted(read_colmap_cameras(lines, skip_unsupported=True)) == [1]
+    with pytest.raises(ValueError, match="line 2: .*PINHOLE takes 4"):
+        read_colmap_cameras(["2 EQUIRECTANGULAR 2000 1000 2000 1000", "1 PINHOLE 800 600 700 700 400"], skip_unsupported=True)
 
 
 def test_core_fallback_equals_the_numpy_reference():

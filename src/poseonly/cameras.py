@@ -578,11 +578,13 @@ def camera_from_text(model: str, params: str, width: int = 0, height: int = 0, n
         raise InputError(f"{name}: {exc}") from None
 
 
-def read_colmap_cameras(source: str | os.PathLike | Iterable[str]) -> dict[int, Camera]:
+def read_colmap_cameras(source: str | os.PathLike | Iterable[str], *, skip_unsupported: bool = False) -> dict[int, Camera]:
     """The cameras of a COLMAP ``cameras.txt`` (a path, or its lines): ``{camera_id: Camera}`` from the
     lines ``CAMERA_ID MODEL WIDTH HEIGHT PARAMS...`` (``#`` comments and blank lines skipped); an
     :class:`InputError` naming the line for a malformed one or a repeated id (a SLAM user's trial: a
-    ``cameras.txt`` line had no parser)."""
+    ``cameras.txt`` line had no parser). ``skip_unsupported``: leave out the cameras of a model
+    :data:`MODELS` does not hold (e.g. ``EQUIRECTANGULAR``) instead of refusing the file (a camera
+    trial: one such camera stopped a file whose other cameras were needed)."""
     if isinstance(source, (str, os.PathLike)):
         path = Path(source)
         if not path.is_file():
@@ -610,6 +612,8 @@ def read_colmap_cameras(source: str | os.PathLike | Iterable[str]) -> dict[int, 
             raise InputError(f"{name}: camera id {cid} is negative")
         if cid in out:
             raise InputError(f"{name}: camera id {cid} is given twice")
+        if skip_unsupported and f[1].upper() not in MODELS:
+            continue
         out[cid] = camera_from_text(f[1], " ".join(f[4:]), width, height, name)
     return out
 
