@@ -522,3 +522,23 @@ def test_directions_past_the_fold_have_no_pixel():
     cam = Camera("OPENCV", 0, 0, (500.0, 500.0, 0.0, 0.0, -0.3, 0.0, 0.0, 0.0))  # the radial map folds at r = 1.054
     px = cam.project(np.array([[1.0, 0.0, 1.0], [1.2, 0.0, 1.0]]))
     assert np.isfinite(px[0]).all() and np.isnan(px[1]).all()
+
+
+def test_prism_root_beyond_the_radial_parts_largest_radius():
+    """Tangential and prism terms carry this pixel past the radial part's largest distorted radius
+    while its root (54.0 deg off-axis, before the radial fold at 58.1) is physical: the fallback starts
+    at the fold (a review: the pixel was refused, its ray projected to NaN)."""
+    p = (300.0, 300.0, 320.0, 240.0, 0.08904, 0.00734, 0.02004, 0.01321, 0.075, -0.18641, 0.00137, 0.01526)
+    cam = Camera("THIN_PRISM_FISHEYE", 640, 480, p)
+    uv = np.array([[593.5874776683793, 380.5559060053439]])
+    b = cam.unproject(uv)
+    assert abs(np.degrees(np.arccos(b[0, 2])) - 54.0) < 0.1
+    assert np.abs(cam.project(b) - uv).max() < 1e-7
+
+
+def test_fov_omega_and_huge_points():
+    with pytest.raises(ValueError, match=r"FOV camera needs \|omega\| < pi"):
+        Camera("FOV", 0, 0, (300.0, 300.0, 0.0, 0.0, 3.5))
+    cam = Camera("OPENCV", 0, 0, (500.0, 500.0, 0.0, 0.0, -0.1, 0.01, 0.0, 0.0))
+    X = np.array([[0.1, 0.2, 1.0]])
+    assert np.allclose(cam.project(X * 1e200), cam.project(X)) and np.allclose(cam.project(X * 1e-200), cam.project(X))

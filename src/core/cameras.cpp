@@ -122,7 +122,7 @@ bool undistort_brown_fallback(double x, double y, const double k[8], double r_fo
   const double k1 = k[0], k2 = k[1], k3 = k[4], k4 = k[5], k5 = k[6], k6 = k[7];
   const double rd = std::hypot(x, y);
   if (!(rd > 0.0) || !std::isfinite(rd)) return false;
-  const double ru = bracketed_root(
+  double ru = bracketed_root(
       [&](double r, double* h, double* dh) {
         const double r2 = r * r;
         const double num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
@@ -133,6 +133,9 @@ bool undistort_brown_fallback(double x, double y, const double k[8], double r_fo
         *dh = num / den + 2.0 * r2 * (dnum * den - num * dden) / (den * den);
       },
       rd, std::min(r_fold, kBrownFoldMaxRadius), tol);
+  // the tangential terms can carry a pixel past the radial map's largest value while its root lies
+  // before the fold: damped Newton then starts at the fold
+  if (!std::isfinite(ru) && r_fold < kBrownFoldMaxRadius) ru = r_fold;
   if (!std::isfinite(ru)) return false;
   double cu = x * (ru / rd), cv = y * (ru / rd);
   double fu, fv, J[4];
@@ -387,7 +390,10 @@ void undistort_prism(const double* xd, const double* yd, int n, int kind, const 
     bool good = done && prism_good(kind, k, u, v, x, y, th_max);
     const double rd = std::hypot(x, y);
     if (!good && rd > 0.0 && std::isfinite(rd)) {  // the fallback: the radial root, then damped Newton
-      const double t0 = bracketed_root([&](double t, double* h, double* dh) { prism_radial(kind, k, t, h, dh); }, rd, th_max, tol);
+      double t0 = bracketed_root([&](double t, double* h, double* dh) { prism_radial(kind, k, t, h, dh); }, rd, th_max, tol);
+      // the tangential and prism terms can carry a pixel past the radial part's largest radius while its
+      // root lies before the fold (a review): damped Newton then starts at the fold
+      if (!std::isfinite(t0) && th_max < kFisheyePi) t0 = th_max;
       if (std::isfinite(t0)) {
         double cu = x * (t0 / rd), cv = y * (t0 / rd), px, py, J[4];
         prism_distort(kind, k, cu, cv, &px, &py, J);

@@ -32,8 +32,9 @@ beyond 90 deg as well (COLMAP's ``CamRayFromImg`` does the same for the fisheye 
 Undistortion is Newton's method per point with the analytic Jacobian (2-D for the Brown-Conrady and
 thin-prism models, 1-D in ``theta`` for the fisheye polynomial), started at the distorted point and
 stopped when its step is below :data:`NEWTON_TOL` (relative), in the core with the GIL released
-(``src/core/cameras.cpp``; the numpy version it replaced, the same roots bit for bit, is
-``tests/reference/cameras.py``). Where it fails (on strong distortion it can oscillate, or land past
+(``src/core/cameras.cpp``; the numpy version it replaced for the Brown and fisheye-polynomial models, the
+same roots bit for bit, is ``tests/reference/cameras.py``; the thin-prism models are tested against
+scipy's root finder and pycolmap). Where it fails (on strong distortion it can oscillate, or land past
 the radial map's first fold: a SLAM user's trial found in-image pixels of a fisheye and of a rational
 camera refused), a fallback takes over: the root of the increasing radial map on its first branch (a
 bracketed Newton / bisection; for the fisheye polynomial it is the root), then, for the 2-D models,
@@ -182,6 +183,8 @@ class Camera:
             raise InputError(f"camera focal length must be > 0, got {self.focal_xy}")
         if self.width < 0 or self.height < 0:
             raise InputError(f"camera width/height must be >= 0, got {self.width}x{self.height}")
+        if self.model == "FOV" and not abs(self.params[4]) < np.pi:
+            raise InputError(f"FOV camera needs |omega| < pi (the field of view), got omega {self.params[4]}")
         if self.model == "EUCM" and not (0.0 <= self.params[4] <= 1.0 and self.params[5] > 0.0):
             raise InputError(f"EUCM camera needs 0 <= alpha <= 1 and beta > 0 (COLMAP's check), got alpha {self.params[4]}, beta {self.params[5]}")
 
@@ -340,7 +343,8 @@ class Camera:
         if iterative and len(fin) and not (self.model in _FISHEYE_POLY and not any(_fisheye_params(self.model, self.params))):
             with np.errstate(all="ignore"):
                 back = self.unproject(px[fin], invalid="nan")
-                d = X[fin] / np.linalg.norm(X[fin], axis=1)[:, None]
+                d = X[fin] / np.abs(X[fin]).max(axis=1)[:, None]  # no overflow in the norm of huge points
+                d /= np.linalg.norm(d, axis=1)[:, None]
                 off = ~(np.linalg.norm(back - d, axis=1) <= PROJECT_ROUND_TRIP_TOL)
             px[fin[off]] = np.nan
         return px

@@ -229,6 +229,8 @@ def brown_fallback(x: float, y: float, k, r_fold: float) -> tuple[float, float] 
         return r * num / den, num / den + 2.0 * r2 * (dnum * den - num * dden) / (den * den)
 
     ru = bracketed_root(h, rd, min(r_fold, BROWN_FOLD_MAX_RADIUS))
+    if not math.isfinite(ru) and r_fold < BROWN_FOLD_MAX_RADIUS:  # past the radial map's largest value: start at the fold
+        ru = r_fold
     if not math.isfinite(ru):
         return None
     cu, cv = x * (ru / rd), y * (ru / rd)

@@ -355,7 +355,12 @@ def _write_model(k: int, res: Any, images: list[Path], ig: Any, out: Path, args:
         print(f"model {k}: poses.json holds its {int(has_R.sum())} averaged rotations; no COLMAP model, point cloud or figure written")
         return entry
     sfx = _suffix(k)
-    colors = point_colors(images, [f.keypoints for f in ig.features], res.tracks, rec.base[:, 0])
+    # sampled at OpenCV's pixel centres (integers): the cameras' keypoints less COLMAP's half pixel (a
+    # review: a database's keypoints, in COLMAP's convention, were sampled half a pixel off)
+    from ..cameras import OPENCV_TO_COLMAP_PX
+
+    kps = [f.keypoints for f in ig.features] if ig.cameras is None else [ig.camera_keypoints(k) - OPENCV_TO_COLMAP_PX for k in range(len(ig.features))]
+    colors = point_colors(images, kps, res.tracks, rec.base[:, 0])
     write_ply(out / f"points{sfx}.ply", rec.points[rec.valid], colors[rec.valid], res.centres)
     entry["outputs"] = [f"points{sfx}.ply"]  # the files written, relative to out (a rerun removes stale ones)
     fig = plot_reconstruction(out / f"reconstruction{sfx}.png", rec.points[rec.valid], res.centres, res.rotations, colors[rec.valid])
