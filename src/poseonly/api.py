@@ -359,7 +359,8 @@ def lirp(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, r
     """Weighted LiRP (Alg. 1) on ``n >= 6`` correspondences: :func:`poseonly.solvers.lirp.lirp` with
     its arguments checked (``f1, f2 (n, 3)`` bearings or ``(n, 2)`` normalized coordinates,
     ``weights (n,)`` non-negative, ``0 < rank_tol < 1``). Raises :class:`InputError` for bad input;
-    degenerate-but-valid input returns ``status == "degenerate"``."""
-    f1, f2, w = check_correspondences(f1, f2, weights)
+    degenerate-but-valid input returns ``status == "degenerate"`` (so do fewer than 6 positive weights,
+    as an IRLS loop can give: a researcher's trial found them refused; ``E = [t]x R``)."""
+    f1, f2, w = check_correspondences(f1, f2, weights, min_positive=0)  # fewer than 6 positive weights: degenerate
     rank_tol = check_value("rank_tol", rank_tol, _SPEC_RANK_TOL)
     return lirp_checked(f1, f2, w, float(rank_tol))

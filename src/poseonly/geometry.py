@@ -373,9 +373,11 @@ def check_correspondences(
     min_points: int = 6,
     K1: np.ndarray | None = None,
     K2: np.ndarray | None = None,
+    min_positive: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Validate and convert a correspondence set: ``f1, f2 (n, 2)`` pixels (with ``K1, K2 (3, 3)``) or
-    normalized image coordinates (without), or ``(n, 3)`` bearing vectors; ``weights (n,)`` or None.
+    normalized image coordinates (without), or ``(n, 3)`` bearing vectors; ``weights (n,)`` or None,
+    at least ``min_positive`` of them positive (default ``min_points``).
     Returns unit bearings ``b1, b2 (n, 3)`` and float weights ``(n,)`` (or None)."""
     b1 = as_bearings(f1, K1, "f1" if K1 is None else "x1")
     b2 = as_bearings(f2, K2, "f2" if K2 is None else "x2")
@@ -395,8 +397,9 @@ def check_correspondences(
             raise InputError("weights contain NaN or inf values")
         if np.any(w < 0):
             raise InputError(f"weights must be non-negative ({int(np.count_nonzero(w < 0))} negative)")
-        if np.count_nonzero(w > 0) < min_points:
-            raise InputError(f"at least {min_points} correspondences need a positive weight, got {int(np.count_nonzero(w > 0))}")
+        need = min_points if min_positive is None else min_positive
+        if np.count_nonzero(w > 0) < need:
+            raise InputError(f"at least {need} correspondences need a positive weight, got {int(np.count_nonzero(w > 0))}")
         w = np.ascontiguousarray(w)
     return b1, b2, w
 

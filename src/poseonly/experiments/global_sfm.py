@@ -1,6 +1,6 @@
 """Global SfM on Strecha scenes (issue 15): the paper's pipeline without bundle adjustment.
 
-``poseonly experiment global PATH [--scenes NAME ...] [--cache DIR] [--max-features N]
+``poseonly experiment global PATH [--scenes NAME ...] [--cache DIR (default OUT/cache)] [--max-features N]
 [--threshold-px T] [--reweight K] [--ligt-normalization noise|unit] [--no-anchor] [--ba]``
 
 For every scene folder at or below ``PATH`` (:func:`poseonly.io.strecha.find_scenes`): SIFT
@@ -47,13 +47,12 @@ if TYPE_CHECKING:  # the pipeline's modules (scipy) load when a scene runs, not 
 # openMVG GlobalSfM (bundle adjustment included), mean rotation error in degrees, as published by
 # the LiGT authors (PoSDK benchmark data; docs/SFM.md)
 OPENMVG_ROT_DEG = {"Herz-Jesus-P8": 0.0228, "fountain-P11": 0.0297, "entry-P10": 0.0321, "Herz-Jesus-P25": 0.0546, "castle-P30": 0.0843, "castle-P19": 0.0695}
-DEFAULT_CACHE = "/tmp/sfm_cache"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("path", help="a Strecha scene folder, or a folder holding scene folders")
     p.add_argument("--scenes", nargs="+", help="only these scene names")
-    p.add_argument("--cache", default=DEFAULT_CACHE, help=f"feature / match / two-view cache (default {DEFAULT_CACHE})")
+    p.add_argument("--cache", default=None, help="feature / match / two-view cache (default OUT/cache: a researcher's trial found the run writing to a shared /tmp folder)")
     p.add_argument("--max-features", type=non_negative_int, default=8000, help="strongest SIFT features per image (default 8000; 0: every feature SIFT finds)")
     p.add_argument("--threshold-px", type=float, default=None, help="two-view RANSAC threshold in pixels (default: the method's, 1 px)")
     p.add_argument("--two-view-option", action="append", metavar="KEY=VALUE", help="an option of the two-view estimator, KEY=VALUE (repeatable; e.g. ml_tails=gauss)")
@@ -323,6 +322,8 @@ def run(args: argparse.Namespace) -> int:
         scenes = [s for s in scenes if s.name in set(args.scenes)]
     if not scenes:
         raise ValueError(f"no Strecha scene folders at or below {root}" + (f" named {args.scenes}" if args.scenes else ""))
+    if args.cache is None:
+        args.cache = str(Path(args.out) / "cache")
     t0 = time.perf_counter()
     results = [run_scene(s, args) for s in scenes]
     res = {

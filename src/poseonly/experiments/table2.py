@@ -11,6 +11,7 @@ the candidate nearest to the truth, which is what the paper reports.
 from __future__ import annotations
 
 import argparse
+import time
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +20,7 @@ import numpy as np
 from ..geometry import rotation_error_deg
 from ..sim import make_scene
 from ..solvers.lirp import lirp_batch
-from ._common import figure_writer, markdown_table, progress, write_outputs
+from ._common import figure_writer, finish_run, markdown_table, progress, stamp
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -111,10 +112,14 @@ def to_markdown(res: dict) -> str:
 
 def run(args: argparse.Namespace) -> int:
     trials = args.trials or (5 if args.quick else 500)  # an explicit --trials wins over --quick
-    res = compute(trials, args.n, args.camera, args.seed, args.npt)
-    md = f"Table 2 (n = {args.n}, {args.camera} camera, {trials} trials; seed {args.seed})\n\n" + to_markdown(res)
-    out = Path(args.out)
-    write_outputs(out, "table2", md, res, _figure)
+    t0 = time.perf_counter()
+    res = stamp(compute(trials, args.n, args.camera, args.seed, args.npt), t0)  # machine and code version (a researcher's trial)
+    res.update(n=args.n, camera=args.camera, trials=trials, seed=args.seed)
+    header = (
+        f"Table 2 (n = {args.n}, {args.camera} camera, {trials} trials; seed {args.seed}; 'oracle': the candidate nearest the truth, "
+        "the 'nearest' of docs/RESULTS_experiments.md)"
+    )
+    finish_run(Path(args.out), "table2", header, res, to_markdown(res), _figure)
     return 0
 
 

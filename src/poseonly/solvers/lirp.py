@@ -38,7 +38,7 @@ import numpy as np
 from .. import _core
 from .._equality import ValueEquality
 from .._json import json_array, json_float
-from ..geometry import check_correspondences
+from ..geometry import check_correspondences, essential_from_pose
 
 __all__ = ["lirp", "lirp_batch", "lirp_checked", "LiRPResult", "lirp_candidates", "NUM_CANDIDATES", "RANK_TOL"]
 
@@ -75,9 +75,10 @@ def lirp_candidates(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None)
 class LiRPResult(ValueEquality):
     """Result of :func:`lirp`.
 
-    ``R, t``: the identified pose (``X2 = R X1 + t``, unit ``t``); ``E``: its candidate essential
-    matrix; ``candidates_E/R/t``: all 18 candidates (order: 12 action-matrix, 3 det-cubic, q1, q2,
-    q3), ``candidate_valid`` (pose-only depth conditions), ``candidate_cost`` (weighted mean PPO);
+    ``R, t``: the identified pose (``X2 = R X1 + t``, unit ``t``); ``E = [t]x R`` (the package's
+    convention, Frobenius norm sqrt(2); a researcher's trial: it was the raw candidate, unit norm and of
+    either sign); ``candidates_E/R/t``: all 18 candidates (order: 12 action-matrix, 3 det-cubic, q1, q2,
+    q3; ``candidates_E`` as Alg. 1 gives them, unit Frobenius norm, each up to sign), ``candidate_valid`` (pose-only depth conditions), ``candidate_cost`` (weighted mean PPO);
     ``d_min``: Table 2 indicator for ``C1`` (``d_min_C2`` for ``C2``); ``singular_values`` of ``A``
     (with the weights divided by their maximum: only their ratios matter);
     ``rank``: numerical rank of ``A`` (8 general, 6 planar or pure rotation, < 6 degenerate);
@@ -134,15 +135,15 @@ def lirp(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, r
     """
     if isinstance(rank_tol, bool) or not isinstance(rank_tol, (int, float, np.integer, np.floating)) or not 0 < rank_tol < 1:
         raise ValueError(f"rank_tol must be a number in (0, 1), got {rank_tol!r}")
-    f1, f2, w = check_correspondences(f1, f2, weights, min_points=6)
+    f1, f2, w = check_correspondences(f1, f2, weights, min_points=6, min_positive=0)  # fewer positive weights: degenerate
     return lirp_checked(f1, f2, w, float(rank_tol))
 
 
 def lirp_checked(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None, rank_tol: float) -> LiRPResult:
     """:func:`lirp` on input already validated (unit bearings ``(n, 3)`` float64 C-contiguous, ``n >= 6``,
     weights ``(n,)`` finite and non-negative or ``None``; ``0 < rank_tol < 1``): the public
-    :func:`poseonly.lirp` validates once and calls this. One core call (``_core.lirp_one``); ``R, t, E``
-    are copies of the best candidate's rows of ``candidates_R/t/E``."""
+    :func:`poseonly.lirp` validates once and calls this. One core call (``_core.lirp_one``); ``R, t``
+    are copies of the best candidate's rows of ``candidates_R/t``, ``E = [t]x R``."""
     if w is not None:  # relative weights at most 1: the singular values and weight sums stay finite
         wmax = float(w.max())  # (uniform 1e308 overflowed them, 5e-324 the reciprocal: a wrong pose)
         if wmax > 0.0 and wmax != 1.0:
@@ -155,7 +156,7 @@ def lirp_checked(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None, rank_tol:
     return LiRPResult(
         R=cR[best].copy(),
         t=ct[best].copy(),
-        E=cE[best].copy(),
+        E=essential_from_pose(cR[best], ct[best]),
         candidates_E=cE,
         candidates_R=cR,
         candidates_t=ct,
