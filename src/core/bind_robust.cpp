@@ -451,6 +451,59 @@ nb::tuple ransac_line(const nb::ndarray<const double, nb::ndim<2>, nb::c_contig>
   return nb::make_tuple(nb::make_tuple(best.a, best.b, best.c), stats_dict(st));
 }
 
+// A Python estimator (poseonly.robust.generic: generate / residuals / refine / distance) under the
+// same ransac<> as the core's estimators: models are Python objects, so the loop holds the GIL.
+class PyEstimator {
+ public:
+  using Model = nb::object;
+  using Terms = std::vector<double>;
+  PyEstimator(nb::object est, int sample_size, int n, bool has_refine, bool has_distance)
+      : est_(std::move(est)), s_(sample_size), n_(n), refine_(has_refine), distance_(has_distance) {}
+  int sample_size() const { return s_; }
+  int num_data() const { return n_; }
+  Terms terms(const Model& m) const {
+    const auto r = nb::cast<VectorIn>(est_.attr("residuals")(m));  // the adapter's checked float64 (n,)
+    if (static_cast<int>(r.shape(0)) != n_) throw std::invalid_argument("residuals must have shape (num_data,)");
+    return Terms(r.data(), r.data() + n_);
+  }
+  double residual(const Terms& t, int i) const { return t[i]; }
+  double success_probability(double r) const { return std::pow(r, s_); }
+  double distance(const Model& p, const Model& q) const { return distance_ ? nb::cast<double>(est_.attr("distance")(p, q)) : 0.0; }
+  void generate(const std::vector<int>& s, std::vector<Model>* models) {
+    std::vector<int64_t> idx(s.begin(), s.end());
+    const nb::object out = est_.attr("generate")(to_numpy_t<int64_t>(std::move(idx), {s.size()}));
+    for (nb::handle m : out) models->push_back(nb::borrow(m));
+  }
+  bool refine(Model* m, const std::vector<int>& inl) {
+    if (!refine_) return false;
+    std::vector<int64_t> idx(inl.begin(), inl.end());
+    nb::object r = est_.attr("refine")(*m, to_numpy_t<int64_t>(std::move(idx), {inl.size()}));
+    if (r.is_none()) return false;
+    *m = std::move(r);
+    return true;
+  }
+
+ private:
+  nb::object est_;
+  int s_, n_;
+  bool refine_, distance_;
+};
+
+nb::tuple ransac_python(nb::object est, int sample_size, int n, bool has_refine, bool has_distance, double threshold, uint64_t seed,
+                        int max_iterations, int min_iterations, double confidence, int max_lo, int scoring, int challengers,
+                        double challenger_distance, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order) {
+  if (sample_size < 1 || n < sample_size) throw std::invalid_argument("need 1 <= sample_size <= num_data");
+  if (challengers < 0 || challengers > 64) throw std::invalid_argument("challengers must be in [0, 64]");
+  if (challengers > 0 && !has_distance) throw std::invalid_argument("challengers need the estimator's distance()");
+  RansacOptions ro = ransac_options(max_iterations, min_iterations, confidence, true, max_lo);
+  ro.challengers = challengers;
+  ro.challenger_distance = challenger_distance;
+  PyEstimator pe(std::move(est), sample_size, n, has_refine, has_distance);
+  nb::object best;
+  const RansacStats st = run_sampled(pe, static_cast<Scoring>(scoring), threshold, order_of(order, n), seed, ro, &best);
+  return nb::make_tuple(best.is_valid() ? best : nb::none(), stats_dict(st));
+}
+
 }  // namespace
 }  // namespace poseonly
 
@@ -516,4 +569,9 @@ POSEONLY_BIND(robust) {
         nb::arg("confidence") = 0.999, nb::arg("max_lo") = 8, nb::arg("scoring") = 0, nb::arg("challengers") = 0,
         nb::arg("challenger_distance") = 1.0, nb::arg("min_inlier_ratio") = 0.0,
         "The generic loop on a 2-D line estimator (tests): ((a, b, c), stats).");
+  m.def("ransac_python", &ransac_python, nb::arg("estimator"), nb::arg("sample_size"), nb::arg("num_data"), nb::arg("has_refine"),
+        nb::arg("has_distance"), nb::arg("threshold"), nb::arg("seed"), nb::arg("max_iterations"), nb::arg("min_iterations"),
+        nb::arg("confidence"), nb::arg("max_lo"), nb::arg("scoring"), nb::arg("challengers"), nb::arg("challenger_distance"),
+        nb::arg("order").none(),
+        "The generic loop on a Python estimator (poseonly.robust.generic.ransac's adapter; the GIL is held): (best model or None, stats).");
 }

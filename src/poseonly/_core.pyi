@@ -133,6 +133,23 @@ def gnc_ransac(
     confidence: float = 0.99,
     gnc: dict[str, Any] = ...,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
+def ransac_python(
+    estimator: Any,
+    sample_size: int,
+    num_data: int,
+    has_refine: bool,
+    has_distance: bool,
+    threshold: float,
+    seed: int,
+    max_iterations: int,
+    min_iterations: int,
+    confidence: float,
+    max_lo: int,
+    scoring: int,
+    challengers: int,
+    challenger_distance: float,
+    order: NDArray[np.int64] | None,
+) -> tuple[Any, dict[str, Any]]: ...
 def ransac_line(
     xy: NDArray[np.float64],
     threshold: float,

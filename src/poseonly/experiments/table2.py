@@ -116,8 +116,7 @@ def run(args: argparse.Namespace) -> int:
     res = stamp(compute(trials, args.n, args.camera, args.seed, args.npt), t0)  # machine and code version (a researcher's trial)
     res.update(n=args.n, camera=args.camera, trials=trials, seed=args.seed)
     header = (
-        f"Table 2 (n = {args.n}, {args.camera} camera, {trials} trials; seed {args.seed}; 'oracle': the candidate nearest the truth, "
-        "the 'nearest' of docs/RESULTS_experiments.md)"
+        f"Table 2 (n = {args.n}, {args.camera} camera, {trials} trials; seed {args.seed}; 'oracle': the candidate nearest the truth, the 'nearest' of docs/RESULTS_experiments.md)"
     )
     finish_run(Path(args.out), "table2", header, res, to_markdown(res), _figure)
     return 0

@@ -17,6 +17,7 @@ from __future__ import annotations
 import errno
 import os
 import sqlite3
+import time
 from collections import OrderedDict
 from collections.abc import Iterable
 from contextlib import closing
@@ -45,6 +46,11 @@ __all__ = [
 ]
 
 KEYPOINT_CACHE_IMAGES = 512  # images whose keypoints (and bearings) are kept in memory (LRU)
+
+
+# pycolmap's Database.open is retried this long (pausing between tries) before a failure is final
+OPEN_RETRY_S = 2.0
+OPEN_RETRY_PAUSE_S = 0.05
 
 
 class DatabaseUnavailableError(OSError):
@@ -200,10 +206,17 @@ class ColmapDatabase:
             check_writable(p)
         self.path = p
         self._pc = _pycolmap()
-        try:
-            self.db = self._pc.Database.open(str(p))
-        except RuntimeError as exc:  # pycolmap: "No registered database factory succeeded" (its log says why)
-            raise database_unavailable(p, exc, "opening it with pycolmap") from None
+        deadline = time.monotonic() + OPEN_RETRY_S
+        while True:
+            try:
+                self.db = self._pc.Database.open(str(p))
+                break
+            except RuntimeError as exc:  # pycolmap: "No registered database factory succeeded" (its log says why)
+                # a reader's lock at the moment of opening (a COLMAP viewer, a poller: a test saw it once) is
+                # transient; pycolmap's error does not say which it was, so the opening is retried briefly
+                if time.monotonic() >= deadline:
+                    raise database_unavailable(p, exc, "opening it with pycolmap") from None
+                time.sleep(OPEN_RETRY_PAUSE_S)
         self._pairs: list[tuple[int, int, int]] = []
         for pid in pair_ids:
             i1, i2 = self._pc.pair_id_to_image_pair(pid)

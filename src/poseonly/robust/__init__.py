@@ -1,5 +1,7 @@
 """Robust loops of the compiled core (``src/core/ransac.h``, ``gnc.cpp``) and their option/result types."""
 
+from .generic import GenericRansacResult, RansacEstimator
+from .generic import ransac as ransac_generic
 from .gnc import GNCBatchResult, GNCOptions, gnc_irls_batch
 from .ransac import RansacResult, gnc_ransac, ransac_relpose, sample_indices
 
@@ -11,4 +13,7 @@ __all__ = [
     "ransac_relpose",
     "gnc_ransac",
     "sample_indices",
+    "ransac_generic",
+    "RansacEstimator",
+    "GenericRansacResult",
 ]
