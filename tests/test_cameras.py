@@ -542,3 +542,25 @@ def test_fov_omega_and_huge_points():
     cam = Camera("OPENCV", 0, 0, (500.0, 500.0, 0.0, 0.0, -0.1, 0.01, 0.0, 0.0))
     X = np.array([[0.1, 0.2, 1.0]])
     assert np.allclose(cam.project(X * 1e200), cam.project(X)) and np.allclose(cam.project(X * 1e-200), cam.project(X))
+
+
+def test_unliftable_matches_as_outliers():
+    """A camera trial: one noisy keypoint just past a wide lens's fold stopped the whole pair. With
+    unliftable="outlier" its match is left out and returned as an outlier; the rest is the estimate
+    of the liftable matches."""
+    cam = Camera("OPENCV", 640, 480, (300.0, 300.0, 320.0, 240.0, -0.3, 0.0, 0.0, 0.0))  # folds at r = 1.054
+    sc = make_scene(120, camera="pinhole", noise_px=0.5, outlier_fraction=0.2, seed=3)
+    d1, d2 = cam.project(sc.f1), cam.project(sc.f2)
+    keep = np.isfinite(d1).all(axis=1) & np.isfinite(d2).all(axis=1)
+    d1, d2 = d1[keep][:100], d2[keep][:100]
+    far = np.array([[320.0 + 300.0 * 1.2, 240.0]])  # past the fold
+    x1, x2 = np.vstack([d1, far]), np.vstack([d2, d2[:1]])
+    with pytest.raises(ValueError, match="did not converge for 1 of 101 points"):
+        estimate_relative_pose(x1, x2, camera1=cam)
+    r = estimate_relative_pose(x1, x2, camera1=cam, unliftable="outlier", scores=np.arange(101.0))
+    ref = estimate_relative_pose(d1, d2, camera1=cam, scores=np.arange(100.0))
+    assert r.diagnostics["unliftable"] == 1 and "1 of 101 matches a camera could not lift" in r.message
+    assert r.inliers.shape == (101,) and not r.inliers[100] and np.isnan(r.residuals_px[100]) and r.weights[100] == 0
+    assert np.array_equal(r.inliers[:100], ref.inliers) and np.allclose(r.R, ref.R) and r.status == ref.status
+    with pytest.raises(ValueError, match="unliftable must be"):
+        estimate_relative_pose(d1, d2, camera1=cam, unliftable="drop")

@@ -169,6 +169,33 @@ def _epipolar_rank(f1: np.ndarray, f2: np.ndarray) -> int:
     return int(np.count_nonzero(s > RANK_RTOL * s[0]))
 
 
+def _without_unliftable(
+    f1: np.ndarray,
+    f2: np.ndarray,
+    lifted: np.ndarray,
+    cam_focal: float,
+    method: str,
+    scores: np.ndarray | None,
+    noise_scales: np.ndarray | None,
+    options: dict[str, Any],
+) -> RelativePoseResult:
+    """:func:`estimate_relative_pose` on the lifted matches (bearings, the cameras' focal unless
+    ``focal_px`` is given), its per-match arrays widened back to all ``n`` matches."""
+    n, k = len(f1), int(np.count_nonzero(lifted))
+    if k < 6:
+        raise InputError(f"only {k} of {n} matches can be lifted through the cameras (unliftable='outlier'): at least 6 are needed")
+    opts = options if options.get("focal_px") is not None else {**options, "focal_px": cam_focal}
+    sc = None if scores is None else np.asarray(scores)[lifted]
+    ns = None if noise_scales is None else np.asarray(noise_scales)[lifted]
+    r = estimate_relative_pose(f1[lifted], f2[lifted], method=method, scores=sc, noise_scales=ns, **opts)
+    inliers, weights, res = np.zeros(n, bool), np.zeros(n), np.full(n, np.nan)
+    inliers[lifted], weights[lifted], res[lifted] = r.inliers, r.weights, r.residuals_px
+    r.inliers, r.weights, r.residuals_px = inliers, weights, res
+    r.diagnostics["unliftable"] = n - k
+    r.message += f" ({n - k} of {n} matches a camera could not lift are outliers)"
+    return r
+
+
 def estimate_relative_pose(
     x1: np.ndarray,
     x2: np.ndarray,
@@ -180,6 +207,7 @@ def estimate_relative_pose(
     camera2: Any = None,
     scores: np.ndarray | None = None,
     noise_scales: np.ndarray | None = None,
+    unliftable: str = "raise",
     **options: Any,
 ) -> RelativePoseResult:
     """Estimate the relative pose ``X2 = R X1 + t`` from point matches.
@@ -197,7 +225,10 @@ def estimate_relative_pose(
     True). ``camera1``/``camera2`` (instead of ``K1``/``K2``; ``camera2`` defaults to ``camera1``): any
     camera of :func:`poseonly.cameras.as_camera` (pycolmap.Camera, ``{"model", "width", "height",
     "params"}``, ``(K, dist)``); pixels are lifted through the distortion model and the threshold uses
-    the cameras' focal length (:func:`poseonly.geometry.pair_focal` of the two). ``scores (n,)``: match quality, higher is better (e.g. ``1 - ratio``
+    the cameras' focal length (:func:`poseonly.geometry.pair_focal` of the two); a pixel a camera cannot lift
+    (past its distortion's fold) raises :class:`InputError` naming it, or with ``unliftable="outlier"`` its
+    match is left out of the estimate and returned as an outlier (``inliers`` False, ``weights`` 0,
+    ``residuals_px`` NaN; ``diagnostics["unliftable"]`` counts them). ``scores (n,)``: match quality, higher is better (e.g. ``1 - ratio``
     of the ratio test, or a matcher's confidence); the default method then samples PROSAC-style, best
     matches first (PoseLib's ``progressive_sampling``, OpenCV's ``SAMPLING_PROSAC``).
     ``noise_scales (n,)``: each match's relative localisation scale (> 0; only ratios matter), e.g.
@@ -212,6 +243,8 @@ def estimate_relative_pose(
     """
     t0 = time.perf_counter()
     o = parse_options(method, options)
+    if unliftable not in ("raise", "outlier"):
+        raise InputError(f"unliftable must be 'raise' or 'outlier' (what a match a camera cannot lift becomes), got {unliftable!r}")
     if K1 is not None:
         K1 = check_intrinsics(K1, "K1")
         K2 = K1 if K2 is None else check_intrinsics(K2, "K2")
@@ -223,7 +256,7 @@ def estimate_relative_pose(
 
         if camera1 is None or K1 is not None:
             raise InputError("camera2 given without camera1" if camera1 is None else "give K1/K2 or camera1/camera2, not both")
-        f1, f2, cam_focal = lift_pair(x1, x2, camera1, camera2)
+        f1, f2, cam_focal = lift_pair(x1, x2, camera1, camera2, "nan" if unliftable == "outlier" else "raise")
     else:
         f1 = as_bearings(x1, K1, "x1", K_checked=True)  # K1, K2 checked above
         f2 = as_bearings(x2, K2, "x2", K_checked=True)
@@ -234,6 +267,10 @@ def estimate_relative_pose(
         raise InputError(f"at least 6 correspondences are needed, got {n}")
     scores = _check_scores(scores, n)
     noise_scales = _check_noise_scales(noise_scales, n)
+    if cam_focal is not None and unliftable == "outlier":
+        lifted = np.isfinite(f1).all(axis=1) & np.isfinite(f2).all(axis=1)
+        if not lifted.all():  # a camera trial: one keypoint past the fold stopped a whole pair
+            return _without_unliftable(f1, f2, lifted, cam_focal, method, scores, noise_scales, options)
     if K1 is None and cam_focal is None and o.focal_px is None:
         raise InputError(
             "normalized coordinates or bearing vectors need focal_px (the focal length in pixels that converts "

@@ -622,14 +622,15 @@ def read_colmap_cameras(source: str | os.PathLike | Iterable[str], *, skip_unsup
     return out
 
 
-def lift_pair(x1: Any, x2: Any, camera1: Any, camera2: Any = None) -> tuple[np.ndarray, np.ndarray, float]:
+def lift_pair(x1: Any, x2: Any, camera1: Any, camera2: Any = None, invalid: str = "raise") -> tuple[np.ndarray, np.ndarray, float]:
     """Pixels ``(n, 2)`` of two views -> bearings ``(n, 3), (n, 3)`` and the focal length (pixels) for
     the threshold conversion (:func:`poseonly.geometry.pair_focal` of the two cameras'). ``camera2``
-    defaults to ``camera1``."""
+    defaults to ``camera1``; ``invalid`` as :meth:`Camera.unproject`'s (``"nan"``: NaN rows for the
+    points a camera cannot lift)."""
     c1 = as_camera(camera1, "camera1")
     c2 = c1 if camera2 is None else as_camera(camera2, "camera2")
     for x, nm in ((x1, "x1"), (x2, "x2")):
         a = np.asarray(x)
         if a.ndim == 2 and a.shape[1] == 3:
             raise InputError(f"{nm} has shape (n, 3) (bearing vectors) but a camera was given; pass pixels (n, 2)")
-    return c1.unproject(x1), c2.unproject(x2), pair_focal(c1.focal_px, c2.focal_px)
+    return c1.unproject(x1, invalid), c2.unproject(x2, invalid), pair_focal(c1.focal_px, c2.focal_px)
