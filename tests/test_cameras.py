@@ -564,3 +564,15 @@ def test_unliftable_matches_as_outliers():
     assert np.array_equal(r.inliers[:100], ref.inliers) and np.allclose(r.R, ref.R) and r.status == ref.status
     with pytest.raises(ValueError, match="unliftable must be"):
         estimate_relative_pose(d1, d2, camera1=cam, unliftable="drop")
+
+
+def test_fisheye624_with_strong_tangential_terms_finds_the_physical_root():
+    """Damped Newton from the radial root stalled in a local minimum of the residual for this
+    Fisheye624 lens (a review's fuzz, tangential / prism terms ~0.02): more starts along the pixel's
+    direction find the ray pycolmap gives (54.91 deg off-axis, det J 0.70, before the fold)."""
+    p = (300.0, 300.0, 320.0, 240.0, -0.01243, 0.04241, 0.10458, -0.04186, -0.029, -0.08154, 0.01603, 0.01592, 0.00498, 0.01608, 0.02653, -0.0362)
+    cam = Camera("RAD_TAN_THIN_PRISM_FISHEYE", 640, 480, p)
+    uv = np.array([[601.8912761094705, 128.8946825458357]])
+    b = cam.unproject(uv)
+    assert np.allclose(b, [[0.75505987, -0.31538377, 0.57481968]], atol=1e-7)
+    assert np.abs(cam.project(b) - uv).max() < 1e-7

@@ -360,6 +360,41 @@ bool prism_good(int kind, const double k[12], double u, double v, double x, doub
 
 }  // namespace
 
+// Damped Newton on the thin-prism distortion from (cu, cv): steps halved until the residual decreases
+// (as Brown's fallback); the last point in (u, v).
+constexpr int kPrismStarts = 8;
+
+static void prism_damped(int kind, const double k[12], double x, double y, double cu, double cv, double tol, int max_iter, double* u,
+                         double* v) {
+  double px, py, J[4];
+  prism_distort(kind, k, cu, cv, &px, &py, J);
+  double fu = px - x, fv = py - y, norm = std::hypot(fu, fv);
+  for (int it = 0; it < max_iter; ++it) {
+    const double det = J[0] * J[3] - J[1] * J[2];
+    const double du = (J[3] * fu - J[1] * fv) / det, dv = (J[0] * fv - J[2] * fu) / det;
+    if (!std::isfinite(du) || !std::isfinite(dv)) break;
+    double s = 1.0, nu = cu, nv = cv, nJ[4];
+    bool better = false;
+    for (int h = 0; h <= kDampedHalvings && !better; ++h, s *= 0.5) {
+      nu = cu - s * du;
+      nv = cv - s * dv;
+      prism_distort(kind, k, nu, nv, &px, &py, nJ);
+      better = std::hypot(px - x, py - y) < norm;
+    }
+    if (!better) break;
+    const double step = std::hypot(nu - cu, nv - cv);
+    cu = nu;
+    cv = nv;
+    fu = px - x;
+    fv = py - y;
+    norm = std::hypot(fu, fv);
+    for (int c = 0; c < 4; ++c) J[c] = nJ[c];
+    if (step <= tol * std::max(1.0, std::hypot(cu, cv))) break;
+  }
+  *u = cu;
+  *v = cv;
+}
+
 static double prism_fold(int kind, const double k[12]) {
   return first_fold(
       [&](double t) {
@@ -395,33 +430,14 @@ void undistort_prism(const double* xd, const double* yd, int n, int kind, const 
       // root lies before the fold (a review): damped Newton then starts at the fold
       if (!std::isfinite(t0) && th_max < kFisheyePi) t0 = th_max;
       if (std::isfinite(t0)) {
-        double cu = x * (t0 / rd), cv = y * (t0 / rd), px, py, J[4];
-        prism_distort(kind, k, cu, cv, &px, &py, J);
-        double fu = px - x, fv = py - y, norm = std::hypot(fu, fv);
-        for (int it = 0; it < max_iter; ++it) {
-          const double det = J[0] * J[3] - J[1] * J[2];
-          const double du = (J[3] * fu - J[1] * fv) / det, dv = (J[0] * fv - J[2] * fu) / det;
-          if (!std::isfinite(du) || !std::isfinite(dv)) break;
-          double s = 1.0, nu = cu, nv = cv, nJ[4];
-          bool better = false;
-          for (int h = 0; h <= kDampedHalvings && !better; ++h, s *= 0.5) {
-            nu = cu - s * du;
-            nv = cv - s * dv;
-            prism_distort(kind, k, nu, nv, &px, &py, nJ);
-            better = std::hypot(px - x, py - y) < norm;
-          }
-          if (!better) break;
-          const double step = std::hypot(nu - cu, nv - cv);
-          cu = nu;
-          cv = nv;
-          fu = px - x;
-          fv = py - y;
-          norm = std::hypot(fu, fv);
-          for (int c = 0; c < 4; ++c) J[c] = nJ[c];
-          if (step <= tol * std::max(1.0, std::hypot(cu, cv))) break;
-        }
-        u = cu;
-        v = cv;
+        prism_damped(kind, k, x, y, x * (t0 / rd), y * (t0 / rd), tol, max_iter, &u, &v);
+        good = prism_good(kind, k, u, v, x, y, th_max);
+      }
+      // strong tangential / prism terms can leave damped Newton in a local minimum of the residual (a
+      // review's fuzz of Fisheye624 lenses): more starts along the pixel's direction, inside the fold
+      for (int s = 1; !good && s < kPrismStarts; ++s) {
+        const double ts = th_max * s / kPrismStarts;
+        prism_damped(kind, k, x, y, x * (ts / rd), y * (ts / rd), tol, max_iter, &u, &v);
         good = prism_good(kind, k, u, v, x, y, th_max);
       }
     }
