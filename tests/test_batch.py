@@ -298,3 +298,34 @@ def test_a_malformed_item_ends_the_batch_after_every_pair_before_it(kw):
         for pr in poseonly.estimate_relative_poses(items, progress=False, **kw):
             got.append(pr.key)
     assert sorted(got) == sorted(p.key for p in good)
+
+
+@pytest.mark.parametrize("kw", [{"n_jobs": 1, "chunk_size": 4}, {"n_jobs": 2, "backend": "threads", "chunk_size": 3}, {"n_jobs": 2, "backend": "processes", "chunk_size": 3}])
+def test_a_failing_iterable_ends_the_batch_after_every_pair_it_gave(kw):
+    """The caller's iterable raising (a matches file that cannot be read) ends the batch with its error
+    after the results of every pair it gave (a batch trial: threads and processes lost the pairs in
+    flight, Dask all of them; only a malformed pair's InputError was handled so)."""
+    good = _pairs(7)
+
+    def source():
+        yield from good
+        raise OSError("cannot read pair 7")
+
+    got = []
+    with pytest.raises(OSError, match="cannot read pair 7"):
+        for pr in poseonly.estimate_relative_poses(source(), progress=False, **kw):
+            got.append(pr.key)
+    assert sorted(got) == sorted(p.key for p in good)
+
+
+def test_per_match_arrays_are_not_batch_options():
+    """Batch-level scores overrode every pair's own silently (a batch trial); Pair compares by value."""
+    import copy
+
+    p = _pairs(1)[0]
+    with pytest.raises(ValueError, match=r"\['scores'\] are a pair's data"):
+        poseonly.estimate_relative_poses([p], scores=np.ones(len(p.x1)))
+    q = Pair(p.x1, p.x2, camera1=CAM, key="q", options={"noise_scales": np.ones(len(p.x1))}, noise_scales=np.ones(len(p.x1)))
+    (r,) = poseonly.estimate_relative_poses([q], progress=False)
+    assert r.result is None and "both as its fields and in its options" in str(r.error)
+    assert p == copy.deepcopy(p) and p != q

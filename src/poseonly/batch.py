@@ -58,12 +58,13 @@ _SEED_BITS = 63
 _CHECK_POINTS = 100
 
 
-@dataclass
-class Pair:
+@dataclass(eq=False)
+class Pair(ValueEquality):
     """One image pair: matched points ``x1, x2`` (``(n, 2)`` pixels with ``camera1/2`` or ``K1/K2``,
     or ``(n, 3)`` bearings), a hashable ``key`` (default: the position in the iterable), the matches'
     ``scores (n,)`` and ``noise_scales (n,)`` (see :func:`poseonly.estimate_relative_pose`; ``None``:
-    none) and per-pair ``options`` overriding the batch's (e.g. ``threshold_px``)."""
+    none) and per-pair ``options`` overriding the batch's (e.g. ``threshold_px``). ``==`` compares values
+    (arrays elementwise, NaN equal to NaN), as :class:`PairResult`'s."""
 
     x1: np.ndarray
     x2: np.ndarray
@@ -161,6 +162,9 @@ def _as_pair(p: Any, index: int) -> Pair:
 # a pair's own options may not name its points or cameras (the Pair's fields carry them; ``scores`` and
 # ``noise_scales`` there override the Pair's fields)
 _PAIR_FIELDS_IN_OPTIONS = ("x1", "x2", "K1", "K2", "camera1", "camera2")
+# per-match arrays: a pair's (its fields, or its own options), never the batch's (a batch trial: batch-level
+# scores overrode every pair's own silently)
+_PER_MATCH = ("scores", "noise_scales")
 
 
 def _pair_options(pair: Pair, options: dict[str, Any]) -> tuple[dict[str, Any], int]:
@@ -173,6 +177,9 @@ def _pair_options(pair: Pair, options: dict[str, Any]) -> tuple[dict[str, Any], 
     clash = sorted(set(own) & set(_PAIR_FIELDS_IN_OPTIONS))
     if clash:
         raise InputError(f"the pair's options name its data {clash}: pass them as the Pair's fields")
+    twice = [k for k in _PER_MATCH if k in own and getattr(pair, k) is not None]
+    if twice:
+        raise InputError(f"the pair gives {twice} both as its fields and in its options: give them once")
     opts = {**options, **own}
     seed = opts.pop("seed", 0)
     whole = isinstance(seed, (int, np.integer)) or (isinstance(seed, (float, np.floating)) and np.isfinite(seed) and seed == round(seed))
@@ -188,11 +195,9 @@ def _run_one(index: int, pair: Pair, options: dict[str, Any]) -> PairResult:
         return PairResult(index, pair.key, 0, None, str(exc))
     seed = pair_seed(base, pair.key)
     try:
-        if pair.scores is not None:
-            opts.setdefault("scores", pair.scores)
-        if pair.noise_scales is not None:
-            opts.setdefault("noise_scales", pair.noise_scales)
-        r = estimate_relative_pose(pair.x1, pair.x2, pair.K1, pair.K2, camera1=pair.camera1, camera2=pair.camera2, seed=seed, **opts)
+        sc = pair.scores if pair.scores is not None else opts.pop("scores", None)
+        ns = pair.noise_scales if pair.noise_scales is not None else opts.pop("noise_scales", None)
+        r = estimate_relative_pose(pair.x1, pair.x2, pair.K1, pair.K2, camera1=pair.camera1, camera2=pair.camera2, scores=sc, noise_scales=ns, seed=seed, **opts)
     except ValueError as exc:  # invalid input of this pair (InputError is a ValueError)
         return PairResult(index, pair.key, seed, None, str(exc))
     return PairResult(index, pair.key, seed, r)
@@ -209,7 +214,19 @@ def _chunks(pairs: Iterable[Any], size: int) -> Iterator[list[tuple[int, Pair]]]
     caller collecting by key (a user's trial)."""
     buf: list[tuple[int, Pair]] = []
     seen: dict[Hashable, int] = {}
-    for i, p in enumerate(pairs):
+    source = enumerate(pairs)
+    while True:
+        try:
+            i, p = next(source)
+        except StopIteration:
+            break
+        except Exception:
+            # the caller's iterable failed (a file that could not be read): the pairs it gave before are
+            # run and yielded first, as for a malformed pair (a batch trial: threads and processes lost
+            # the pairs in flight, Dask all of them)
+            if buf:
+                yield buf
+            raise
         try:
             pair = _as_pair(p, i)
             first = seen.setdefault(canonical_key(pair.key), i)
@@ -232,6 +249,9 @@ def _chunks(pairs: Iterable[Any], size: int) -> Iterator[list[tuple[int, Pair]]]
 def _check_options(options: dict[str, Any]) -> None:
     """Fail fast on invalid options: run them once on a fixed, well-posed problem of
     :data:`_CHECK_POINTS` points (enough for the methods' sample sizes)."""
+    data = sorted(set(options) & {*_PAIR_FIELDS_IN_OPTIONS, *_PER_MATCH})
+    if data:
+        raise InputError(f"{data} are a pair's data, not batch options: pass them as each Pair's fields")
     seed = options.get("seed", 0)
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or not 0 <= int(seed) < SEED_LIMIT:
         # the single-pair API's range (a reliability trial: -1 and 2**64 ran here and were refused there)
@@ -354,20 +374,20 @@ def _importing_main() -> bool:
 
 
 class _Feed:
-    """The chunks of a parallel batch: ``next()`` gives the next chunk or None at the end or at a malformed
-    pair, whose :class:`InputError` ``raise_error()`` raises once the chunks before it are done (so the
-    pairs run and yielded do not depend on the scheduling)."""
+    """The chunks of a parallel batch: ``next()`` gives the next chunk or None at the end, at a malformed
+    pair or where the caller's iterable raised; ``raise_error()`` raises that error once the chunks
+    before it are done (so the pairs run and yielded do not depend on the scheduling)."""
 
     def __init__(self, chunks: Iterator[list[tuple[int, Pair]]]) -> None:
         self._chunks = chunks
-        self._error: InputError | None = None
+        self._error: Exception | None = None
 
     def next(self) -> list[tuple[int, Pair]] | None:
         if self._error is not None:
             return None
         try:
             return next(self._chunks, None)
-        except InputError as exc:
+        except Exception as exc:  # a malformed pair's InputError, or the caller's iterable failing
             self._error = exc
             return None
 
@@ -388,7 +408,8 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
     else:
         # workers never fork the caller (no inherited threads or locks): a fork server started from a
         # clean interpreter that has imported poseonly once forks them where available (POSIX), else
-        # spawn; either way they are children of this process (their CPU time is accounted to it)
+        # spawn (forkserver's workers are the fork server's children, so their CPU time is not this process's
+        # RUSAGE_CHILDREN until it exits; a batch trial)
         ctx: BaseContext
         if "forkserver" in mp.get_all_start_methods():
             fs = mp.get_context("forkserver")

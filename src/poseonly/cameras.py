@@ -450,7 +450,8 @@ def _check_points(a: Any, d: int, name: str) -> np.ndarray:
     if a.ndim != 2 or a.shape[1] != d:
         raise InputError(f"{name} must have shape (n, {d}), got {a.shape}")
     if not np.all(np.isfinite(a)):
-        raise InputError(f"{name} contains NaN or inf values")
+        bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
+        raise InputError(f"{name} contains NaN or inf values ({len(bad)} rows, the first {bad[0]})")
     return a
 
 
@@ -633,4 +634,10 @@ def lift_pair(x1: Any, x2: Any, camera1: Any, camera2: Any = None, invalid: str 
         a = np.asarray(x)
         if a.ndim == 2 and a.shape[1] == 3:
             raise InputError(f"{nm} has shape (n, 3) (bearing vectors) but a camera was given; pass pixels (n, 2)")
-    return c1.unproject(x1, invalid), c2.unproject(x2, invalid), pair_focal(c1.focal_px, c2.focal_px)
+    out = []
+    for cam, x, nm in ((c1, x1, "x1"), (c2, x2, "x2")):
+        try:
+            out.append(cam.unproject(x, invalid))
+        except InputError as exc:  # which view (a batch trial: "uv contains NaN" named neither)
+            raise InputError(f"{nm}: {exc}") from None
+    return out[0], out[1], pair_focal(c1.focal_px, c2.focal_px)
