@@ -329,3 +329,15 @@ def test_per_match_arrays_are_not_batch_options():
     (r,) = poseonly.estimate_relative_poses([q], progress=False)
     assert r.result is None and "both as its fields and in its options" in str(r.error)
     assert p == copy.deepcopy(p) and p != q
+
+
+def test_pair_results_as_json_lines():
+    """PairResult.to_dict: one JSON line per pair (a batch trial asked for it), errors included."""
+    import json
+
+    pairs = [*_pairs(2), Pair(np.zeros((3, 2)), np.zeros((3, 2)), camera1=CAM, key=("img", np.int64(9)))]
+    out = sorted(poseonly.estimate_relative_poses(pairs, progress=False), key=lambda r: r.index)
+    lines = [json.dumps(r.to_dict(), allow_nan=False) for r in out]
+    back = [json.loads(x) for x in lines]
+    assert back[0]["key"] == "img0-img1" and back[0]["result"]["R"] == out[0].result.R.tolist() and back[0]["error"] is None
+    assert back[2]["key"] == ["img", 9] and back[2]["result"] is None and "at least 6" in back[2]["error"]

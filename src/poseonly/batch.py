@@ -93,6 +93,22 @@ class PairResult(ValueEquality):
     def ok(self) -> bool:
         return self.result is not None and self.result.ok
 
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe record (one line of a JSON Lines log; a batch trial): ``index``, ``key`` (its
+        :func:`canonical_key`, tuples as lists, other non-JSON keys as their ``repr``), ``seed``,
+        ``error`` and ``result`` (:meth:`poseonly.RelativePoseResult.to_dict`, or ``None``)."""
+        return {"index": int(self.index), "key": _json_key(canonical_key(self.key)), "seed": int(self.seed), "error": self.error, "result": None if self.result is None else self.result.to_dict()}
+
+
+def _json_key(key: Any) -> Any:
+    if key is None or isinstance(key, (str, int, bool)):
+        return key
+    if isinstance(key, float):
+        return key if np.isfinite(key) else repr(key)
+    if isinstance(key, tuple):
+        return [_json_key(k) for k in key]
+    return repr(key)
+
 
 def canonical_key(key: Hashable) -> Hashable:
     """``key`` with numpy scalars as the Python ones they equal (``np.int64(7)``, ``np.float32(7.0)`` and
