@@ -97,7 +97,8 @@ class PairResult(ValueEquality):
         """JSON-safe record (one line of a JSON Lines log; a batch trial): ``index``, ``key`` (its
         :func:`canonical_key`, tuples as lists, other non-JSON keys as their ``repr``), ``seed``,
         ``error`` and ``result`` (:meth:`poseonly.RelativePoseResult.to_dict`, or ``None``)."""
-        return {"index": int(self.index), "key": _json_key(canonical_key(self.key)), "seed": int(self.seed), "error": self.error, "result": None if self.result is None else self.result.to_dict()}
+        result = None if self.result is None else self.result.to_dict()
+        return {"index": int(self.index), "key": _json_key(canonical_key(self.key)), "seed": int(self.seed), "error": self.error, "result": result}
 
 
 def _json_key(key: Any) -> Any:
