@@ -26,6 +26,17 @@ def test_skew():
     assert np.allclose(skew(a) @ b, np.cross(a, b))
 
 
+def test_skew_stacked_and_shape_errors():
+    rng = np.random.default_rng(3)
+    a, b = rng.normal(size=(2, 4, 3)), rng.normal(size=(2, 4, 3))
+    S = skew(a)
+    assert S.shape == (2, 4, 3, 3)
+    assert np.allclose(np.einsum("...ij,...j->...i", S, b), np.cross(a, b), atol=1e-15)
+    assert np.array_equal(S, -np.swapaxes(S, -1, -2))
+    with pytest.raises(ValueError, match="length 3"):
+        skew(np.ones(2))
+
+
 def test_rotation_error_stable_near_0_and_180():
     for ang in [1e-9, 1e-5, 0.3, 90.0, 179.9, 180.0 - 1e-7]:
         R = rotation_from_rotvec(np.radians(ang) * np.array([0.0, 0.6, 0.8]))
