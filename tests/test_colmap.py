@@ -510,3 +510,27 @@ def test_database_fisheye_rays_beyond_90_degrees_are_lifted_natively(tmp_path):
     assert direct.status == "ok" and direct.num_inliers >= 280
     assert st[3] >= direct.num_inliers - 3, (st, direct.num_inliers)  # every ray lifted: the clean matches are inliers on both paths
     assert ig.normalized is not None and ig.normalized[0].shape == (300, 3)
+
+
+def test_uncertain_written_calibrated_or_dropped(tmp_path):
+    """``uncertain`` is CALIBRATED with its inliers by default; ``keep_uncertain=False`` (``--drop-uncertain``)
+    writes it DEGENERATE without inliers, as ``too_few_inliers`` (a pipeline user's trial asked for it)."""
+    import dataclasses
+
+    from poseonly.io.colmap_geometry import two_view_fields
+    from poseonly.sim import make_scene
+
+    sc = make_scene(60, camera="pinhole", noise_px=0.5, seed=1)
+    r = dataclasses.replace(poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=0), status="uncertain")
+    kept = two_view_fields(r)
+    assert kept.config == "CALIBRATED" and len(kept.inlier_matches) == r.inliers.sum() > 0 and kept.E is not None
+    dropped = two_view_fields(r, keep_uncertain=False)
+    assert dropped.config == "DEGENERATE" and len(dropped.inlier_matches) == 0 and dropped.E is None
+    ok = dataclasses.replace(r, status="ok")
+    assert two_view_fields(ok, keep_uncertain=False).config == "CALIBRATED"  # only `uncertain` is dropped
+    path = tmp_path / "db.db"
+    make_db(path, n_images=3)
+    with pytest.raises(ValueError, match="keep_uncertain must be True or False"):
+        verify_database(path, progress=False, keep_uncertain="no")
+    s = verify_database(path, progress=False, keep_uncertain=False)
+    assert s.written == 3 and not s.errors

@@ -9,6 +9,8 @@ a ``two_view_geometries`` row is written:
 our status             COLMAP configuration    row content
 =====================  ======================  =====================================================
 ``ok``                 ``CALIBRATED``          inliers, E, F (pinhole cameras only), cam2_from_cam1
+``uncertain``          ``CALIBRATED``          the same (``DEGENERATE`` without inliers with
+                                               ``--drop-uncertain`` / ``keep_uncertain=False``)
 ``planar_ambiguous``   ``PLANAR_OR_PANORAMIC`` same + H (DLT on the inlier keypoints)
 ``pure_rotation``      ``PANORAMIC``           inliers, H, cam2_from_cam1 with ``t = 0``
 ``ambiguous``          ``MULTIPLE``            no inliers (two poses explain the matches: which
@@ -80,9 +82,9 @@ class _Source:
     """Builds the batch's pairs from the database (bearings cached per image) and keeps, for each
     pair in flight, what is needed to turn its result into a row."""
 
-    def __init__(self, db: ColmapDatabase, todo: list[tuple[int, int, int]], errors: dict[int, str], noise_scales: bool = True) -> None:
+    def __init__(self, db: ColmapDatabase, todo: list[tuple[int, int, int]], errors: dict[int, str], noise_scales: bool = True, keep_uncertain: bool = True) -> None:
         self.db, self.todo, self.errors = db, todo, errors
-        self.noise_scales = noise_scales
+        self.noise_scales, self.keep_uncertain = noise_scales, keep_uncertain
         self.pending: dict[int, tuple[int, int, np.ndarray]] = {}
         self.direct: list[GeometryRow] = []  # rows decided without estimating
         self._bear: dict[int, np.ndarray] = {}
@@ -153,9 +155,9 @@ class _Source:
             return GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2)))
         c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
         pinhole = c1.is_undistorted and c2.is_undistorted  # a distorted camera has no F
-        with_h = STATUS_CONFIG.get(r.status, ERROR_CONFIG) in ("PLANAR_OR_PANORAMIC", "PANORAMIC")  # keypoints read only for H
+        with_h = (r.status != "uncertain" or self.keep_uncertain) and STATUS_CONFIG.get(r.status, ERROR_CONFIG) in ("PLANAR_OR_PANORAMIC", "PANORAMIC")  # keypoints read only for H
         kp1, kp2 = (self.db.keypoints(i1), self.db.keypoints(i2)) if with_h else (None, None)
-        f = two_view_fields(r, m, c1.K if pinhole else None, c2.K if pinhole else None, keypoints1=kp1, keypoints2=kp2)
+        f = two_view_fields(r, m, c1.K if pinhole else None, c2.K if pinhole else None, keypoints1=kp1, keypoints2=kp2, keep_uncertain=self.keep_uncertain)
         return GeometryRow(i1, i2, f.config, f.inlier_matches, E=f.E, F=f.F, H=f.H, R=f.R, t=f.t)
 
 
@@ -173,6 +175,7 @@ def verify_database(
     noise_scales: bool = True,
     camera: Any = None,
     trust_guessed_focal: bool = False,
+    keep_uncertain: bool = True,
     **options: Any,
 ) -> VerifySummary:
     """Verify the matched pairs of the COLMAP database ``path`` and write their two-view geometries
@@ -186,11 +189,16 @@ def verify_database(
     length COLMAP guessed (no prior focal length) with that guess; without it (and without ``camera``)
     such a database is refused before any pair is estimated (:class:`InputError` naming the cameras),
     since a calibrated pose from a guessed focal length can be degrees off and be written
-    ``CALIBRATED``; ``n_jobs``,
+    ``CALIBRATED``; ``keep_uncertain``: write pairs of status ``uncertain`` (the inliers single out the
+    epipolar geometry, the pose is poorly determined) ``CALIBRATED`` with their inliers (default: COLMAP's
+    bundle adjustment re-estimates every pose) or, with ``False``, ``DEGENERATE`` without inliers, as
+    ``too_few_inliers``; ``n_jobs``,
     ``backend`` (``"auto"``: threads for fewer than :data:`poseonly.batch.AUTO_THREADS_MAX_PAIRS` pairs to
     verify, else processes; ``"processes"`` or ``"threads"``) and ``client`` as :func:`poseonly.estimate_relative_poses`
     takes them (the database is read and written in this thread only). Returns a :class:`VerifySummary`."""
     t0 = time.perf_counter()
+    if not isinstance(keep_uncertain, (bool, np.bool_)):
+        raise InputError(f"keep_uncertain must be True or False, got {keep_uncertain!r}")
     if isinstance(write_every, (bool, np.bool_)) or not isinstance(write_every, (int, np.integer)) or write_every < 1:
         raise InputError(f"write_every must be a positive int, got {write_every!r}")
     if options.get("method", DEFAULT_METHOD) == "poseonly" and options.get("max_iterations") is None:
@@ -239,7 +247,7 @@ def verify_database(
         summary.skipped = len(pairs) - len(todo)
         if backend == "auto":  # the pairs stream from the database (no len): decided on the pairs to verify
             backend = "threads" if len(todo) < AUTO_THREADS_MAX_PAIRS else "processes"
-        src = _Source(db, todo, summary.errors, noise_scales)
+        src = _Source(db, todo, summary.errors, noise_scales, bool(keep_uncertain))
         buf: list[GeometryRow] = []
 
         def flush() -> None:
@@ -304,6 +312,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="estimate with the focal length COLMAP guessed for cameras imported without calibration or EXIF focal length (refused"
         " otherwise: the poses can be degrees off and would be written CALIBRATED)",
     )
+    p.add_argument(
+        "--drop-uncertain",
+        action="store_true",
+        help="write pairs whose status is 'uncertain' (poorly determined pose) DEGENERATE without inliers instead of CALIBRATED",
+    )
 
 
 def run_cli(args: argparse.Namespace) -> int:
@@ -328,6 +341,7 @@ def run_cli(args: argparse.Namespace) -> int:
         noise_scales=not args.no_noise_scales,
         camera=camera,
         trust_guessed_focal=args.trust_guessed_focal,
+        keep_uncertain=not args.drop_uncertain,
         method=args.method,
         seed=args.seed,
         **({} if args.threshold is None else {"threshold_px": args.threshold}),

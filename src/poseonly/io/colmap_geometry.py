@@ -94,13 +94,15 @@ def two_view_fields(
     K2: np.ndarray | None = None,
     keypoints1: np.ndarray | None = None,
     keypoints2: np.ndarray | None = None,
+    keep_uncertain: bool = True,
 ) -> TwoViewFields:
     """The fields of ``result`` (one pair's, from ``n`` matches) by the table above.
 
     ``matches (n, 2)``: the keypoint indices of the matches the result was estimated from (default: match
     ``i`` is keypoint ``i`` in both images); ``K1, K2 (3, 3)``: the pinhole intrinsics for F (none without
     both: a distorted camera has no F); ``keypoints1 (m1, 2)``, ``keypoints2 (m2, 2)``: pixel keypoints
-    for H (none without them)."""
+    for H (none without them); ``keep_uncertain=False``: a result with status ``uncertain`` is written
+    ``DEGENERATE`` without inliers, as ``too_few_inliers`` is (for pipelines that keep only poses to trust)."""
     n = len(result.inliers)
     if matches is None:
         idx = np.arange(n)
@@ -110,6 +112,8 @@ def two_view_fields(
         if m.ndim != 2 or m.shape != (n, 2) or m.dtype.kind not in "iu" or (m.size and (m.min() < 0 or m.max() >= KEYPOINT_INDEX_LIMIT)):
             raise InputError(f"matches must be keypoint indices in [0, 2**32) (COLMAP's point2D_idx) of shape ({n}, 2), the result's matches; got {m.dtype} {m.shape}")
     config = STATUS_CONFIG.get(result.status, ERROR_CONFIG)
+    if result.status == "uncertain" and not keep_uncertain:
+        config = "DEGENERATE"
     if config not in WITH_INLIERS:
         return TwoViewFields(config, np.zeros((0, 2), dtype=np.int64))
     inl = m[result.inliers]
