@@ -128,3 +128,42 @@ def test_unchecked_residuals_equal_the_checked_ones():
     assert np.all(np.isnan(res.v_sampson.unchecked(bad, sc.t, sc.f1, sc.f2)))
     with pytest.raises(ValueError, match="NaN"):
         res.v_sampson(bad, sc.t, sc.f1, sc.f2)
+
+
+def test_rotvec_from_rotation_equals_scipy_near_0_and_pi():
+    """The numpy log map (no scipy.spatial import on the estimator's path) equals scipy's to rounding,
+    rotation angles from 1e-16 to pi - 1e-16 (near pi up to the rotation vector's sign)."""
+    from scipy.spatial.transform import Rotation
+
+    from poseonly.geometry import rotation_from_rotvec, rotvec_from_rotation
+
+    rng = np.random.default_rng(0)
+    axes = rng.normal(size=(1500, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    angles = np.concatenate([rng.uniform(0, np.pi, 500), np.pi - 10.0 ** rng.uniform(-16, -2, 500), 10.0 ** rng.uniform(-16, -2, 500)])
+    R = Rotation.from_rotvec(axes * angles[:, None]).as_matrix()
+    ours, ref = rotvec_from_rotation(R), Rotation.from_matrix(R).as_rotvec()
+    assert np.minimum(np.linalg.norm(ours - ref, axis=1), np.linalg.norm(ours + ref, axis=1)).max() < 1e-14
+    assert np.abs(ours - ref)[angles < 3.0].max() < 1e-14
+    assert np.abs(rotation_from_rotvec(ours) - R).max() < 1e-14
+    assert rotvec_from_rotation(R[:6].reshape(2, 3, 3, 3)).shape == (2, 3, 3)
+    assert np.array_equal(rotvec_from_rotation(np.eye(3)), np.zeros(3))
+
+
+def test_default_estimator_path_imports_no_scipy():
+    """The default method and its status analysis import no scipy: a lazy ``scipy.spatial`` import cost
+    0.35-0.9 s on the first pair of a VO loop that reached the leverage test (a trial)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, poseonly\n"
+        "from poseonly.sim import make_scene\n"
+        "for seed, (kind, camera, out) in enumerate([('normal', 'pinhole', 0.0), ('normal', 'pinhole', 0.5), ('planar', 'wide', 0.3), ('normal', 'wide', 0.8)]):\n"
+        "    sc = make_scene(200, kind=kind, camera=camera, noise_px=0.5, outlier_fraction=out, seed=seed)\n"
+        "    poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=seed)\n"
+        "poseonly.geometry.rotvec_from_rotation(sc.R)  # the leverage test's, which these scenes need not reach\n"
+        "print(sorted(m for m in sys.modules if m.startswith('scipy')))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == "[]", out
