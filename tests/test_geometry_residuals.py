@@ -167,3 +167,23 @@ def test_default_estimator_path_imports_no_scipy():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert out == "[]", out
+
+
+def test_opencv_point_arrays_are_accepted():
+    """OpenCV's ``(n, 1, 2)`` point arrays (goodFeaturesToTrack, calcOpticalFlowPyrLK) give the same result
+    as ``(n, 2)``, with K and with a distorted camera (a VO trial found them refused)."""
+    import poseonly
+    from poseonly.cameras import Camera
+
+    sc = make_scene(80, camera="pinhole", noise_px=0.3, outlier_fraction=0.2, seed=4)
+    a = poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, seed=1)
+    b = poseonly.estimate_relative_pose(sc.u1[:, None, :], sc.u2[:, None, :], sc.K, seed=1)
+    assert b.status == a.status and np.allclose(b.R, a.R, atol=1e-12)
+    K = sc.K
+    cam = Camera("PINHOLE", 2 * int(K[0, 2]), 2 * int(K[1, 2]), (K[0, 0], K[1, 1], K[0, 2], K[1, 2]))
+    c = poseonly.estimate_relative_pose(sc.u1[:, None, :], sc.u2[:, None, :], camera1=cam, seed=1)
+    assert c.status == a.status and np.allclose(c.R, a.R, atol=1e-9)
+    with pytest.raises(ValueError, match="shape"):
+        poseonly.estimate_relative_pose(sc.u1[:, None, None, :], sc.u2, sc.K)
+    with pytest.raises(ValueError, match="shape"):
+        poseonly.estimate_relative_pose(sc.u1.reshape(-1, 2, 1), sc.u2, sc.K)

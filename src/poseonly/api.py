@@ -213,7 +213,8 @@ def estimate_relative_pose(
     """Estimate the relative pose ``X2 = R X1 + t`` from point matches.
 
     ``x1, x2``: ``(n, 2)`` pixels (with ``K1``/``K2``; ``K2`` defaults to ``K1``), ``(n, 2)``
-    normalized coordinates (no ``K``) or ``(n, 3)`` bearing vectors. ``method``: one of
+    normalized coordinates (no ``K``) or ``(n, 3)`` bearing vectors (OpenCV's ``(n, 1, 2)`` arrays are
+    taken as ``(n, 2)``); at least 6 matches (5 determine a pose, but not its status). ``method``: one of
     :data:`METHODS` (see the module docstring). Common options: ``threshold_px`` (the RANSAC
     threshold; default 1.0 for the default method, 2.0 for the paper's methods. The default method's
     returned inliers are then those its ML refinement finds more likely inliers than not, and that

@@ -71,7 +71,7 @@ from typing import Any
 import numpy as np
 
 from . import _core
-from .geometry import InputError, pair_focal
+from .geometry import InputError, opencv_points, pair_focal
 
 __all__ = ["MODELS", "NEWTON_TOL", "OPENCV_TO_COLMAP_PX", "Camera", "as_camera", "as_colmap_camera", "camera_from_text", "from_opencv", "lift_pair", "read_colmap_cameras"]
 
@@ -447,6 +447,7 @@ def _check_points(a: Any, d: int, name: str) -> np.ndarray:
         a = np.asarray(a, dtype=float)
     except (TypeError, ValueError):
         raise InputError(f"{name} must be a numeric (n, {d}) array") from None
+    a = opencv_points(a)
     if a.ndim != 2 or a.shape[1] != d:
         raise InputError(f"{name} must have shape (n, {d}), got {a.shape}")
     if not np.all(np.isfinite(a)):

@@ -204,8 +204,14 @@ def as_real_array(a: object, name: str) -> np.ndarray:
     return np.asarray(raw, dtype=float)
 
 
+def opencv_points(a: np.ndarray) -> np.ndarray:
+    """OpenCV's point arrays ``(n, 1, k)`` (``goodFeaturesToTrack``, ``calcOpticalFlowPyrLK``,
+    ``findEssentialMat``'s input) as ``(n, k)``; any other shape unchanged (a VO trial)."""
+    return a[:, 0] if a.ndim == 3 and a.shape[1] == 1 else a
+
+
 def _check_shape_2d(a: np.ndarray, name: str) -> np.ndarray:
-    a = as_real_array(a, name)
+    a = opencv_points(as_real_array(a, name))
     if a.ndim != 2 or a.shape[1] not in (2, 3):
         raise InputError(f"{name} must have shape (n, 2) or (n, 3), got {a.shape}")
     return a
@@ -349,7 +355,8 @@ PIXEL_LIKE_NORMALIZED = 10.0
 
 
 def as_bearings(x: np.ndarray, K: np.ndarray | None = None, name: str = "x", *, K_checked: bool = False) -> np.ndarray:
-    """Accept pixels ``(n, 2)`` (with ``K``), normalized coordinates ``(n, 2)`` or bearings ``(n, 3)``.
+    """Accept pixels ``(n, 2)`` (with ``K``), normalized coordinates ``(n, 2)`` or bearings ``(n, 3)``
+    (OpenCV's ``(n, 1, 2)`` / ``(n, 1, 3)`` too).
 
     Returns unit bearing vectors ``(n, 3)``; raises :class:`InputError` for bad shapes, complex or
     non-numeric input, NaN/inf, zero vectors and rays that are not finite. Norms are scaled, so
