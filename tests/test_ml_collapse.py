@@ -54,7 +54,7 @@ def test_an_exact_em_is_not_a_collapse():
 def _fake(calls: list, collapse: dict[bool, bool]):
     """A stand-in for _core.ml_refine: a run 'collapses' (sigma_gauss 0) as `collapse[band_start]` says."""
 
-    def ml_refine(R, t, f1, f2, T, rounds, pose_tol, student, scales, band_start):
+    def ml_refine(R, t, f1, f2, T, rounds, pose_tol, student, scales, band_start, noise_floor=0.0):
         calls.append(band_start)
         return {
             "R": np.eye(3),

@@ -470,7 +470,7 @@ ParallaxResult parallax_ratio(const Mat3& R0, const Points& P, const double* v, 
   std::vector<double> e2(m), tmp(m);
   for (size_t j = 0; j < m; ++j) e2[j] = v[sel[j]] * v[sel[j]];
   tmp = e2;
-  const double med_e2 = median_of(&tmp);
+  const double med_e2 = std::max(median_of(&tmp), o.chi2_median * o.noise_floor * o.noise_floor);
   const double s2 = med_e2 / o.chi2_median;
   Mat3 R = R0;
   if (s2 > 0.0) {

@@ -109,6 +109,7 @@ struct ParallaxOptions {
   double cauchy_c = 2.385;
   double chi2_median = 0.45493642311957283;
   double min_parallax = 1e-4;
+  double noise_floor = 0.0;  // radians: median(e2) >= chi2_median noise_floor^2 (the coordinates' rounding)
 };
 struct ParallaxResult {
   double ratio = 0.0;

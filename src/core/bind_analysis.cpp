@@ -98,7 +98,7 @@ static nb::tuple select_by_support_py(const ArrayIn& R, const ArrayIn& t, const 
 
 static nb::tuple parallax_ratio_py(const ArrayIn& R, const BearingsIn& f1, const BearingsIn& f2, const ArrayIn& v, double tau,
                                    double band, double sel_chord2, int min_matches, int irls_rounds, double cauchy_c,
-                                   double chi2_median, double min_parallax) {
+                                   double chi2_median, double min_parallax, double noise_floor) {
   const Points P = points_of(f1, f2);
   if (R.size() != 9) throw std::invalid_argument("R must be (3, 3)");
   if (v.ndim() != 1 || static_cast<int>(v.shape(0)) != P.n) throw std::invalid_argument("v_pose must have shape (n,)");
@@ -115,6 +115,8 @@ static nb::tuple parallax_ratio_py(const ArrayIn& R, const BearingsIn& f1, const
   o.cauchy_c = cauchy_c;
   o.chi2_median = chi2_median;
   o.min_parallax = min_parallax;
+  if (!(noise_floor >= 0.0) || !std::isfinite(noise_floor)) throw std::invalid_argument("noise_floor must be finite and >= 0");
+  o.noise_floor = noise_floor;
   ParallaxResult r;
   {
     nb::gil_scoped_release release;
@@ -213,7 +215,7 @@ POSEONLY_BIND(analysis) {
         "Median angle (radians) between R f1 and f2 over the matches in mask (NaN when none).");
   m.def("parallax_ratio", &parallax_ratio_py, nb::arg("R"), nb::arg("f1"), nb::arg("f2"), nb::arg("v_pose"), nb::arg("tau"),
         nb::arg("band"), nb::arg("sel_chord2"), nb::arg("min_matches"), nb::arg("irls_rounds"), nb::arg("cauchy_c"),
-        nb::arg("chi2_median"), nb::arg("min_parallax"),
+        nb::arg("chi2_median"), nb::arg("min_parallax"), nb::arg("noise_floor") = 0.0,
         "The pure-rotation test's precision check (poseonly.analysis.parallax_ratio): (ratio, noise, R (3, 3) or None).");
   m.def("decompose_homography", &decompose_homography_py, nb::arg("H"),
         "The four (R (4, 3, 3), t/d (4, 3), n (4, 3)) of a calibrated homography, or None when H is not finite or singular.");

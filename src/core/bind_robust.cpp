@@ -253,9 +253,12 @@ nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, c
 
 // The ML stage's options from the binding's arguments, checked (ml_refine and ml_cross_fit).
 MlOptions ml_options(double range, int rounds, int lm_iterations, double pose_tol, bool student, bool band_start, std::optional<double> nu,
-                     std::optional<double> alpha, bool pose_only, std::optional<double> sigma_init, std::optional<double> g_init) {
+                     std::optional<double> alpha, bool pose_only, std::optional<double> sigma_init, std::optional<double> g_init,
+                     double noise_floor) {
   if (!(range > 0.0 && std::isfinite(range))) throw std::invalid_argument("range must be finite and > 0");
+  if (!(noise_floor >= 0.0) || !std::isfinite(noise_floor)) throw std::invalid_argument("noise_floor must be finite and >= 0");
   MlOptions mo;
+  mo.sigma_floor = std::max(mo.sigma_floor, noise_floor);  // the coordinates' rounding: EM's scale not below it
   mo.range = range;
   mo.rounds = rounds;
   mo.lm_iterations = lm_iterations;
@@ -290,11 +293,11 @@ const double* ml_scales(const std::optional<VectorIn>& scales, int n) {
 nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double range, int rounds,
                       int lm_iterations, double pose_tol, bool student, const std::optional<VectorIn>& scales, bool band_start,
                       std::optional<double> nu, std::optional<double> alpha, bool pose_only,
-                      std::optional<double> sigma_init, std::optional<double> g_init) {
+                      std::optional<double> sigma_init, std::optional<double> g_init, double noise_floor) {
   const Points P = points_of(f1, f2);
   if (!(range > 0.0 && std::isfinite(range))) throw std::invalid_argument("range must be finite and > 0");
   const double* sc = ml_scales(scales, P.n);
-  const MlOptions mo = ml_options(range, rounds, lm_iterations, pose_tol, student, band_start, nu, alpha, pose_only, sigma_init, g_init);
+  const MlOptions mo = ml_options(range, rounds, lm_iterations, pose_tol, student, band_start, nu, alpha, pose_only, sigma_init, g_init, noise_floor);
   MlResult r;
   {
     nb::gil_scoped_release release;
@@ -322,7 +325,8 @@ nb::dict ml_refine_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, 
 nb::tuple ml_cross_fit_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double range, double decision,
                           int folds, int min_agree, bool student, const std::optional<VectorIn>& scales, std::optional<double> nu,
                           std::optional<double> alpha, std::optional<double> sigma_init, std::optional<double> g_init, int fold_rounds,
-                          int fold_lm_iterations, double fold_pose_tol, int final_rounds, int final_lm_iterations, double final_pose_tol) {
+                          int fold_lm_iterations, double fold_pose_tol, int final_rounds, int final_lm_iterations, double final_pose_tol,
+                          double noise_floor) {
   const Points P = points_of(f1, f2);
   if (folds < 2) throw std::invalid_argument("folds must be >= 2");
   if (!(decision >= 0.0)) throw std::invalid_argument("decision must be >= 0");
@@ -331,8 +335,8 @@ nb::tuple ml_cross_fit_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& 
   co.folds = folds;
   co.decision = decision;
   co.min_agree = min_agree;
-  co.fold = ml_options(range, fold_rounds, fold_lm_iterations, fold_pose_tol, student, false, nu, alpha, true, sigma_init, g_init);
-  co.final = ml_options(range, final_rounds, final_lm_iterations, final_pose_tol, student, false, nu, alpha, true, sigma_init, g_init);
+  co.fold = ml_options(range, fold_rounds, fold_lm_iterations, fold_pose_tol, student, false, nu, alpha, true, sigma_init, g_init, noise_floor);
+  co.final = ml_options(range, final_rounds, final_lm_iterations, final_pose_tol, student, false, nu, alpha, true, sigma_init, g_init, noise_floor);
   Pose out;
   int vetoed = 0;
   bool ok;
@@ -543,15 +547,16 @@ POSEONLY_BIND(robust) {
   m.def("ml_refine", &ml_refine_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("range"),
         nb::arg("rounds") = 6, nb::arg("lm_iterations") = 10, nb::arg("pose_tol") = 0.0, nb::arg("student") = true,
         nb::arg("scales") = nb::none(), nb::arg("band_start") = false, nb::arg("nu") = nb::none(), nb::arg("alpha") = nb::none(),
-        nb::arg("pose_only") = false, nb::arg("sigma_init") = nb::none(), nb::arg("g_init") = nb::none(),
+        nb::arg("pose_only") = false, nb::arg("sigma_init") = nb::none(), nb::arg("g_init") = nb::none(), nb::arg("noise_floor") = 0.0,
         "ML pose under a mixture of Student-t inlier (`student`: nu chosen by the data, inf included; else Gaussian) and uniform outlier Sampson errors "
         "(EM + weighted Sampson LM; outlier range `range`, radians; at most `rounds` rounds, ending early when a round moves the pose "
         "by at most `pose_tol`; `scales` (n,) > 0: relative noise scales, a match's inlier scale sigma (scale_i / median)^alpha, "
-        "alpha in {0, 1/2, 1} chosen with nu; `nu`, `alpha` given together: that inlier model, not chosen): dict R, t, sigma, nu, alpha, sigma_gauss, sigma_start, inlier_fraction, decision, decision_gauss (the Gaussian mixture's at the pose), rounds, log_likelihood, posterior (n,). band_start: EM starts from the least-squares Sampson refit of the matches within min(range, 3 s0) of (R, t), s0 = 1.4826 median of the errors below range / 2. pose_only: R, t and rounds only are computed, the pose the same (sigma, nu, alpha, inlier_fraction, posterior: the last E-step's, before the last pose step; sigma_gauss, decision, decision_gauss, log_likelihood: NaN). sigma_init, g_init (together): EM's first E-step starts from this scale and inlier share instead of the start's (with fixed tails; a tails choice restarts EM from the start's).");
+        "alpha in {0, 1/2, 1} chosen with nu; `nu`, `alpha` given together: that inlier model, not chosen): dict R, t, sigma, nu, alpha, sigma_gauss, sigma_start, inlier_fraction, decision, decision_gauss (the Gaussian mixture's at the pose), rounds, log_likelihood, posterior (n,). band_start: EM starts from the least-squares Sampson refit of the matches within min(range, 3 s0) of (R, t), s0 = 1.4826 median of the errors below range / 2. pose_only: R, t and rounds only are computed, the pose the same (sigma, nu, alpha, inlier_fraction, posterior: the last E-step's, before the last pose step; sigma_gauss, decision, decision_gauss, log_likelihood: NaN). sigma_init, g_init (together): EM's first E-step starts from this scale and inlier share instead of the start's (with fixed tails; a tails choice restarts EM from the start's). noise_floor (radians): EM's scale not below it (the coordinates' rounding).");
   m.def("ml_cross_fit", &ml_cross_fit_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("range"), nb::arg("decision"),
         nb::arg("folds") = 5, nb::arg("min_agree") = 15, nb::arg("student") = true, nb::arg("scales") = nb::none(), nb::arg("nu") = nb::none(),
         nb::arg("alpha") = nb::none(), nb::arg("sigma_init") = nb::none(), nb::arg("g_init") = nb::none(), nb::arg("fold_rounds"),
         nb::arg("fold_lm_iterations"), nb::arg("fold_pose_tol"), nb::arg("final_rounds"), nb::arg("final_lm_iterations"), nb::arg("final_pose_tol"),
+        nb::arg("noise_floor") = 0.0,
         "The default's cross-fitted inliers: match i in fold i % folds is classified by the ML pose (ml_refine, pose_only, EM from (R, t)) of "
         "the other folds (an inlier where its Sampson error is below `decision`); the pose's own inliers the other folds reject are vetoed "
         "and EM from (R, t) runs on every other match. (R, t, vetoed, ok, veto (n,) uint8 the vetoed matches): ok False when a fold's EM failed or fewer than min_agree matches are "

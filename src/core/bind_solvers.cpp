@@ -225,9 +225,10 @@ nb::tuple refine_residuals_py(int kind, const ArrayIn& R, const ArrayIn& t, cons
 
 // first-order pose covariance (refine.h pose_covariance); t None: a rotation without translation
 nb::tuple pose_covariance_py(const ArrayIn& R, const std::optional<ArrayIn>& t, const BearingsIn& f1, const BearingsIn& f2,
-                             const std::optional<VectorIn>& w, double threshold) {
+                             const std::optional<VectorIn>& w, double threshold, double noise_floor) {
   const Points P = checked_points(f1, f2, 0);
   if (!(threshold >= 0.0) || !std::isfinite(threshold)) throw std::invalid_argument("threshold must be finite and >= 0");
+  if (!(noise_floor >= 0.0) || !std::isfinite(noise_floor)) throw std::invalid_argument("noise_floor must be finite and >= 0");
   const double* wp = checked_weights(w, P.n);
   Pose pose;
   if (t) {
@@ -242,7 +243,7 @@ nb::tuple pose_covariance_py(const ArrayIn& R, const std::optional<ArrayIn>& t, 
   PoseCovariance c;
   {
     nb::gil_scoped_release release;
-    c = pose_covariance(P, wp, pose, t.has_value(), threshold);
+    c = pose_covariance(P, wp, pose, t.has_value(), threshold, noise_floor);
   }
   std::vector<double> Cr(9), Ct(9);
   for (int a = 0; a < 3; ++a)
@@ -340,7 +341,7 @@ POSEONLY_BIND(solvers) {
         "the others, vetoed where |r_i| > decision sqrt(1 + J_i H^-1 J_i^T) there. Returns (leverage (n,), veto (n,) uint8, "
         "group (n,) uint8 (the inliers peeled off), tested, R (3, 3), unit t (3,) of the others' fit (NaN where not tested)).");
   m.def("pose_covariance", &pose_covariance_py, nb::arg("R"), nb::arg("t").none(), nb::arg("f1"), nb::arg("f2"),
-        nb::arg("w") = nb::none(), nb::arg("threshold") = 0.0,
+        nb::arg("w") = nb::none(), nb::arg("threshold") = 0.0, nb::arg("noise_floor") = 0.0,
         "First-order covariance sigma^2 (J^T J)^-1 of the pose (R (3, 3), t (3,)) fitted by least squares on the Sampson "
         "errors of the matches f1, f2 (n, 3) with w_i > 0 (w (n,): inverse variances up to a constant or a 0 / 1 mask; "
         "None: all), sigma = 1.4826 median |sqrt(w_i) r_i| (threshold > 0: the matches were selected by |r| < threshold and "

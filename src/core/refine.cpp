@@ -677,7 +677,7 @@ double truncated_scale(double med, double threshold, bool chords) {
 
 }  // namespace
 
-PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pose, bool translation, double threshold) {
+PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pose, bool translation, double threshold, double noise_floor) {
   PoseCovariance out;
   const double inf = std::numeric_limits<double>::infinity();
   out.rotation = Mat3::Constant(inf);
@@ -728,8 +728,10 @@ PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pos
   if (out.matches < (translation ? kRefineMinPoints : 3) || dof <= 0) return out;
   const double med = median_of(&absr);
   // the scale of the residuals weighted by w / wmax (the threshold too: sqrt(w_i) |r_i| < threshold)
-  const double sn = threshold > 0.0 ? truncated_scale(med, threshold / std::sqrt(wmax), !translation)
-                                     : (translation ? kMadFactor * med : med / kRayleighMedian);
+  double sn = threshold > 0.0 ? truncated_scale(med, threshold / std::sqrt(wmax), !translation)
+                               : (translation ? kMadFactor * med : med / kRayleighMedian);
+  if (noise_floor > 0.0 && std::isfinite(sn))  // the coordinates' own rounding: no fit's errors are below it
+    sn = std::max(sn, (translation ? noise_floor : std::sqrt(2.0) * noise_floor) / std::sqrt(wmax));
   out.sigma = sn * std::sqrt(wmax);  // the scale of a unit-weight residual
   if (!std::isfinite(sn)) return out;  // the threshold does not resolve the noise (sigma inf)
   // small-sample correction of the scale (the residuals are those of a fit of `params` parameters)

@@ -101,7 +101,10 @@ struct PoseCovariance {
   int matches = 0;
   bool ok = false;
 };
-PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pose, bool translation = true, double threshold = 0.0);
+// noise_floor: the least noise scale of one view's bearings (radians; e.g. the rounding of integer pixel
+// coordinates): sigma >= noise_floor for the Sampson errors, sqrt(2) noise_floor for the chords (two views)
+PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pose, bool translation = true, double threshold = 0.0,
+                               double noise_floor = 0.0);
 
 // The inliers a pose cannot vouch for (poseonly.robust.default, the leverage test). The leverage of
 // inlier i (inl[i] != 0) in the least-squares Sampson fit of the inliers at `pose` is h_i = J_i H^-1

@@ -98,6 +98,7 @@ def ml_refine(
     pose_only: bool = False,
     sigma_init: float | None = None,
     g_init: float | None = None,
+    noise_floor: float = 0.0,
 ) -> dict[str, Any]: ...
 def ml_cross_fit(
     R: NDArray[np.float64],
@@ -121,6 +122,7 @@ def ml_cross_fit(
     final_rounds: int,
     final_lm_iterations: int,
     final_pose_tol: float,
+    noise_floor: float = 0.0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], int, bool, NDArray[np.uint8]]: ...
 def gnc_ransac(
     f1: NDArray[np.float64],
@@ -190,7 +192,13 @@ def refine_ligt(
     tol: float = 1e-12,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def pose_covariance(
-    R: NDArray[np.float64], t: NDArray[np.float64] | None, f1: NDArray[np.float64], f2: NDArray[np.float64], w: NDArray[np.float64] | None = None, threshold: float = 0.0
+    R: NDArray[np.float64],
+    t: NDArray[np.float64] | None,
+    f1: NDArray[np.float64],
+    f2: NDArray[np.float64],
+    w: NDArray[np.float64] | None = None,
+    threshold: float = 0.0,
+    noise_floor: float = 0.0,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], float, int, bool]: ...
 def leverage_veto(
     R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], inliers: NDArray[np.bool_], decision: float, max_leverage: float
@@ -250,6 +258,7 @@ def parallax_ratio(
     cauchy_c: float,
     chi2_median: float,
     min_parallax: float,
+    noise_floor: float = 0.0,
 ) -> tuple[float, float, NDArray[np.float64] | None]: ...
 def decompose_homography(H: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]] | None: ...
 def select_by_support(

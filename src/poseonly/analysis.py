@@ -93,7 +93,7 @@ NOISE_CHECK_BAND = 2.0
 NOISE_CHECK_MIN = 30
 
 
-def pose_uncertainty(R: np.ndarray, t: np.ndarray | None, f1: np.ndarray, f2: np.ndarray, inl: np.ndarray, threshold: float = 0.0) -> dict[str, Any]:
+def pose_uncertainty(R: np.ndarray, t: np.ndarray | None, f1: np.ndarray, f2: np.ndarray, inl: np.ndarray, threshold: float = 0.0, noise_floor: float = 0.0) -> dict[str, Any]:
     """First-order covariance of the pose fitted to its inliers ``inl (n,)`` (Hartley and Zisserman,
     section 5.2.3): ``sigma^2 (J^T J)^-1``, ``J`` the Jacobian of the inliers' Sampson errors in the
     pose's five parameters (the core's ``pose_covariance``). The rotation's block has the translation
@@ -118,7 +118,9 @@ def pose_uncertainty(R: np.ndarray, t: np.ndarray | None, f1: np.ndarray, f2: np
     ``rotation_std_deg`` / ``translation_std_deg`` (the standard deviation along the least constrained
     axis, square root of the largest eigenvalue, in degrees) and ``noise_sigma`` (radians). ``inf``
     deviations (covariances None) where the inliers do not determine the pose (fewer than 6, 3 without
-    ``t``, a singular information) or the threshold does not resolve their noise (``noise_sigma`` inf)."""
+    ``t``, a singular information) or the threshold does not resolve their noise (``noise_sigma`` inf).
+    ``noise_floor`` (radians): a finite ``sigma`` is at least this (the coordinates' rounding,
+    :mod:`poseonly.quantization`)."""
     tt = None if t is None else _c(t)
     if threshold > 0:
         # is the noise within the threshold at all? its scale over twice the band (errors measured at the
@@ -126,10 +128,10 @@ def pose_uncertainty(R: np.ndarray, t: np.ndarray | None, f1: np.ndarray, f2: np
         e = v_sampson(R, t, f1, f2) if t is not None else np.linalg.norm(f1 @ np.asarray(R).T - f2, axis=1)
         wide = NOISE_CHECK_BAND * threshold
         band = e < wide
-        s_wide = _core.pose_covariance(_c(R), tt, _c(f1), _c(f2), band.astype(float), threshold=float(wide))[2]
+        s_wide = _core.pose_covariance(_c(R), tt, _c(f1), _c(f2), band.astype(float), threshold=float(wide), noise_floor=noise_floor)[2]
         if np.count_nonzero(band) >= NOISE_CHECK_MIN and not s_wide <= threshold:
             return {"rotation_covariance": None, "translation_covariance": None, "rotation_std_deg": np.inf, "translation_std_deg": np.inf, "noise_sigma": np.inf}
-    Cr, Ct, sigma, _, ok = _core.pose_covariance(_c(R), tt, _c(f1), _c(f2), np.ascontiguousarray(inl, dtype=float), threshold=float(threshold))
+    Cr, Ct, sigma, _, ok = _core.pose_covariance(_c(R), tt, _c(f1), _c(f2), np.ascontiguousarray(inl, dtype=float), threshold=float(threshold), noise_floor=noise_floor)
     if not ok:
         return {"rotation_covariance": None, "translation_covariance": None, "rotation_std_deg": np.inf, "translation_std_deg": np.inf, "noise_sigma": float(sigma)}
     std_r = float(np.degrees(np.sqrt(max(float(np.linalg.eigvalsh(Cr)[-1]), 0.0))))
@@ -389,24 +391,25 @@ def rotation_chance_rate(R: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: flo
     return float((hits + 1) / (perms.size + 2))
 
 
-def far_angle(v_pose: np.ndarray | None, tau: float) -> float:
+def far_angle(v_pose: np.ndarray | None, tau: float, noise_floor: float = 0.0) -> float:
     """The angle from a rotation-only model beyond which a pose inlier is evidence of a translation:
     ``EXTRA_FACTOR`` rotation thresholds, or, where the matches are noisier than the threshold
     assumes, :data:`FAR_SIGMAS` noise sigmas of the rotation's residual (``sqrt(2)`` times the pose's
     robust Sampson scale on its band, ``v_pose (n,)``; the noise tail beyond that holds ~1e-6 of the
     inliers). At 1 px noise and the 1 px default the noise tail beyond 4 tau is ~2 % of the inliers,
-    which the count test took for a translation (pure rotations of 1500 matches, 22-35 of 40 `ok`)."""
+    which the count test took for a translation (pure rotations of 1500 matches, 22-35 of 40 `ok`).
+    The scale is at least ``noise_floor`` (radians)."""
     far = EXTRA_FACTOR * ROTATION_THRESHOLD_FACTOR * tau
     if v_pose is None:
         return far
     band = v_pose < PRECISION_BAND * tau
     if np.count_nonzero(band) < PRECISION_MIN_MATCHES:
         return far
-    sigma = float(np.sqrt(median(v_pose[band] ** 2) / CHI2_1_MEDIAN))
+    sigma = max(float(np.sqrt(median(v_pose[band] ** 2) / CHI2_1_MEDIAN)), noise_floor)
     return max(far, FAR_SIGMAS * np.sqrt(2.0) * sigma)
 
 
-def parallax_ratio(R_rot: np.ndarray, f1: np.ndarray, f2: np.ndarray, v_pose: np.ndarray, tau: float) -> tuple[float, float, np.ndarray | None]:
+def parallax_ratio(R_rot: np.ndarray, f1: np.ndarray, f2: np.ndarray, v_pose: np.ndarray, tau: float, noise_floor: float = 0.0) -> tuple[float, float, np.ndarray | None]:
     """Precision test of a rotation-only model against a pose with Sampson errors ``v_pose (n,)``:
     ``(ratio, noise, R)``, the median parallax component over the median squared Sampson error on the
     matches with ``v_pose < PRECISION_BAND * tau`` that the rotation does not put clearly off (within
@@ -422,7 +425,9 @@ def parallax_ratio(R_rot: np.ndarray, f1: np.ndarray, f2: np.ndarray, v_pose: np
     from ``R_rot`` by Cauchy-weighted Kabsch at the pose's noise scale (:data:`PRECISION_IRLS` rounds):
     the robust fit on all matches is least squares within its threshold, and at 80 % outliers the few
     outliers inside it bias it by about a pixel (measured: ratio 15 on a pure rotation, 6.6 at most
-    after the refit)."""
+    after the refit). ``noise_floor`` (radians): the noise scale is at least this (the median squared
+    Sampson error at least ``CHI2_1_MEDIAN noise_floor^2``; the coordinates' rounding, under which a
+    pose can fit most matches exactly)."""
     # the band, without the matches the rotation puts clearly off (beyond EXTRA_FACTOR rotation
     # thresholds: the count test's evidence; here they would be outliers that the pose's band admits);
     # computed by the core (numpy reference: tests/reference/parallax.py)
@@ -440,6 +445,7 @@ def parallax_ratio(R_rot: np.ndarray, f1: np.ndarray, f2: np.ndarray, v_pose: np
         CAUCHY_C,
         CHI2_1_MEDIAN,
         PRECISION_MIN_PARALLAX,
+        float(noise_floor),
     )
     return float(ratio), float(noise), R
 
@@ -479,7 +485,9 @@ def rotation_explains_most(rot: dict[str, Any]) -> bool:
     return bool(not rot["pure_rotation"] and rot["log10_nfa_rotation"] < np.log10(NFA_MAX) and rot["rotation_only_fraction"] >= ROTATION_MAJORITY and not precise)
 
 
-def pure_rotation_test(f1: np.ndarray, f2: np.ndarray, tau: float, inl: np.ndarray, p_pose: float, num_pose_tests: float, v_pose: np.ndarray | None = None) -> dict[str, Any]:
+def pure_rotation_test(
+    f1: np.ndarray, f2: np.ndarray, tau: float, inl: np.ndarray, p_pose: float, num_pose_tests: float, v_pose: np.ndarray | None = None, noise_floor: float = 0.0
+) -> dict[str, Any]:
     """Does a rotation without translation explain the data as well as the pose?
 
     The rotation is fitted robustly on all matches (:func:`robust_rotation`). It is *significant*
@@ -500,7 +508,8 @@ def pure_rotation_test(f1: np.ndarray, f2: np.ndarray, tau: float, inl: np.ndarr
     significant, the support significant and the parallax not precise, only those with local support,
     :func:`_locally_supported`: a repeated structure's isolated wrong matches are no translation),
     ``log10_nfa_rotation``, ``log10_nfa_translation``, ``parallax_ratio``, ``parallax_noise`` and
-    ``pure_rotation`` (bool).
+    ``pure_rotation`` (bool). ``noise_floor`` (radians): the least noise scale of :func:`far_angle` and
+    :func:`parallax_ratio` (the coordinates' rounding).
     """
     n = len(f1)
     Rr, rin, tests = robust_rotation(f1, f2, tau, min(1.0, ROTATION_MIN_SHARE * int(np.count_nonzero(inl)) / n))
@@ -510,12 +519,12 @@ def pure_rotation_test(f1: np.ndarray, f2: np.ndarray, tau: float, inl: np.ndarr
     # the pose's extra inliers: those clearly off the rotation (beyond EXTRA_FACTOR times its
     # threshold: matches in the noise tail of the rotation are not evidence of a translation),
     # among the matches that far off (s = 0: they are in no sample)
-    far = ~_rotation_inliers(Rr[None], f1, f2, far_angle(v_pose, tau))[0]
+    far = ~_rotation_inliers(Rr[None], f1, f2, far_angle(v_pose, tau, noise_floor))[0]
     ext = inl & far
     extra = int(np.count_nonzero(ext))
     nfa_tr = log10_nfa(extra, int(far.sum()), p_pose, num_pose_tests, 0)
     frac = float(np.count_nonzero(inl & rin) / max(int(inl.sum()), 1))
-    ratio, noise, R_fit = parallax_ratio(Rr, f1, f2, v_pose, tau) if v_pose is not None else (float("nan"), float("nan"), None)
+    ratio, noise, R_fit = parallax_ratio(Rr, f1, f2, v_pose, tau, noise_floor) if v_pose is not None else (float("nan"), float("nan"), None)
     precise = bool(ratio > PRECISION_RATIO and noise <= PRECISION_NOISE)  # NaN (too few matches): False
     if nfa_rot < np.log10(NFA_MAX) and nfa_tr < np.log10(NFA_MAX) and not precise:
         # only where it decides the status (it can only lower the support): the extra inliers with

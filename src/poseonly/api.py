@@ -59,6 +59,7 @@ from .analysis import REFINE_SOLVER
 from .estimator import lirp_estimator
 from .geometry import InputError, as_bearings, check_correspondences, check_intrinsics, pair_focal
 from .options import OPTIONS, PoseonlyOptions, Spec, check_angle, check_value, parse_options
+from .quantization import check_coordinate_step, grid_step, rounding_sigma_px
 from .result import RelativePoseResult, degenerate_result, finish
 from .robust.default import make_rng, run_poseonly
 from .robust.gnc import GNCOptions, gnc_irls_batch
@@ -177,17 +178,18 @@ def _without_unliftable(
     method: str,
     scores: np.ndarray | None,
     noise_scales: np.ndarray | None,
+    coordinate_step_px: float,
     options: dict[str, Any],
 ) -> RelativePoseResult:
     """:func:`estimate_relative_pose` on the lifted matches (bearings, the cameras' focal unless
-    ``focal_px`` is given), its per-match arrays widened back to all ``n`` matches."""
+    ``focal_px`` is given, the pixels' grid step), its per-match arrays widened back to all ``n`` matches."""
     n, k = len(f1), int(np.count_nonzero(lifted))
     if k < 6:
         raise InputError(f"only {k} of {n} matches can be lifted through the cameras (unliftable='outlier'): at least 6 are needed")
     opts = options if options.get("focal_px") is not None else {**options, "focal_px": cam_focal}
     sc = None if scores is None else np.asarray(scores)[lifted]
     ns = None if noise_scales is None else np.asarray(noise_scales)[lifted]
-    r = estimate_relative_pose(f1[lifted], f2[lifted], method=method, scores=sc, noise_scales=ns, **opts)
+    r = estimate_relative_pose(f1[lifted], f2[lifted], method=method, scores=sc, noise_scales=ns, coordinate_step_px=coordinate_step_px, **opts)
     inliers, weights, res = np.zeros(n, bool), np.zeros(n), np.full(n, np.nan)
     inliers[lifted], weights[lifted], res[lifted] = r.inliers, r.weights, r.residuals_px
     r.inliers, r.weights, r.residuals_px = inliers, weights, res
@@ -208,6 +210,7 @@ def estimate_relative_pose(
     scores: np.ndarray | None = None,
     noise_scales: np.ndarray | None = None,
     unliftable: str = "raise",
+    coordinate_step_px: float | None = None,
     **options: Any,
 ) -> RelativePoseResult:
     """Estimate the relative pose ``X2 = R X1 + t`` from point matches.
@@ -229,7 +232,11 @@ def estimate_relative_pose(
     the cameras' focal length (:func:`poseonly.geometry.pair_focal` of the two); a pixel a camera cannot lift
     (past its distortion's fold) raises :class:`InputError` naming it, or with ``unliftable="outlier"`` its
     match is left out of the estimate and returned as an outlier (``inliers`` False, ``weights`` 0,
-    ``residuals_px`` NaN; ``diagnostics["unliftable"]`` counts them). ``scores (n,)``: match quality, higher is better (e.g. ``1 - ratio``
+    ``residuals_px`` NaN; ``diagnostics["unliftable"]`` counts them). ``coordinate_step_px``: the grid the
+    pixel coordinates were rounded to (None: detected from pixel input, :func:`poseonly.quantization.grid_step`,
+    1 for integer keypoints such as FAST's / ORB's finest level; 0: none); every noise scale of the fit
+    and the status analysis is at least its rounding noise ``step / sqrt(12)`` (``diagnostics["coordinate_step_px"]``
+    where one applies): a wrong pose can fit rounded coordinates exactly. ``scores (n,)``: match quality, higher is better (e.g. ``1 - ratio``
     of the ratio test, or a matcher's confidence); the default method then samples PROSAC-style, best
     matches first (PoseLib's ``progressive_sampling``, OpenCV's ``SAMPLING_PROSAC``).
     ``noise_scales (n,)``: each match's relative localisation scale (> 0; only ratios matter), e.g.
@@ -246,6 +253,7 @@ def estimate_relative_pose(
     o = parse_options(method, options)
     if unliftable not in ("raise", "outlier"):
         raise InputError(f"unliftable must be 'raise' or 'outlier' (what a match a camera cannot lift becomes), got {unliftable!r}")
+    step = check_coordinate_step(coordinate_step_px)
     if K1 is not None:
         K1 = check_intrinsics(K1, "K1")
         K2 = K1 if K2 is None else check_intrinsics(K2, "K2")
@@ -268,10 +276,12 @@ def estimate_relative_pose(
         raise InputError(f"at least 6 correspondences are needed, got {n}")
     scores = _check_scores(scores, n)
     noise_scales = _check_noise_scales(noise_scales, n)
+    if step is None:  # pixels (validated by the lifting above): the grid they lie on; else none known
+        step = grid_step(x1, x2) if K1 is not None or cam_focal is not None else 0.0
     if cam_focal is not None and unliftable == "outlier":
         lifted = np.isfinite(f1).all(axis=1) & np.isfinite(f2).all(axis=1)
         if not lifted.all():  # a camera trial: one keypoint past the fold stopped a whole pair
-            return _without_unliftable(f1, f2, lifted, cam_focal, method, scores, noise_scales, options)
+            return _without_unliftable(f1, f2, lifted, cam_focal, method, scores, noise_scales, step, options)
     if K1 is None and cam_focal is None and o.focal_px is None:
         raise InputError(
             "normalized coordinates or bearing vectors need focal_px (the focal length in pixels that converts "
@@ -280,6 +290,7 @@ def estimate_relative_pose(
     focal = _focal(K1, K2, o.focal_px) if cam_focal is None or o.focal_px is not None else cam_focal
     thr_px = float(o.threshold_px)
     tau = check_angle("the angular threshold threshold_px / focal", thr_px / focal, f" (threshold_px = {thr_px:g}, focal = {focal:g} px)")
+    noise_floor = rounding_sigma_px(step) / focal  # radians: no noise scale below the coordinates' rounding
     rank = _epipolar_rank(f1, f2)
     if rank < MIN_EPIPOLAR_RANK:
         return degenerate_result(n, rank, method, thr_px, focal, t0)
@@ -289,11 +300,13 @@ def estimate_relative_pose(
     with _blas_single_thread(), np.errstate(all="ignore"):
         try:
             if method == "poseonly":
-                R, t, w, iters, diag = run_poseonly(f1, f2, cast(PoseonlyOptions, o), tau, scores, noise_scales)
+                R, t, w, iters, diag = run_poseonly(f1, f2, cast(PoseonlyOptions, o), tau, scores, noise_scales, noise_floor)
             else:
                 R, t, w, iters, diag = RUNNERS[method](f1, f2, o, tau)
             diag["rank"] = rank
-            return finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, o.min_inliers, o.max_rotation_std_deg, o.max_translation_std_deg)
+            if step > 0:
+                diag["coordinate_step_px"] = step
+            return finish(method, R, t, f1, f2, w, tau, focal, thr_px, iters, t0, diag, o.min_inliers, o.max_rotation_std_deg, o.max_translation_std_deg, noise_floor)
         except np.linalg.LinAlgError as exc:
             # valid but numerically extreme input (e.g. every bearing ~90 deg off the optical axis)
             # on which a solver's linear algebra fails: no pose, and the status says so

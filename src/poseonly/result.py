@@ -271,13 +271,15 @@ def finish(
     min_inliers: int = 15,
     max_rotation_std_deg: float = MAX_ROTATION_STD_DEG,
     max_translation_std_deg: float = float("inf"),
+    noise_floor: float = 0.0,
 ) -> RelativePoseResult:
     """Inliers, residuals, analysis and status of a method's final model ``(R, t)``.
 
     ``R (3, 3)``, ``t (3,)`` (any length; non-finite when the method found no model), unit bearings
     ``f1, f2 (n, 3)``, the method's weights ``w (n,)`` or None, the angular threshold ``tau``
     (radians; ``thr_px`` at ``focal`` pixels), ``iters`` the method's iterations, ``t0`` its start
-    (``time.perf_counter``) and ``diag`` its diagnostics (updated in place).
+    (``time.perf_counter``) and ``diag`` its diagnostics (updated in place); ``noise_floor``
+    (radians): the least noise scale of the analysis (the coordinates' rounding, :mod:`poseonly.quantization`).
 
     Order of the decision: no valid model -> ``degenerate``; a significant rotation-only model
     and no significant translation -> ``pure_rotation`` (``too_few_inliers`` where that rotation is
@@ -356,7 +358,7 @@ def finish(
     # the rotation-only alternative is fitted at the search threshold at least: at a decision threshold
     # the pose itself shrank (an ML fit to a tight subset) a rotation would miss its own noisy inliers
     tau_rot = max(tau, tau_search)
-    rot = pure_rotation_test(g1, g2, tau_rot, distinct(inl), p_pose, num_tests, v_pose=distinct(v))
+    rot = pure_rotation_test(g1, g2, tau_rot, distinct(inl), p_pose, num_tests, v_pose=distinct(v), noise_floor=noise_floor)
     R_rot = rot.pop("R_rotation_only")
     diag.update(rot)
     R_twin = t_twin = None
@@ -369,14 +371,14 @@ def finish(
     # the inliers' noise and leave the pose's precision to a few matches)
     rot_inl = _rotation_inliers_mask(R_rot, f1, f2, tau_rot) if rot["pure_rotation"] else None
     if rot_inl is None:
-        unc = pose_uncertainty(R, t, g1, g2, distinct(v < tau_rot), tau_rot)
+        unc = pose_uncertainty(R, t, g1, g2, distinct(v < tau_rot), tau_rot, noise_floor)
         if not sampson_final:
             unc = _with_estimator_spread(unc, R, t, g1, g2, distinct(v < tau_rot), diag)
         if diag.get("leverage_spread_deg", 0.0) > 0 or diag.get("leverage_translation_spread_deg", 0.0) > 0:
             # the pose's significant distance from its other inliers' fit (poseonly.robust.default.leverage_test)
             unc = _with_model_spread(unc, float(np.radians(diag["leverage_spread_deg"])), float(np.radians(diag["leverage_translation_spread_deg"])), t)
     else:
-        unc = pose_uncertainty(R_rot, None, g1, g2, distinct(rot_inl), _rotation_chord(tau_rot))
+        unc = pose_uncertainty(R_rot, None, g1, g2, distinct(rot_inl), _rotation_chord(tau_rot), noise_floor)
         diag["distinct_inliers"] = int(np.count_nonzero(distinct(rot_inl)))
     minority = rotation_explains_most(rot)
     if minority:

@@ -26,7 +26,7 @@ def kabsch(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return U @ D @ Vt
 
 
-def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float, np.ndarray | None]:
+def parallax_ratio(R_rot, f1, f2, v_pose, tau, noise_floor: float = 0.0) -> tuple[float, float, np.ndarray | None]:
     """``(ratio, noise, R)`` as :func:`poseonly.analysis.parallax_ratio` documents them."""
     R_rot = np.asarray(R_rot, dtype=float)
     d0 = f1 @ R_rot.T - f2
@@ -36,7 +36,7 @@ def parallax_ratio(R_rot, f1, f2, v_pose, tau) -> tuple[float, float, np.ndarray
         return float("nan"), float("nan"), None
     a, b = f1[sel], f2[sel]
     e2 = v_pose[sel] ** 2
-    med_e2 = float(np.median(e2))
+    med_e2 = max(float(np.median(e2)), CHI2_1_MEDIAN * noise_floor**2)
     s2 = med_e2 / CHI2_1_MEDIAN
     R = R_rot
     if s2 > 0.0:

@@ -61,9 +61,10 @@ def _scale(med: float, threshold: float, chords: bool) -> float:
     return threshold / brentq(g, 1e-3, 1e3, xtol=1e-14, rtol=1e-13)
 
 
-def pose_covariance(R, t, f1, f2, w=None, threshold: float = 0.0) -> tuple[np.ndarray, np.ndarray, float]:
+def pose_covariance(R, t, f1, f2, w=None, threshold: float = 0.0, noise_floor: float = 0.0) -> tuple[np.ndarray, np.ndarray, float]:
     """``(rotation covariance, translation covariance, sigma)``, as the core's (without its checks); the
-    covariances carry the small-sample factor ``k / (k - p)`` (k residuals, p parameters)."""
+    covariances carry the small-sample factor ``k / (k - p)`` (k residuals, p parameters); a finite sigma
+    is at least ``noise_floor`` (Sampson errors) or ``sqrt(2) noise_floor`` (chords)."""
     w = np.ones(len(f1)) if w is None else np.asarray(w, float)
     keep = w > 0
     f1, f2, sw = f1[keep], f2[keep], np.sqrt(w[keep])
@@ -75,6 +76,8 @@ def pose_covariance(R, t, f1, f2, w=None, threshold: float = 0.0) -> tuple[np.nd
 
         r = res(np.zeros(3))
         sigma = _scale(float(np.median(np.hypot(r[:m], r[m:]))), threshold, True)
+        if np.isfinite(sigma):
+            sigma = max(sigma, np.sqrt(2.0) * noise_floor)
         J = _jacobian(res, 3)
         return sigma**2 * 2 * m / (2 * m - 3) * np.linalg.inv(J.T @ J), np.zeros((3, 3)), sigma
     tu = np.asarray(t, float) / np.linalg.norm(t)
@@ -85,6 +88,8 @@ def pose_covariance(R, t, f1, f2, w=None, threshold: float = 0.0) -> tuple[np.nd
         return sw * signed_sampson(rotation_from_rotvec(p[:3]) @ R, tp / np.linalg.norm(tp), f1, f2)
 
     sigma = _scale(float(np.median(np.abs(pose(np.zeros(5))))), threshold, False)
+    if np.isfinite(sigma):
+        sigma = max(sigma, noise_floor)
     J = _jacobian(pose, 5)
     m = len(f1)
     C = sigma**2 * m / (m - 5) * np.linalg.inv(J.T @ J)

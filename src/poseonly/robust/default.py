@@ -390,7 +390,9 @@ def _collapsed(m: dict[str, Any], f1: np.ndarray, f2: np.ndarray, T: float) -> b
     return not m["sigma_gauss"] >= ML_COLLAPSE * MAD_TO_SIGMA * median(near)
 
 
-def _ml_from(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, T: float, student: bool, scales: np.ndarray | None, start: str) -> dict[str, Any]:
+def _ml_from(
+    R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, T: float, student: bool, scales: np.ndarray | None, start: str, noise_floor: float = 0.0
+) -> dict[str, Any]:
     """``_core.ml_refine`` from the chosen pose (``start="search"``), from the band's least-squares refit
     (``"band"``, ``MlOptions::band_start``) or from both with the larger :func:`full_range_log_likelihood`
     kept (``"both"``; the last two are studies, not the default). A collapsed EM is not an estimate: it
@@ -398,7 +400,7 @@ def _ml_from(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, T: fl
     the caller keeps the chosen pose)."""
 
     def run(band: bool) -> dict[str, Any]:
-        return _core.ml_refine(R, t, f1, f2, T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student, scales=scales, band_start=band)
+        return _core.ml_refine(R, t, f1, f2, T, rounds=ML_ROUNDS, pose_tol=ML_POSE_TOL, student=student, scales=scales, band_start=band, noise_floor=noise_floor)
 
     ms = run(False) if start != "band" else None
     cs = ms is not None and _collapsed(ms, f1, f2, T)
@@ -426,13 +428,14 @@ def _ml_stage(
     scales: np.ndarray | None = None,
     start: str = "search",
     info: dict[str, Any] | None = None,
+    noise_floor: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]] | None:
     """The ML pose from the search's ``(R, t)`` (outlier range ``T``), or None when EM did not run
     (``info["sigma_start"]``, if given, gets EM's start scale either way)
     or its pose loses more than ``1 - ML_KEEP_TOLERANCE`` of the cheirality-aware MSAC score at the
     larger of ``tau`` and the mixture's decision threshold (the truncated score at a tight tau
     favours the pose fitted to that truncation)."""
-    m = _ml_from(R, t, f1, f2, T, student, scales, start)
+    m = _ml_from(R, t, f1, f2, T, student, scales, start, noise_floor)
     if info is not None:
         info["sigma_start"] = float(m["sigma_start"])
     if not (m["rounds"] > 0 and m["decision_gauss"] > 0 and np.all(np.isfinite(m["R"]))):
@@ -455,6 +458,7 @@ def _cross_fit(
     folds: int,
     tails: tuple[float, float] | None = None,
     start: tuple[float, float] | None = None,
+    noise_floor: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray, int, np.ndarray] | None:
     """The ML pose without the inliers the cross-fit vetoes, from the ML pose ``(R, t)``; or None.
 
@@ -510,6 +514,7 @@ def _cross_fit(
         final_rounds=ML_ROUNDS,
         final_lm_iterations=ML_LM_ITERATIONS,
         final_pose_tol=ML_POSE_TOL,
+        noise_floor=noise_floor,
     )
     if not ok:
         return None
@@ -530,6 +535,7 @@ def leverage_test(
     max_leverage: float,
     diag: dict[str, Any],
     excluded: np.ndarray | None = None,
+    noise_floor: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray, int] | None:
     """The ML pose without the inliers it cannot vouch for, from the ML (or cross-fitted) pose ``(R, t)``
     whose EM result is ``m``; None where nothing is vetoed or the refit fails.
@@ -562,7 +568,7 @@ def leverage_test(
     diag["leverage_group"] = int(np.count_nonzero(group))
     others = (R_others, t_others, (inl & (group == 0)).astype(float), decision)
     if not veto.any():
-        diag.update(_leverage_spread(R, t, f1, f2, others))
+        diag.update(_leverage_spread(R, t, f1, f2, others, noise_floor))
         return None
     keep = (veto == 0) & ~out  # the refit sees what the pose's own EM saw, less the vetoed matches
     r = _core.ml_refine(
@@ -577,14 +583,15 @@ def leverage_test(
         scales=None if scales is None else c(scales[keep]),
         nu=float(m["nu"]),
         alpha=float(m["alpha"]),
+        noise_floor=noise_floor,
     )
     if not (r["rounds"] > 0 and np.all(np.isfinite(r["R"])) and np.all(np.isfinite(r["t"]))):
         return None
     thr = decision
     if msac_chiral(r["R"], r["t"], f1, f2, thr) < ML_KEEP_TOLERANCE * msac_chiral(R, t, f1, f2, thr):
-        diag.update(_leverage_spread(R, t, f1, f2, others))
+        diag.update(_leverage_spread(R, t, f1, f2, others, noise_floor))
         return None
-    diag.update(_leverage_spread(r["R"], r["t"], f1, f2, others))
+    diag.update(_leverage_spread(r["R"], r["t"], f1, f2, others, noise_floor))
     return r["R"], r["t"], int(np.count_nonzero(veto))
 
 
@@ -592,7 +599,9 @@ def leverage_test(
 LEVERAGE_SPREAD_CHI2_R = 7.81
 
 
-def _leverage_spread(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, others: tuple[np.ndarray, np.ndarray, np.ndarray, float]) -> dict[str, float]:
+def _leverage_spread(
+    R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, others: tuple[np.ndarray, np.ndarray, np.ndarray, float], noise_floor: float = 0.0
+) -> dict[str, float]:
     """The distances (degrees) of the returned pose ``(R, t)`` from the least-squares fit of the inliers
     without the high-leverage group (``others``: its ``R, t``, the mask of its matches and the decision
     threshold that selected them), which :func:`poseonly.result.finish` adds to the covariance: the group's
@@ -612,15 +621,19 @@ def _leverage_spread(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarra
     # not read it
     out["leverage_translation_spread_deg"] = float(np.degrees(np.arccos(np.clip(abs(np.dot(u, uo)), 0.0, 1.0))))
     c = np.ascontiguousarray
-    Cr, _, _, _, ok = _core.pose_covariance(c(Ro), c(to), c(f1), c(f2), mask, threshold=float(decision))
+    Cr, _, _, _, ok = _core.pose_covariance(c(Ro), c(to), c(f1), c(f2), mask, threshold=float(decision), noise_floor=noise_floor)
     w = rotvec_from_rotation(R @ Ro.T)  # the left perturbation exp([w]x) Ro = R, as the covariance's
     if ok and float(w @ np.linalg.pinv(Cr) @ w) > LEVERAGE_SPREAD_CHI2_R:
         out["leverage_spread_deg"] = float(np.degrees(np.linalg.norm(w)))
     return out
 
 
-def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float, scores: np.ndarray | None = None, noise_scales: np.ndarray | None = None):
-    """The default method; returns ``(R, t, weights | None, iterations, diagnostics)``.
+def run_poseonly(
+    f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float, scores: np.ndarray | None = None, noise_scales: np.ndarray | None = None, noise_floor: float = 0.0
+):
+    """The default method; returns ``(R, t, weights | None, iterations, diagnostics)``. ``noise_floor``
+    (radians): the least noise scale of the ML stage, the cross-fit and the leverage test (the input's
+    rounding, :mod:`poseonly.quantization`).
 
     1. LO-RANSAC in the core (``poseonly.robust.ransac.ransac_relpose``): minimal hypotheses, MSAC-type
        scoring of the Sampson error at ``tau`` with an exact bail-out, at least ``min_iterations``
@@ -694,7 +707,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
             T = float(o.ml_range) * tau
             student = o.ml_tails == "student"
             ml_info: dict[str, Any] = {}
-            best = _ml_stage(R, t, f1, f2, tau, T, student, noise_scales, o.ml_start, ml_info)
+            best = _ml_stage(R, t, f1, f2, tau, T, student, noise_scales, o.ml_start, ml_info, noise_floor)
             tau_used, T_used = tau, T
             # noise scale: the Gaussian mixture's sigma at the ML pose, or EM's start (the MAD at the
             # chosen pose) where EM shrank sigma onto the few matches a pose can fit exactly (or
@@ -712,7 +725,7 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                 diag["num_hypotheses"] += r2.num_iterations * MAX_ROOTS_PER_SAMPLE + r2.num_lo + FINAL_CANDIDATES
                 R2, t2 = select_by_support(r2.R, r2.t, f1, f2, tau2)
                 diag.update(research_threshold=tau2, tau_effective=tau2)
-                second = _ml_stage(R2, t2, f1, f2, tau2, float(o.ml_range) * tau2, student, noise_scales, o.ml_start)
+                second = _ml_stage(R2, t2, f1, f2, tau2, float(o.ml_range) * tau2, student, noise_scales, o.ml_start, noise_floor=noise_floor)
                 R, t, best = R2, t2, second
                 tau_used, T_used = tau2, float(o.ml_range) * tau2
             if best is not None:
@@ -724,14 +737,14 @@ def run_poseonly(f1: np.ndarray, f2: np.ndarray, o: PoseonlyOptions, tau: float,
                 excluded = None  # the matches the cross-fit removed (its pose's EM did not see them)
                 if o.ml_folds > 1:
                     tails, start = (float(m["nu"]), float(m["alpha"])), (float(m["sigma"]), float(m["inlier_fraction"]))
-                    cf = _cross_fit(R, t, f1, f2, T_used, float(m["decision_gauss"]), student, noise_scales, int(o.ml_folds), tails, start)
+                    cf = _cross_fit(R, t, f1, f2, T_used, float(m["decision_gauss"]), student, noise_scales, int(o.ml_folds), tails, start, noise_floor)
                     thr = max(tau_used, float(m["decision_gauss"]))
                     diag["cross_fit"] = cf is not None and msac_chiral(cf[0], cf[1], f1, f2, thr) >= ML_KEEP_TOLERANCE * msac_chiral(R0, t0, f1, f2, thr)
                     if diag["cross_fit"]:
                         assert cf is not None
                         R, t, diag["cross_fit_vetoed"], excluded = cf
                 if o.max_leverage < 1.0:
-                    lv = leverage_test(R, t, f1, f2, m, T_used, student, noise_scales, o.max_leverage, diag, excluded)
+                    lv = leverage_test(R, t, f1, f2, m, T_used, student, noise_scales, o.max_leverage, diag, excluded, noise_floor)
                     if lv is not None:
                         R, t, diag["leverage_vetoed"] = lv
                 # the inliers: more likely inliers than not under the Gaussian mixture at the ML pose
