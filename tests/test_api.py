@@ -211,3 +211,20 @@ def test_documented_submodules_are_attributes_after_a_plain_import():
     assert out == ["from_opencv", "make_scene", "poseonly.io", "poseonly.refine"]
     with pytest.raises(AttributeError, match="no attribute"):
         poseonly.not_a_module  # noqa: B018
+
+
+def test_integer_options_beyond_the_cores_int_are_input_errors():
+    """Counts past a C int passed validation and raised TypeError / std::bad_cast from the core's bindings
+    (an adversarial trial), also out of a whole batch."""
+    from poseonly.batch import Pair, estimate_relative_poses
+
+    sc = make_scene(60, camera="pinhole", seed=0)
+    cases = [("poseonly", {"max_iterations": 2**31}), ("poseonly", {"min_iterations": 2**31}), ("gnc-irls", {"max_iterations": 2**31}), ("gnc-ransac", {"max_iterations": 2**40})]
+    for method, opts in cases:
+        with pytest.raises(ValueError, match="<= 2147483647"):
+            poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, method=method, **opts)
+    with pytest.raises(ValueError, match="max_iterations"):
+        poseonly.gnc_irls(sc.f1, sc.f2, max_iterations=2**31)
+    assert poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, max_iterations=2**31 - 1).status == "ok"
+    res = list(estimate_relative_poses([Pair(sc.u1, sc.u2, K1=sc.K, options={"max_iterations": 2**31}), Pair(sc.u1, sc.u2, K1=sc.K)]))
+    assert res[0].result is None and "2147483647" in res[0].error and res[1].result is not None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -149,3 +150,26 @@ def test_experiment_without_out_writes_a_new_folder_under_the_working_directory(
     assert not any((tmp_path / "docs" / "results").iterdir())
     a, b = new_results_dir("x"), new_results_dir("x")
     assert a != b and a.parent == b.parent == tmp_path and not any(a.iterdir())
+
+
+def test_code_version_only_for_poseonly_checkouts(tmp_path, monkeypatch):
+    """A package installed inside a user's own git repository must not report the user's commit as its
+    code version (a packaging trial): ``code_version`` is None unless the package is ``src/poseonly`` of
+    the checkout."""
+    import shutil
+    import subprocess
+
+    from poseonly.experiments import report
+
+    if shutil.which("git") is None:
+        pytest.skip("git not installed")
+    repo = tmp_path / "user_repo"
+    pkg = repo / ".venv" / "site-packages" / "poseonly"
+    (pkg / "experiments").mkdir(parents=True)
+    subprocess.run(["git", "init", "-q", str(repo)], check=True)
+    subprocess.run(["git", "-C", str(repo), "-c", "user.email=a@b", "-c", "user.name=a", "commit", "-q", "--allow-empty", "-m", "x"], check=True)
+    monkeypatch.setattr(report, "__file__", str(pkg / "experiments" / "report.py"))
+    assert report.code_version() is None
+    monkeypatch.undo()
+    if (Path(report.__file__).resolve().parents[2] / ".git").exists():  # this checkout (not a wheel)
+        assert report.code_version() is not None

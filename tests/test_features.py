@@ -198,6 +198,11 @@ def test_matches_npz_roundtrip(tmp_path: Path) -> None:
     d = load_matches_npz(save_matches_npz(tmp_path / "m3.npz", u1, u2))
     assert d.K1 is None and d.K2 is None and len(d) == 50
     assert not list(tmp_path.glob("*.tmp"))
+    # a shared K and a different K1 / K2: refused (one of them was used silently: an adversarial trial)
+    np.savez(tmp_path / "m4.npz", u1=u1, u2=u2, K=K, K2=K2)
+    _expect("both 'K' and a different 'K2'", load_matches_npz, tmp_path / "m4.npz")
+    np.savez(tmp_path / "m5.npz", u1=u1, u2=u2, K=K, K1=K, K2=K)  # the same calibration: fine
+    np.testing.assert_array_equal(load_matches_npz(tmp_path / "m5.npz").K2, K)
 
 
 # --------------------------------------------------------------------------------------------

@@ -187,3 +187,22 @@ def test_opencv_point_arrays_are_accepted():
         poseonly.estimate_relative_pose(sc.u1[:, None, None, :], sc.u2, sc.K)
     with pytest.raises(ValueError, match="shape"):
         poseonly.estimate_relative_pose(sc.u1.reshape(-1, 2, 1), sc.u2, sc.K)
+
+
+def test_residuals_refuse_broken_preconditions():
+    """Bearings that are not unit, an R that is not a rotation and a zero t gave wrong residuals without an
+    error (bearings times 3: negative v_OpenGV; t = 0: every match fit; an adversarial trial)."""
+    sc = make_scene(30, camera="pinhole", seed=0)
+    R, t, f1, f2 = sc.R, sc.t, sc.f1, sc.f2
+    for fn in (res.v_E, res.v_LiGT, res.v_OpenGV, res.v_sampson):
+        with pytest.raises(ValueError, match="f1 must be unit bearing vectors"):
+            fn(R, t, 3 * f1, f2)
+        with pytest.raises(ValueError, match="f2 must be unit bearing vectors"):
+            fn(R, t, f1, np.zeros_like(f2))
+        with pytest.raises(ValueError, match="rotation"):
+            fn(np.zeros((3, 3)), t, f1, f2)
+        with pytest.raises(ValueError, match="rotation"):
+            fn(np.stack([R, -R]), np.stack([t, t]), f1, f2)  # det -1 in a stack
+        with pytest.raises(ValueError, match="non-zero length"):
+            fn(R, np.zeros(3), f1, f2)
+        assert np.all(np.isfinite(fn(R, t, f1.astype(np.float32), f2)))  # float32 storage of unit bearings is unit

@@ -139,3 +139,15 @@ def test_degenerate_identical_points():
     assert r.status == "degenerate"
     assert np.all(np.isfinite(r.R))
     assert r.notes
+
+
+def test_complex_weights_are_refused():
+    """Complex weights were cast to real with a ComplexWarning, the imaginary part dropped (an adversarial trial)."""
+    import poseonly
+    from poseonly.sim import make_scene
+
+    sc = make_scene(40, camera="pinhole", seed=0)
+    with pytest.raises(ValueError, match="weights must be real"):
+        poseonly.lirp(sc.f1, sc.f2, np.ones(40) + 1j)
+    with pytest.raises(ValueError, match="weights must be real"):
+        poseonly.gnc_irls(sc.f1, sc.f2, weights=np.ones(40) + 0j)

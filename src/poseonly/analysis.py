@@ -73,7 +73,7 @@ def support(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: f
     """Inliers ``(h, n)`` of stacked poses ``(h,3,3), (h,3)``: Sampson error below ``tau`` and
     positive depths (``v_sampson_chiral`` is 1 where a depth is not positive, and ``tau`` is far
     below 1)."""
-    return v_sampson_chiral(R, t, f1, f2) < min(tau, MAX_SUPPORT_THRESHOLD)
+    return v_sampson_chiral.unchecked(R, t, f1, f2) < min(tau, MAX_SUPPORT_THRESHOLD)
 
 
 def parallax_deg(R: np.ndarray, f1: np.ndarray, f2: np.ndarray, inl: np.ndarray) -> float:
@@ -125,7 +125,7 @@ def pose_uncertainty(R: np.ndarray, t: np.ndarray | None, f1: np.ndarray, f2: np
     if threshold > 0:
         # is the noise within the threshold at all? its scale over twice the band (errors measured at the
         # pose itself: for a rotation-only fit, the chord |R f1 - f2|)
-        e = v_sampson(R, t, f1, f2) if t is not None else np.linalg.norm(f1 @ np.asarray(R).T - f2, axis=1)
+        e = v_sampson.unchecked(R, t, f1, f2) if t is not None else np.linalg.norm(f1 @ np.asarray(R).T - f2, axis=1)
         wide = NOISE_CHECK_BAND * threshold
         band = e < wide
         s_wide = _core.pose_covariance(_c(R), tt, _c(f1), _c(f2), band.astype(float), threshold=float(wide), noise_floor=noise_floor)[2]
@@ -188,8 +188,8 @@ def twin_cost_excess(R: np.ndarray, t: np.ndarray, R_twin: np.ndarray, t_twin: n
     k = len(f1)
     if k < 6:
         return float("inf")
-    sp = float(np.sum(v_sampson(R, t, f1, f2) ** 2))
-    st = float(np.sum(v_sampson(R_twin, t_twin, f1, f2) ** 2))
+    sp = float(np.sum(v_sampson.unchecked(R, t, f1, f2) ** 2))
+    st = float(np.sum(v_sampson.unchecked(R_twin, t_twin, f1, f2) ** 2))
     if not sp > 0:
         return float("inf")
     return (st - sp) * (k - POSE_DOF) / sp

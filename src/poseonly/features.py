@@ -459,6 +459,9 @@ def _check_match_arrays(u1: Any, u2: Any, K1: Any, K2: Any, K: Any, src: str, sc
                 Ks[name] = check_intrinsics(val, name)
             except InputError as exc:
                 raise InputError(f"{src}: {exc}") from None
+    for name in ("K1", "K2"):  # one calibration per view: a shared K and a different own one is ambiguous
+        if "K" in Ks and name in Ks and not np.array_equal(Ks["K"], Ks[name]):
+            raise InputError(f"{src}: holds both 'K' and a different '{name}': which calibration applies is ambiguous (keep one)")
     k1 = Ks.get("K1", Ks.get("K"))
     k2 = Ks.get("K2", Ks.get("K"))
     if (k1 is None) != (k2 is None):

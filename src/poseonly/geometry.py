@@ -425,10 +425,7 @@ def check_correspondences(
         raise InputError(f"at least {min_points} correspondences are needed, got {len(b1)}")
     w = None
     if weights is not None:
-        try:
-            w = np.asarray(weights, dtype=float)
-        except (TypeError, ValueError):
-            raise InputError("weights must be numeric") from None
+        w = as_real_array(weights, "weights")  # complex refused (it was cast with a ComplexWarning: an adversarial trial)
         if w.shape != (len(b1),):
             raise InputError(f"weights must have shape ({len(b1)},), got {w.shape}")
         if not np.all(np.isfinite(w)):

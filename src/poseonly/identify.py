@@ -89,9 +89,9 @@ def select_candidate(R: np.ndarray, t: np.ndarray, valid: np.ndarray, f1: np.nda
     f1 = np.asarray(f1, dtype=float)
     f2 = np.asarray(f2, dtype=float)
     if f1.ndim == 3:  # stacked problems: poses (h, k, ...) against points (h, n, 3)
-        v = v_PPO(R, t, f1[:, None], f2[:, None])
+        v = v_PPO.unchecked(R, t, f1[:, None], f2[:, None])
     else:
-        v = v_PPO(R, t, f1, f2)
+        v = v_PPO.unchecked(R, t, f1, f2)
     if w is None:
         cost = np.mean(v, axis=-1)
     else:

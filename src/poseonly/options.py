@@ -89,6 +89,8 @@ class Spec:
             bounds.append(f"{'>' if self.lo_open else '>='} {self.lo:g}")
         if self.hi is not None:
             bounds.append(f"{'<' if self.hi_open else '<='} {self.hi:g}")
+        elif self.kind == "int":
+            bounds.append(f"<= {CORE_INT_MAX}")
         return base + (" " + " and ".join(bounds) if bounds else "")
 
 
@@ -101,7 +103,14 @@ def _is_bool(v: Any) -> bool:
     return isinstance(v, (bool, np.bool_))
 
 
+# the core's counts (samples, iterations, points) are C ints: a larger option raised TypeError /
+# std::bad_cast from the bindings (an adversarial trial)
+CORE_INT_MAX = 2**31 - 1
+
+
 def _in_bounds(x: float, s: Spec) -> bool:
+    if s.kind == "int" and abs(x) > CORE_INT_MAX:
+        return False
     if s.lo is not None and (x <= s.lo if s.lo_open else x < s.lo):
         return False
     return not (s.hi is not None and (x >= s.hi if s.hi_open else x > s.hi))

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import _core
-from .geometry import InputError, as_real_array, normalize
+from .geometry import ORTHO_TOL, InputError, as_real_array, normalize
 
 __all__ = [
     "Residual",
@@ -81,6 +81,27 @@ def _check_finite(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) 
             raise InputError(f"{name} contains NaN or inf values")
 
 
+# a bearing's |f| may differ from 1 by this much (float32 storage); beyond it the residuals' values are
+# wrong, not just scaled (bearings times 3 moved them 9x to 1e7x, v_OpenGV went negative: an adversarial trial)
+BEARING_NORM_TOL = 1e-6
+
+
+def _check_geometry(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> None:
+    """The residuals' preconditions on finite input: unit bearings, rotations, translations of non-zero
+    length (a zero ``t`` made every match fit; an arbitrary matrix was taken for a rotation)."""
+    for name, f in (("f1", f1), ("f2", f2)):
+        n2 = np.einsum("...i,...i->...", f, f)  # |f|^2: within 2 tol of 1 where |f| is within tol
+        if n2.size and float(np.abs(n2 - 1.0).max()) > 2.0 * BEARING_NORM_TOL:
+            lo, hi = np.sqrt(float(n2.min())), np.sqrt(float(n2.max()))
+            raise InputError(f"{name} must be unit bearing vectors (|f| = 1; poseonly.geometry.as_bearings makes them), got norms from {lo:.6g} to {hi:.6g}")
+    Rm = R.reshape(-1, 3, 3)
+    ortho = np.abs(np.einsum("kji,kjl->kil", Rm, Rm) - np.eye(3)).max(axis=(1, 2))
+    if np.any(ortho >= ORTHO_TOL) or np.any(np.linalg.det(Rm) <= 0):
+        raise InputError("R must be rotation matrices (R^T R = I, det R = +1)")
+    if np.any(np.max(np.abs(t), axis=-1) == 0):
+        raise InputError("t must have non-zero length (a residual of the translation's direction; a zero t fits every match)")
+
+
 @dataclass(frozen=True)
 class Residual:
     """One residual of the core's table: its ``name`` and the core's ``code`` (its index in
@@ -92,13 +113,17 @@ class Residual:
     def __call__(self, R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
         """The residual of each correspondence under each pose: ``R (..., 3, 3)``, ``t (..., 3)`` (any
         non-zero length; normalised), unit bearings ``f1, f2 (n, 3)`` or stacked ``(..., n, 3)`` ->
-        ``(..., n)``, the leading axes of the poses and the point sets broadcast."""
+        ``(..., n)``, the leading axes of the poses and the point sets broadcast. :class:`InputError` for
+        non-finite values, bearings whose norm is not 1, an ``R`` that is not a rotation and a zero ``t``
+        (the library's own calls on input it validated use :meth:`unchecked`)."""
         if _one_pose(R, t, f1, f2):
-            # one pose on one point set, already float64 and C-contiguous (the library's own calls)
+            # one pose on one point set, already float64 and C-contiguous
             _check_finite(R, t, f1, f2)
+            _check_geometry(R, t, f1, f2)
             return self._one(R, t, f1, f2)
         R, t, f1, f2 = _checked_args(R, t, f1, f2)
         _check_finite(R, t, f1, f2)
+        _check_geometry(R, t, f1, f2)
         m = np.max(np.abs(t), axis=-1, keepdims=True)
         t = normalize(np.where(m > 0, t / np.where(m > 0, m, 1.0), t))  # scaled first: any finite t
         lead = R.shape[:-2]

@@ -307,7 +307,7 @@ def finish(
     if not valid_pose(R, t):
         return degenerate_result(n, diag.get("rank", -1), method, thr_px, focal, t0, reason=f"the {method!r} method found no valid pose (no hypothesis scored)", diag=diag)
     t = _unit(t)
-    v = v_sampson(R, t, f1, f2)
+    v = v_sampson.unchecked(R, t, f1, f2)
     inl = v < tau
     n_in = int(inl.sum())
     weights = inl.astype(float) if w is None else np.asarray(w, float)

@@ -124,11 +124,17 @@ def pyplot():
 
 
 def code_version() -> str | None:
-    """``git describe --always --dirty`` of the source tree (``None`` outside a git checkout)."""
+    """``git describe --always --dirty`` of poseonly's source tree: ``None`` unless the package runs from
+    the ``src/poseonly`` of a git checkout (an installed package inside a user's own repository reported
+    the user's commit: a packaging trial)."""
     import subprocess
 
+    pkg = Path(__file__).resolve().parents[1]
     try:
-        r = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=Path(__file__).parent, capture_output=True, text=True, timeout=10)
+        top = subprocess.run(["git", "rev-parse", "--show-toplevel"], cwd=pkg, capture_output=True, text=True, timeout=10)
+        if top.returncode != 0 or (Path(top.stdout.strip()) / "src" / "poseonly").resolve() != pkg:
+            return None
+        r = subprocess.run(["git", "describe", "--always", "--dirty"], cwd=pkg, capture_output=True, text=True, timeout=10)
     except (OSError, subprocess.SubprocessError):
         return None
     return (r.stdout.strip() or None) if r.returncode == 0 else None

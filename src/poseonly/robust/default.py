@@ -137,7 +137,7 @@ def noise_threshold(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray
     """
     if not o.adaptive_threshold:
         return tau
-    v_all = v_sampson(R, t, f1, f2)
+    v_all = v_sampson.unchecked(R, t, f1, f2)
     thr = tau
     lo, hi = NOISE_THRESHOLD_RANGE
     for _ in range(NOISE_THRESHOLD_STEPS):
@@ -310,7 +310,7 @@ def _with_remainder(
     if not s.num_scored or not (np.all(np.isfinite(s.R)) and np.all(np.isfinite(s.t))):  # no model (the core's (I, 0))
         return r
     cost, inl = search_cost(s.R, s.t, f1, f2, tau, scoring=o.scoring, keypoint_once=o.keypoint_once)
-    v = v_sampson(s.R, s.t, f1, f2)
+    v = v_sampson.unchecked(s.R, s.t, f1, f2)
     # its counts on all the matches (the first search's keypoint groups; no rival of its own)
     stats = {k: x for k, x in r.stats.items() if not k.startswith(("rival_", "others_"))}
     stats.update(cost=float(cost), num_inliers=len(inl), rival_cost=np.inf, needed=np.inf)
@@ -358,7 +358,7 @@ def full_range_log_likelihood(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: 
     """max over (sigma, g) of sum_i log(g N+(r_i; sigma) + (1 - g) / FULL_RANGE), r_i the Sampson errors
     of every match clipped at FULL_RANGE (EM from the MAD and the share of the errors below T): one
     likelihood for every pose, unlike the ML stage's, whose mixture lives on the errors below its range."""
-    r = np.minimum(v_sampson(R, t, f1, f2), FULL_RANGE)
+    r = np.minimum(v_sampson.unchecked(R, t, f1, f2), FULL_RANGE)
     near = r < T
     if np.count_nonzero(near) < ML_MIN_NEAR:
         return -np.inf
@@ -383,7 +383,7 @@ def _collapsed(m: dict[str, Any], f1: np.ndarray, f2: np.ndarray, T: float) -> b
         return False
     if not np.all(np.isfinite(m["R"])) or not np.all(np.isfinite(m["t"])):
         return True
-    r = v_sampson(m["R"], m["t"], f1, f2)
+    r = v_sampson.unchecked(m["R"], m["t"], f1, f2)
     near = r[r < 0.5 * T]
     if near.size < ML_MIN_NEAR:
         return True
@@ -559,7 +559,7 @@ def leverage_test(
     decision = float(m["decision_gauss"])
     if not decision > 0 or not valid_pose(R, t):  # (a search that scored no hypothesis leaves a placeholder R; the fuzz)
         return None
-    inl = v_sampson(R, t, f1, f2) < decision
+    inl = v_sampson.unchecked(R, t, f1, f2) < decision
     out = np.zeros(len(f1), bool) if excluded is None else np.asarray(excluded, bool)
     inl &= ~out
     _, veto, group, tested, R_others, t_others = _core.leverage_veto(c(R), c(t), c(f1), c(f2), inl, decision, float(max_leverage))
@@ -692,7 +692,7 @@ def run_poseonly(
     if o.final == "cauchy":
         diag["tau_effective"] = tau
         if o.refine:
-            inl = v_sampson(R, t, f1, f2) < tau
+            inl = v_sampson.unchecked(R, t, f1, f2) < tau
             if np.count_nonzero(inl) >= 6:
                 c = np.ascontiguousarray
                 Rc, tc, _ = _core.refine_sampson(c(R), c(t), c(f1[inl]), c(f2[inl]), None, loss="cauchy", loss_scale=float(tau), max_iterations=100, tol=1e-12)

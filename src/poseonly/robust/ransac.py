@@ -199,7 +199,7 @@ def ransac_relpose(
         int(prosac_trials),
         float(min_inlier_ratio),
     )
-    v = get_residual("sampson")(R, t, f1, f2)
+    v = get_residual("sampson").unchecked(R, t, f1, f2)
     return RansacResult(
         R=R,
         t=t,
@@ -256,5 +256,5 @@ def gnc_ransac(
     R, t, w, st = _core.gnc_ransac(
         f1, f2, float(theta), core_seed(seed), int(min(sample_size, len(f1))), int(max_iterations), bool(adaptive), float(confidence), opts.core_options(est)
     )
-    v = est.residual(R, t, f1, f2)
+    v = est.residual.unchecked(R, t, f1, f2)
     return RansacResult(R=R, t=t, inliers=v < theta, residuals=v, score=float(len(f1) - st["cost"]), num_iterations=int(st["iterations"]), weights=w, stats=dict(st))
