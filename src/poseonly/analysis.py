@@ -319,6 +319,20 @@ ROTATION_MIN_SHARE = 0.5
 # a match fits a rotation when angle(R f1, f2) < ROTATION_THRESHOLD_FACTOR * tau (the full angular
 # error of a match is larger than its Sampson error, which only measures one direction)
 ROTATION_THRESHOLD_FACTOR = 2.0
+
+
+def great_circle_spread(f: np.ndarray) -> float:
+    """RMS distance (radians: the sine of the angle) of unit bearings ``f (k, 3)`` from the plane through
+    the camera's centre that fits them best, the square root of the least eigenvalue of ``f^T f / k``
+    (inf for fewer than 3). Bearings on one great circle (every scene point on a plane through the
+    centre, e.g. on one 3-D line) leave the epipolar constraint blind to the circle's normal: ``E``'s
+    action on it, three of its parameters, is free, and the pose is not determined."""
+    if len(f) < 3:
+        return float("inf")
+    w = np.linalg.eigvalsh(f.T @ f / len(f))
+    return float(np.sqrt(max(float(w[0]), 0.0)))
+
+
 # a pose inlier supports a translation only when it is this many rotation thresholds off the rotation
 EXTRA_FACTOR = 2.0
 # the precision test of a rotation-only model (pure_rotation_test): on the pose's matches within

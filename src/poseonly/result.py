@@ -24,6 +24,7 @@ from .analysis import (
     TWIN_SPREAD_CHI2,
     chance_rate,
     equally_supported_twin,
+    great_circle_spread,
     log10_nfa,
     parallax_deg,
     planar_twin,
@@ -438,6 +439,23 @@ def finish(
                 f"{NFA_MAX:g}): the pose is not reliable"
             )
     else:
+        # inliers whose bearings in one view lie on a great circle within the threshold do not determine the
+        # pose (an adversarial trial: points on one 3-D line gave `ok` poses 172-178 deg off with the paper's
+        # methods; the rank test of the epipolar system sees the noise as a sixth dimension)
+        ins = distinct(inl)
+        circle = [great_circle_spread(g1[ins]), great_circle_spread(g2[ins])]
+        diag["great_circle_spread_px"] = min(circle) * focal
+        if min(circle) <= tau:
+            view = 1 + int(np.argmin(circle))
+            reason = (
+                f"the {n_in} inliers' bearings in view {view} lie within {min(circle) * focal:.3g} px (RMS) of one plane through "
+                f"the camera's centre, inside the threshold ({thr_px:g} px): every scene point on a plane through that centre "
+                "(e.g. on one 3-D line) leaves the pose undetermined"
+            )
+            for key in ("estimator_spread_deg", "estimator_translation_spread_deg", "leverage_spread_deg", "leverage_translation_spread_deg"):
+                diag.pop(key, None)  # of a pose not returned
+            diag.update(rotation_std_deg=np.inf, translation_std_deg=np.inf, great_circle_view=view)
+            return degenerate_result(n, diag.get("rank", -1), method, thr_px, focal, t0, reason=reason, diag=diag)
         twin, info = planar_twin(R, t, g1, g2, tau, distinct(inl))
         diag.update(info)
         if equally_supported_twin(info) and info["twin_cost_excess"] <= TWIN_SPREAD_CHI2:
