@@ -512,7 +512,7 @@ def test_database_fisheye_rays_beyond_90_degrees_are_lifted_natively(tmp_path):
     assert ig.normalized is not None and ig.normalized[0].shape == (300, 3)
 
 
-def test_uncertain_written_calibrated_or_dropped(tmp_path):
+def test_uncertain_written_calibrated_or_dropped(tmp_path, monkeypatch):
     """``uncertain`` is CALIBRATED with its inliers by default; ``keep_uncertain=False`` (``--drop-uncertain``)
     writes it DEGENERATE without inliers, as ``too_few_inliers`` (a pipeline user's trial asked for it)."""
     import dataclasses
@@ -532,5 +532,21 @@ def test_uncertain_written_calibrated_or_dropped(tmp_path):
     make_db(path, n_images=3)
     with pytest.raises(ValueError, match="keep_uncertain must be True or False"):
         verify_database(path, progress=False, keep_uncertain="no")
-    s = verify_database(path, progress=False, keep_uncertain=False)
-    assert s.written == 3 and not s.errors
+    # the plumbing: every estimate made `uncertain`, then written CALIBRATED, or DEGENERATE with --drop-uncertain
+    import poseonly.colmap_verify as cv
+    from poseonly.cli import main
+
+    orig = cv.estimate_relative_poses
+
+    def uncertain(*a, **k):
+        for pr in orig(*a, **k):
+            if pr.result is not None:
+                pr.result.status = "uncertain"
+            yield pr
+
+    monkeypatch.setattr(cv, "estimate_relative_poses", uncertain)
+    s = verify_database(path, progress=False)
+    assert s.written == 3 and s.configs["CALIBRATED"] == 3, s.configs
+    assert main(["colmap", "verify", str(path), "--overwrite", "--drop-uncertain", "--no-progress"]) == 0
+    assert [row[4] for row in _rows(path)] == [int(pycolmap.TwoViewGeometryConfiguration.DEGENERATE)] * 3
+    assert all(row[1] == 0 for row in _rows(path))  # no inliers

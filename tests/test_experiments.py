@@ -171,5 +171,5 @@ def test_code_version_only_for_poseonly_checkouts(tmp_path, monkeypatch):
     monkeypatch.setattr(report, "__file__", str(pkg / "experiments" / "report.py"))
     assert report.code_version() is None
     monkeypatch.undo()
-    if (Path(report.__file__).resolve().parents[2] / ".git").exists():  # this checkout (not a wheel)
+    if (Path(report.__file__).resolve().parents[3] / ".git").exists():  # this checkout (not a wheel)
         assert report.code_version() is not None

@@ -206,3 +206,18 @@ def test_residuals_refuse_broken_preconditions():
         with pytest.raises(ValueError, match="non-zero length"):
             fn(R, np.zeros(3), f1, f2)
         assert np.all(np.isfinite(fn(R, t, f1.astype(np.float32), f2)))  # float32 storage of unit bearings is unit
+
+
+def test_library_calls_on_placeholder_poses_do_not_raise():
+    """The library's own residual calls on a search's placeholder pose (no hypothesis scored) take the
+    unchecked path for stacked poses too: final="ligt" raised "R must be rotation matrices" on random
+    bearings (a review); the status says what happened."""
+    import poseonly
+
+    r = np.random.default_rng(25)
+    r.integers(6, 12)
+    a, b = r.normal(size=(9, 3)), r.normal(size=(9, 3))
+    out = poseonly.estimate_relative_pose(a, b, focal_px=800, final="ligt", seed=25)
+    assert out.status in ("degenerate", "too_few_inliers")
+    R = np.zeros((2, 3, 3))  # unchecked: any values, the shapes only
+    assert res.v_sampson.unchecked(R, np.zeros((2, 3)), a / np.linalg.norm(a, axis=1)[:, None], b / np.linalg.norm(b, axis=1)[:, None]).shape == (2, 9)

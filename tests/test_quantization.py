@@ -11,7 +11,7 @@ import poseonly
 from poseonly import _core, sim
 from poseonly.analysis import parallax_ratio, robust_rotation
 from poseonly.geometry import as_bearings, rotation_error_deg, rotation_from_rotvec
-from poseonly.quantization import grid_step, rounding_sigma_px
+from poseonly.quantization import axis_step, grid_step, image_grid_step, pair_grid_step, rounding_sigma_px
 from poseonly.residuals import v_sampson
 from reference.parallax import parallax_ratio as ref_parallax_ratio
 from reference.pose_covariance import pose_covariance as reference_covariance
@@ -41,6 +41,16 @@ def test_grid_step_detects_the_grids_detectors_round_to():
     off[0] = [-3.3, -2.7]  # an off-grid smallest value
     assert grid_step(off, off + 2.0) == 1.0
     assert rounding_sigma_px(1.0) == pytest.approx(0.2886751345948129)
+    # sparse integers whose least gap is 2: half lie on a 2 px grid by parity, all on the pixel's (a review)
+    assert axis_step(np.array([0, 2, 6, 10, 14, 18, 22, 26, 30, 33, 47, 51.0])) == 1.0
+    rng = np.random.default_rng(5)
+    assert all(axis_step(np.round(rng.uniform(0, 1000, rng.integers(8, 21)))) == 1.0 for _ in range(200))
+    assert not any(axis_step(rng.uniform(0, 1000, rng.integers(8, 21))) for _ in range(200))
+    # matches that did not move at all (a static overlay, failed tracks) are no evidence of rounding
+    still = rng.uniform(0, 1000, (150, 2))
+    assert grid_step(np.vstack([u, still]), np.vstack([u + rng.normal(0, 1, u.shape), still])) == 0.0
+    assert image_grid_step(np.round(u) + 0.5) == 1.0 and image_grid_step(u) == 0.0
+    assert pair_grid_step(1.0, 1.25) == 1.0 and pair_grid_step(1.0, 0.0) == 0.0
 
 
 @pytest.mark.parametrize("floor_px", [0.3, 3.0])
@@ -73,6 +83,14 @@ def test_core_covariance_with_a_noise_floor_matches_the_reference(rotation_only)
             assert sigma == pytest.approx(floor * (np.sqrt(2.0) if rotation_only else 1.0), rel=1e-12)
     with pytest.raises(ValueError, match="noise_floor"):
         _core.pose_covariance(sc.R, t, sc.f1, sc.f2, None, 0.0, noise_floor=-1.0)
+    # the weights' constant cancels, the floor too (it bounds the highest-weight match's raw errors; a review)
+    covs = [_core.pose_covariance(sc.R, t, sc.f1, sc.f2, np.full(150, c), 0.0, noise_floor=2.0 / 800.0)[0] for c in (1.0, 100.0, 0.01)]
+    np.testing.assert_allclose(covs[1], covs[0], rtol=1e-9)
+    np.testing.assert_allclose(covs[2], covs[0], rtol=1e-9)
+    w = np.random.default_rng(0).uniform(0.5, 3.0, 150)
+    got = _core.pose_covariance(sc.R, t, sc.f1, sc.f2, w, 0.0, noise_floor=2.0 / 800.0)
+    ref = reference_covariance(sc.R, t, sc.f1, sc.f2, w, 0.0, noise_floor=2.0 / 800.0)
+    assert got[2] == pytest.approx(ref[2], rel=1e-10)
 
 
 def _rounded_yaw(deg: float, n: int = 2000, seed: int = 0):

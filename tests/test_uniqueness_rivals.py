@@ -108,3 +108,22 @@ def test_orb_on_kitti_is_never_a_wrong_ok(tmp_path):
     for seed in range(4):
         r = estimate_relative_pose(u1, u2, p.K1, p.K2, scores=scores, noise_scales=scales, seed=seed)
         assert not (r.status == "ok" and rotation_error_deg(p.R, r.R) > WRONG_DEG), (seed, r.message)
+
+
+def test_a_refined_rival_that_beats_the_pose_replaces_it():
+    """The rivals are refined after the search ranked them unrefined; one that then scores better under
+    the search's objective is the result, the search's pose one of the rivals (a VO trial with
+    ``challengers=0``: `ambiguous` with the pose 5.2 deg off, the rival 0.1 deg off)."""
+    from poseonly.sim import make_scene
+
+    sc = make_scene(200, camera="pinhole", noise_px=0.3, outlier_fraction=0.3, seed=2)
+    tau = 1.0 / 800.0
+    wrong = (rotation_from_rotvec(np.radians([0.0, 3.0, 0.0])) @ sc.R, sc.t)
+    right = (sc.R, sc.t)
+    diag = {"rivals": [right], "rival_R": right[0], "rival_t": right[1]}
+    R, t = default._better_rival(*wrong, sc.f1, sc.f2, tau, diag)
+    assert rotation_error_deg(R, sc.R) < 1e-12 and diag["rival_swapped"]
+    assert rotation_error_deg(diag["rivals"][0][0], wrong[0]) < 1e-12 and diag["rival_R"] is diag["rivals"][0][0]
+    diag = {"rivals": [wrong], "rival_R": wrong[0], "rival_t": wrong[1]}
+    R, t = default._better_rival(*right, sc.f1, sc.f2, tau, diag)  # the pose is the better one: kept
+    assert R is right[0] and "rival_swapped" not in diag

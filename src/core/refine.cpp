@@ -730,8 +730,9 @@ PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pos
   // the scale of the residuals weighted by w / wmax (the threshold too: sqrt(w_i) |r_i| < threshold)
   double sn = threshold > 0.0 ? truncated_scale(med, threshold / std::sqrt(wmax), !translation)
                                : (translation ? kMadFactor * med : med / kRayleighMedian);
-  if (noise_floor > 0.0 && std::isfinite(sn))  // the coordinates' own rounding: no fit's errors are below it
-    sn = std::max(sn, (translation ? noise_floor : std::sqrt(2.0) * noise_floor) / std::sqrt(wmax));
+  // the coordinates' own rounding: no match's errors are below it. sn is the scale of the highest-weight
+  // match's raw errors (the weights are inverse variances up to a constant), so the floor applies to it as is
+  if (noise_floor > 0.0 && std::isfinite(sn)) sn = std::max(sn, translation ? noise_floor : std::sqrt(2.0) * noise_floor);
   out.sigma = sn * std::sqrt(wmax);  // the scale of a unit-weight residual
   if (!std::isfinite(sn)) return out;  // the threshold does not resolve the noise (sigma inf)
   // small-sample correction of the scale (the residuals are those of a fit of `params` parameters)

@@ -102,7 +102,8 @@ struct PoseCovariance {
   bool ok = false;
 };
 // noise_floor: the least noise scale of one view's bearings (radians; e.g. the rounding of integer pixel
-// coordinates): sigma >= noise_floor for the Sampson errors, sqrt(2) noise_floor for the chords (two views)
+// coordinates): the highest-weight match's error scale (sigma / sqrt(max w)) >= noise_floor for the
+// Sampson errors, sqrt(2) noise_floor for the chords (two views)
 PoseCovariance pose_covariance(const Points& p, const double* w, const Pose& pose, bool translation = true, double threshold = 0.0,
                                double noise_floor = 0.0);
 

@@ -234,8 +234,8 @@ def estimate_relative_pose(
     match is left out of the estimate and returned as an outlier (``inliers`` False, ``weights`` 0,
     ``residuals_px`` NaN; ``diagnostics["unliftable"]`` counts them). ``coordinate_step_px``: the grid the
     pixel coordinates were rounded to (None: detected from pixel input, :func:`poseonly.quantization.grid_step`,
-    1 for integer keypoints such as FAST's / ORB's finest level; 0: none); every noise scale of the fit
-    and the status analysis is at least its rounding noise ``step / sqrt(12)`` (``diagnostics["coordinate_step_px"]``
+    1 for integer keypoints such as FAST's / ORB's finest level; 0: none); the noise scales of the default
+    method's ML stage and of the status analysis (every method's) are at least its rounding noise ``step / sqrt(12)`` (``diagnostics["coordinate_step_px"]``
     where one applies): a wrong pose can fit rounded coordinates exactly. ``scores (n,)``: match quality, higher is better (e.g. ``1 - ratio``
     of the ratio test, or a matcher's confidence); the default method then samples PROSAC-style, best
     matches first (PoseLib's ``progressive_sampling``, OpenCV's ``SAMPLING_PROSAC``).

@@ -56,6 +56,7 @@ from .geometry import InputError, pair_focal
 from .io.colmap_db import ColmapDatabase, GeometryRow, refuse_guessed_focal
 from .io.colmap_geometry import ERROR_CONFIG, STATUS_CONFIG, two_view_fields
 from .options import MANY_PAIRS_MAX_ITERATIONS
+from .quantization import image_grid_step, pair_grid_step
 
 __all__ = ["MIN_MATCHES", "STATUS_CONFIG", "VerifySummary", "add_arguments", "run_cli", "verify_database"]
 
@@ -88,6 +89,7 @@ class _Source:
         self.pending: dict[int, tuple[int, int, np.ndarray]] = {}
         self.direct: list[GeometryRow] = []  # rows decided without estimating
         self._bear: dict[int, np.ndarray] = {}
+        self._step: dict[int, float] = {}  # each image's keypoint grid (poseonly.quantization)
 
     def bearings(self, image_id: int) -> np.ndarray:
         b = self._bear.get(image_id)
@@ -101,6 +103,7 @@ class _Source:
             if len(self._bear) > 512:
                 self._bear.pop(next(iter(self._bear)))
             self._bear[image_id] = b
+            self._step[image_id] = image_grid_step(kp)  # (a float per image: kept for the whole run)
         return b
 
     def _names(self, i1: int, i2: int) -> str:
@@ -139,7 +142,8 @@ class _Source:
                 continue
             self.pending[pid] = (i1, i2, m)
             c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
-            opts: dict[str, Any] = {"focal_px": pair_focal(c1.focal_px, c2.focal_px)}
+            # the keypoints' rounding (e.g. SuperPoint's pixel centres), which the bearings no longer show
+            opts: dict[str, Any] = {"focal_px": pair_focal(c1.focal_px, c2.focal_px), "coordinate_step_px": pair_grid_step(self._step[i1], self._step[i2])}
             s1, s2 = (self.db.keypoint_scales(i1), self.db.keypoint_scales(i2)) if self.noise_scales else (None, None)
             if s1 is not None and s2 is not None:
                 opts["noise_scales"] = np.sqrt(s1[m[:, 0]] * s2[m[:, 1]])  # the keypoints' scales weight the ML refinement

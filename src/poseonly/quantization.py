@@ -21,7 +21,7 @@ import numpy as np
 
 from .geometry import InputError, opencv_points
 
-__all__ = ["GRID_MIN_SHARE", "TIE_MIN_SHARE", "axis_step", "check_coordinate_step", "grid_step", "rounding_sigma_px"]
+__all__ = ["GRID_MIN_SHARE", "TIE_MIN_SHARE", "axis_step", "check_coordinate_step", "grid_step", "image_grid_step", "pair_grid_step", "rounding_sigma_px"]
 
 # a view's coordinate axis is on a grid (offset + step * integer) when at least this share of its
 # values is (sub-pixel coordinates land on one by chance at a rate ~2e-3 px / step)
@@ -30,6 +30,8 @@ GRID_MIN_VALUES = 8  # distinct values an axis needs for its grid to be estimate
 GRID_MIN_STEP_PX = 0.1  # finer grids round by < 0.03 px: no floor worth applying
 GRID_TOL_PX = 2e-3  # |x - grid| below this (plus 1e-6 |x|: float32 storage) is on the grid
 GRID_DIVISORS = (1, 2, 3, 4)  # the step is the least gap between distinct values, or it over these
+GRID_SHARE_KEEP = 0.9  # ... the coarsest of them holding this share of the values the best one holds
+COMMON_STEPS_PX = (1.0, 0.5)  # tried as well: sparse values' least gap can be many steps
 # where no grid holds (ORB: each pyramid level on its own grid), exact ties x1 == x2 or y1 == y2 in at
 # least this share of the matches say the coordinates are rounded all the same (a sub-pixel coordinate
 # equals another by chance almost never); their grid is then taken as the pixel
@@ -42,10 +44,10 @@ def _on_grid(v: np.ndarray, offset: float, step: float) -> np.ndarray:
 
 
 def axis_step(v: np.ndarray) -> float:
-    """The grid step of one coordinate axis ``v (n,)`` (pixels): the least gap between its distinct
-    values (or that over :data:`GRID_DIVISORS`) on which at least :data:`GRID_MIN_SHARE` of the values
-    lie, with the offset of the smallest or the median value; 0 where there is none (sub-pixel coordinates) or it is
-    finer than :data:`GRID_MIN_STEP_PX`."""
+    """The grid step of one coordinate axis ``v (n,)`` (pixels): of the least gap between its distinct
+    values over :data:`GRID_DIVISORS` and :data:`COMMON_STEPS_PX` (not finer than :data:`GRID_MIN_STEP_PX`), the coarsest on which
+    :data:`GRID_SHARE_KEEP` of the share of the best lie, if that is at least :data:`GRID_MIN_SHARE`
+    (offsets from the smallest and the median value); 0 where there is none (sub-pixel coordinates)."""
     v = np.sort(v[np.isfinite(v)])
     if len(v) == 0:
         return 0.0
@@ -54,14 +56,33 @@ def axis_step(v: np.ndarray) -> float:
     if len(gaps) + 1 < GRID_MIN_VALUES:
         return 0.0
     g = float(gaps.min())
-    for k in GRID_DIVISORS:
-        step = g / k
+    shares = {}
+    for step in {g / k for k in GRID_DIVISORS} | set(COMMON_STEPS_PX):
         if step < GRID_MIN_STEP_PX:
-            break
-        for offset in (float(v[0]), float(v[len(v) // 2])):  # (an off-grid smallest value: the median's)
-            if np.count_nonzero(_on_grid(v, offset, step)) >= GRID_MIN_SHARE * len(v):
-                return step
-    return 0.0
+            continue
+        # (an off-grid smallest value: the median's offset)
+        shares[step] = max(np.count_nonzero(_on_grid(v, offset, step)) for offset in (float(v[0]), float(v[len(v) // 2]))) / len(v)
+    if not shares or max(shares.values()) < GRID_MIN_SHARE:
+        return 0.0
+    # the coarsest step that holds (nearly) as many values as the finest: a multiple of the true step
+    # holds only its share by parity (sparse integers whose least gap is 2: half of them; a review)
+    top = max(shares.values())
+    return max(s for s, share in shares.items() if share >= GRID_SHARE_KEEP * top)
+
+
+def image_grid_step(keypoints: np.ndarray) -> float:
+    """The grid of one image's keypoints ``(m, 2)`` (pixels; NaN rows ignored): the finer of its two axes'
+    (:func:`axis_step`), or 0 where either has none. Where the keypoints are lifted to bearings before
+    the estimate (a COLMAP database, a camera model), a pair's step is the finer of its two images'
+    where both have one (:func:`pair_grid_step`), passed as ``coordinate_step_px``."""
+    kp = np.asarray(keypoints, dtype=float).reshape(-1, 2)
+    sx = axis_step(kp[:, 0])
+    return min(sx, axis_step(kp[:, 1])) if sx > 0.0 else 0.0
+
+
+def pair_grid_step(step1: float, step2: float) -> float:
+    """A pair's rounding grid from its two images' (:func:`image_grid_step`): the finer, 0 unless both."""
+    return min(step1, step2) if step1 > 0.0 and step2 > 0.0 else 0.0
 
 
 def grid_step(x1: object, x2: object) -> float:
@@ -74,7 +95,9 @@ def grid_step(x1: object, x2: object) -> float:
     a = np.concatenate([opencv_points(np.asarray(x1, dtype=float)), opencv_points(np.asarray(x2, dtype=float))], axis=1)
     if a.ndim != 2 or a.shape[1] != 4 or len(a) == 0:
         return 0.0
-    ties = (a[:, 0] == a[:, 2]) | (a[:, 1] == a[:, 3])
+    # exactly one coordinate kept: a match that did not move at all (a static overlay, a failed track left
+    # at its start) is no evidence of rounding (a review)
+    ties = (a[:, 0] == a[:, 2]) != (a[:, 1] == a[:, 3])
     tie_step = TIE_STEP_PX if np.count_nonzero(ties) >= TIE_MIN_SHARE * len(a) else 0.0
     steps = []
     for j in range(4):  # (sub-pixel input: the first axis decides, ~20 us at n = 1000)

@@ -121,9 +121,15 @@ class Residual:
             _check_finite(R, t, f1, f2)
             _check_geometry(R, t, f1, f2)
             return self._one(R, t, f1, f2)
+        return self._stacked(R, t, f1, f2, True)
+
+    def _stacked(self, R: object, t: object, f1: object, f2: object, checked: bool) -> np.ndarray:
+        """Any shapes :meth:`__call__` takes; ``checked``: the values too (finite, unit bearings,
+        rotations, non-zero t), else only the shapes (:meth:`unchecked`)."""
         R, t, f1, f2 = _checked_args(R, t, f1, f2)
-        _check_finite(R, t, f1, f2)
-        _check_geometry(R, t, f1, f2)
+        if checked:
+            _check_finite(R, t, f1, f2)
+            _check_geometry(R, t, f1, f2)
         m = np.max(np.abs(t), axis=-1, keepdims=True)
         t = normalize(np.where(m > 0, t / np.where(m > 0, m, 1.0), t))  # scaled first: any finite t
         lead = R.shape[:-2]
@@ -160,13 +166,13 @@ class Residual:
         return _core.residual_matrix(self.code, R.reshape(1, 3, 3), tk.reshape(1, 3), f1, f2)[0]
 
     def unchecked(self, R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> np.ndarray:
-        """The residual for the library's own calls on bearings it validated: where ``R (3, 3)``, ``t (3,)``,
-        ``f1, f2 (n, 3)`` are float64 C-contiguous arrays, the values are not checked (a non-finite pose
-        gives NaN residuals instead of an :class:`InputError`); any other input goes through
-        :meth:`__call__`."""
+        """The residual for the library's own calls on bearings it validated: the values are not checked
+        (a non-finite pose gives NaN residuals, a search's placeholder pose its residuals, instead of an
+        :class:`InputError`), only the shapes; one float64 C-contiguous pose on one point set goes
+        straight to the core."""
         if _one_pose(R, t, f1, f2):
             return self._one(R, t, f1, f2)
-        return self(R, t, f1, f2)
+        return self._stacked(R, t, f1, f2, False)
 
     @property
     def __name__(self) -> str:  # residuals behave like the functions they replaced (reports, test ids)

@@ -64,7 +64,8 @@ def _scale(med: float, threshold: float, chords: bool) -> float:
 def pose_covariance(R, t, f1, f2, w=None, threshold: float = 0.0, noise_floor: float = 0.0) -> tuple[np.ndarray, np.ndarray, float]:
     """``(rotation covariance, translation covariance, sigma)``, as the core's (without its checks); the
     covariances carry the small-sample factor ``k / (k - p)`` (k residuals, p parameters); a finite sigma
-    is at least ``noise_floor`` (Sampson errors) or ``sqrt(2) noise_floor`` (chords)."""
+    is at least ``noise_floor sqrt(max w)`` (Sampson errors; ``sqrt(2)`` times it for chords): the floor of
+    the highest-weight match's raw errors."""
     w = np.ones(len(f1)) if w is None else np.asarray(w, float)
     keep = w > 0
     f1, f2, sw = f1[keep], f2[keep], np.sqrt(w[keep])
@@ -76,8 +77,8 @@ def pose_covariance(R, t, f1, f2, w=None, threshold: float = 0.0, noise_floor: f
 
         r = res(np.zeros(3))
         sigma = _scale(float(np.median(np.hypot(r[:m], r[m:]))), threshold, True)
-        if np.isfinite(sigma):
-            sigma = max(sigma, np.sqrt(2.0) * noise_floor)
+        if np.isfinite(sigma):  # (the floor on the highest-weight match's raw errors)
+            sigma = max(sigma, np.sqrt(2.0) * noise_floor * float(np.sqrt(w.max())))
         J = _jacobian(res, 3)
         return sigma**2 * 2 * m / (2 * m - 3) * np.linalg.inv(J.T @ J), np.zeros((3, 3)), sigma
     tu = np.asarray(t, float) / np.linalg.norm(t)
@@ -89,7 +90,7 @@ def pose_covariance(R, t, f1, f2, w=None, threshold: float = 0.0, noise_floor: f
 
     sigma = _scale(float(np.median(np.abs(pose(np.zeros(5))))), threshold, False)
     if np.isfinite(sigma):
-        sigma = max(sigma, noise_floor)
+        sigma = max(sigma, noise_floor * float(np.sqrt(w.max())))
     J = _jacobian(pose, 5)
     m = len(f1)
     C = sigma**2 * m / (m - 5) * np.linalg.inv(J.T @ J)

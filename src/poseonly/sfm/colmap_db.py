@@ -24,6 +24,7 @@ from ..cameras import as_camera
 from ..features import Features, match_noise_scales
 from ..geometry import InputError, pair_focal
 from ..io.colmap_db import database_unavailable, guessed_focal, keypoint_scales, matched_pair_ids, refuse_guessed_focal
+from ..quantization import image_grid_step, pair_grid_step
 from .pairwise import ImageGraph, PairwiseOptions, TwoView, map_ordered, pair_seed, two_view
 from .viewgraph import ViewGraph
 
@@ -117,6 +118,7 @@ def database_view_graph(
     cache = Path(cache_dir) if cache_dir is not None else None
     # keypoints the camera model cannot lift (NaN beyond the invertible region or the image disc)
     valid: list[np.ndarray | None] = [None if np.isfinite(x).all() else np.asarray(np.isfinite(x).all(axis=1)) for x in normalized]
+    steps = [image_grid_step(f.keypoints) for f in feats]  # e.g. SuperPoint's pixel centres (hloc)
     t0 = time.perf_counter()
 
     def pair_job(kp: tuple[int, tuple[int, int, np.ndarray]]) -> tuple[np.ndarray, TwoView | None | str]:
@@ -135,7 +137,10 @@ def database_view_graph(
             return m, None
         ns = match_noise_scales(feats[i], feats[j], m)
         seed = pair_seed(opt.seed, i, j, len(images))
-        return m, two_view(normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, seed, cache, focal_px=pair_focal(focal[i], focal[j]), noise_scales=ns)
+        step = pair_grid_step(steps[i], steps[j])  # the keypoints' rounding (lifted to bearings, the estimate cannot see it)
+        return m, two_view(
+            normalized[i][m[:, 0]], normalized[j][m[:, 1]], None, None, opt, seed, cache, focal_px=pair_focal(focal[i], focal[j]), noise_scales=ns, coordinate_step_px=step
+        )
 
     for (i, j, _), (pm, r) in zip(pairs, wrap(map_ordered(pair_job, enumerate(pairs), jobs), desc="pairs", total=len(pairs)), strict=True):
         putative[(i, j)] = pm

@@ -69,8 +69,10 @@ RESIDENT_IMAGES = 256
 # without replacement and, with scores, on PROSAC's uniform draws only; 30: PAIRWISE_MAX_ITERATIONS; 31: the
 # pure-rotation test's locally supported translation, PROSAC's remainder search; 32: the
 # uniqueness test against every basin the search kept, a duplicated match counted once in the status, the
-# planar twin's spread in the covariance and its DLT fallback, pair_focal for two focal lengths)
-TWO_VIEW_CACHE_TAG = 32
+# planar twin's spread in the covariance and its DLT fallback, pair_focal for two focal lengths; 33: the
+# rounding noise of quantised keypoints as the noise floor, inliers on a great circle degenerate, a
+# refined rival that beats the search's pose replaces it)
+TWO_VIEW_CACHE_TAG = 33
 # the default method's sample cap in the pairwise stage (``max_iterations``; an ``estimator_options``
 # entry overrides it): COLMAP's two-view cap, as ``poseonly colmap verify`` (options.MANY_PAIRS_MAX_ITERATIONS)
 PAIRWISE_MAX_ITERATIONS = MANY_PAIRS_MAX_ITERATIONS
@@ -312,11 +314,13 @@ def two_view(
     focal_px: float | None = None,
     scores: np.ndarray | None = None,
     noise_scales: np.ndarray | None = None,
+    coordinate_step_px: float | None = None,
 ) -> TwoView:
     """:func:`poseonly.estimate_relative_pose` of one pair (pixels ``(n, 2)`` with ``K1, K2``, or
     normalized coordinates with ``K = None`` and ``focal_px``; match ``scores (n,)`` used when
-    ``opt.use_scores``, ``noise_scales (n,)`` when ``opt.use_noise_scales``), cached by the inputs,
-    the options and the package version."""
+    ``opt.use_scores``, ``noise_scales (n,)`` when ``opt.use_noise_scales``; ``coordinate_step_px``: the
+    grid the keypoints were rounded to where they were lifted before, :mod:`poseonly.quantization`),
+    cached by the inputs, the options and the package version."""
     scores = scores if opt.use_scores else None
     noise_scales = noise_scales if opt.use_noise_scales else None
     f = None
@@ -326,6 +330,8 @@ def two_view(
             if a is not None:
                 h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
         h.update(f"{__version__}-{TWO_VIEW_CACHE_TAG}-{opt.method}-{opt.threshold_px}-{seed}-{focal_px}-{scores is not None}-{noise_scales is not None}".encode())
+        if coordinate_step_px is not None:
+            h.update(f"step-{coordinate_step_px}".encode())
         if opt.estimator_options:
             h.update(repr(sorted(dict(opt.estimator_options).items())).encode())  # as the call sees them (the last of a repeated name)
         f = cache / "twoview" / f"r_{h.hexdigest()[:24]}.npz"
@@ -339,6 +345,8 @@ def two_view(
     if opt.threshold_px is not None:
         extra["threshold_px"] = float(opt.threshold_px)
     options = ({"max_iterations": PAIRWISE_MAX_ITERATIONS} if opt.method == "poseonly" else {}) | dict(opt.estimator_options)
+    if coordinate_step_px is not None:
+        extra["coordinate_step_px"] = float(coordinate_step_px)
     r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, seed=seed, scores=scores, noise_scales=noise_scales, **options, **extra)
     out = TwoView(np.asarray(r.R), np.asarray(r.t), np.asarray(r.inliers, dtype=bool), int(r.num_inliers), str(r.status))
     if f is not None:
