@@ -181,3 +181,20 @@ def test_shoulder_study_runs(capsys):
     assert shoulder_study.main(["--synthetic", "--seeds", "1"]) == 0
     out = capsys.readouterr().out
     assert out.count("\n| ") == 10 and "band test" in out
+
+
+def test_vo_frames_runs(capsys):
+    """benchmarks/vo_frames.py on two consecutive KITTI pairs of the shared data (skipped without it)."""
+    kitti = Path(__file__).resolve().parents[2] / "shared" / "data" / "realpairs" / "kitti_seq1"
+    if not (kitti / "pairs.json").is_file():
+        pytest.skip("../shared/data/realpairs/kitti_seq1 is not here")
+    pytest.importorskip("cv2")
+    pytest.importorskip("poselib")
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    try:
+        import vo_frames
+    finally:
+        sys.path.pop(0)
+    assert vo_frames.main([str(kitti), "--features", "orb", "--pairs", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "2 consecutive pairs" in out and "poseonly-video" in out and "statuses" in out
