@@ -128,3 +128,30 @@ def test_coordinate_step_option():
     for bad in (-1.0, float("nan"), "1", True):
         with pytest.raises(ValueError, match="coordinate_step_px"):
             poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, coordinate_step_px=bad)
+
+
+def test_no_grid_on_sub_pixel_coordinates_of_any_size():
+    """float32's relative tolerance at 2e5-5e5 px put sub-pixel values on a grid (a trial)."""
+    rng = np.random.default_rng(0)
+    for scale in (1e3, 2e5, 5e5, 1e8):
+        u = rng.uniform(0, scale, (1000, 2))
+        assert grid_step(u, u + rng.normal(0, 1, u.shape)) == 0.0
+
+
+def test_the_grid_can_be_set_where_keypoints_are_lifted_first(tmp_path):
+    """colmap verify's --coordinate-step and sfm's coordinate_step_px estimator option override the
+    per-image detection (a trial found no way to set or turn it off)."""
+    from poseonly.sfm.pairwise import PairwiseOptions
+
+    assert dict(PairwiseOptions(estimator_options=(("coordinate_step_px", 0.0),)).estimator_options)["coordinate_step_px"] == 0.0
+    with pytest.raises(ValueError, match="coordinate_step_px"):
+        PairwiseOptions(estimator_options=(("coordinate_step_px", -1.0),))
+    pytest.importorskip("pycolmap")
+    from poseonly.colmap_verify import verify_database
+    from test_colmap import make_db
+
+    path = tmp_path / "db.db"
+    make_db(path, n_images=3)
+    with pytest.raises(ValueError, match="coordinate_step_px"):
+        verify_database(path, progress=False, coordinate_step=-2.0)
+    assert verify_database(path, progress=False, coordinate_step=1.0).written == 3

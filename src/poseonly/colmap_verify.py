@@ -56,7 +56,7 @@ from .geometry import InputError, pair_focal
 from .io.colmap_db import ColmapDatabase, GeometryRow, refuse_guessed_focal
 from .io.colmap_geometry import ERROR_CONFIG, STATUS_CONFIG, two_view_fields
 from .options import MANY_PAIRS_MAX_ITERATIONS
-from .quantization import image_grid_step, pair_grid_step
+from .quantization import check_coordinate_step, image_grid_step, pair_grid_step
 
 __all__ = ["MIN_MATCHES", "STATUS_CONFIG", "VerifySummary", "add_arguments", "run_cli", "verify_database"]
 
@@ -83,9 +83,17 @@ class _Source:
     """Builds the batch's pairs from the database (bearings cached per image) and keeps, for each
     pair in flight, what is needed to turn its result into a row."""
 
-    def __init__(self, db: ColmapDatabase, todo: list[tuple[int, int, int]], errors: dict[int, str], noise_scales: bool = True, keep_uncertain: bool = True) -> None:
+    def __init__(
+        self,
+        db: ColmapDatabase,
+        todo: list[tuple[int, int, int]],
+        errors: dict[int, str],
+        noise_scales: bool = True,
+        keep_uncertain: bool = True,
+        coordinate_step: float | None = None,
+    ) -> None:
         self.db, self.todo, self.errors = db, todo, errors
-        self.noise_scales, self.keep_uncertain = noise_scales, keep_uncertain
+        self.noise_scales, self.keep_uncertain, self.coordinate_step = noise_scales, keep_uncertain, coordinate_step
         self.pending: dict[int, tuple[int, int, np.ndarray]] = {}
         self.direct: list[GeometryRow] = []  # rows decided without estimating
         self._bear: dict[int, np.ndarray] = {}
@@ -143,7 +151,8 @@ class _Source:
             self.pending[pid] = (i1, i2, m)
             c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
             # the keypoints' rounding (e.g. SuperPoint's pixel centres), which the bearings no longer show
-            opts: dict[str, Any] = {"focal_px": pair_focal(c1.focal_px, c2.focal_px), "coordinate_step_px": pair_grid_step(self._step[i1], self._step[i2])}
+            step = pair_grid_step(self._step[i1], self._step[i2]) if self.coordinate_step is None else self.coordinate_step
+            opts: dict[str, Any] = {"focal_px": pair_focal(c1.focal_px, c2.focal_px), "coordinate_step_px": step}
             s1, s2 = (self.db.keypoint_scales(i1), self.db.keypoint_scales(i2)) if self.noise_scales else (None, None)
             if s1 is not None and s2 is not None:
                 opts["noise_scales"] = np.sqrt(s1[m[:, 0]] * s2[m[:, 1]])  # the keypoints' scales weight the ML refinement
@@ -180,6 +189,7 @@ def verify_database(
     camera: Any = None,
     trust_guessed_focal: bool = False,
     keep_uncertain: bool = True,
+    coordinate_step: float | None = None,
     **options: Any,
 ) -> VerifySummary:
     """Verify the matched pairs of the COLMAP database ``path`` and write their two-view geometries
@@ -196,11 +206,14 @@ def verify_database(
     ``CALIBRATED``; ``keep_uncertain``: write pairs of status ``uncertain`` (the inliers single out the
     epipolar geometry, the pose is poorly determined) ``CALIBRATED`` with their inliers (default: COLMAP's
     bundle adjustment re-estimates every pose) or, with ``False``, ``DEGENERATE`` without inliers, as
-    ``too_few_inliers``; ``n_jobs``,
+    ``too_few_inliers``; ``coordinate_step``: the grid (pixels) every keypoint was rounded to, whose
+    rounding noise is the estimates' noise floor (None: detected per image from its keypoints,
+    :func:`poseonly.quantization.image_grid_step`; 0: none); ``n_jobs``,
     ``backend`` (``"auto"``: threads for fewer than :data:`poseonly.batch.AUTO_THREADS_MAX_PAIRS` pairs to
     verify, else processes; ``"processes"`` or ``"threads"``) and ``client`` as :func:`poseonly.estimate_relative_poses`
     takes them (the database is read and written in this thread only). Returns a :class:`VerifySummary`."""
     t0 = time.perf_counter()
+    coordinate_step = check_coordinate_step(coordinate_step)
     if not isinstance(keep_uncertain, (bool, np.bool_)):
         raise InputError(f"keep_uncertain must be True or False, got {keep_uncertain!r}")
     if isinstance(write_every, (bool, np.bool_)) or not isinstance(write_every, (int, np.integer)) or write_every < 1:
@@ -251,7 +264,7 @@ def verify_database(
         summary.skipped = len(pairs) - len(todo)
         if backend == "auto":  # the pairs stream from the database (no len): decided on the pairs to verify
             backend = "threads" if len(todo) < AUTO_THREADS_MAX_PAIRS else "processes"
-        src = _Source(db, todo, summary.errors, noise_scales, bool(keep_uncertain))
+        src = _Source(db, todo, summary.errors, noise_scales, bool(keep_uncertain), coordinate_step)
         buf: list[GeometryRow] = []
 
         def flush() -> None:
@@ -317,6 +330,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         " otherwise: the poses can be degrees off and would be written CALIBRATED)",
     )
     p.add_argument(
+        "--coordinate-step",
+        type=float,
+        metavar="PX",
+        help="the grid (px) the keypoints were rounded to, whose rounding noise is the noise floor (default: detected per image, e.g. 1 for SuperPoint's pixel centres; 0: none)",
+    )
+    p.add_argument(
         "--drop-uncertain",
         action="store_true",
         help="write pairs whose status is 'uncertain' (poorly determined pose) DEGENERATE without inliers instead of CALIBRATED",
@@ -346,6 +365,7 @@ def run_cli(args: argparse.Namespace) -> int:
         camera=camera,
         trust_guessed_focal=args.trust_guessed_focal,
         keep_uncertain=not args.drop_uncertain,
+        coordinate_step=args.coordinate_step,
         method=args.method,
         seed=args.seed,
         **({} if args.threshold is None else {"threshold_px": args.threshold}),

@@ -28,7 +28,9 @@ __all__ = ["GRID_MIN_SHARE", "TIE_MIN_SHARE", "axis_step", "check_coordinate_ste
 GRID_MIN_SHARE = 0.5
 GRID_MIN_VALUES = 8  # distinct values an axis needs for its grid to be estimated
 GRID_MIN_STEP_PX = 0.1  # finer grids round by < 0.03 px: no floor worth applying
-GRID_TOL_PX = 2e-3  # |x - grid| below this (plus 1e-6 |x|: float32 storage) is on the grid
+GRID_TOL_PX = 2e-3  # |x - grid| below this (plus GRID_TOL_REL |x|: float32 storage) is on the grid
+GRID_STEP_PER_TOL = 20.0  # a grid is at least this many tolerances wide (coordinates of 5e5 px: 2 px)
+GRID_TOL_REL = 2e-7  # float32's relative rounding is 6e-8 (1e-6 put sub-pixel values at 2e5 px on a grid: a trial)
 GRID_DIVISORS = (1, 2, 3, 4)  # the step is the least gap between distinct values, or it over these
 GRID_SHARE_KEEP = 0.9  # ... the coarsest of them holding this share of the values the best one holds
 COMMON_STEPS_PX = (1.0, 0.5)  # tried as well: sparse values' least gap can be many steps
@@ -40,7 +42,7 @@ TIE_STEP_PX = 1.0
 
 
 def _on_grid(v: np.ndarray, offset: float, step: float) -> np.ndarray:
-    return np.abs(v - offset - step * np.round((v - offset) / step)) <= GRID_TOL_PX + 1e-6 * np.abs(v)
+    return np.abs(v - offset - step * np.round((v - offset) / step)) <= GRID_TOL_PX + GRID_TOL_REL * np.abs(v)
 
 
 def axis_step(v: np.ndarray) -> float:
@@ -57,8 +59,9 @@ def axis_step(v: np.ndarray) -> float:
         return 0.0
     g = float(gaps.min())
     shares = {}
+    tol = GRID_TOL_PX + GRID_TOL_REL * float(np.abs(v).max())
     for step in {g / k for k in GRID_DIVISORS} | set(COMMON_STEPS_PX):
-        if step < GRID_MIN_STEP_PX:
+        if step < max(GRID_MIN_STEP_PX, GRID_STEP_PER_TOL * tol):  # (a tolerance near the step: every value on it)
             continue
         # (an off-grid smallest value: the median's offset)
         shares[step] = max(np.count_nonzero(_on_grid(v, offset, step)) for offset in (float(v[0]), float(v[len(v) // 2]))) / len(v)

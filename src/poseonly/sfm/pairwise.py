@@ -31,6 +31,7 @@ from ..cameras import OPENCV_TO_COLMAP_PX
 from ..features import Features, extract_features, match_features, match_noise_scales, unreadable_images
 from ..geometry import InputError, bearings_from_normalized, bearings_from_pixels, pair_focal
 from ..options import MANY_PAIRS_MAX_ITERATIONS, SEED_LIMIT
+from ..quantization import check_coordinate_step
 from .inputs import checked_pairs
 from .tracks import Tracks
 from .viewgraph import ViewGraph
@@ -137,7 +138,10 @@ class PairwiseOptions:
         reserved = {"seed", "scores", "noise_scales", "threshold_px", "focal_px", "method"} & {k for k, _ in self.estimator_options}
         if reserved:
             raise InputError(f"estimator_options: {sorted(reserved)} are set by the pipeline (use the PairwiseOptions fields)")
-        parse_options(self.method, dict(self.estimator_options))  # unknown names and wrong types raise here
+        eo = dict(self.estimator_options)
+        if "coordinate_step_px" in eo:  # a keyword of the estimate, not a method option: the grid's override
+            check_coordinate_step(eo.pop("coordinate_step_px"))
+        parse_options(self.method, eo)  # unknown names and wrong types raise here
 
 
 def parse_estimator_options(items: Sequence[str] | None) -> tuple[tuple[str, Any], ...]:
@@ -345,7 +349,7 @@ def two_view(
     if opt.threshold_px is not None:
         extra["threshold_px"] = float(opt.threshold_px)
     options = ({"max_iterations": PAIRWISE_MAX_ITERATIONS} if opt.method == "poseonly" else {}) | dict(opt.estimator_options)
-    if coordinate_step_px is not None:
+    if coordinate_step_px is not None and "coordinate_step_px" not in options:  # (an estimator option overrides it)
         extra["coordinate_step_px"] = float(coordinate_step_px)
     r = estimate_relative_pose(u1, u2, K1, K2, method=opt.method, seed=seed, scores=scores, noise_scales=noise_scales, **options, **extra)
     out = TwoView(np.asarray(r.R), np.asarray(r.t), np.asarray(r.inliers, dtype=bool), int(r.num_inliers), str(r.status))
