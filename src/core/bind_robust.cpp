@@ -108,6 +108,40 @@ nb::dict stats_dict(const RansacStats& st) {
   return d;
 }
 
+// Python's signal handlers from a loop that runs with the GIL released (RansacOptions::interrupted): takes
+// the GIL, runs them (in the main thread; elsewhere Python runs none), and keeps the exception a handler
+// raised (KeyboardInterrupt, a SIGTERM handler's SystemExit) to raise it once the loop has returned
+class PythonSignals {
+ public:
+  PythonSignals() = default;
+  PythonSignals(const PythonSignals&) = delete;
+  PythonSignals& operator=(const PythonSignals&) = delete;
+  ~PythonSignals() {
+    if (type_) {
+      nb::gil_scoped_acquire acq;
+      Py_XDECREF(type_), Py_XDECREF(value_), Py_XDECREF(tb_);
+    }
+  }
+  bool operator()() {
+    nb::gil_scoped_acquire acq;
+    if (PyErr_CheckSignals() == 0) return false;
+    PyErr_Fetch(&type_, &value_, &tb_);
+    return true;
+  }
+  // with the GIL held, after the loop: raises the kept exception, if any
+  void rethrow() {
+    if (!type_) return;
+    PyErr_Restore(type_, value_, tb_);
+    type_ = value_ = tb_ = nullptr;
+    throw nb::python_error();
+  }
+
+ private:
+  PyObject* type_ = nullptr;
+  PyObject* value_ = nullptr;
+  PyObject* tb_ = nullptr;
+};
+
 nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double threshold, uint64_t seed, int solver, int scoring,
                          int max_iterations, int min_iterations, double confidence, int max_lo, double lo_mu0, int lo_iterations,
                          int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order,
@@ -150,6 +184,8 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   std::vector<std::pair<Pose, double>> others;
   RansacStats st;
   int d_groups = 0;
+  PythonSignals signals;
+  ro.interrupted = [&signals]() { return signals(); };
   {
     nb::gil_scoped_release release;
     RelativePoseEstimator est(P, eo);
@@ -158,6 +194,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
     st = run_sampled(est, static_cast<Scoring>(scoring), threshold, ord, seed, ro, &best, &rival, chiral, &K, &others);
     d_groups = K.num_groups();
   }
+  signals.rethrow();  // Ctrl-C / SIGTERM during the search
   std::vector<double> R(9), t(3), Rr(9), tr(3);
   put_pose(best, R.data(), t.data());
   put_pose(rival, Rr.data(), tr.data());

@@ -19,6 +19,7 @@
 
 #include <cmath>
 #include <algorithm>
+#include <functional>
 #include <limits>
 #include <type_traits>
 #include <utility>
@@ -67,7 +68,13 @@ struct RansacOptions {
   // know whether a model with this much support exists (a decision, not the best estimate), the search
   // ends once such a model would have been drawn with `confidence`, however little the best has
   double min_inlier_ratio = 0.0;
+  // if set, called every kInterruptEvery draws: true ends the search as if at its cap (the bindings run
+  // Python's signal handlers there, so Ctrl-C and SIGTERM act within milliseconds: a reliability trial
+  // waited 8 s to a minute for a search on 30k-200k random matches). Never called otherwise: results
+  // do not depend on it
+  std::function<bool()> interrupted;
 };
+constexpr int kInterruptEvery = 64;
 
 // PROSAC's stopping rule (Chum and Matas, CVPR 2005, Sec. 2.2), with OpenCV USAC's constants: a
 // top-n set qualifies when its inlier count I_n is non-random (an incorrect model is supported by a
@@ -98,6 +105,7 @@ struct RansacStats {
   // the classical rule's draws alone (the inlier share of all the data) for the best model when it was
   // last updated: a search that ended below it was ended by the progressive rule (or its cap)
   double classical_needed = std::numeric_limits<double>::infinity();
+  bool interrupted = false;  // RansacOptions::interrupted ended the search
 };
 
 // log P(Bin(k, p) < hits): the chance that k samples, each good with probability p, hold fewer
@@ -563,6 +571,10 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
   int floor = opt.min_iterations;
   const double floor_cos = std::cos(opt.floor_parallax);
   while (st.iterations < opt.max_iterations && (st.iterations < needed || st.iterations < floor)) {
+    if (opt.interrupted && st.iterations % kInterruptEvery == 0 && st.iterations > 0 && opt.interrupted()) {
+      st.interrupted = true;
+      break;
+    }
     ++st.iterations;
     sampler.sample(&sample);
     models.clear();
