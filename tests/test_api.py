@@ -228,3 +228,26 @@ def test_integer_options_beyond_the_cores_int_are_input_errors():
     assert poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, max_iterations=2**31 - 1).status == "ok"
     res = list(estimate_relative_poses([Pair(sc.u1, sc.u2, K1=sc.K, options={"max_iterations": 2**31}), Pair(sc.u1, sc.u2, K1=sc.K)]))
     assert res[0].result is None and "2147483647" in res[0].error and res[1].result is not None
+
+
+def test_nan_pixel_rows_as_outliers():
+    """unliftable="outlier": NaN / inf pixel rows (lost tracks) are outliers, with K as with a camera (a VO
+    trial: OpenCV skips them, the default refuses the call); the result equals the estimate without them."""
+    from poseonly.cameras import Camera
+
+    sc = make_scene(200, camera="pinhole", noise_px=0.5, outlier_fraction=0.2, seed=1)
+    u1, u2 = sc.u1.copy(), sc.u2.copy()
+    u1[[3, 17]] = np.nan
+    u2[50] = np.inf
+    keep = np.ones(200, bool)
+    keep[[3, 17, 50]] = False
+    ref = estimate_relative_pose(sc.u1[keep], sc.u2[keep], sc.K, seed=0)
+    cam = Camera("PINHOLE", 640, 480, (sc.K[0, 0], sc.K[1, 1], sc.K[0, 2], sc.K[1, 2]))
+    for kw in ({"K1": sc.K}, {"camera1": cam}):
+        r = estimate_relative_pose(u1, u2, unliftable="outlier", seed=0, **kw)
+        assert r.status == ref.status and np.allclose(r.R, ref.R, atol=1e-9) and r.diagnostics["unliftable"] == 3
+        assert not r.inliers[[3, 17, 50]].any() and np.isnan(r.residuals_px[[3, 17, 50]]).all()
+        assert np.array_equal(r.inliers[keep], ref.inliers)
+    assert np.isnan(u1[3]).all() and np.isinf(u2[50]).all()  # the caller's arrays are not modified
+    with pytest.raises(ValueError, match="NaN or inf"):
+        estimate_relative_pose(u1, u2, sc.K)  # the default still refuses them

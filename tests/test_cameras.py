@@ -559,7 +559,7 @@ def test_unliftable_matches_as_outliers():
         estimate_relative_pose(x1, x2, camera1=cam)
     r = estimate_relative_pose(x1, x2, camera1=cam, unliftable="outlier", scores=np.arange(101.0))
     ref = estimate_relative_pose(d1, d2, camera1=cam, scores=np.arange(100.0))
-    assert r.diagnostics["unliftable"] == 1 and "1 of 101 matches a camera could not lift" in r.message
+    assert r.diagnostics["unliftable"] == 1 and "1 of 101 matches without a bearing" in r.message
     assert r.inliers.shape == (101,) and not r.inliers[100] and np.isnan(r.residuals_px[100]) and r.weights[100] == 0
     assert np.array_equal(r.inliers[:100], ref.inliers) and np.allclose(r.R, ref.R) and r.status == ref.status
     with pytest.raises(ValueError, match="unliftable must be"):

@@ -57,7 +57,7 @@ import numpy as np
 from . import _core
 from .analysis import REFINE_SOLVER
 from .estimator import lirp_estimator
-from .geometry import InputError, as_bearings, check_correspondences, check_intrinsics, pair_focal
+from .geometry import InputError, as_bearings, as_real_array, check_correspondences, check_intrinsics, opencv_points, pair_focal
 from .options import OPTIONS, PoseonlyOptions, Spec, check_angle, check_value, parse_options
 from .quantization import check_coordinate_step, grid_step, rounding_sigma_px
 from .result import RelativePoseResult, degenerate_result, finish
@@ -170,6 +170,25 @@ def _epipolar_rank(f1: np.ndarray, f2: np.ndarray) -> int:
     return int(np.count_nonzero(s > RANK_RTOL * s[0]))
 
 
+def _lost_rows(x1: Any, x2: Any) -> tuple[Any, Any, np.ndarray | None]:
+    """Pixel arrays with their NaN / inf rows (in either view) replaced by a placeholder pixel (the first
+    finite one, else 0) and the mask of those rows, or the input unchanged (mask None) where there are
+    none or the shapes are not matching ``(n, 2)`` pixels (their errors come from the lifting)."""
+    a1, a2 = opencv_points(as_real_array(x1, "x1")), opencv_points(as_real_array(x2, "x2"))
+    if a1.ndim != 2 or a1.shape[1:] != (2,) or a2.shape != a1.shape:
+        return x1, x2, None
+    lost = ~(np.isfinite(a1).all(axis=1) & np.isfinite(a2).all(axis=1))
+    if not lost.any():
+        return x1, x2, None
+    out = []
+    for a in (a1, a2):
+        good = a[~lost]
+        a = a.copy()  # (the caller's array is not modified)
+        a[lost] = good[0] if len(good) else 0.0
+        out.append(a)
+    return out[0], out[1], lost
+
+
 def _without_unliftable(
     f1: np.ndarray,
     f2: np.ndarray,
@@ -194,7 +213,7 @@ def _without_unliftable(
     inliers[lifted], weights[lifted], res[lifted] = r.inliers, r.weights, r.residuals_px
     r.inliers, r.weights, r.residuals_px = inliers, weights, res
     r.diagnostics["unliftable"] = n - k
-    r.message += f" ({n - k} of {n} matches a camera could not lift are outliers)"
+    r.message += f" ({n - k} of {n} matches without a bearing, NaN pixels or past a camera's fold, are outliers)"
     return r
 
 
@@ -232,7 +251,9 @@ def estimate_relative_pose(
     the cameras' focal length (:func:`poseonly.geometry.pair_focal` of the two); a pixel a camera cannot lift
     (past its distortion's fold) raises :class:`InputError` naming it, or with ``unliftable="outlier"`` its
     match is left out of the estimate and returned as an outlier (``inliers`` False, ``weights`` 0,
-    ``residuals_px`` NaN; ``diagnostics["unliftable"]`` counts them). ``coordinate_step_px``: the grid the
+    ``residuals_px`` NaN; ``diagnostics["unliftable"]`` counts them); with ``unliftable="outlier"`` a pixel
+    row of NaN / inf (a lost track), with ``K1`` or a camera, is such an outlier too (a VO trial: OpenCV
+    skips them, the default raises). ``coordinate_step_px``: the grid the
     pixel coordinates were rounded to (None: detected from pixel input, :func:`poseonly.quantization.grid_step`,
     1 for integer keypoints such as FAST's / ORB's finest level; 0: none); the noise scales of the default
     method's ML stage and of the status analysis (every method's) are at least its rounding noise ``step / sqrt(12)`` (``diagnostics["coordinate_step_px"]``
@@ -260,6 +281,9 @@ def estimate_relative_pose(
     elif K2 is not None:
         raise InputError("K2 given without K1")
     cam_focal = None
+    lost = None  # unliftable="outlier": the pixel rows of NaN / inf, lifted as a placeholder and dropped below
+    if unliftable == "outlier" and (K1 is not None or camera1 is not None):
+        x1, x2, lost = _lost_rows(x1, x2)
     if camera1 is not None or camera2 is not None:
         from .cameras import lift_pair
 
@@ -271,17 +295,20 @@ def estimate_relative_pose(
         f2 = as_bearings(x2, K2, "x2", K_checked=True)
     if f1.shape != f2.shape:
         raise InputError(f"x1 and x2 differ in length: {len(f1)} vs {len(f2)}")
+    if lost is not None:
+        f1[lost], f2[lost] = np.nan, np.nan
     n = len(f1)
     if n < 6:
         raise InputError(f"at least 6 correspondences are needed, got {n}")
     scores = _check_scores(scores, n)
     noise_scales = _check_noise_scales(noise_scales, n)
     if step is None:  # pixels (validated by the lifting above): the grid they lie on; else none known
-        step = grid_step(x1, x2) if K1 is not None or cam_focal is not None else 0.0
-    if cam_focal is not None and unliftable == "outlier":
+        step = grid_step(*(x if lost is None else np.where(lost[:, None], np.nan, x) for x in (x1, x2))) if K1 is not None or cam_focal is not None else 0.0
+    if (cam_focal is not None or K1 is not None) and unliftable == "outlier":
         lifted = np.isfinite(f1).all(axis=1) & np.isfinite(f2).all(axis=1)
         if not lifted.all():  # a camera trial: one keypoint past the fold stopped a whole pair
-            return _without_unliftable(f1, f2, lifted, cam_focal, method, scores, noise_scales, step, options)
+            focal_here = cam_focal if cam_focal is not None else _focal(K1, K2, None)
+            return _without_unliftable(f1, f2, lifted, focal_here, method, scores, noise_scales, step, options)
     if K1 is None and cam_focal is None and o.focal_px is None:
         raise InputError(
             "normalized coordinates or bearing vectors need focal_px (the focal length in pixels that converts "
