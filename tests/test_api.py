@@ -249,5 +249,10 @@ def test_nan_pixel_rows_as_outliers():
         assert not r.inliers[[3, 17, 50]].any() and np.isnan(r.residuals_px[[3, 17, 50]]).all()
         assert np.array_equal(r.inliers[keep], ref.inliers)
     assert np.isnan(u1[3]).all() and np.isinf(u2[50]).all()  # the caller's arrays are not modified
+    # the rounding grid is detected on the kept rows only (lost rows counted against the share of ties: a review)
+    q1, q2 = np.round(sc.u1), np.round(sc.u2)
+    q1[:40] = np.nan
+    r = estimate_relative_pose(q1, q2, sc.K, unliftable="outlier", seed=0)
+    assert r.diagnostics.get("coordinate_step_px") == estimate_relative_pose(q1[40:], q2[40:], sc.K, seed=0).diagnostics.get("coordinate_step_px") == 1.0
     with pytest.raises(ValueError, match="NaN or inf"):
         estimate_relative_pose(u1, u2, sc.K)  # the default still refuses them

@@ -41,3 +41,22 @@ def test_ctrl_c_ends_the_search_at_once():
         p.kill()
     assert out.startswith("interrupted"), (out, err[-2000:])
     assert waited < 5.0, waited  # the handler ran inside the loop, not after it
+
+
+THREAD_CODE = """
+import threading, numpy as np, poseonly
+rng = np.random.default_rng(0)
+u1, u2 = rng.uniform(0, 1000, (60000, 2)), rng.uniform(0, 1000, (60000, 2))
+K = np.array([[800.0, 0.0, 500.0], [0.0, 800.0, 500.0], [0.0, 0.0, 1.0]])
+threading.Thread(target=poseonly.estimate_relative_pose, args=(u1, u2, K), kwargs={"max_iterations": 100000, "min_iterations": 100000}, daemon=True).start()
+import time; time.sleep(1.5)
+print("exit", flush=True)
+"""
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_a_search_in_a_daemon_thread_does_not_abort_interpreter_exit():
+    """Only the main thread's search checks for signals: a worker thread taking the GIL during interpreter
+    shutdown aborted the process ("terminate called without an active exception", a review)."""
+    r = subprocess.run([sys.executable, "-c", THREAD_CODE], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "exit", (r.returncode, r.stderr[-2000:])

@@ -148,7 +148,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
                          int lo, double rival_distance, bool chiral, int min_hits, int challengers, double challenger_distance,
                          int lo_max_points, bool keypoint_once, bool progressive_stop, double floor_parallax,
                          int min_iterations_parallax, bool progressive_expected, int progressive_min_draws, int prosac_trials,
-                         double min_inlier_ratio) {
+                         double min_inlier_ratio, bool check_signals) {
   const Points P = points_of(f1, f2);
   if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
   if (min_hits < 1 || min_hits > 64) throw std::invalid_argument("min_hits must be in [1, 64]");
@@ -185,7 +185,9 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   RansacStats st;
   int d_groups = 0;
   PythonSignals signals;
-  ro.interrupted = [&signals]() { return signals(); };
+  // only in Python's main thread, where its handlers run: elsewhere taking the GIL every 64 draws slowed a
+  // search beside busy Python 10x and aborted the process at interpreter exit (a review)
+  if (check_signals) ro.interrupted = [&signals]() { return signals(); };
   {
     nb::gil_scoped_release release;
     RelativePoseEstimator est(P, eo);
@@ -558,8 +560,9 @@ POSEONLY_BIND(robust) {
         nb::arg("challengers") = 0, nb::arg("challenger_distance") = 1.0, nb::arg("lo_max_points") = 0, nb::arg("keypoint_once") = false,
         nb::arg("progressive_stop") = false, nb::arg("floor_parallax") = 0.0, nb::arg("min_iterations_parallax") = 0,
         nb::arg("progressive_expected") = false, nb::arg("progressive_min_draws") = 0, nb::arg("prosac_trials") = 0,
-        nb::arg("min_inlier_ratio") = 0.0,
-        "LO-RANSAC of minimal hypotheses (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
+        nb::arg("min_inlier_ratio") = 0.0, nb::arg("check_signals") = false,
+        "LO-RANSAC of minimal hypotheses (check_signals: run Python's signal handlers every 64 draws and raise their "
+        "exception, for a call from the main thread) (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
         "Sampson error against `threshold` (radians); scoring 0 msac, 1 multi-scale msac, 2 count; `order` "
         "(a permutation, best match first) switches to PROSAC; lo 0: LiRP GNC-IRLS, 1: Sampson LM; chiral: a match "
         "whose point is behind either camera scores as an outlier; rival_distance > 0 (degrees) also returns the best model that far "

@@ -58,6 +58,7 @@ def ransac_relpose(
     progressive_min_draws: int = 0,
     prosac_trials: int = 0,
     min_inlier_ratio: float = 0.0,
+    check_signals: bool = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def search_cost(
     R: NDArray[np.float64],

@@ -303,7 +303,7 @@ def estimate_relative_pose(
     scores = _check_scores(scores, n)
     noise_scales = _check_noise_scales(noise_scales, n)
     if step is None:  # pixels (validated by the lifting above): the grid they lie on; else none known
-        step = grid_step(*(x if lost is None else np.where(lost[:, None], np.nan, x) for x in (x1, x2))) if K1 is not None or cam_focal is not None else 0.0
+        step = grid_step(*(x if lost is None else opencv_points(np.asarray(x, dtype=float))[~lost] for x in (x1, x2))) if K1 is not None or cam_focal is not None else 0.0
     if (cam_focal is not None or K1 is not None) and unliftable == "outlier":
         lifted = np.isfinite(f1).all(axis=1) & np.isfinite(f2).all(axis=1)
         if not lifted.all():  # a camera trial: one keypoint past the fold stopped a whole pair

@@ -15,6 +15,7 @@ Seeds: an ``int`` is used as the core's 64-bit seed; a ``numpy.random.Generator`
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -198,6 +199,7 @@ def ransac_relpose(
         int(progressive_min_draws),
         int(prosac_trials),
         float(min_inlier_ratio),
+        threading.current_thread() is threading.main_thread(),  # Ctrl-C during the search (main thread only)
     )
     v = get_residual("sampson").unchecked(R, t, f1, f2)
     return RansacResult(
