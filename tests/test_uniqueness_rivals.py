@@ -127,3 +127,23 @@ def test_a_refined_rival_that_beats_the_pose_replaces_it():
     diag = {"rivals": [wrong], "rival_R": wrong[0], "rival_t": wrong[1]}
     R, t = default._better_rival(*right, sc.f1, sc.f2, tau, diag)  # the pose is the better one: kept
     assert R is right[0] and "rival_swapped" not in diag
+
+
+def test_after_a_swap_the_rivals_are_best_first_with_their_support_ratio():
+    """After a swap the rivals are ordered by the search's objective again (the former pose may be
+    better than the other rivals) and the support ratio compares the best of them with the returned
+    pose, not the search's unrefined models."""
+    from poseonly.sim import make_scene
+
+    sc = make_scene(200, camera="pinhole", noise_px=0.3, outlier_fraction=0.3, seed=2)
+    tau = 1.0 / 800.0
+    worse = (rotation_from_rotvec(np.radians([0.0, 0.1, 0.0])) @ sc.R, sc.t)
+    wrong = (rotation_from_rotvec(np.radians([0.0, 0.05, 0.0])) @ sc.R, sc.t)
+    right = (sc.R, sc.t)
+    diag = {"rivals": [worse, right], "rival_R": worse[0], "rival_t": worse[1], "rival_support_ratio": 0.9}
+    R, t = default._better_rival(*wrong, sc.f1, sc.f2, tau, diag)
+    assert rotation_error_deg(R, sc.R) < 1e-12 and diag["rival_swapped"]
+    scores = [default.msac_chiral(Rv, tv, sc.f1, sc.f2, tau) for Rv, tv in diag["rivals"]]
+    assert scores == sorted(scores, reverse=True) and rotation_error_deg(diag["rival_R"], wrong[0]) < 1e-12
+    best = default.msac_chiral(R, t, sc.f1, sc.f2, tau)
+    assert 0 <= diag["rival_support_ratio"] < 1 and abs(diag["rival_support_ratio"] - scores[0] / best) < 1e-12

@@ -362,22 +362,28 @@ def _better_rival(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, 
     against 96). The score alone swapped too often on the temple's few, narrow matches (AUC@10 88.35 ->
     88.11 over three seeds), where the two are about equal. The better one is returned and the other
     takes its place among the rivals, for the uniqueness test of :func:`poseonly.result.finish`
-    (``diag["rival_swapped"]``)."""
+    (``diag["rival_swapped"]``; the rivals are then ordered by that score, best first, and
+    ``diag["rival_support_ratio"]`` is the best rival's score over the returned pose's;
+    ``diag["ransac_score"]`` stays the search's own)."""
     rivals = list(diag["rivals"])
     best = msac_chiral(R, t, f1, f2, tau)
+    support = [msac_chiral(Rv, tv, f1, f2, tau) if valid_pose(Rv, tv) else -np.inf for Rv, tv in rivals]
     swapped = False
     c = np.ascontiguousarray
     for k, (Rv, tv) in enumerate(rivals):
-        if not (valid_pose(Rv, tv) and np.isfinite(best)):
-            continue
-        s = msac_chiral(Rv, tv, f1, f2, tau)
-        if not s > best:
+        s = support[k]
+        if not (np.isfinite(best) and s > best):
             continue
         _, _, only_pose, only_rival = _core.compare_support(c(R), c(t), c(Rv), c(tv), c(f1), c(f2), min(float(tau), MAX_SUPPORT_THRESHOLD))
         if sign_test(only_rival, only_pose) < np.log10(AMBIGUITY_LEVEL):
-            rivals[k], (R, t), best, swapped = (R, t), (Rv, tv), s, True
+            rivals[k], (R, t), support[k], best, swapped = (R, t), (Rv, tv), best, s, True
     if swapped:
-        diag.update(rivals=rivals, rival_R=rivals[0][0], rival_t=rivals[0][1], rival_swapped=True)
+        # the rivals best first again, and the support ratio of the best one to the returned pose
+        # (the search's ratio compared its own, unrefined models)
+        order = sorted(range(len(rivals)), key=lambda k: -support[k])
+        rivals = [rivals[k] for k in order]
+        ratio = support[order[0]] / best if best > 0 and np.isfinite(support[order[0]]) else 0.0
+        diag.update(rivals=rivals, rival_R=rivals[0][0], rival_t=rivals[0][1], rival_swapped=True, rival_support_ratio=float(max(ratio, 0.0)))
     return R, t
 
 
