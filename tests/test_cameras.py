@@ -98,7 +98,9 @@ def test_equals_opencv_undistort_points():
         ({"model": "PINHOLE", "params": [np.nan, 800, 320, 240]}, "NaN"),
         ({"width": 3}, "missing"),
         ("OPENCV", "must be a poseonly Camera"),
-        ((np.eye(3), [0.1, 0.2, 0.3]), "4, 5 or 8 coefficients"),
+        ((np.eye(3), [0.1, 0.2, 0.3]), "4, 5, 8, 12 or 14 coefficients"),
+        ((np.eye(3), np.zeros(7)), "4, 5, 8, 12 or 14 coefficients"),  # zeros too (was a pinhole)
+        ((np.eye(3), [0.1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0]), "thin-prism"),
         ((np.array([[1.0, 0.5, 0], [0, 1, 0], [0, 0, 1]]), None), "no skew"),
     ],
 )
@@ -576,3 +578,12 @@ def test_fisheye624_with_strong_tangential_terms_finds_the_physical_root():
     b = cam.unproject(uv)
     assert np.allclose(b, [[0.75505987, -0.31538377, 0.57481968]], atol=1e-7)
     assert np.abs(cam.project(b) - uv).max() < 1e-7
+
+
+def test_opencv_12_and_14_coefficients_with_zero_extra_terms_are_full_opencv():
+    from poseonly.cameras import from_opencv
+
+    K = np.array([[800.0, 0, 320], [0, 800, 240], [0, 0, 1]])
+    d8 = [0.1, -0.05, 0.001, 0.002, 0.01, 0.0, 0.0, 0.0]
+    assert from_opencv(K, d8 + [0.0] * 4) == from_opencv(K, d8) == from_opencv(K, d8 + [0.0] * 6)
+    assert from_opencv(K, np.zeros(14)).model == "PINHOLE"

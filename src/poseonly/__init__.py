@@ -6,9 +6,10 @@ Convention: ``X2 = R X1 + t`` (camera 1 -> camera 2), ``E = [t]x R``, ``f2^T E f
 from typing import TYPE_CHECKING, Any
 
 from .api import DEFAULT_METHOD, METHODS, RelativePoseResult, estimate_relative_pose, gnc_irls, gnc_ransac, lirp
-from .batch import estimate_relative_poses
+from .batch import Pair, PairResult, estimate_relative_poses
 from .geometry import InputError, rotation_error_deg, translation_error_deg
 from .residuals import v_BA, v_E, v_LiGT, v_OpenGV, v_PPO
+from .result import STATUSES, NoPoseError, Status
 from .solvers.lirp import LiRPResult
 
 __version__ = "0.1.0"
@@ -81,6 +82,11 @@ __all__ = [
     "estimate_relative_pose",
     "estimate_relative_poses",
     "RelativePoseResult",
+    "Status",
+    "STATUSES",
+    "NoPoseError",
+    "Pair",
+    "PairResult",
     "gnc_irls",
     "gnc_ransac",
     "METHODS",

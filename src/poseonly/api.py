@@ -50,7 +50,7 @@ import os
 import threading
 import time
 from collections.abc import Iterator
-from typing import Any, cast
+from typing import Any, Literal, cast
 
 import numpy as np
 
@@ -62,8 +62,9 @@ from .options import OPTIONS, PoseonlyOptions, Spec, check_angle, check_value, p
 from .quantization import check_coordinate_step, grid_step, rounding_sigma_px
 from .result import RelativePoseResult, degenerate_result, finish
 from .robust.default import make_rng, run_poseonly
-from .robust.gnc import GNCOptions, gnc_irls_batch
+from .robust.gnc import GNCOptions, GNCResult, gnc_irls_batch
 from .robust.methods import RUNNERS
+from .robust.ransac import RansacResult
 from .robust.ransac import gnc_ransac as _gnc_ransac_loop
 from .solvers.lirp import LiRPResult, lirp_checked
 
@@ -228,7 +229,7 @@ def estimate_relative_pose(
     camera2: Any = None,
     scores: np.ndarray | None = None,
     noise_scales: np.ndarray | None = None,
-    unliftable: str = "raise",
+    unliftable: Literal["raise", "outlier"] = "raise",
     coordinate_step_px: float | None = None,
     **options: Any,
 ) -> RelativePoseResult:
@@ -269,6 +270,12 @@ def estimate_relative_pose(
     The options of each method are the fields of its dataclass in :mod:`poseonly.options`.
     Raises :class:`ValueError` (:class:`poseonly.InputError`) for invalid input or options;
     degenerate input returns a result whose ``status`` says so.
+
+    Threads: calls may run concurrently (the core releases the GIL) and give the serial results; with
+    ``threadpoolctl`` installed BLAS is limited to one thread, process-wide, while any estimate runs.
+    Returns a :class:`poseonly.RelativePoseResult`: ``R (3, 3)``, ``t (3,)``, ``E (3, 3)`` (``None`` for
+    ``degenerate``; :meth:`~poseonly.RelativePoseResult.pose` raises there), ``inliers (n,)`` bool,
+    ``weights (n,)``, ``residuals_px (n,)``, ``status`` (:data:`poseonly.Status`).
     """
     t0 = time.perf_counter()
     o = parse_options(method, options)
@@ -365,10 +372,10 @@ def gnc_irls(
     scale: str | float = "median",
     max_iterations: int = 100,
     eps0: float = 1e-9,
-):
+) -> GNCResult:
     """GNC-IRLS (Alg. 2) with LiRP on bearing vectors ``f1, f2 (n, 3)`` (or normalized ``(n, 2)``);
-    returns :class:`poseonly.robust.GNCBatchResult` for the single problem (``R (3, 3)``, ``t (3,)``,
-    ``weights (n,)``...).
+    returns a :class:`poseonly.robust.gnc.GNCResult` (``R (3, 3)``, ``t (3,)``, ``weights (n,)``,
+    ``residuals (n,)``, ``c``, ``num_iterations``, ``converged``).
 
     ``noise_bound=None`` uses the paper's adaptive ``c = 5.54 * 1.4826 * median(v)`` (``scale``);
     a number fixes ``c`` (recommended: ``threshold_px / focal``, see :mod:`poseonly.api`).
@@ -387,9 +394,7 @@ def gnc_irls(
     est = lirp_estimator(check_value("residual", residual, _SPEC_RESIDUAL))
     with np.errstate(all="ignore"):
         g = gnc_irls_batch(f1[None], f2[None], est, opts, None if w is None else w[None])
-    g.R, g.t, g.weights, g.residuals = g.R[0], g.t[0], g.weights[0], g.residuals[0]
-    g.c, g.num_iterations, g.converged = float(g.c[0]), int(g.num_iterations[0]), bool(g.converged[0])  # type: ignore[assignment]
-    return g
+    return GNCResult(R=g.R[0], t=g.t[0], weights=g.weights[0], residuals=g.residuals[0], c=float(g.c[0]), num_iterations=int(g.num_iterations[0]), converged=bool(g.converged[0]))
 
 
 def gnc_ransac(
@@ -404,7 +409,7 @@ def gnc_ransac(
     residual: str = "ligt",
     schedule: str = "ms-tls",
     scale: str | float = "median",
-):
+) -> RansacResult:
     """The paper's GNC-RANSAC (Alg. 3) on bearing vectors ``f1, f2 (n, 3)`` with inlier threshold
     ``theta`` (radians) on ``v_LiGT`` (e.g. ``threshold_px / focal``). Returns
     :class:`poseonly.robust.RansacResult` (``R (3, 3)``, ``t (3,)``, ``inliers (n,)``). Raises

@@ -33,7 +33,7 @@ import sys
 from collections.abc import Hashable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from types import FrameType
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
 
@@ -48,7 +48,8 @@ POOL_CHUNK = 16  # pairs per task on a local process pool (small: early results,
 DASK_CHUNK = 256  # pairs per task on Dask (amortises the scheduler's per-task overhead)
 MIN_CHUNKS_PER_WORKER = 4  # a known-size batch is cut finer when it would give fewer chunks per worker
 IN_FLIGHT_PER_WORKER = 2  # chunks queued per worker: keeps workers busy without loading everything
-BACKENDS = ("auto", "processes", "threads")  # the local pool's workers (n_jobs > 1)
+Backend = Literal["auto", "processes", "threads"]
+BACKENDS: tuple[Backend, ...] = get_args(Backend)  # the local pool's workers (n_jobs > 1)
 # backend="auto": a batch of known size below this many pairs runs on threads, a larger or unsized one on
 # processes (a user's trial: 2 processes 1.29-1.43x slower than serial on 28-55 pairs, first result after
 # 1.15 s against 0.07 s; PIPELINES.md, "Throughput")
@@ -93,12 +94,38 @@ class PairResult(ValueEquality):
     def ok(self) -> bool:
         return self.result is not None and self.result.ok
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self, *, exact: bool = False) -> dict[str, Any]:
         """JSON-safe record (one line of a JSON Lines log; a batch trial): ``index``, ``key`` (its
         :func:`canonical_key`, tuples as lists, other non-JSON keys as their ``repr``), ``seed``,
-        ``error`` and ``result`` (:meth:`poseonly.RelativePoseResult.to_dict`, or ``None``)."""
-        result = None if self.result is None else self.result.to_dict()
+        ``error`` and ``result`` (:meth:`poseonly.RelativePoseResult.to_dict` with ``exact``, or
+        ``None``)."""
+        result = None if self.result is None else self.result.to_dict(exact=exact)
         return {"index": int(self.index), "key": _json_key(canonical_key(self.key)), "seed": int(self.seed), "error": self.error, "result": result}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> PairResult:
+        """The pair result a :meth:`to_dict` record describes: the key's lists as tuples (a key written
+        as its ``repr`` stays that string), the result by :meth:`poseonly.RelativePoseResult.from_dict`
+        (equal to the original from ``to_dict(exact=True)``). Raises :class:`poseonly.InputError` on a
+        malformed record."""
+        if not isinstance(d, Mapping) or not all(k in d for k in ("index", "key", "seed", "result")):
+            raise InputError("PairResult.from_dict needs a mapping with 'index', 'key', 'seed' and 'result'")
+        for k in ("index", "seed"):
+            if isinstance(d[k], bool) or not isinstance(d[k], int):
+                raise InputError(f"PairResult.from_dict: {k!r} must be an integer, got {d[k]!r}")
+        error = d.get("error")
+        if error is not None and not isinstance(error, str):
+            raise InputError(f"PairResult.from_dict: 'error' must be a string or None, got {error!r}")
+        result = None if d["result"] is None else RelativePoseResult.from_dict(d["result"])
+        return cls(index=d["index"], key=_key_from_json(d["key"]), seed=d["seed"], result=result, error=error)
+
+
+def _key_from_json(key: Any) -> Hashable:
+    if isinstance(key, list):
+        return tuple(_key_from_json(k) for k in key)
+    if isinstance(key, dict):
+        raise InputError("PairResult.from_dict: a key cannot be a mapping")
+    return key
 
 
 def _json_key(key: Any) -> Any:
@@ -300,7 +327,7 @@ def estimate_relative_poses(
     pairs: Iterable[Any],
     *,
     n_jobs: int = 1,
-    backend: str = "auto",
+    backend: Backend = "auto",
     client: Any = None,
     chunk_size: int | None = None,
     progress: bool | None = None,

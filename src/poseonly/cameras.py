@@ -472,7 +472,7 @@ def from_opencv(K: Any, dist: Any = None, width: int = 0, height: int = 0, *, fi
     """``K (3, 3)`` + OpenCV distortion coefficients -> :class:`Camera`.
 
     ``dist``: ``(k1, k2, p1, p2[, k3[, k4, k5, k6]])`` (``cv2.undistortPoints``' order; 4 -> ``OPENCV``,
-    5 or 8 -> ``FULL_OPENCV``), or with ``fisheye=True`` ``(k1, k2, k3, k4)`` (``cv2.fisheye``) ->
+    5 or 8 -> ``FULL_OPENCV``; 12 or 14 with zero thin-prism / tilt terms as 8; other lengths refused), or with ``fisheye=True`` ``(k1, k2, k3, k4)`` (``cv2.fisheye``) ->
     ``OPENCV_FISHEYE``. ``None`` or all zeros -> ``PINHOLE``. ``K`` must have zero skew."""
     try:
         Kf = np.asarray(K, dtype=float)
@@ -493,15 +493,18 @@ def from_opencv(K: Any, dist: Any = None, width: int = 0, height: int = 0, *, fi
         if len(d) != 4:
             raise InputError(f"fisheye distortion takes 4 coefficients (k1, k2, k3, k4), got {len(d)}")
         return Camera("OPENCV_FISHEYE", width, height, tuple(float(v) for v in (*base, *d)))
+    if len(d) not in (0, 4, 5, 8, 12, 14):  # OpenCV's lengths (a 7-vector of zeros was a pinhole: a trial)
+        raise InputError(f"OpenCV distortion takes 4, 5, 8, 12 or 14 coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6[, s1..s4[, tx, ty]]]]), got {len(d)}")
+    if len(d) > 8 and np.any(d[8:]):
+        raise InputError(f"thin-prism / tilt distortion coefficients (s1..s4, tx, ty) are not supported, got {d[8:].tolist()}")
+    d = d[:8]
     if len(d) == 0 or not np.any(d):
         return Camera("PINHOLE", width, height, tuple(float(v) for v in base))
     if len(d) == 4:
         return Camera("OPENCV", width, height, tuple(float(v) for v in (*base, *d)))
-    if len(d) in (5, 8):
-        full = np.zeros(8)
-        full[: len(d)] = d  # OpenCV order k1 k2 p1 p2 k3 k4 k5 k6 = FULL_OPENCV's
-        return Camera("FULL_OPENCV", width, height, tuple(float(v) for v in (*base, *full)))
-    raise InputError(f"OpenCV distortion takes 4, 5 or 8 coefficients (k1, k2, p1, p2[, k3[, k4, k5, k6]]), got {len(d)} (thin-prism / tilt coefficients are not supported)")
+    full = np.zeros(8)
+    full[: len(d)] = d  # OpenCV order k1 k2 p1 p2 k3 k4 k5 k6 = FULL_OPENCV's
+    return Camera("FULL_OPENCV", width, height, tuple(float(v) for v in (*base, *full)))
 
 
 def as_camera(spec: Any, name: str = "camera") -> Camera:

@@ -51,7 +51,7 @@ import numpy as np
 
 from .api import DEFAULT_METHOD, METHODS
 from .argtypes import jobs_int, positive_float, positive_int, seed_int
-from .batch import AUTO_THREADS_MAX_PAIRS, Pair, PairResult, estimate_relative_poses
+from .batch import AUTO_THREADS_MAX_PAIRS, Backend, Pair, PairResult, estimate_relative_poses
 from .geometry import InputError, pair_focal
 from .io.colmap_db import ColmapDatabase, GeometryRow, refuse_guessed_focal
 from .io.colmap_geometry import ERROR_CONFIG, STATUS_CONFIG, two_view_fields
@@ -180,7 +180,7 @@ def verify_database(
     pairs_file: str | Path | None = None,
     overwrite: bool = False,
     n_jobs: int = 1,
-    backend: str = "auto",
+    backend: Backend = "auto",
     client: Any = None,
     chunk_size: int | None = None,
     write_every: int = WRITE_EVERY,

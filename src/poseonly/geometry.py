@@ -13,6 +13,7 @@ All functions accept leading batch dimensions where it makes sense (``(..., 3, 3
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -557,8 +558,10 @@ def rotation_angle_deg(R: np.ndarray) -> np.ndarray:
     return np.degrees(np.arctan2(s, c))
 
 
-def rotation_error_deg(R_gt: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """``arccos((tr(R_gt^T R) - 1) / 2)`` in degrees, computed stably; ``R_gt, R (..., 3, 3)``."""
+def rotation_error_deg(R_gt: np.ndarray, R: np.ndarray) -> Any:
+    """``arccos((tr(R_gt^T R) - 1) / 2)`` in degrees, computed stably; ``R_gt, R (..., 3, 3)`` (leading
+    axes broadcast) -> ``(...)``: a ``numpy.float64`` (a ``float``) for two ``(3, 3)`` rotations, an
+    array for stacks (typed ``Any``, as numpy's own functions of either shape)."""
     A, B = as_real_array(R_gt, "R_gt"), as_real_array(R, "R")
     for name, M in (("R_gt", A), ("R", B)):
         if M.ndim < 2 or M.shape[-2:] != (3, 3):

@@ -7,11 +7,14 @@ analysis of :mod:`poseonly.analysis` and decides the status (``ok`` means "trust
 
 from __future__ import annotations
 
+import math
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal, get_args
 
 import numpy as np
+from numpy.typing import NDArray
 
 from . import _core
 from ._equality import ValueEquality
@@ -33,13 +36,22 @@ from .analysis import (
     rival_test,
     rotation_explains_most,
 )
-from .geometry import essential_from_pose, rotation_error_deg, valid_pose
+from .geometry import InputError, essential_from_pose, rotation_error_deg, valid_pose
 from .options import MAX_ROTATION_STD_DEG
 from .residuals import v_sampson
 
-__all__ = ["STATUSES", "RelativePoseResult", "degenerate_result", "finish", "valid_pose"]
+__all__ = ["RESULT_SCHEMA_VERSION", "STATUSES", "NoPoseError", "RelativePoseResult", "Status", "degenerate_result", "finish", "valid_pose"]
 
-STATUSES = ("ok", "planar_ambiguous", "ambiguous", "uncertain", "pure_rotation", "too_few_inliers", "degenerate")
+Status = Literal["ok", "planar_ambiguous", "ambiguous", "uncertain", "pure_rotation", "too_few_inliers", "degenerate"]
+"""The statuses of :class:`RelativePoseResult` (see there); ``"ok"`` means "trust this pose"."""
+STATUSES: tuple[Status, ...] = get_args(Status)
+
+# the layout of RelativePoseResult.to_dict (from_dict reads this version and dicts without the key)
+RESULT_SCHEMA_VERSION = 1
+
+
+class NoPoseError(ValueError):
+    """:meth:`RelativePoseResult.pose` of a ``degenerate`` result, which holds no pose."""
 
 
 # two matches within this many pixels of each other in both views are one observation for the status
@@ -54,22 +66,86 @@ _json_float = json_float
 _json_array = json_array
 
 
-def _json_value(v: Any) -> Any:
-    """A JSON-safe version of a diagnostic value (non-finite floats -> None, arrays -> lists)."""
+def _json_value(v: Any, exact: bool = False) -> Any:
+    """A JSON-safe version of a diagnostic value: arrays -> lists, non-finite floats -> ``None`` or, with
+    ``exact``, the strings ``"nan"``, ``"inf"``, ``"-inf"`` (which :meth:`RelativePoseResult.from_dict`
+    reads back)."""
     if isinstance(v, (bool, np.bool_)):
         return bool(v)
     if isinstance(v, (int, np.integer)):
         return int(v)
     if isinstance(v, (float, np.floating)):
-        return _json_float(v)
+        return _exact_float(v) if exact else _json_float(v)
     if isinstance(v, np.ndarray):
-        return _json_array(v) if v.dtype.kind == "f" else v.tolist()
+        if v.dtype.kind == "f":
+            return _exact_array(v) if exact else _json_array(v)
+        return v.tolist()
     if isinstance(v, str) or v is None:
         return v
     return str(v)
 
 
-@dataclass(eq=False)
+_NONFINITE = {"nan": math.nan, "inf": math.inf, "-inf": -math.inf}
+
+
+def _exact_float(x: Any) -> float | str:
+    """``float(x)``, or ``"nan"`` / ``"inf"`` / ``"-inf"`` (strict JSON has no non-finite numbers)."""
+    x = float(x)
+    return x if math.isfinite(x) else ("nan" if math.isnan(x) else ("inf" if x > 0 else "-inf"))
+
+
+def _exact_array(a: np.ndarray | None) -> list[Any] | None:
+    if a is None:
+        return None
+    a = np.asarray(a, float)
+    obj = a.astype(object)
+    bad = ~np.isfinite(a)
+    obj[bad] = [_exact_float(x) for x in a[bad]]
+    return obj.tolist()
+
+
+def _read_float(x: Any, key: str) -> float:
+    """A float of a result dict: a number, ``None`` (NaN) or ``"nan"`` / ``"inf"`` / ``"-inf"``."""
+    if x is None:
+        return math.nan
+    if isinstance(x, str) and x in _NONFINITE:
+        return _NONFINITE[x]
+    if isinstance(x, bool) or not isinstance(x, (int, float)):
+        raise InputError(f"RelativePoseResult.from_dict: {key!r} must be a number, got {x!r}")
+    return float(x)
+
+
+def _read_array(x: Any, key: str, shape: tuple[int, ...] | None = None) -> NDArray[np.float64]:
+    def conv(v: Any) -> Any:
+        return [conv(u) for u in v] if isinstance(v, list) else _read_float(v, key)
+
+    if not isinstance(x, list):
+        raise InputError(f"RelativePoseResult.from_dict: {key!r} must be a list, got {type(x).__name__}")
+    try:
+        a = np.array(conv(x), dtype=float)
+    except ValueError as exc:
+        raise InputError(f"RelativePoseResult.from_dict: {key!r} is not a regular array ({exc})") from None
+    if shape is not None and a.shape != shape:
+        raise InputError(f"RelativePoseResult.from_dict: {key!r} must have shape {shape}, got {a.shape}")
+    return a
+
+
+def _read_diagnostic(v: Any, key: str) -> Any:
+    """A diagnostic as :meth:`RelativePoseResult.to_dict` wrote it: lists -> arrays (bool or float),
+    ``"nan"`` / ``"inf"`` / ``"-inf"`` -> floats, anything else as is."""
+    if isinstance(v, list):
+        flat = np.ravel(np.array(v, dtype=object)) if v else np.empty(0, object)
+        if flat.size and all(isinstance(u, bool) for u in flat):
+            return np.array(v, dtype=bool)
+        if flat.size and all(isinstance(u, int) and not isinstance(u, bool) for u in flat):
+            return np.array(v, dtype=np.int64)
+        return _read_array(v, f"diagnostics[{key!r}]")
+    if isinstance(v, str) and v in _NONFINITE:
+        return _NONFINITE[v]
+    return v
+
+
+@dataclass(eq=False, repr=False)
 class RelativePoseResult(ValueEquality):
     """Relative pose ``X2 = R X1 + t`` (unit ``t``) with inliers and an honest status.
 
@@ -134,7 +210,7 @@ class RelativePoseResult(ValueEquality):
     residuals_px: np.ndarray
     num_inliers: int
     num_iterations: int
-    status: str
+    status: Status
     message: str
     method: str
     threshold_px: float
@@ -156,37 +232,143 @@ class RelativePoseResult(ValueEquality):
     def inlier_ratio(self) -> float:
         return self.num_inliers / max(len(self.inliers), 1)
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe summary (``json.dumps(..., allow_nan=False)`` works): arrays as lists,
-        ``None`` (null) for undefined values (no pose, NaN parallax, no twin, no covariance: every key is
-        always there); ``inliers`` as indices."""
+    @property
+    def rotation_std_deg(self) -> float:
+        """The rotation's first-order standard deviation in degrees (``diagnostics["rotation_std_deg"]``,
+        the least constrained axis); ``inf`` where not known (``too_few_inliers``, ``degenerate``)."""
+        return float(self.diagnostics.get("rotation_std_deg", math.inf))
+
+    @property
+    def translation_std_deg(self) -> float:
+        """The translation direction's first-order standard deviation in degrees; ``inf`` where not known,
+        NaN for ``pure_rotation`` (no translation)."""
+        return float(self.diagnostics.get("translation_std_deg", math.inf))
+
+    def pose(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(R (3, 3), t (3,))`` with ``X2 = R X1 + t`` (unit ``t``); raises :class:`NoPoseError` (a
+        ``ValueError``) for a ``degenerate`` result, which holds none. Whether to trust the pose is
+        :attr:`status`'s to say."""
+        if self.R is None or self.t is None:
+            raise NoPoseError(f"a {self.status!r} result holds no pose: {self.message}")
+        return self.R, self.t
+
+    def __repr__(self) -> str:
+        """One line: status, inliers, the deviations, the method and the message (the arrays are fields)."""
+        return (
+            f"RelativePoseResult(status={self.status!r}, inliers={self.num_inliers}/{len(self.inliers)}, "
+            f"rotation_std_deg={self.rotation_std_deg:.3g}, translation_std_deg={self.translation_std_deg:.3g}, "
+            f"threshold_px={self.threshold_px:.3g}, method={self.method!r}, message={self.message!r})"
+        )
+
+    def to_dict(self, *, exact: bool = False) -> dict[str, Any]:
+        """JSON-safe summary (``json.dumps(..., allow_nan=False)`` works): arrays as lists, ``None`` (null)
+        for undefined values (no pose, NaN parallax, no twin, no covariance: every key is always there);
+        ``inliers`` as indices; ``schema_version`` :data:`RESULT_SCHEMA_VERSION`.
+
+        ``exact=True`` is the record :meth:`from_dict` turns back into an equal result (``==``): it adds
+        ``weights`` and ``residuals_px`` (per match) and writes non-finite numbers as the strings
+        ``"nan"``, ``"inf"``, ``"-inf"`` (``rotation_std_deg`` is inf where it is not known, NaN where it
+        is undefined; ``None`` would not tell them apart)."""
+        num = _exact_float if exact else _json_float
+        arr = _exact_array if exact else _json_array
         d: dict[str, Any] = {
-            "R": _json_array(self.R),
-            "t": _json_array(self.t),
-            "E": _json_array(self.E),
+            "schema_version": RESULT_SCHEMA_VERSION,
+            "R": arr(self.R),
+            "t": arr(self.t),
+            "E": arr(self.E),
             "num_inliers": int(self.num_inliers),
             "num_points": len(self.inliers),
-            "inlier_ratio": _json_float(self.inlier_ratio),
+            "inlier_ratio": num(self.inlier_ratio),
             "inliers": np.nonzero(self.inliers)[0].tolist(),
             "num_iterations": int(self.num_iterations),
             "status": self.status,
             "message": self.message,
             "method": self.method,
-            "threshold_px": _json_float(self.threshold_px),
-            "focal_px": _json_float(self.focal_px),
-            "parallax_deg": _json_float(self.parallax_deg),
-            "time_s": _json_float(self.time_s),
-            "diagnostics": {k: _json_value(v) for k, v in self.diagnostics.items()},
+            "threshold_px": num(self.threshold_px),
+            "focal_px": num(self.focal_px),
+            "parallax_deg": num(self.parallax_deg),
+            "time_s": num(self.time_s),
+            "diagnostics": {k: _json_value(v, exact) for k, v in self.diagnostics.items()},
         }
         # every key always present (null where undefined: no twin, no covariance), so a reader can index
         # any result the same way
         twin = self.R_twin is not None
-        d["R_twin"] = _json_array(self.R_twin) if twin else None
-        d["t_twin"] = _json_array(self.t_twin) if twin else None
+        d["R_twin"] = arr(self.R_twin) if twin else None
+        d["t_twin"] = arr(self.t_twin) if twin else None
         d["twin_inliers"] = int(self.twin_inliers)
-        d["rotation_covariance"] = None if self.rotation_covariance is None else _json_array(self.rotation_covariance)
-        d["translation_covariance"] = None if self.translation_covariance is None else _json_array(self.translation_covariance)
+        d["rotation_covariance"] = None if self.rotation_covariance is None else arr(self.rotation_covariance)
+        d["translation_covariance"] = None if self.translation_covariance is None else arr(self.translation_covariance)
+        if exact:
+            d["weights"] = arr(self.weights)
+            d["residuals_px"] = arr(self.residuals_px)
         return d
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> RelativePoseResult:
+        """The result a :meth:`to_dict` record describes (e.g. read back from JSON). From a record of
+        ``to_dict(exact=True)`` the result equals the original (``==``); from the default record,
+        ``weights`` are the inlier mask and ``residuals_px`` NaN (not written), and non-finite numbers
+        written as ``None`` read as NaN. Raises :class:`poseonly.InputError` (a ``ValueError``) naming a
+        missing or malformed key, or an unknown ``schema_version``."""
+        if not isinstance(d, Mapping):
+            raise InputError(f"RelativePoseResult.from_dict needs a mapping, got {type(d).__name__}")
+        version = d.get("schema_version", RESULT_SCHEMA_VERSION)
+        if version != RESULT_SCHEMA_VERSION:
+            raise InputError(f"RelativePoseResult.from_dict reads schema_version {RESULT_SCHEMA_VERSION}, got {version!r}")
+        for key in ("R", "t", "E", "num_inliers", "num_points", "inliers", "num_iterations", "status", "message", "method", "threshold_px", "focal_px"):
+            if key not in d:
+                raise InputError(f"RelativePoseResult.from_dict: the record has no {key!r}")
+        status = d["status"]
+        if status not in STATUSES:
+            raise InputError(f"RelativePoseResult.from_dict: status must be one of {STATUSES}, got {status!r}")
+
+        def count(key: str) -> int:
+            v = d[key]
+            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+                raise InputError(f"RelativePoseResult.from_dict: {key!r} must be a non-negative integer, got {v!r}")
+            return v
+
+        n = count("num_points")
+        idx = d["inliers"]
+        if not isinstance(idx, list) or not all(isinstance(i, int) and not isinstance(i, bool) and 0 <= i < n for i in idx):
+            raise InputError(f"RelativePoseResult.from_dict: 'inliers' must be a list of indices below num_points = {n}")
+        inliers = np.zeros(n, dtype=bool)
+        inliers[idx] = True
+
+        def opt(key: str, shape: tuple[int, ...]) -> NDArray[np.float64] | None:
+            v = d.get(key)
+            return None if v is None else _read_array(v, key, shape)
+
+        def per_match(key: str, default: NDArray[np.float64]) -> NDArray[np.float64]:
+            v = d.get(key)
+            return default if v is None else _read_array(v, key, (n,))
+
+        diag = d.get("diagnostics", {})
+        if not isinstance(diag, Mapping):
+            raise InputError("RelativePoseResult.from_dict: 'diagnostics' must be a mapping")
+        return cls(
+            R=opt("R", (3, 3)),
+            t=opt("t", (3,)),
+            E=opt("E", (3, 3)),
+            inliers=inliers,
+            weights=per_match("weights", inliers.astype(float)),
+            residuals_px=per_match("residuals_px", np.full(n, np.nan)),
+            num_inliers=count("num_inliers"),
+            num_iterations=count("num_iterations"),
+            status=status,
+            message=str(d["message"]),
+            method=str(d["method"]),
+            threshold_px=_read_float(d["threshold_px"], "threshold_px"),
+            focal_px=_read_float(d["focal_px"], "focal_px"),
+            parallax_deg=_read_float(d.get("parallax_deg"), "parallax_deg"),
+            R_twin=opt("R_twin", (3, 3)),
+            t_twin=opt("t_twin", (3,)),
+            twin_inliers=int(d.get("twin_inliers", 0)),
+            time_s=_read_float(d.get("time_s", 0.0), "time_s"),
+            diagnostics={str(k): _read_diagnostic(v, str(k)) for k, v in diag.items()},
+            rotation_covariance=opt("rotation_covariance", (3, 3)),
+            translation_covariance=opt("translation_covariance", (3, 3)),
+        )
 
 
 def _unit(t: np.ndarray) -> np.ndarray:
@@ -390,6 +572,7 @@ def finish(
         unc = _with_model_spread(unc, spread_rot)
         diag["rotation_model_spread_deg"] = float(np.degrees(spread_rot))
     diag.update(rotation_std_deg=unc["rotation_std_deg"], translation_std_deg=unc["translation_std_deg"], noise_sigma_px=unc["noise_sigma"] * focal)
+    status: Status
     if rot_inl is not None:
         status = "pure_rotation"
         # the rotation-only fit absorbs whatever parallax the matches cannot resolve, and the pose's R

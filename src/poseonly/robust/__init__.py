@@ -2,12 +2,13 @@
 
 from .generic import GenericRansacResult, RansacEstimator
 from .generic import ransac as ransac_generic
-from .gnc import GNCBatchResult, GNCOptions, gnc_irls_batch
+from .gnc import GNCBatchResult, GNCOptions, GNCResult, gnc_irls_batch
 from .ransac import RansacResult, gnc_ransac, ransac_relpose, sample_indices
 
 __all__ = [
     "GNCOptions",
     "GNCBatchResult",
+    "GNCResult",
     "gnc_irls_batch",
     "RansacResult",
     "ransac_relpose",

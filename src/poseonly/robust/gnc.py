@@ -34,7 +34,7 @@ import numpy as np
 from .. import _core
 from ..estimator import Estimator, lirp_estimator
 
-__all__ = ["GNCOptions", "gnc_irls_batch", "GNCBatchResult", "CYCLE_MAX_PERIOD", "MAD_TO_SIGMA"]
+__all__ = ["GNCOptions", "gnc_irls_batch", "GNCBatchResult", "GNCResult", "CYCLE_MAX_PERIOD", "MAD_TO_SIGMA"]
 
 MAD_TO_SIGMA = 1.4826
 CYCLE_MAX_PERIOD = 8  # longest limit cycle of binary weights the loop detects
@@ -115,6 +115,21 @@ class GNCBatchResult:
     c: np.ndarray
     num_iterations: np.ndarray
     converged: np.ndarray
+
+
+@dataclass
+class GNCResult:
+    """GNC-IRLS output for one problem (:func:`poseonly.gnc_irls`): the pose ``R (3, 3)``, ``t (3,)``
+    (``X2 = R X1 + t``, unit), the final ``weights (n,)`` and ``residuals (n,)`` of that pose, the
+    final noise bound ``c`` (radians), ``num_iterations`` and whether the loop ``converged``."""
+
+    R: np.ndarray
+    t: np.ndarray
+    weights: np.ndarray
+    residuals: np.ndarray
+    c: float
+    num_iterations: int
+    converged: bool
 
 
 def gnc_irls_batch(

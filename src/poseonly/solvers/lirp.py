@@ -83,7 +83,7 @@ class LiRPResult(ValueEquality):
     (with the weights divided by their maximum: only their ratios matter);
     ``rank``: numerical rank of ``A`` (8 general, 6 planar or pure rotation, < 6 degenerate);
     ``status``: ``"ok"`` or ``"degenerate"`` (rank < 6: the null space is larger than 3-D and the
-    pose is not determined by the data).
+    pose is not determined by the data; ``R``, ``t`` and ``E`` are then NaN, the candidates kept).
     """
 
     R: np.ndarray
@@ -153,10 +153,15 @@ def lirp_checked(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None, rank_tol:
     notes = []
     if status == "degenerate":
         notes.append(f"epipolar matrix A has rank {rank} < 6: the correspondences do not determine the pose")
+    if status == "degenerate":  # no pose: NaN, not a candidate that looks like one (identity R)
+        R, t, E = np.full((3, 3), np.nan), np.full(3, np.nan), np.full((3, 3), np.nan)
+    else:
+        R, t = cR[best].copy(), ct[best].copy()
+        E = essential_from_pose(R, t)
     return LiRPResult(
-        R=cR[best].copy(),
-        t=ct[best].copy(),
-        E=essential_from_pose(cR[best], ct[best]),
+        R=R,
+        t=t,
+        E=E,
         candidates_E=cE,
         candidates_R=cR,
         candidates_t=ct,
