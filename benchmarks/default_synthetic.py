@@ -31,4 +31,7 @@ def main(n: int = 40) -> None:
 
 
 if __name__ == "__main__":
+    from poseonly.experiments.report import provenance
+
+    print(provenance(), flush=True)
     main(int(sys.argv[1]) if len(sys.argv) > 1 else 40)

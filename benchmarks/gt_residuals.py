@@ -50,4 +50,7 @@ def main(dirs: list[str]) -> None:
 
 
 if __name__ == "__main__":
+    from poseonly.experiments.report import provenance
+
+    print(provenance(), flush=True)
     main(sys.argv[1:])

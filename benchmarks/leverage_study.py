@@ -110,4 +110,7 @@ def _time() -> int:
 
 
 if __name__ == "__main__":
+    from poseonly.experiments.report import provenance
+
+    print(provenance(), flush=True)
     raise SystemExit(main())

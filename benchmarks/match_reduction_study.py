@@ -77,4 +77,7 @@ rb.METHODS["msac-dedup"] = reduced("dedup", scoring="msac", **OLD)
 rb.METHODS["msac-1to1"] = reduced("1to1", scoring="msac", **OLD)
 
 if __name__ == "__main__":
+    from poseonly.experiments.report import provenance
+
+    print(provenance(), flush=True)
     raise SystemExit(rb.main(sys.argv[1:]))

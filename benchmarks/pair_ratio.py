@@ -64,4 +64,7 @@ def _row(name: str, v: np.ndarray) -> None:
 
 
 if __name__ == "__main__":
+    from poseonly.experiments.report import provenance
+
+    print(provenance(), flush=True)
     main()

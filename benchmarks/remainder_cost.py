@@ -32,4 +32,7 @@ def main() -> int:
 
 
 if __name__ == "__main__":
+    from poseonly.experiments.report import provenance
+
+    print(provenance(), flush=True)
     raise SystemExit(main())

@@ -5,4 +5,7 @@ import sys
 from poseonly.bench_robust import main
 
 if __name__ == "__main__":
+    from poseonly.experiments.report import provenance
+
+    print(provenance(), flush=True)
     sys.exit(main())

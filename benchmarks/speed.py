@@ -8,4 +8,7 @@ import sys
 from poseonly.bench_speed import main
 
 if __name__ == "__main__":
+    from poseonly.experiments.report import provenance
+
+    print(provenance(), flush=True)
     sys.exit(main())

@@ -58,4 +58,7 @@ def main(cache: Path) -> None:
 
 
 if __name__ == "__main__":
+    from poseonly.experiments.report import provenance
+
+    print(provenance(), flush=True)
     main(Path(sys.argv[1]) if len(sys.argv) > 1 else Path("/tmp/realbench_cache"))

@@ -8,6 +8,7 @@ rotation / translation-direction errors against the ground truth (median, mean, 
 time per pair (the methods one after another in this process; timing on a shared machine is rough).
 
     python benchmarks/vo_frames.py /work/shared/data/realpairs/kitti_seq1 --features orb
+    python benchmarks/vo_frames.py /work/shared/data/realpairs/kitti_seq1 --features sift --round   # rounded keypoints
 
 A VO trial's script (2026-12-07), which found the video-rate options returning 3 of 50 ORB poses
 5-11 deg off (flagged) before a refined rival that beats the search's pose replaced it.
@@ -39,6 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("folder", help="a realpairs folder (pairs.json, images/)")
     ap.add_argument("--features", default="orb", choices=("orb", "sift"))
     ap.add_argument("--pairs", type=int, default=50, help="the first N consecutive pairs")
+    ap.add_argument("--round", action="store_true", help="round the keypoints to whole pixels (as FAST / SuperPoint / ORB's first level give them)")
     a = ap.parse_args(argv)
     import cv2
     import poselib
@@ -51,6 +53,8 @@ def main(argv: list[str] | None = None) -> int:
     data = []
     for p in pairs:
         u1, u2 = _matches(cv2, a.features, cv2.imread(str(folder / p["im1"]), 0), cv2.imread(str(folder / p["im2"]), 0))
+        if a.round:
+            u1, u2 = np.round(u1), np.round(u2)
         data.append((u1, u2, np.array(p["K1"]), np.array(p["R"]), np.array(p["t"]), p["size1"]))
 
     def po(**opts):
@@ -73,7 +77,8 @@ def main(argv: list[str] | None = None) -> int:
         return pose.R, pose.t, "-"
 
     methods = {"poseonly": po(), "poseonly-video": po(ml_folds=0, challengers=0, min_iterations=100), "opencv-magsac": magsac, "poselib-1px": pl}
-    print(f"{len(data)} consecutive pairs of {folder.name}, {a.features}: median {int(np.median([len(d[0]) for d in data]))} matches")
+    kind = a.features + (" rounded to whole pixels" if a.round else "")
+    print(f"{len(data)} consecutive pairs of {folder.name}, {kind}: median {int(np.median([len(d[0]) for d in data]))} matches")
     for name, fn in methods.items():
         re, te, ms, st = [], [], [], Counter()
         for u1, u2, K, R, t, size in data:
@@ -93,4 +98,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
+    from poseonly.experiments.report import provenance
+
+    print(provenance(), flush=True)
     raise SystemExit(main())

@@ -23,6 +23,16 @@ def test_benchmark_script_compiles_and_answers_help(script: Path, tmp_path: Path
     r = subprocess.run([sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-2000:]
     assert "usage" in r.stdout.lower()
+    # its output starts with the command and the code that printed it (a docs audit: figures no output
+    # tied to a commit)
+    assert r.stdout.startswith(f"# python {script}") and "# poseonly " in r.stdout.splitlines()[1]
+
+
+def test_provenance_names_the_command_and_the_code():
+    from poseonly.experiments.report import code_version, provenance
+
+    lines = provenance().splitlines()
+    assert len(lines) == 2 and lines[0].startswith("# python ") and f"code {code_version()}," in lines[1] and "UTC" in lines[1]
 
 
 def test_hard_cases_benchmark_runs(capsys):

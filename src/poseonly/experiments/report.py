@@ -20,6 +20,7 @@ __all__ = [
     "machine",
     "markdown_table",
     "progress",
+    "provenance",
     "pyplot",
     "savefig",
     "single_thread",
@@ -138,3 +139,19 @@ def code_version() -> str | None:
     except (OSError, subprocess.SubprocessError):
         return None
     return (r.stdout.strip() or None) if r.returncode == 0 else None
+
+
+def provenance() -> str:
+    """One comment line naming what printed the figures below it: the command (``sys.argv``), poseonly's
+    version and code (:func:`code_version`, ``None`` outside a checkout), the UTC time and the machine.
+    Every script under benchmarks/ prints it first (a docs audit found figures no output tied to a
+    commit)."""
+    import shlex
+    import sys
+    import time
+
+    from .. import __version__
+
+    cmd = " ".join(shlex.quote(a) for a in ["python", *sys.argv])
+    when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    return f"# {cmd}\n# poseonly {__version__}, code {code_version()}, {when}, {machine()}"
