@@ -120,3 +120,19 @@ def test_pair_results_read_back():
     for p in res:
         back = PairResult.from_dict(json.loads(json.dumps(p.to_dict(exact=True), allow_nan=False)))
         assert back == p
+
+
+def test_options_built_as_a_dataclass_pass_as_keywords():
+    """The typed way to build options: the dataclass's fields (checked by a type checker), its
+    non-default ones passed as keywords and checked by the call."""
+    from poseonly.options import GncRansacOptions, PoseonlyOptions
+
+    sc = make_scene(120, camera="pinhole", noise_px=0.5, outlier_fraction=0.2, seed=6)
+    opts = PoseonlyOptions(threshold_px=2.0, seed=3)
+    assert opts.as_kwargs() == {"threshold_px": 2.0, "seed": 3} and PoseonlyOptions().as_kwargs() == {}
+    a = poseonly.estimate_relative_pose(sc.f1, sc.f2, focal_px=FOCAL, **opts.as_kwargs())
+    assert a == poseonly.estimate_relative_pose(sc.f1, sc.f2, focal_px=FOCAL, threshold_px=2.0, seed=3)
+    g = GncRansacOptions(max_iterations=20).as_kwargs()
+    assert poseonly.estimate_relative_pose(sc.f1, sc.f2, focal_px=FOCAL, method="gnc-ransac", **g).num_iterations <= 20
+    with pytest.raises(poseonly.InputError, match="threshold_px"):
+        poseonly.estimate_relative_pose(sc.f1, sc.f2, focal_px=FOCAL, **PoseonlyOptions(threshold_px=-1.0).as_kwargs())

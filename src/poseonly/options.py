@@ -231,6 +231,19 @@ class CommonOptions:
             if v is not None:
                 check_value(f.name, v, f.metadata["spec"])
 
+    def as_kwargs(self) -> dict[str, Any]:
+        """The fields set to other than their defaults, as keyword options:
+        ``estimate_relative_pose(x1, x2, K, **PoseonlyOptions(threshold_px=2.0).as_kwargs())``. The typed
+        way to build options (a type checker checks the field names and value types; the call checks
+        the values, as for any keyword option). The class fixes the method: the paper's methods take
+        ``method=`` with their own class (:data:`OPTIONS`)."""
+        out: dict[str, Any] = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if v is not f.default and not (type(v) is type(f.default) and v == f.default):
+                out[f.name] = v
+        return out
+
 
 @dataclass(frozen=True)
 class PoseonlyOptions(CommonOptions):
