@@ -299,6 +299,11 @@ def test_relpose_cli_reports_inliers_as_the_files_rows(tmp_path, capsys):
     assert d["num_dropped"] == 10 and min(d["inliers"]) >= 10 and len(d["inliers"]) >= 110
     saved = np.load(tmp_path / "out.npz")["inliers"]
     assert saved.shape == (130,) and not saved[:10].any() and np.flatnonzero(saved).tolist() == d["inliers"]
+    # the record reads back over the file's rows (a review: num_points counted the kept rows only)
+    from poseonly.result import RelativePoseResult
+
+    back = RelativePoseResult.from_dict(d)
+    assert d["num_points"] == 130 and np.array_equal(back.inliers, saved.astype(bool))
 
 
 @pytest.mark.parametrize(

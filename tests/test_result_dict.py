@@ -62,6 +62,14 @@ def test_inf_and_nan_stay_apart():
     assert any(math.isinf(r.rotation_std_deg) for r in RESULTS)
 
 
+def test_default_records_read_back_with_nan_for_null():
+    """A default record writes non-finite numbers as null: they read back as NaN, and the result's
+    properties and repr work (a review: repr raised on float(None))."""
+    for r in RESULTS:
+        back = RelativePoseResult.from_dict(json.loads(json.dumps(r.to_dict(), allow_nan=False)))
+        assert repr(back) and isinstance(back.rotation_std_deg, float) and back.status == r.status
+
+
 def test_the_default_record_reads_back_with_the_inlier_mask_as_weights():
     r = RESULTS[0]
     d = json.loads(json.dumps(r.to_dict(), allow_nan=False))
@@ -80,10 +88,20 @@ def test_the_default_record_reads_back_with_the_inlier_mask_as_weights():
         ({"R": [[1.0, 0.0], [0.0, 1.0]]}, "'R'"),
         ({"num_inliers": -1}, "num_inliers"),
         ({"threshold_px": "wide"}, "threshold_px"),
+        ({"threshold_px": 10**400}, "threshold_px"),
+        ({"twin_inliers": None}, "twin_inliers"),
+        ({"num_points": 10**29}, "num_points"),
+        ({"num_inliers": 3}, "num_inliers"),
+        ({"R": None}, "degenerate"),
+        ({"message": 5}, "message"),
+        ({"schema_version": True}, "schema_version"),
+        ({"diagnostics": {"x": {"a": 1}}}, "diagnostics"),
+        ({"diagnostics": {"x": 10**400}}, "diagnostics"),
     ],
 )
 def test_malformed_records_are_refused_naming_the_key(change, word):
     d = {**RESULTS[0].to_dict(exact=True), **change}
+    assert RESULTS[0].status != "degenerate"
     with pytest.raises(poseonly.InputError, match=word):
         RelativePoseResult.from_dict(d)
     d = RESULTS[0].to_dict()
@@ -136,3 +154,8 @@ def test_options_built_as_a_dataclass_pass_as_keywords():
     assert poseonly.estimate_relative_pose(sc.f1, sc.f2, focal_px=FOCAL, method="gnc-ransac", **g).num_iterations <= 20
     with pytest.raises(poseonly.InputError, match="threshold_px"):
         poseonly.estimate_relative_pose(sc.f1, sc.f2, focal_px=FOCAL, **PoseonlyOptions(threshold_px=-1.0).as_kwargs())
+
+
+def test_gnc_irls_results_compare_by_value():
+    sc = make_scene(60, camera="pinhole", noise_px=0.5, seed=7)
+    assert poseonly.gnc_irls(sc.f1, sc.f2) == poseonly.gnc_irls(sc.f1, sc.f2)

@@ -203,8 +203,9 @@ def cmd_relpose(args: argparse.Namespace) -> int:
         _save_result(args.save, r, rows, len(pr.u1) + pr.dropped)
     if args.json:
         d = r.to_dict()
-        if rows is not None:
+        if rows is not None:  # the file's rows, so num_points counts them (RelativePoseResult.from_dict reads it)
             d["inliers"] = rows[np.asarray(r.inliers, bool)].tolist()
+            d["num_points"] = int(len(pr.u1) + pr.dropped)
         d.update(num_matches=int(len(pr.u1)), num_dropped=pr.dropped, time_features_s=pr.time_features_s, time_estimate_s=pr.time_estimate_s)
         print(json.dumps(d, indent=2, allow_nan=False))
     else:

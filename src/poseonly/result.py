@@ -104,6 +104,10 @@ def _exact_array(a: np.ndarray | None) -> list[Any] | None:
     return obj.tolist()
 
 
+# the most matches a record may describe (its inlier mask and per-match arrays are allocated)
+MAX_RECORD_POINTS = 10**8
+
+
 def _read_float(x: Any, key: str) -> float:
     """A float of a result dict: a number, ``None`` (NaN) or ``"nan"`` / ``"inf"`` / ``"-inf"``."""
     if x is None:
@@ -112,7 +116,10 @@ def _read_float(x: Any, key: str) -> float:
         return _NONFINITE[x]
     if isinstance(x, bool) or not isinstance(x, (int, float)):
         raise InputError(f"RelativePoseResult.from_dict: {key!r} must be a number, got {x!r}")
-    return float(x)
+    try:
+        return float(x)
+    except OverflowError:
+        raise InputError(f"RelativePoseResult.from_dict: {key!r} is beyond a float's range") from None
 
 
 def _read_array(x: Any, key: str, shape: tuple[int, ...] | None = None) -> NDArray[np.float64]:
@@ -130,18 +137,30 @@ def _read_array(x: Any, key: str, shape: tuple[int, ...] | None = None) -> NDArr
     return a
 
 
-def _read_diagnostic(v: Any, key: str) -> Any:
+def _iterations(v: Any) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < 2**63:
+        raise InputError(f"RelativePoseResult.from_dict: 'num_iterations' must be a non-negative integer, got {v!r}")
+    return v
+
+
+def _read_diagnostic(v: Any, key: str, exact: bool) -> Any:
     """A diagnostic as :meth:`RelativePoseResult.to_dict` wrote it: lists -> arrays (bool or float),
     ``"nan"`` / ``"inf"`` / ``"-inf"`` -> floats, anything else as is."""
+    if v is None:  # a non-finite number of the default record (null); None itself in an exact one
+        return None if exact else math.nan
     if isinstance(v, list):
         flat = np.ravel(np.array(v, dtype=object)) if v else np.empty(0, object)
         if flat.size and all(isinstance(u, bool) for u in flat):
             return np.array(v, dtype=bool)
-        if flat.size and all(isinstance(u, int) and not isinstance(u, bool) for u in flat):
+        if flat.size and all(isinstance(u, int) and not isinstance(u, bool) and abs(u) < 2**63 for u in flat):
             return np.array(v, dtype=np.int64)
         return _read_array(v, f"diagnostics[{key!r}]")
     if isinstance(v, str) and v in _NONFINITE:
         return _NONFINITE[v]
+    if isinstance(v, float) or (isinstance(v, int) and not isinstance(v, bool) and abs(v) >= 2**63):
+        return _read_float(v, f"diagnostics[{key!r}]")
+    if not isinstance(v, (bool, int, str)):
+        raise InputError(f"RelativePoseResult.from_dict: diagnostics[{key!r}] must be a number, string, bool, list or null, got {type(v).__name__}")
     return v
 
 
@@ -313,7 +332,7 @@ class RelativePoseResult(ValueEquality):
         if not isinstance(d, Mapping):
             raise InputError(f"RelativePoseResult.from_dict needs a mapping, got {type(d).__name__}")
         version = d.get("schema_version", RESULT_SCHEMA_VERSION)
-        if version != RESULT_SCHEMA_VERSION:
+        if type(version) is not int or version != RESULT_SCHEMA_VERSION:
             raise InputError(f"RelativePoseResult.from_dict reads schema_version {RESULT_SCHEMA_VERSION}, got {version!r}")
         for key in ("R", "t", "E", "num_inliers", "num_points", "inliers", "num_iterations", "status", "message", "method", "threshold_px", "focal_px"):
             if key not in d:
@@ -322,10 +341,16 @@ class RelativePoseResult(ValueEquality):
         if status not in STATUSES:
             raise InputError(f"RelativePoseResult.from_dict: status must be one of {STATUSES}, got {status!r}")
 
-        def count(key: str) -> int:
+        def count(key: str, default: int | None = None) -> int:
+            v = d.get(key, default)
+            if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= MAX_RECORD_POINTS:
+                raise InputError(f"RelativePoseResult.from_dict: {key!r} must be an integer in [0, {MAX_RECORD_POINTS}], got {v!r}")
+            return v
+
+        def text(key: str) -> str:
             v = d[key]
-            if isinstance(v, bool) or not isinstance(v, int) or v < 0:
-                raise InputError(f"RelativePoseResult.from_dict: {key!r} must be a non-negative integer, got {v!r}")
+            if not isinstance(v, str):
+                raise InputError(f"RelativePoseResult.from_dict: {key!r} must be a string, got {v!r}")
             return v
 
         n = count("num_points")
@@ -334,6 +359,11 @@ class RelativePoseResult(ValueEquality):
             raise InputError(f"RelativePoseResult.from_dict: 'inliers' must be a list of indices below num_points = {n}")
         inliers = np.zeros(n, dtype=bool)
         inliers[idx] = True
+        num_inliers = count("num_inliers")
+        if num_inliers != len(idx) or num_inliers != int(inliers.sum()):
+            raise InputError(f"RelativePoseResult.from_dict: num_inliers = {num_inliers} but 'inliers' holds {len(idx)} indices ({int(inliers.sum())} distinct)")
+        if (d["R"] is None or d["t"] is None or d["E"] is None) != (status == "degenerate") or not (d["R"] is None) == (d["t"] is None) == (d["E"] is None):
+            raise InputError(f"RelativePoseResult.from_dict: R, t and E must be null exactly for status 'degenerate' (status {status!r})")
 
         def opt(key: str, shape: tuple[int, ...]) -> NDArray[np.float64] | None:
             v = d.get(key)
@@ -343,6 +373,7 @@ class RelativePoseResult(ValueEquality):
             v = d.get(key)
             return default if v is None else _read_array(v, key, (n,))
 
+        exact = "residuals_px" in d  # to_dict(exact=True)'s record: non-finite numbers are strings there
         diag = d.get("diagnostics", {})
         if not isinstance(diag, Mapping):
             raise InputError("RelativePoseResult.from_dict: 'diagnostics' must be a mapping")
@@ -353,19 +384,19 @@ class RelativePoseResult(ValueEquality):
             inliers=inliers,
             weights=per_match("weights", inliers.astype(float)),
             residuals_px=per_match("residuals_px", np.full(n, np.nan)),
-            num_inliers=count("num_inliers"),
-            num_iterations=count("num_iterations"),
+            num_inliers=num_inliers,
+            num_iterations=_iterations(d["num_iterations"]),
             status=status,
-            message=str(d["message"]),
-            method=str(d["method"]),
+            message=text("message"),
+            method=text("method"),
             threshold_px=_read_float(d["threshold_px"], "threshold_px"),
             focal_px=_read_float(d["focal_px"], "focal_px"),
             parallax_deg=_read_float(d.get("parallax_deg"), "parallax_deg"),
             R_twin=opt("R_twin", (3, 3)),
             t_twin=opt("t_twin", (3,)),
-            twin_inliers=int(d.get("twin_inliers", 0)),
+            twin_inliers=count("twin_inliers", 0),
             time_s=_read_float(d.get("time_s", 0.0), "time_s"),
-            diagnostics={str(k): _read_diagnostic(v, str(k)) for k, v in diag.items()},
+            diagnostics={str(k): _read_diagnostic(v, str(k), exact) for k, v in diag.items()},
             rotation_covariance=opt("rotation_covariance", (3, 3)),
             translation_covariance=opt("translation_covariance", (3, 3)),
         )

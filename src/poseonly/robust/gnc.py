@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _core
+from .._equality import ValueEquality
 from ..estimator import Estimator, lirp_estimator
 
 __all__ = ["GNCOptions", "gnc_irls_batch", "GNCBatchResult", "GNCResult", "CYCLE_MAX_PERIOD", "MAD_TO_SIGMA"]
@@ -117,8 +118,8 @@ class GNCBatchResult:
     converged: np.ndarray
 
 
-@dataclass
-class GNCResult:
+@dataclass(eq=False)
+class GNCResult(ValueEquality):
     """GNC-IRLS output for one problem (:func:`poseonly.gnc_irls`): the pose ``R (3, 3)``, ``t (3,)``
     (``X2 = R X1 + t``, unit), the final ``weights (n,)`` and ``residuals (n,)`` of that pose, the
     final noise bound ``c`` (radians), ``num_iterations`` and whether the loop ``converged``."""

@@ -143,7 +143,8 @@ def lirp_checked(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None, rank_tol:
     """:func:`lirp` on input already validated (unit bearings ``(n, 3)`` float64 C-contiguous, ``n >= 6``,
     weights ``(n,)`` finite and non-negative or ``None``; ``0 < rank_tol < 1``): the public
     :func:`poseonly.lirp` validates once and calls this. One core call (``_core.lirp_one``); ``R, t``
-    are copies of the best candidate's rows of ``candidates_R/t``, ``E = [t]x R``."""
+    are copies of the best candidate's rows of ``candidates_R/t``, ``E = [t]x R`` (NaN for a degenerate
+    ``A``, whose ``best`` still names the least-cost candidate)."""
     if w is not None:  # relative weights at most 1: the singular values and weight sums stay finite
         wmax = float(w.max())  # (uniform 1e308 overflowed them, 5e-324 the reciprocal: a wrong pose)
         if wmax > 0.0 and wmax != 1.0:
