@@ -2,7 +2,8 @@
 
 Compiles ``benchmarks/drivers/lirp_driver.cpp`` against ``src/core`` with the package's own compiler
 flags (``-O3 -fno-math-errno -fno-trapping-math -ffp-contract=off``, the AVX2 clones; Eigen from the
-``cmeel-eigen`` wheel, ``pip install cmeel-eigen``) and runs it under ``valgrind --tool=callgrind``:
+``cmeel-eigen`` wheel, ``pip install cmeel-eigen``, or ``pip install --target DIR cmeel-eigen`` and
+``PYTHONPATH=DIR``) and runs it under ``valgrind --tool=callgrind``:
 instruction counts do not depend on the machine's load, unlike the times of ``poseonly bench speed``.
 Prints the instructions per ``lirp()`` call and the inclusive share of its main routines.
 
