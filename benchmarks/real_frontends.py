@@ -2,7 +2,7 @@
 
     python benchmarks/real_frontends.py DIR [DIR ...] [--front-end sift-1600 sift-1024 orb]
         [--seeds 3] [--methods poseonly poselib-1px poselib-2px opencv-magsac] [--cache /tmp/frontend_cache]
-        [--out DIR] [--realpairs-sample N] [--status-table METHOD]
+        [--out DIR] [--realpairs-sample N] [--status-table METHOD] [--max-pairs N]
 
 ``poseonly bench real`` matches full-resolution SIFT. Pipelines often resize first (hloc to 1024 or
 1600 px, COLMAP to 3200), which scales the keypoints' noise in full-resolution pixels by the inverse
@@ -86,6 +86,14 @@ JPEG_QUALITY = 20  # "jpeg20"
 ORB_SMALL_FEATURES = 500  # "orb500"
 CONTRIB = {"brisk": "BRISK", "akaze": "AKAZE"}  # detectors some OpenCV builds lack
 REFERENCE = "poselib-1px"  # the status table's reference (its "PL")
+
+
+def _trial_features_name(det: str, prep: str) -> str:
+    """The cache name of a trial front-end's features: detector, preparation and OpenCV's version (the
+    matches index the features, so features of another OpenCV must not meet cached matches; a review)."""
+    import cv2
+
+    return f"{det}-{prep}-opencv{cv2.__version__}"
 
 
 def _key(path: Path, front_end: str) -> str:
@@ -218,7 +226,7 @@ def prepared_features(path: Path, front_end: str, cache: Path) -> tuple[np.ndarr
     from poseonly._fileutil import atomic_savez
 
     det, prep, _ = TRIAL_FRONT_ENDS[front_end]
-    name = f"{det}-{prep}"
+    name = _trial_features_name(det, prep)
     f = cache / "features" / f"{name}_{_key(path, name)}.npz"
     if f.is_file():
         with np.load(f) as z:
@@ -261,7 +269,8 @@ def cached_frontend_matches(p1: Path, p2: Path, front_end: str, d1: np.ndarray, 
     from poseonly._fileutil import atomic_savez
 
     det, prep, ratio = TRIAL_FRONT_ENDS[front_end]
-    key = hashlib.sha256(json.dumps([_key(p1, f"{det}-{prep}"), _key(p2, f"{det}-{prep}"), ratio]).encode()).hexdigest()[:32]
+    name = _trial_features_name(det, prep)
+    key = hashlib.sha256(json.dumps([_key(p1, name), _key(p2, name), ratio]).encode()).hexdigest()[:32]
     f = cache / "matches" / f"{front_end}_{key}.npz"
     if f.is_file():
         with np.load(f) as z:

@@ -10,7 +10,7 @@ import pytest
 from poseonly import _core, estimate_relative_pose, sim
 from poseonly.analysis import pose_uncertainty
 from poseonly.colmap_verify import STATUS_CONFIG
-from poseonly.geometry import rotation_error_deg
+from poseonly.geometry import normalize, rotation_error_deg, rotation_from_rotvec
 from poseonly.residuals import v_sampson
 from poseonly.result import STATUSES
 from reference.pose_covariance import pose_covariance as reference_covariance
@@ -149,6 +149,21 @@ def test_truncated_scale_recovers_the_noise():
     inl = (v < 0.05 * sigma).astype(float)
     Cr, _, s, _, ok = _core.pose_covariance(sc.R, sc.t, sc.f1, sc.f2, inl, 0.05 * sigma)
     assert not ok and s == np.inf and np.all(np.isinf(Cr))
+
+
+@pytest.mark.parametrize("noise_px", [0.1, 0.5, 1.0])
+def test_the_wide_band_floor_keeps_the_chord_scale(noise_px):
+    """The noise check's wide-band scale floors the covariance's sigma; for a rotation-only fit (chords)
+    that scale is already the chord's, sqrt(2) times the per-coordinate noise, and must not be scaled
+    by sqrt(2) again (a review: pure rotations' sigma and deviation were sqrt(2) too large)."""
+    rng = np.random.default_rng(3)
+    f1 = normalize(np.c_[rng.uniform(-0.5, 0.5, (1000, 2)), np.ones(1000)])
+    R = rotation_from_rotvec(np.radians([1.0, 2.0, 0.5]))
+    s = noise_px / 800.0
+    g1 = normalize(f1 + rng.normal(0.0, s, (1000, 3)) * np.array([1.0, 1.0, 0.0]))  # both views noisy
+    f2 = normalize(normalize(f1 @ R.T) + rng.normal(0.0, s, (1000, 3)) * np.array([1.0, 1.0, 0.0]))
+    unc = pose_uncertainty(R, None, g1, f2, np.ones(1000, bool), threshold=20 * s)
+    assert unc["noise_sigma"] == pytest.approx(np.sqrt(2.0) * s, rel=0.1)
 
 
 def test_covariance_input_edge_cases():

@@ -136,8 +136,11 @@ def pose_uncertainty(R: np.ndarray, t: np.ndarray | None, f1: np.ndarray, f2: np
             # both estimate the noise where the threshold resolves it; the inliers' is pulled in by a pose
             # fitted to them (more so where the noise nears the threshold), the wide band's less: the
             # larger one is the noise scale (synthetic: median error / deviation 1.67 -> 1.44 with < 40
-            # inliers, 5.8 -> 4.2 at noise above the threshold; docs/RESULTS_real.md, "Pose uncertainty")
-            noise_floor = max(noise_floor, float(s_wide))
+            # inliers, 5.8 -> 4.2 at noise above the threshold; docs/RESULTS_real.md, "Pose uncertainty").
+            # Wrong matches inside the wide band raise it (conservative: at most the threshold, as the
+            # check above bounds it). For chords s_wide is already the chord scale, which the core's floor
+            # would multiply by sqrt(2) again (a review: pure rotations' sigma was sqrt(2) too large)
+            noise_floor = max(noise_floor, float(s_wide) if t is not None else float(s_wide) / np.sqrt(2.0))
     Cr, Ct, sigma, _, ok = _core.pose_covariance(_c(R), tt, _c(f1), _c(f2), np.ascontiguousarray(inl, dtype=float), threshold=float(threshold), noise_floor=noise_floor)
     if not ok:
         return {"rotation_covariance": None, "translation_covariance": None, "rotation_std_deg": np.inf, "translation_std_deg": np.inf, "noise_sigma": float(sigma)}
