@@ -38,7 +38,7 @@ import numpy as np
 import poseonly
 from poseonly import InputError
 from poseonly.options import OPTIONS
-from poseonly.result import STATUSES
+from poseonly.result import STATUSES, RelativePoseResult
 from poseonly.sim import default_K, make_scene
 
 FAST = {"max_iterations": 150, "min_iterations": 20}
@@ -146,6 +146,9 @@ def check_result(r, n: int) -> None:
         need(np.abs(r.R.T @ r.R - np.eye(3)).max() < 1e-6 and np.linalg.det(r.R) > 0, "R not a rotation")
         need(abs(np.linalg.norm(r.t) - 1.0) < 1e-9, "t not unit")
     json.dumps(r.to_dict(), allow_nan=False)
+    # the exact record reads back to an equal result (RelativePoseResult.from_dict, eighteenth session)
+    back = RelativePoseResult.from_dict(json.loads(json.dumps(r.to_dict(exact=True), allow_nan=False)))
+    need(back == r, "to_dict(exact=True) does not read back equal")
 
 
 def _array(rng, n=None, c=None):
