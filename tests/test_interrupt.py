@@ -60,3 +60,121 @@ def test_a_search_in_a_daemon_thread_does_not_abort_interpreter_exit():
     shutdown aborted the process ("terminate called without an active exception", a review)."""
     r = subprocess.run([sys.executable, "-c", THREAD_CODE], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0 and r.stdout.strip() == "exit", (r.returncode, r.stderr[-2000:])
+
+
+def _random_bearings(n: int, seed: int = 0):
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    f1, f2 = rng.standard_normal((n, 3)), rng.standard_normal((n, 3))
+    f1[:, 2], f2[:, 2] = np.abs(f1[:, 2]) + 1.0, np.abs(f2[:, 2]) + 1.0
+    return f1 / np.linalg.norm(f1, axis=1, keepdims=True), f2 / np.linalg.norm(f2, axis=1, keepdims=True)
+
+
+def test_a_cancel_flag_ends_a_search_in_a_worker_thread():
+    """A search in a worker thread reads its CancelFlag without the GIL: set() from another thread ends it
+    with SearchCancelled (run to its end, 100000 draws on 30000 random matches, it would return a pose)."""
+    import threading
+
+    from poseonly import _core
+    from poseonly.robust.cancel import CancelFlag, SearchCancelled
+
+    f1, f2 = _random_bearings(30000)
+    flag, out = CancelFlag(), []
+
+    def run():
+        try:
+            _core.ransac_relpose(f1, f2, 1e-3, 7, max_iterations=100000, min_iterations=100000, cancel=flag)
+            out.append("finished")
+        except SearchCancelled:
+            out.append("cancelled")
+
+    th = threading.Thread(target=run)
+    th.start()
+    time.sleep(0.5)
+    assert not flag.is_set()
+    flag.set()
+    th.join(timeout=120)
+    assert out == ["cancelled"] and flag.is_set()
+
+
+def test_a_flag_never_set_changes_no_result():
+    import numpy as np
+
+    from poseonly import _core
+    from poseonly.robust.cancel import CancelFlag
+
+    f1, f2 = _random_bearings(300, seed=1)
+    a = _core.ransac_relpose(f1, f2, 1e-2, 3, max_iterations=2000, min_iterations=500)
+    b = _core.ransac_relpose(f1, f2, 1e-2, 3, max_iterations=2000, min_iterations=500, cancel=CancelFlag())
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+    assert a[2].keys() == b[2].keys() and all(np.array_equal(a[2][k], b[2][k]) for k in a[2])
+
+
+BATCH_CODE = """
+import time, numpy as np, poseonly
+rng = np.random.default_rng(0)
+K = np.array([[800.0, 0.0, 500.0], [0.0, 800.0, 500.0], [0.0, 0.0, 1.0]])
+pairs = [poseonly.Pair(rng.uniform(0, 1000, (60000, 2)), rng.uniform(0, 1000, (60000, 2)), key=k, K1=K, K2=K) for k in range(4)]
+print("start", flush=True)
+t0 = time.perf_counter()
+try:
+    for r in poseonly.estimate_relative_poses(pairs, n_jobs=2, backend="threads", max_iterations=100000, min_iterations=100000):
+        print("result", r.key, flush=True)
+    print("finished", time.perf_counter() - t0, flush=True)
+except KeyboardInterrupt:
+    print("interrupted", time.perf_counter() - t0, flush=True)
+"""
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_ctrl_c_ends_a_batch_on_threads_at_once():
+    """The batch sets its threads' flag when Ctrl-C unwinds it: the two searches running in worker threads
+    (tens of seconds each) end with it instead of being waited for (7.7 s in a review's run)."""
+    p = subprocess.Popen([sys.executable, "-c", BATCH_CODE], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert p.stdout is not None
+        assert p.stdout.readline().strip() == "start"
+        time.sleep(1.5)
+        sent = time.perf_counter()
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=120)
+        waited = time.perf_counter() - sent
+    finally:
+        p.kill()
+    assert out.startswith("interrupted"), (out, err[-2000:])
+    assert waited < 5.0, waited
+
+
+def test_a_batch_on_threads_that_its_caller_leaves_cancels_its_running_searches(monkeypatch):
+    """Closing the iterator of a batch on threads sets the flag of its running chunks: their searches end
+    with SearchCancelled (recorded here) instead of running to their end."""
+    import numpy as np
+
+    import poseonly
+    from poseonly import batch
+    from poseonly.robust.cancel import SearchCancelled
+
+    outcomes: list[tuple[object, str]] = []
+    real = batch._run_chunk
+
+    def recording(chunk, options, flag=None):
+        try:
+            res = real(chunk, options, flag)
+        except SearchCancelled:
+            outcomes.append((chunk[0][1].key, "cancelled"))
+            raise
+        outcomes.append((chunk[0][1].key, "finished"))
+        return res
+
+    monkeypatch.setattr(batch, "_run_chunk", recording)
+    rng = np.random.default_rng(0)
+    K = np.array([[800.0, 0.0, 500.0], [0.0, 800.0, 500.0], [0.0, 0.0, 1.0]])
+    quick = poseonly.Pair(rng.uniform(0, 1000, (50, 2)), rng.uniform(0, 1000, (50, 2)), key="quick", K1=K, K2=K)
+    slow = [poseonly.Pair(rng.uniform(0, 1000, (30000, 2)), rng.uniform(0, 1000, (30000, 2)), key=k, K1=K, K2=K) for k in range(2)]
+    it = poseonly.estimate_relative_poses([quick, *slow], n_jobs=2, backend="threads", chunk_size=1, min_iterations=100000, max_iterations=100000)
+    first = next(it)
+    time.sleep(0.5)  # both slow searches run (the first worker took the second when the quick pair was done)
+    it.close()
+    assert first.key == "quick"
+    assert sorted(outcomes, key=str) == sorted([("quick", "finished"), (0, "cancelled"), (1, "cancelled")], key=str), outcomes

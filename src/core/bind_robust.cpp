@@ -11,6 +11,7 @@
 #include "sampling.h"
 
 #include <algorithm>
+#include <atomic>
 #include <numeric>
 
 namespace poseonly {
@@ -142,13 +143,24 @@ class PythonSignals {
   PyObject* tb_ = nullptr;
 };
 
+// A cancellation flag that a search in any thread reads every kInterruptEvery draws without the GIL (a
+// batch on threads sets it when Ctrl-C comes or its caller stops iterating: the searches running then
+// waited to their end, 7.7 s in a review's run, since only the main thread runs Python's signal handlers)
+struct CancelFlag {
+  std::atomic<bool> value{false};
+};
+// raised (as poseonly._core.SearchCancelled) by a search that a CancelFlag ended
+struct SearchCancelled : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double threshold, uint64_t seed, int solver, int scoring,
                          int max_iterations, int min_iterations, double confidence, int max_lo, double lo_mu0, int lo_iterations,
                          int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order,
                          int lo, double rival_distance, bool chiral, int min_hits, int challengers, double challenger_distance,
                          int lo_max_points, bool keypoint_once, bool progressive_stop, double floor_parallax,
                          int min_iterations_parallax, bool progressive_expected, int progressive_min_draws, int prosac_trials,
-                         double min_inlier_ratio, bool check_signals) {
+                         double min_inlier_ratio, bool check_signals, const CancelFlag* cancel) {
   const Points P = points_of(f1, f2);
   if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
   if (min_hits < 1 || min_hits > 64) throw std::invalid_argument("min_hits must be in [1, 64]");
@@ -187,7 +199,11 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   PythonSignals signals;
   // only in Python's main thread, where its handlers run: elsewhere taking the GIL every 64 draws slowed a
   // search beside busy Python 10x and aborted the process at interpreter exit (a review)
-  if (check_signals) ro.interrupted = [&signals]() { return signals(); };
+  if (check_signals || cancel) {
+    ro.interrupted = [&signals, check_signals, cancel]() {
+      return (cancel && cancel->value.load(std::memory_order_relaxed)) || (check_signals && signals());
+    };
+  }
   {
     nb::gil_scoped_release release;
     RelativePoseEstimator est(P, eo);
@@ -197,6 +213,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
     d_groups = K.num_groups();
   }
   signals.rethrow();  // Ctrl-C / SIGTERM during the search
+  if (st.interrupted && cancel) throw SearchCancelled("the search was cancelled (its CancelFlag was set)");
   std::vector<double> R(9), t(3), Rr(9), tr(3);
   put_pose(best, R.data(), t.data());
   put_pose(rival, Rr.data(), tr.data());
@@ -553,6 +570,11 @@ nb::tuple ransac_python(nb::object est, int sample_size, int n, bool has_refine,
 POSEONLY_BIND(robust) {
   using namespace poseonly;
   using Order = std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>;
+  nb::class_<CancelFlag>(m, "CancelFlag", "a flag that ends the searches given it (ransac_relpose's `cancel`) within 64 draws of set()")
+      .def(nb::init<>())
+      .def("set", [](CancelFlag& f) { f.value.store(true, std::memory_order_relaxed); })
+      .def("is_set", [](const CancelFlag& f) { return f.value.load(std::memory_order_relaxed); });
+  nb::exception<SearchCancelled>(m, "SearchCancelled");
   m.def("ransac_relpose", &ransac_relpose, nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"), nb::arg("seed"), nb::arg("solver") = 0,
         nb::arg("scoring") = 1, nb::arg("max_iterations") = 100000, nb::arg("min_iterations") = 50, nb::arg("confidence") = 0.999,
         nb::arg("max_lo") = 8, nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1,
@@ -560,9 +582,10 @@ POSEONLY_BIND(robust) {
         nb::arg("challengers") = 0, nb::arg("challenger_distance") = 1.0, nb::arg("lo_max_points") = 0, nb::arg("keypoint_once") = false,
         nb::arg("progressive_stop") = false, nb::arg("floor_parallax") = 0.0, nb::arg("min_iterations_parallax") = 0,
         nb::arg("progressive_expected") = false, nb::arg("progressive_min_draws") = 0, nb::arg("prosac_trials") = 0,
-        nb::arg("min_inlier_ratio") = 0.0, nb::arg("check_signals") = false,
+        nb::arg("min_inlier_ratio") = 0.0, nb::arg("check_signals") = false, nb::arg("cancel").none() = nb::none(),
         "LO-RANSAC of minimal hypotheses (check_signals: run Python's signal handlers every 64 draws and raise their "
-        "exception, for a call from the main thread) (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
+        "exception, for a call from the main thread; cancel: a CancelFlag read every 64 draws, in any thread, whose set() "
+        "ends the search with SearchCancelled) (solver 0: 5-point, 1: LiRP on 6 points) on bearings (n, 3) with the "
         "Sampson error against `threshold` (radians); scoring 0 msac, 1 multi-scale msac, 2 count; `order` "
         "(a permutation, best match first) switches to PROSAC; lo 0: LiRP GNC-IRLS, 1: Sampson LM; chiral: a match "
         "whose point is behind either camera scores as an outlier; rival_distance > 0 (degrees) also returns the best model that far "

@@ -41,6 +41,7 @@ from ._equality import ValueEquality
 from .api import RelativePoseResult, estimate_relative_pose
 from .geometry import InputError
 from .options import SEED_LIMIT
+from .robust.cancel import CancelFlag, cancellable
 
 __all__ = ["AUTO_THREADS_MAX_PAIRS", "BACKENDS", "DASK_CHUNK", "POOL_CHUNK", "Pair", "PairResult", "canonical_key", "estimate_relative_poses", "pair_seed"]
 
@@ -247,9 +248,13 @@ def _run_one(index: int, pair: Pair, options: dict[str, Any]) -> PairResult:
     return PairResult(index, pair.key, seed, r)
 
 
-def _run_chunk(chunk: list[tuple[int, Pair]], options: dict[str, Any]) -> list[PairResult]:
-    """Worker task: the pairs of one chunk, in order."""
-    return [_run_one(i, p, options) for i, p in chunk]
+def _run_chunk(chunk: list[tuple[int, Pair]], options: dict[str, Any], flag: CancelFlag | None = None) -> list[PairResult]:
+    """Worker task: the pairs of one chunk, in order; with ``flag`` (a worker thread), its searches end
+    with :class:`~poseonly.robust.cancel.SearchCancelled` once the batch sets it."""
+    if flag is None:
+        return [_run_one(i, p, options) for i, p in chunk]
+    with cancellable(flag):
+        return [_run_one(i, p, options) for i, p in chunk]
 
 
 def _chunks(pairs: Iterable[Any], size: int) -> Iterator[list[tuple[int, Pair]]]:
@@ -447,8 +452,13 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
     from multiprocessing.context import BaseContext
 
     ex: Executor
+    # threads: set when the batch stops (Ctrl-C, an error, the caller stopped iterating), so that the
+    # searches running then end within 64 draws instead of running to their end (workers of a process
+    # pool stop at once when it shuts down)
+    flag: CancelFlag | None = None
     if backend == "threads":
         ex = ThreadPoolExecutor(max_workers=n_jobs, thread_name_prefix="poseonly")
+        flag = CancelFlag()
     else:
         # workers never fork the caller (no inherited threads or locks): a fork server started from a
         # clean interpreter that has imported poseonly once forks them where available (POSIX), else
@@ -467,7 +477,7 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
     try:
         pending: set[Any] = set()
         while len(pending) < limit and (c := chunks.next()) is not None:
-            pending.add(ex.submit(_run_chunk, c, options))
+            pending.add(ex.submit(_run_chunk, c, options, flag))
         started = False  # a chunk finished: the workers got past their start-up
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
@@ -483,9 +493,11 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
                 yield res
                 nxt = chunks.next()
                 if nxt is not None:
-                    pending.add(ex.submit(_run_chunk, nxt, options))
+                    pending.add(ex.submit(_run_chunk, nxt, options, flag))
         chunks.raise_error()
     finally:  # also when the caller stops iterating early: queued chunks are dropped, not run
+        if flag is not None:
+            flag.set()
         ex.shutdown(wait=True, cancel_futures=True)
 
 

@@ -24,6 +24,7 @@ import numpy as np
 from .. import _core
 from ..estimator import Estimator, lirp_estimator
 from ..residuals import Residual, get_residual
+from . import cancel
 from .gnc import GNCOptions
 
 __all__ = ["RansacResult", "ransac_relpose", "search_cost", "gnc_ransac", "sample_indices", "core_seed", "SCORINGS", "prosac_order"]
@@ -200,6 +201,7 @@ def ransac_relpose(
         int(prosac_trials),
         float(min_inlier_ratio),
         threading.current_thread() is threading.main_thread(),  # Ctrl-C during the search (main thread only)
+        cancel.current(),  # a batch's worker threads: the batch's flag (SearchCancelled once it is set)
     )
     v = get_residual("sampson").unchecked(R, t, f1, f2)
     return RansacResult(
