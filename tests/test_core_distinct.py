@@ -8,8 +8,8 @@ import pytest
 
 from poseonly import _core
 from poseonly.analysis import LOCAL_SUPPORT_K, LOCAL_SUPPORT_MIN, _locally_supported
-from poseonly.result import distinct_rows
 from poseonly.sim import make_scene
+from poseonly.status import distinct_rows
 from reference import neighbours as ref_nb
 
 

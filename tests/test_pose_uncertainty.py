@@ -228,8 +228,7 @@ def test_duplicated_matches_count_once_for_the_status():
     """Twelve matches given twice are twelve observations: below min_inliers = 15, whatever the 24 rows
     (before: 24 inliers and an NFA of 10^-17 from the doubled count, status ok). The NFA counts the
     distinct inliers among the distinct matches."""
-    from poseonly.analysis import log10_nfa
-    from poseonly.result import POSE_DOF
+    from poseonly.analysis import POSE_DOF, log10_nfa
 
     sc = sim.make_scene(12, camera="pinhole", noise_px=0.3, seed=1)
     r = estimate_relative_pose(np.r_[sc.u1, sc.u1], np.r_[sc.u2, sc.u2], sc.K, sc.K, seed=0)
@@ -245,7 +244,7 @@ def test_near_duplicate_matches_count_once_for_the_status():
     detected again and again) among 300-500 random ones were `ok` in 7 of 40 draws, with deviations of
     0.007-0.037 deg: exact duplicates counted once, near ones did not. Within NEAR_DUPLICATE_PX in both
     views they are one observation; and distinct_rows groups them."""
-    from poseonly.result import NEAR_DUPLICATE_PX, distinct_rows
+    from poseonly.status import NEAR_DUPLICATE_PX, distinct_rows
 
     W, H, f = 1280, 720, 1000.0
     K = np.array([[f, 0, W / 2], [0, f, H / 2], [0, 0, 1]])
@@ -320,7 +319,7 @@ def test_a_pose_of_another_objective_carries_its_offset_from_least_squares(metho
 def test_the_estimator_spread_ignores_the_translation_sign():
     """The refit's t takes the sign most inliers put in front; the Sampson errors do not see the sign, so
     a pose given with -t is as far from the refit as with t (a review: 179.97 deg of translation spread)."""
-    from poseonly.result import _with_estimator_spread
+    from poseonly.status import _with_estimator_spread
 
     sc = sim.make_scene(200, camera="pinhole", noise_px=0.5, seed=3)
     r = estimate_relative_pose(sc.u1, sc.u2, sc.K, sc.K, method="lirp")

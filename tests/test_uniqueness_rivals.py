@@ -1,5 +1,5 @@
 """The uniqueness test compares the pose with every basin the search kept, not only its best rival
-(``poseonly.robust.default.rival_candidates``, ``poseonly.result.finish``)."""
+(``poseonly.robust.default.rival_candidates``, ``poseonly.status.finish``)."""
 
 from __future__ import annotations
 

@@ -58,7 +58,7 @@ TWIN_SUPPORT_RATIO = 0.9
 TWIN_MIN_SEPARATION_DEG = 1.0
 # a twin as well supported whose summed squared errors exceed the pose's by at most this many noise
 # variances (twin_cost_excess; chi-square with 5 degrees of freedom at 95 %) fits as well: its distance
-# is part of the pose's uncertainty (poseonly.result.finish)
+# is part of the pose's uncertainty (poseonly.status.finish)
 TWIN_SPREAD_CHI2 = 11.07
 CHANCE_SEED = 20240611
 # support counts cap the threshold here (radians; v_sampson_chiral is 1 where a depth is not positive)

@@ -60,13 +60,14 @@ from .estimator import lirp_estimator
 from .geometry import InputError, as_bearings, as_real_array, check_correspondences, check_intrinsics, opencv_points, pair_focal
 from .options import OPTIONS, PoseonlyOptions, Spec, check_angle, check_value, parse_options
 from .quantization import check_coordinate_step, grid_step, rounding_sigma_px
-from .result import RelativePoseResult, degenerate_result, finish
+from .result import RelativePoseResult
 from .robust.default import make_rng, run_poseonly
 from .robust.gnc import GNCOptions, GNCResult, gnc_irls_batch
 from .robust.methods import RUNNERS
 from .robust.ransac import RansacResult
 from .robust.ransac import gnc_ransac as _gnc_ransac_loop
 from .solvers.lirp import LiRPResult, lirp_checked
+from .status import degenerate_result, finish
 
 __all__ = [
     "DEFAULT_METHOD",

@@ -24,7 +24,7 @@ def neighbour_consistency(f1: np.ndarray, f2: np.ndarray, k: int) -> np.ndarray:
 
 
 def distinct_rows(f1: np.ndarray, f2: np.ndarray, tol: float = 0.0) -> np.ndarray | None:
-    """poseonly.result.distinct_rows as it was in numpy (thirteenth session). Indices (ascending) of the first match of each group of repeated matches, or ``None`` where every
+    """poseonly.status.distinct_rows as it was in numpy (thirteenth session). Indices (ascending) of the first match of each group of repeated matches, or ``None`` where every
     match is distinct. ``f1, f2 (n, 3)`` unit bearings; two matches repeat each other when their rows are
     identical or, with ``tol > 0`` (radians), within ``tol`` of each other in both views (chord
     distance); groups are the connected components of that relation."""

@@ -361,7 +361,7 @@ def _better_rival(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, 
     pose 5.2 deg off returned `ambiguous`, the rival 0.1 deg off explaining 165 matches the pose did not
     against 96). The score alone swapped too often on the temple's few, narrow matches (AUC@10 88.35 ->
     88.11 over three seeds), where the two are about equal. The better one is returned and the other
-    takes its place among the rivals, for the uniqueness test of :func:`poseonly.result.finish`
+    takes its place among the rivals, for the uniqueness test of :func:`poseonly.status.finish`
     (``diag["rival_swapped"]``; the rivals are then ordered by that score, best first, and
     ``diag["rival_support_ratio"]`` is the best rival's score over the returned pose's;
     ``diag["ransac_score"]`` stays the search's own)."""
@@ -590,7 +590,7 @@ def leverage_test(
     against ``(R, t)`` (the cross-fit compares with the search's pose at the larger of the search
     threshold and the decision; here both poses are ML fits of the same mixture). Returns ``(R, t,
     vetoed)``; ``diag`` gets the group's size and the others' fit (``leverage_others_R``, ``_t``), whose
-    distance from the returned pose :func:`poseonly.result.finish` adds to the covariance."""
+    distance from the returned pose :func:`poseonly.status.finish` adds to the covariance."""
     c = np.ascontiguousarray
     decision = float(m["decision_gauss"])
     if not decision > 0 or not valid_pose(R, t):  # (a search that scored no hypothesis leaves a placeholder R; the fuzz)
@@ -640,7 +640,7 @@ def _leverage_spread(
 ) -> dict[str, float]:
     """The distances (degrees) of the returned pose ``(R, t)`` from the least-squares fit of the inliers
     without the high-leverage group (``others``: its ``R, t``, the mask of its matches and the decision
-    threshold that selected them), which :func:`poseonly.result.finish` adds to the covariance: the group's
+    threshold that selected them), which :func:`poseonly.status.finish` adds to the covariance: the group's
     matches, whose residuals cannot vouch for them, may be wrong. The translation direction's always; the
     rotation's where significant, beyond the chi-square gate of the others' fit's own first-order
     covariance (``poseonly.analysis.pose_uncertainty``'s), else 0: the rotation decides the status, and
@@ -718,7 +718,7 @@ def run_poseonly(
         diag.update(num_challenger_lo=int(r.stats["num_challenger_lo"]), challenger_won=bool(r.stats["challenger_won"]))
         diag["num_hypotheses"] += int(r.stats["num_challenger_lo"])
     if o.rival_distance > 0 and np.isfinite(float(r.stats.get("rival_cost", np.inf))):
-        # the uniqueness test's rivals (decided in poseonly.result.finish): the best model the search
+        # the uniqueness test's rivals (decided in poseonly.status.finish): the best model the search
         # scored rival_distance or more from its result and the other basins it optimised, each
         # refined as the result was
         diag["rival_support_ratio"] = rival_support_ratio(r, len(f1), tau, o.scoring)
@@ -736,7 +736,7 @@ def run_poseonly(
                 Rc, tc, _ = _core.refine_sampson(c(R), c(t), c(f1[inl]), c(f2[inl]), None, loss="cauchy", loss_scale=float(tau), max_iterations=100, tol=1e-12)
                 if np.all(np.isfinite(Rc)) and np.all(np.isfinite(tc)):
                     R, t = Rc, tc
-                    diag["sampson_final"] = True  # the pose is a Sampson fit: no estimator spread (result.finish)
+                    diag["sampson_final"] = True  # the pose is a Sampson fit: no estimator spread (status.finish)
         return R, t, None, r.num_iterations, diag
     if o.final == "ml":
         diag["tau_effective"] = tau
@@ -770,7 +770,7 @@ def run_poseonly(
                 R0, t0 = R, t
                 R, t, m = best
                 # the ML pose (or the cross-fit's EM pose below) is a Sampson fit: no estimator spread
-                # (result.finish); without it the pose is the pose-only choice's, which may be algebraic
+                # (status.finish); without it the pose is the pose-only choice's, which may be algebraic
                 diag["sampson_final"] = True
                 excluded = None  # the matches the cross-fit removed (its pose's EM did not see them)
                 if o.ml_folds > 1:
