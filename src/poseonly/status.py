@@ -34,7 +34,7 @@ from .analysis import (
 )
 from .geometry import essential_from_pose, rotation_error_deg, valid_pose
 from .options import MAX_ROTATION_STD_DEG
-from .residuals import v_sampson
+from .residuals import ligt_depths, v_sampson
 from .result import RelativePoseResult, Status
 
 __all__ = ["MIN_DISTINCT_MATCHES", "NEAR_DUPLICATE_MAX_RAD", "NEAR_DUPLICATE_PX", "degenerate_result", "distinct_rows", "finish"]
@@ -266,7 +266,9 @@ def finish(
             "coordinates, or normalized coordinates with a K?)"
         )
         return result(few, "too_few_inliers", message)
-    rot = pure_rotation_test(m.g1, m.g2, m.tau_rot, m.distinct(inl), p_pose, num_tests, v_pose=m.distinct(v), noise_floor=noise_floor)
+    h, hp, _ = ligt_depths(R, t, f1, f2)
+    in_front = (h > 0) & (hp > 0)
+    rot = pure_rotation_test(m.g1, m.g2, m.tau_rot, m.distinct(inl), p_pose, num_tests, v_pose=m.distinct(v), noise_floor=noise_floor, in_front=m.distinct(in_front))
     R_rot = rot.pop("R_rotation_only")
     diag.update(rot)
     rot_inl = _rotation_inliers_mask(R_rot, f1, f2, m.tau_rot) if rot["pure_rotation"] else None
