@@ -149,6 +149,8 @@ def test_ctrl_c_ends_a_batch_on_threads_at_once():
 def test_a_batch_on_threads_that_its_caller_leaves_cancels_its_running_searches(monkeypatch):
     """Closing the iterator of a batch on threads sets the flag of its running chunks: their searches end
     with SearchCancelled (recorded here) instead of running to their end."""
+    import threading
+
     import numpy as np
 
     import poseonly
@@ -156,9 +158,12 @@ def test_a_batch_on_threads_that_its_caller_leaves_cancels_its_running_searches(
     from poseonly.robust.cancel import SearchCancelled
 
     outcomes: list[tuple[object, str]] = []
+    started = threading.Semaphore(0)
     real = batch._run_chunk
 
     def recording(chunk, options, flag=None):
+        if chunk[0][1].key != "quick":
+            started.release()
         try:
             res = real(chunk, options, flag)
         except SearchCancelled:
@@ -174,7 +179,9 @@ def test_a_batch_on_threads_that_its_caller_leaves_cancels_its_running_searches(
     slow = [poseonly.Pair(rng.uniform(0, 1000, (30000, 2)), rng.uniform(0, 1000, (30000, 2)), key=k, K1=K, K2=K) for k in range(2)]
     it = poseonly.estimate_relative_poses([quick, *slow], n_jobs=2, backend="threads", chunk_size=1, min_iterations=100000, max_iterations=100000)
     first = next(it)
-    time.sleep(0.5)  # both slow searches run (the first worker took the second when the quick pair was done)
+    # both slow searches run (the first worker takes the second when the quick pair is done)
+    assert started.acquire(timeout=60) and started.acquire(timeout=60)
+    time.sleep(0.2)
     it.close()
     assert first.key == "quick"
     assert sorted(outcomes, key=str) == sorted([("quick", "finished"), (0, "cancelled"), (1, "cancelled")], key=str), outcomes

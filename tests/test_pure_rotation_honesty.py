@@ -150,11 +150,6 @@ def test_shares_keypoint_with_matches_its_definition():
     for trial in range(5):
         other = rng.random(80) < 0.3 + 0.1 * trial
         got = _shares_keypoint_with(f1, f2, other)
-        want = np.array(
-            [
-                any(other[j] and (i1[j], i2[j]) != (i1[k], i2[k]) and (i1[j] == i1[k] or i2[j] == i2[k]) for j in range(80))
-                for k in range(80)
-            ]
-        )
+        want = np.array([any(other[j] and (i1[j], i2[j]) != (i1[k], i2[k]) and (i1[j] == i1[k] or i2[j] == i2[k]) for j in range(80)) for k in range(80)])
         assert np.array_equal(got, want)
     assert not _shares_keypoint_with(pts, np.roll(pts, 1, axis=0), np.ones(12, bool)).any()

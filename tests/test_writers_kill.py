@@ -117,7 +117,7 @@ def test_writer_survives_sigkill(kind, tmp_path):
         time.sleep(float(rng.uniform(0.05, 0.6)))
         t_end = time.time() + 5
         while time.time() < t_end and not _has_temp(tmp_path, proc.pid):
-            pass
+            time.sleep(0.0005)
         proc.send_signal(signal.SIGKILL)
         proc.wait()
         proc.stderr.close()

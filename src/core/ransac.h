@@ -646,6 +646,7 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
   // falls into the best model's basin; one that beats the best replaces it
   // (the search's stopping rule was met for the best model before this phase, not for a winner)
   std::vector<std::pair<Model, double>> final_ch = ch;  // promote() edits ch
+  if (st.interrupted) final_ch.clear();  // the caller discards an interrupted search's result
   std::stable_sort(final_ch.begin(), final_ch.end(), [](const auto& a, const auto& b) { return a.second < b.second; });
   std::vector<std::pair<Model, double>> optimised;  // the challengers that lost, with exact costs
   for (const auto& e : final_ch) {

@@ -30,7 +30,7 @@ from __future__ import annotations
 import hashlib
 import os
 import sys
-from collections.abc import Hashable, Iterable, Iterator, Mapping
+from collections.abc import Generator, Hashable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from types import FrameType
 from typing import Any, Literal, get_args
@@ -41,7 +41,7 @@ from ._equality import ValueEquality
 from .api import RelativePoseResult, estimate_relative_pose
 from .geometry import InputError
 from .options import SEED_LIMIT
-from .robust.cancel import CancelFlag, cancellable
+from .robust.cancel import CancelFlag, SearchCancelled, cancellable
 
 __all__ = ["AUTO_THREADS_MAX_PAIRS", "BACKENDS", "DASK_CHUNK", "POOL_CHUNK", "Pair", "PairResult", "canonical_key", "estimate_relative_poses", "pair_seed"]
 
@@ -253,8 +253,13 @@ def _run_chunk(chunk: list[tuple[int, Pair]], options: dict[str, Any], flag: Can
     with :class:`~poseonly.robust.cancel.SearchCancelled` once the batch sets it."""
     if flag is None:
         return [_run_one(i, p, options) for i, p in chunk]
+    out = []
     with cancellable(flag):
-        return [_run_one(i, p, options) for i, p in chunk]
+        for i, p in chunk:
+            if flag.is_set():  # the batch stopped: the rest of the chunk is not run (other methods do not read the flag)
+                raise SearchCancelled("the batch was stopped")
+            out.append(_run_one(i, p, options))
+    return out
 
 
 def _chunks(pairs: Iterable[Any], size: int) -> Iterator[list[tuple[int, Pair]]]:
@@ -377,6 +382,7 @@ def estimate_relative_poses(
 
 def _generate(pairs, n_jobs, backend, client, chunk_size, progress, retries, options, total) -> Iterator[PairResult]:
     bar = _progress(total, progress)
+    runner: Generator[list[PairResult], None, None] | None = None
     try:
         if client is not None:
             runner = _dask(pairs, client, chunk_size, total, retries, options)
@@ -390,6 +396,10 @@ def _generate(pairs, n_jobs, backend, client, chunk_size, progress, retries, opt
             if bar is not None:
                 bar.update(len(results))
     finally:
+        # close the runner here, not when it is collected: a pool's runner sets its threads' cancel flag
+        # and shuts its workers down in its own finally
+        if runner is not None:
+            runner.close()
         if bar is not None:
             bar.close()
 
@@ -445,7 +455,7 @@ class _Feed:
             raise self._error
 
 
-def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processes") -> Iterator[list[PairResult]]:
+def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processes") -> Generator[list[PairResult], None, None]:
     import multiprocessing as mp
     from concurrent.futures import FIRST_COMPLETED, Executor, ProcessPoolExecutor, ThreadPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
@@ -501,7 +511,7 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
         ex.shutdown(wait=True, cancel_futures=True)
 
 
-def _dask(pairs, client, chunk_size: int | None, total: int | None, retries: int, options) -> Iterator[list[PairResult]]:
+def _dask(pairs, client, chunk_size: int | None, total: int | None, retries: int, options) -> Generator[list[PairResult], None, None]:
     try:
         from dask.distributed import Client, as_completed
     except ImportError as exc:  # name the extra (a packaging trial: a bare "No module named 'dask'")

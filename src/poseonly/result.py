@@ -369,3 +369,18 @@ class RelativePoseResult(ValueEquality):
             rotation_covariance=opt("rotation_covariance", (3, 3)),
             translation_covariance=opt("translation_covariance", (3, 3)),
         )
+
+
+# names that lived here until the status decision moved to poseonly.status
+_MOVED_TO_STATUS = frozenset({"finish", "degenerate_result", "distinct_rows", "NEAR_DUPLICATE_PX", "NEAR_DUPLICATE_MAX_RAD", "MIN_DISTINCT_MATCHES"})
+
+
+def __getattr__(name: str) -> Any:
+    if name in _MOVED_TO_STATUS:
+        import warnings
+
+        from . import status
+
+        warnings.warn(f"poseonly.result.{name} moved to poseonly.status.{name}", DeprecationWarning, stacklevel=2)
+        return getattr(status, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
