@@ -208,3 +208,15 @@ def test_vo_frames_runs(capsys):
     assert vo_frames.main([str(kitti), "--features", "orb", "--pairs", "2"]) == 0
     out = capsys.readouterr().out
     assert "2 consecutive pairs" in out and "poseonly-video" in out and "statuses" in out
+
+
+def test_critical_surfaces_runs(capsys):
+    """benchmarks/critical_surfaces.py end to end on two scenes, one seed."""
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    try:
+        import critical_surfaces
+    finally:
+        sys.path.pop(0)
+    assert critical_surfaces.main(["--scenes", "2", "--seeds", "1", "--noise", "0.5"]) == 0
+    out = capsys.readouterr().out
+    assert "noise 0.5 px:" in out and "of 2;" in out

@@ -147,3 +147,39 @@ def test_after_a_swap_the_rivals_are_best_first_with_their_support_ratio():
     assert scores == sorted(scores, reverse=True) and rotation_error_deg(diag["rival_R"], wrong[0]) < 1e-12
     best = default.msac_chiral(R, t, sc.f1, sc.f2, tau)
     assert 0 <= diag["rival_support_ratio"] < 1 and abs(diag["rival_support_ratio"] - scores[0] / best) < 1e-12
+
+
+def test_critical_surface_generator_is_exact():
+    """Noise-free matches of ``sim_hard.critical_surface`` fit both poses exactly (a 2-D null space of the
+    epipolar system) with every point in front of both cameras under both."""
+    from poseonly.geometry import normalize, rotation_error_deg
+    from poseonly.sim_hard import _midpoint_depths, critical_surface
+
+    for seed in range(3):
+        c = critical_surface(200, noise_px=0.0, seed=seed)
+        Ki = np.linalg.inv(c.K)
+        f1 = normalize(np.c_[c.u1, np.ones(c.n)] @ Ki.T)
+        f2 = normalize(np.c_[c.u2, np.ones(c.n)] @ Ki.T)
+        sv = np.linalg.svd(np.einsum("ni,nj->nij", f2, f1).reshape(-1, 9), compute_uv=False)
+        assert sv[-2] < 1e-12 * sv[0] and sv[-3] > 1e-5 * sv[0]
+        assert rotation_error_deg(c.R, c.R_wrong) > 7.9
+        for R, t in ((c.R, c.t), (c.R_wrong, c.t_wrong)):
+            assert c.t_wrong is not None
+            l1, l2 = _midpoint_depths(R, t, f1, f2)
+            assert np.all(l1 > 0) and np.all(l2 > 0)
+
+
+@pytest.mark.parametrize(("scene", "seeds"), [(16, (2,)), (8, (0, 1, 2))])
+def test_the_search_result_stays_a_rival_when_the_pose_only_choice_leaves_its_basin(scene, seeds):
+    """On a critical surface (two poses fit every match; 0.5 px) the pose-only choice's re-solve on the
+    consensus set can jump to the other solution, and the uniqueness test never saw the search's own
+    result: `ok` (scene 16, seed 2: 9 deg off). The search's result is now a rival of a pose that left its
+    basin: `ambiguous`."""
+    from poseonly import estimate_relative_pose
+    from poseonly.sim_hard import critical_surface
+
+    c = critical_surface(200, noise_px=0.5, seed=scene)
+    for seed in seeds:
+        r = estimate_relative_pose(c.u1, c.u2, c.K, c.K, seed=seed)
+        assert r.status != "ok", (seed, r.message)
+        assert r.diagnostics.get("rival_search_own") is True

@@ -10,6 +10,8 @@ truth is ``X2 = R X1 + t`` with unit ``t``.
   a second, wrong geometry (camera 2 displaced by the period), not random.
 * :func:`second_motion` -- a static scene plus an independently moving rigid object (a car) whose
   matches obey their own epipolar geometry.
+* :func:`critical_surface` -- points on a critical surface: a second pose fits every match exactly,
+  with every point in front of both cameras under both.
 * :func:`low_parallax` -- a small baseline: the rays meet at ~1-2 deg at the scene centre, so the
   translation is weakly determined and the rotation must not pay for it.
 
@@ -26,7 +28,7 @@ import numpy as np
 from .geometry import normalize, rotation_from_rotvec
 from .sim import FOCAL, HEIGHT, WIDTH, default_K
 
-__all__ = ["NOISE_PX", "HardCase", "low_parallax", "repetitive_texture", "second_motion", "structured_first_scores"]
+__all__ = ["NOISE_PX", "HardCase", "critical_surface", "low_parallax", "repetitive_texture", "second_motion", "structured_first_scores"]
 
 NOISE_PX = 0.3  # real SIFT keypoint noise (px per axis)
 INLIER, STRUCTURED, RANDOM = 0, 1, 2
@@ -253,6 +255,66 @@ def low_parallax(
     ga = (_project(K, I3, O3, X)[0], _project(K, R, C, X)[0], INLIER)
     gc = (*_random_matches(rng, k), RANDOM)
     return _finish(rng, "low_parallax", K, R, C, [ga, gc], noise_px, None, None, X)
+
+
+def _midpoint_depths(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Depths ``(l1, l2)`` along ``f1, f2 (m, 3)`` with ``l2 f2 ~ l1 R f1 + t`` (least squares)."""
+    a = f1 @ R.T
+    aa, ff, af = np.sum(a * a, 1), np.sum(f2 * f2, 1), np.sum(a * f2, 1)
+    at, ft = a @ t, f2 @ t
+    den = aa * ff - af * af
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return (-at * ff + af * ft) / den, (aa * ft - af * at) / den
+
+
+def critical_surface(
+    n: int = 200,
+    separation_deg: tuple[float, float] = (8.0, 20.0),
+    noise_px: float = NOISE_PX,
+    seed: int | np.random.Generator | None = 0,
+) -> HardCase:
+    """Points on a critical surface of the two views: every match fits the true pose ``(R, t)`` and a
+    second pose ``(R_wrong, t_wrong)``, its rotation ``separation_deg`` (a range) away, exactly, with
+    every point in front of both cameras under both (the 9-column epipolar system of the noise-free
+    matches has a 2-D null space). Two views cannot tell the two apart; the honest status is not ``ok``.
+
+    Each ray ``X = s d`` of view 1 meets the quadric ``(R X + t)^T [t']x R' X = 0`` at ``s = -(t^T E' d)
+    / (d^T R^T E' d)`` (``E' = [t']x R'``); kept are the points at depth 2-40 in both images and in front
+    of both cameras under both poses (``t'`` with the sign most points take). Camera 2 sits 0.5-2 from
+    camera 1, looking at the point 8 ahead; ``group`` is all inliers."""
+    lo, hi = (float(v) for v in separation_deg)
+    if not 0.0 < lo <= hi < 180.0:
+        raise ValueError(f"separation_deg must be a range in (0, 180), got {separation_deg}")
+    _check_counts(n=n)
+    rng = _rng(seed)
+    K, I3, O3 = default_K(), np.eye(3), np.zeros(3)
+    for _ in range(_MAX_DRAWS):
+        C = normalize(rng.standard_normal(3) * np.array([1.0, 1.0, 0.3])) * rng.uniform(0.5, 2.0)
+        R = _look_at(C, np.array([0.0, 0.0, 8.0]), rng, jitter_deg=3.0)
+        t = normalize(-R @ C)
+        R2 = rotation_from_rotvec(normalize(rng.standard_normal(3)) * np.radians(rng.uniform(lo, hi))) @ R
+        t2 = normalize(t + rng.normal(0.0, rng.uniform(0.1, 1.0), 3))
+        E2 = np.array([[0.0, -t2[2], t2[1]], [t2[2], 0.0, -t2[0]], [-t2[1], t2[0], 0.0]]) @ R2  # [t2]x R2
+        m = 40 * n
+        u = np.column_stack([rng.uniform(0, WIDTH, m), rng.uniform(0, HEIGHT, m)])
+        d = np.column_stack([(u - [WIDTH / 2, HEIGHT / 2]) / FOCAL, np.ones(m)])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s_ray = -(d @ (E2.T @ (-R @ C))) / np.einsum("ij,jk,ik->i", d, R.T @ E2, d)
+        X = d * s_ray[:, None]
+        keep = np.isfinite(s_ray) & (s_ray > 2.0) & (s_ray < 40.0)
+        keep &= _project(K, I3, O3, np.where(keep[:, None], X, 1.0))[1] & _project(K, R, C, np.where(keep[:, None], X, 1.0))[1]
+        X = X[keep]
+        f1, f2 = normalize(X), normalize(X @ R.T - R @ C)
+        l1, l2 = _midpoint_depths(R2, t2, f1, f2)
+        front, back = (l1 > 0) & (l2 > 0), (l1 < 0) & (l2 < 0)
+        if np.count_nonzero(back) > np.count_nonzero(front):
+            t2, front = -t2, back
+        X = X[front]
+        if len(X) >= n:
+            X = X[:n]
+            g = (_project(K, I3, O3, X)[0], _project(K, R, C, X)[0], INLIER)
+            return _finish(rng, "critical_surface", K, R, C, [g], noise_px, R2, t2, X)
+    raise RuntimeError("could not draw a critical surface with enough visible points")
 
 
 def structured_first_scores(case: HardCase, seed: int | np.random.Generator | None = 0) -> np.ndarray:

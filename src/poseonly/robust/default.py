@@ -215,6 +215,12 @@ def _pose_distance_deg(R1: np.ndarray, t1: np.ndarray, R2: np.ndarray, t2: np.nd
     return float(np.degrees(max(np.arccos(c), np.arccos(ct))))
 
 
+def _model_distance_deg(R1: np.ndarray, t1: np.ndarray, R2: np.ndarray, t2: np.ndarray) -> float:
+    """:func:`_pose_distance_deg` with the translations compared up to sign (``t`` and ``-t`` are one
+    epipolar model, which a re-identification may flip)."""
+    return max(_pose_distance_deg(R1, t1, R2, t2) if float(t1 @ t2) >= 0 else _pose_distance_deg(R1, t1, R2, -t2), 0.0)
+
+
 RIVAL_COST_FACTOR = 1.5  # ransac.h kRivalCostFactor: a rival is scored up to this times the best cost
 SAME_BASIN_DEG = 1.0  # ransac.h challenger_distance: two models this close are one basin
 
@@ -725,6 +731,15 @@ def run_poseonly(
         rivals = [local_optimization(Rv, tv, f1, f2, tau, o) for Rv, tv in rival_candidates(r, o.rival_distance)[: o.rivals]]
         diag.update(rival_R=rivals[0][0], rival_t=rivals[0][1], rival_distance=float(o.rival_distance), rivals=rivals)
     R, t = select_by_support(r.R, r.t, f1, f2, tau)
+    if o.rival_distance > 0 and _model_distance_deg(R, t, r.R, r.t) > o.rival_distance:
+        # the pose-only choice left the search's basin: the search's own result, the best model by the
+        # search's objective, is a rival of the pose returned (on points near a critical surface the
+        # re-solve on the consensus set can jump to the other solution, and the uniqueness test then
+        # never saw the search's pose)
+        own = local_optimization(r.R, r.t, f1, f2, tau, o)
+        rivals = [own, *diag.get("rivals", [])]
+        diag.update(rival_R=own[0], rival_t=own[1], rival_distance=float(o.rival_distance), rivals=rivals, rival_search_own=True)
+        diag.setdefault("rival_support_ratio", 1.0)
     if diag.get("rivals"):
         R, t = _better_rival(R, t, f1, f2, tau, diag)
     if o.final == "cauchy":
