@@ -10,6 +10,7 @@ stacked ``(h, 3, 3)``, ``t (3,)`` or ``(h, 3)``; ``tau`` is an angle (radians).
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -535,7 +536,7 @@ def pure_rotation_test(
     num_pose_tests: float,
     v_pose: np.ndarray | None = None,
     noise_floor: float = 0.0,
-    in_front: np.ndarray | None = None,
+    in_front: np.ndarray | Callable[[], np.ndarray] | None = None,
 ) -> dict[str, Any]:
     """Does a rotation without translation explain the data as well as the pose?
 
@@ -555,7 +556,7 @@ def pure_rotation_test(
     (of the pose's inliers), ``translation_support``
     (pose inliers more than ``EXTRA_FACTOR`` rotation thresholds off the rotation; where the rotation is
     significant, the support significant and the parallax not precise, only those in front of both
-    cameras under the pose (``in_front (n,)`` bool, where given: a match behind a camera contradicts the
+    cameras under the pose (``in_front (n,)`` bool or a function returning it, called only there; where given: a match behind a camera contradicts the
     translation it is to support), whose keypoints no other correspondence the rotation explains uses
     (:func:`_shares_keypoint_with`: a non-mutual matcher pairs a keypoint the rotation already explains
     with the repeated structure's next period, or with its copy where the rotation carries the point out
@@ -588,7 +589,7 @@ def pure_rotation_test(
         # 8 of 9 and 44 of 54 took a view-2 keypoint that a match the rotation explains uses
         ext = ext & ~_shares_keypoint_with(f1, f2, rin)
         if in_front is not None:
-            ext = ext & np.asarray(in_front, bool)
+            ext = ext & np.asarray(in_front() if callable(in_front) else in_front, bool)
         extra = int(np.count_nonzero(_locally_supported(f1, ext, inl | rin)))
         nfa_tr = log10_nfa(extra, int(far.sum()), p_pose, num_pose_tests, 0)
     return {

@@ -266,13 +266,16 @@ def finish(
             "coordinates, or normalized coordinates with a K?)"
         )
         return result(few, "too_few_inliers", message)
-    # in front of both cameras with the sign of t that most of the pose's inliers take (the sign a
-    # method returned may rest on a few matches: t and -t give the same Sampson errors)
-    h, hp, _ = ligt_depths(R, t, f1, f2)
-    in_front, behind = (h > 0) & (hp > 0), (h < 0) & (hp < 0)
-    if np.count_nonzero(behind & inl) > np.count_nonzero(in_front & inl):
-        in_front = behind
-    rot = pure_rotation_test(m.g1, m.g2, m.tau_rot, m.distinct(inl), p_pose, num_tests, v_pose=m.distinct(v), noise_floor=noise_floor, in_front=m.distinct(in_front))
+
+    def in_front() -> np.ndarray:
+        # in front of both cameras with the sign of t that most of the pose's inliers take (the sign a
+        # method returned may rest on a few matches: t and -t give the same Sampson errors); computed
+        # only where the pure-rotation test's count decides (0.15-0.45 ms a pair holding the GIL)
+        h, hp, _ = ligt_depths(R, t, f1, f2)
+        front, behind = (h > 0) & (hp > 0), (h < 0) & (hp < 0)
+        return m.distinct(behind if np.count_nonzero(behind & inl) > np.count_nonzero(front & inl) else front)
+
+    rot = pure_rotation_test(m.g1, m.g2, m.tau_rot, m.distinct(inl), p_pose, num_tests, v_pose=m.distinct(v), noise_floor=noise_floor, in_front=in_front)
     R_rot = rot.pop("R_rotation_only")
     diag.update(rot)
     rot_inl = _rotation_inliers_mask(R_rot, f1, f2, m.tau_rot) if rot["pure_rotation"] else None
