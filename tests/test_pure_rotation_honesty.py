@@ -153,3 +153,20 @@ def test_shares_keypoint_with_matches_its_definition():
         want = np.array([any(other[j] and (i1[j], i2[j]) != (i1[k], i2[k]) and (i1[j] == i1[k] or i2[j] == i2[k]) for j in range(80)) for k in range(80)])
         assert np.array_equal(got, want)
     assert not _shares_keypoint_with(pts, np.roll(pts, 1, axis=0), np.ones(12, bool)).any()
+
+
+def test_the_depth_mask_from_the_core_is_the_pose_only_depths_sign():
+    """status.finish's depth mask (sampson-chiral below CHIRAL_PENALTY) is "both pose-only depths
+    positive" (``ligt_depths``) on every match whose Sampson error is below the penalty."""
+    from poseonly import sim
+    from poseonly.residuals import CHIRAL_PENALTY, ligt_depths, v_sampson, v_sampson_chiral
+
+    sc = sim.make_scene(400, camera="wide", noise_px=0.5, outlier_fraction=0.5, seed=4)
+    for t in (sc.t, -sc.t):
+        h, hp, _ = ligt_depths(sc.R, t, sc.f1, sc.f2)
+        v = v_sampson.unchecked(sc.R, t, sc.f1, sc.f2)
+        vc = v_sampson_chiral.unchecked(sc.R, t, sc.f1, sc.f2)
+        below = v < CHIRAL_PENALTY
+        assert np.array_equal((vc < CHIRAL_PENALTY)[below], ((h > 0) & (hp > 0))[below])
+        assert np.all(vc[~((h > 0) & (hp > 0))] == CHIRAL_PENALTY)
+        assert 0 < np.count_nonzero((h > 0) & (hp > 0)) < len(v)

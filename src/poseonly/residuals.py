@@ -34,6 +34,7 @@ from .geometry import ORTHO_TOL, InputError, as_real_array, normalize
 
 __all__ = [
     "Residual",
+    "CHIRAL_PENALTY",
     "RESIDUALS",
     "get_residual",
     "v_E",
@@ -189,6 +190,8 @@ v_BA = RESIDUALS["ba"]
 v_OpenGV = RESIDUALS["opengv"]
 v_sampson = RESIDUALS["sampson"]
 v_sampson_chiral = RESIDUALS["sampson-chiral"]
+# what sampson-chiral gives a match behind either camera (src/core/residuals.h kChiralPenalty)
+CHIRAL_PENALTY = 1.0
 
 
 def get_residual(name: str | Residual) -> Residual:

@@ -34,7 +34,7 @@ from .analysis import (
 )
 from .geometry import essential_from_pose, rotation_error_deg, valid_pose
 from .options import MAX_ROTATION_STD_DEG
-from .residuals import ligt_depths, v_sampson
+from .residuals import CHIRAL_PENALTY, v_sampson, v_sampson_chiral
 from .result import RelativePoseResult, Status
 
 __all__ = ["MIN_DISTINCT_MATCHES", "NEAR_DUPLICATE_MAX_RAD", "NEAR_DUPLICATE_PX", "degenerate_result", "distinct_rows", "finish"]
@@ -270,9 +270,11 @@ def finish(
     def in_front() -> np.ndarray:
         # in front of both cameras with the sign of t that most of the pose's inliers take (the sign a
         # method returned may rest on a few matches: t and -t give the same Sampson errors); computed
-        # only where the pure-rotation test's count decides (0.15-0.45 ms a pair holding the GIL)
-        h, hp, _ = ligt_depths(R, t, f1, f2)
-        front, behind = (h > 0) & (hp > 0), (h < 0) & (hp < 0)
+        # only where the pure-rotation test's count decides, by two core calls (the core's cheirality of
+        # sampson-chiral: both pose-only depths positive; exact on the inliers, whose errors are below
+        # the penalty), not numpy's 0.15-0.45 ms a pair holding the GIL
+        front = v_sampson_chiral.unchecked(R, t, f1, f2) < CHIRAL_PENALTY
+        behind = v_sampson_chiral.unchecked(R, -t, f1, f2) < CHIRAL_PENALTY
         return m.distinct(behind if np.count_nonzero(behind & inl) > np.count_nonzero(front & inl) else front)
 
     rot = pure_rotation_test(m.g1, m.g2, m.tau_rot, m.distinct(inl), p_pose, num_tests, v_pose=m.distinct(v), noise_floor=noise_floor, in_front=in_front)
