@@ -521,9 +521,10 @@ def _shares_keypoint_with(f1: np.ndarray, f2: np.ndarray, other: np.ndarray) -> 
     g = np.repeat(np.arange(len(start) - 1), np.diff(start))  # each member's group
     o = np.asarray(other, bool)[members].astype(float)
     in_group = np.bincount(g, weights=o, minlength=len(start) - 1)
-    _, gc = np.unique(np.stack([g, corr[members]], axis=1), axis=0, return_inverse=True)
-    in_corr = np.bincount(gc.ravel(), weights=o)
-    out[members[in_group[g] - in_corr[gc.ravel()] > 0]] = True
+    c = corr[members]
+    _, gc = np.unique(g * (int(c.max()) + 1) + c, return_inverse=True)  # each member's (group, correspondence)
+    in_corr = np.bincount(gc, weights=o)
+    out[members[in_group[g] - in_corr[gc] > 0]] = True
     return out
 
 
