@@ -518,10 +518,10 @@ def _shares_keypoint_with(f1: np.ndarray, f2: np.ndarray, other: np.ndarray) -> 
     out = np.zeros(len(f1), bool)
     if members.size == 0:
         return out
-    g = np.repeat(np.arange(len(start) - 1), np.diff(start))  # each member's group
+    g = np.repeat(np.arange(len(start) - 1, dtype=np.int64), np.diff(start))  # each member's group
     o = np.asarray(other, bool)[members].astype(float)
     in_group = np.bincount(g, weights=o, minlength=len(start) - 1)
-    c = corr[members]
+    c = corr[members].astype(np.int64)
     _, gc = np.unique(g * (int(c.max()) + 1) + c, return_inverse=True)  # each member's (group, correspondence)
     in_corr = np.bincount(gc, weights=o)
     out[members[in_group[g] - in_corr[gc] > 0]] = True

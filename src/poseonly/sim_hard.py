@@ -39,7 +39,8 @@ _MAX_DRAWS = 200
 class HardCase:
     """Pixel matches ``u1, u2 (n, 2)`` with calibration ``K (3, 3)``, the true pose ``R (3, 3)``,
     unit ``t (3,)``, ``group (n,)`` (0 inlier, 1 structured outlier, 2 random outlier) and, where the
-    structured outliers obey one, the wrong geometry ``R_wrong, t_wrong`` (unit; else ``None``).
+    structured outliers obey one (or, on a critical surface, every match does), the wrong geometry
+    ``R_wrong, t_wrong`` (unit; else ``None``).
     ``parallax_deg`` is the median angle between the two rays of the true inliers."""
 
     u1: np.ndarray
@@ -278,10 +279,11 @@ def critical_surface(
     every point in front of both cameras under both (the 9-column epipolar system of the noise-free
     matches has a 2-D null space). Two views cannot tell the two apart; the honest status is not ``ok``.
 
-    Each ray ``X = s d`` of view 1 meets the quadric ``(R X + t)^T [t']x R' X = 0`` at ``s = -(t^T E' d)
-    / (d^T R^T E' d)`` (``E' = [t']x R'``); kept are the points at depth 2-40 in both images and in front
-    of both cameras under both poses (``t'`` with the sign most points take). Camera 2 sits 0.5-2 from
-    camera 1, looking at the point 8 ahead; ``group`` is all inliers."""
+    Each ray ``X = s d`` of view 1 meets the quadric ``(R X + b)^T [t']x R' X = 0`` at ``s = -(b^T E' d)
+    / (d^T R^T E' d)`` (``E' = [t']x R'``, ``b = -R C`` the translation at the true baseline); kept are the
+    points at depth 2-40 in view 1, in both images and in front of both cameras under both poses (``t'``
+    with the sign most points take). Camera 2 sits 0.5-2 from camera 1, looking at the point 8 ahead;
+    ``group`` is all inliers."""
     lo, hi = (float(v) for v in separation_deg)
     if not 0.0 < lo <= hi < 180.0:
         raise ValueError(f"separation_deg must be a range in (0, 180), got {separation_deg}")

@@ -218,7 +218,7 @@ def _pose_distance_deg(R1: np.ndarray, t1: np.ndarray, R2: np.ndarray, t2: np.nd
 def _model_distance_deg(R1: np.ndarray, t1: np.ndarray, R2: np.ndarray, t2: np.ndarray) -> float:
     """:func:`_pose_distance_deg` with the translations compared up to sign (``t`` and ``-t`` are one
     epipolar model, which a re-identification may flip)."""
-    return max(_pose_distance_deg(R1, t1, R2, t2) if float(t1 @ t2) >= 0 else _pose_distance_deg(R1, t1, R2, -t2), 0.0)
+    return _pose_distance_deg(R1, t1, R2, t2) if float(t1 @ t2) >= 0 else _pose_distance_deg(R1, t1, R2, -t2)
 
 
 RIVAL_COST_FACTOR = 1.5  # ransac.h kRivalCostFactor: a rival is scored up to this times the best cost
@@ -731,7 +731,7 @@ def run_poseonly(
         rivals = [local_optimization(Rv, tv, f1, f2, tau, o) for Rv, tv in rival_candidates(r, o.rival_distance)[: o.rivals]]
         diag.update(rival_R=rivals[0][0], rival_t=rivals[0][1], rival_distance=float(o.rival_distance), rivals=rivals)
     R, t = select_by_support(r.R, r.t, f1, f2, tau)
-    if o.rival_distance > 0 and _model_distance_deg(R, t, r.R, r.t) > o.rival_distance:
+    if o.rival_distance > 0 and r.num_scored > 0 and valid_pose(r.R, r.t) and _model_distance_deg(R, t, r.R, r.t) > o.rival_distance:
         # the pose-only choice left the search's basin: the search's own result, the best model by the
         # search's objective, is a rival of the pose returned (on points near a critical surface the
         # re-solve on the consensus set can jump to the other solution, and the uniqueness test then
@@ -739,7 +739,9 @@ def run_poseonly(
         own = local_optimization(r.R, r.t, f1, f2, tau, o)
         rivals = [own, *diag.get("rivals", [])]
         diag.update(rival_R=own[0], rival_t=own[1], rival_distance=float(o.rival_distance), rivals=rivals, rival_search_own=True)
-        diag.setdefault("rival_support_ratio", 1.0)
+        s_pose, s_own = msac_chiral(R, t, f1, f2, tau), msac_chiral(own[0], own[1], f1, f2, tau)
+        ratio = s_own / s_pose if s_pose > 0 and np.isfinite(s_own) else 0.0
+        diag["rival_support_ratio"] = float(max(diag.get("rival_support_ratio", 0.0), ratio, 0.0))
     if diag.get("rivals"):
         R, t = _better_rival(R, t, f1, f2, tau, diag)
     if o.final == "cauchy":
