@@ -89,6 +89,11 @@ RansacOptions ransac_options(int max_iterations, int min_iterations, double conf
 }
 
 // RansacOptions::min_inlier_ratio, checked
+LocalOpt local_opt_of(int lo) {
+  if (lo < 0 || lo > static_cast<int>(LocalOpt::SampsonMulti)) throw std::invalid_argument("lo must be 0 (lirp), 1 (sampson), 2 (sampson-truncated) or 3 (sampson-multi)");
+  return static_cast<LocalOpt>(lo);
+}
+
 double checked_min_inlier_ratio(double r) {
   if (!(r >= 0.0 && r <= 1.0)) throw std::invalid_argument("min_inlier_ratio must be in [0, 1]");
   return r;
@@ -189,7 +194,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   eo.lo_mu0 = lo_mu0;
   eo.lo_iterations = lo_iterations;
   eo.lo_residual = static_cast<Residual>(lo_residual);
-  eo.lo = static_cast<LocalOpt>(lo);
+  eo.lo = local_opt_of(lo);
   eo.lo_max_points = lo_max_points;
   const std::vector<int> ord = order_of(order, P.n);
   Pose best, rival;
@@ -291,7 +296,7 @@ nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, c
   eo.lo_mu0 = lo_mu0;
   eo.lo_iterations = lo_iterations;
   eo.lo_residual = static_cast<Residual>(lo_residual);
-  eo.lo = static_cast<LocalOpt>(lo);
+  eo.lo = local_opt_of(lo);
   eo.lo_max_points = lo_max_points;
   bool ok;
   {

@@ -103,7 +103,9 @@ RefineLoss loss_of(const std::string& name) {
   if (name == "huber") return RefineLoss::Huber;
   if (name == "cauchy") return RefineLoss::Cauchy;
   if (name == "arctan") return RefineLoss::Arctan;
-  throw std::invalid_argument("unknown loss '" + name + "'; choose linear, soft_l1, huber, cauchy or arctan");
+  if (name == "truncated") return RefineLoss::Truncated;
+  if (name == "truncated_multi") return RefineLoss::TruncatedMulti;
+  throw std::invalid_argument("unknown loss '" + name + "'; choose linear, soft_l1, huber, cauchy, arctan, truncated or truncated_multi");
 }
 
 int normalization_of(const std::string& name) {

@@ -25,7 +25,9 @@ inline double pose_distance_deg(const Pose& a, const Pose& b) {
 // Local optimisation of a new best model: warm-started TLS IRLS on all-candidate LiRP (the pose-only
 // LO), or Levenberg-Marquardt on the Sampson error with a Cauchy loss at the threshold (PoseLib's
 // choice of a non-minimal refinement, with a smooth loss).
-enum class LocalOpt : int { LiRPGnc = 0, SampsonLM = 1 };
+// SampsonTruncated / SampsonMulti: the same LM with the truncated quadratic of MsacScorer /
+// MultiMsacScorer (refine.h), i.e. the search's own score at the threshold (PoseLib's LO loss).
+enum class LocalOpt : int { LiRPGnc = 0, SampsonLM = 1, SampsonTruncated = 2, SampsonMulti = 3 };
 
 // The five-point solver (fivept.cpp): poses whose sample points all have positive depths.
 void fivept_poses(const Points& p, std::vector<Pose>* out);
@@ -117,9 +119,9 @@ class RelativePoseEstimator {
       buf_ = std::move(sub);
       w0_ = std::move(w);
     }
-    if (o_.lo == LocalOpt::SampsonLM) {
+    if (o_.lo != LocalOpt::LiRPGnc) {
       RefineOptions ro;
-      ro.loss = RefineLoss::Cauchy;
+      ro.loss = o_.lo == LocalOpt::SampsonLM ? RefineLoss::Cauchy : o_.lo == LocalOpt::SampsonTruncated ? RefineLoss::Truncated : RefineLoss::TruncatedMulti;
       ro.loss_scale = thr;
       ro.max_iterations = o_.lm_iterations;
       ro.tol = 1e-10;

@@ -172,6 +172,14 @@ inline void rho_of(RefineLoss loss, double s, double* rho, double* drho) {
       return;
     case RefineLoss::Cauchy: *rho = std::log1p(s); *drho = 1.0 / (1.0 + s); return;
     case RefineLoss::Arctan: *rho = std::atan(s); *drho = 1.0 / (1.0 + s * s); return;
+    case RefineLoss::Truncated:
+      *rho = std::min(s, 1.0);
+      *drho = s < 1.0 ? 1.0 : 0.0;
+      return;
+    case RefineLoss::TruncatedMulti:
+      *rho = std::min(s, 1.0) + 4.0 * std::min(s, 0.25) + 16.0 * std::min(s, 0.0625);
+      *drho = (s < 1.0 ? 1.0 : 0.0) + (s < 0.25 ? 4.0 : 0.0) + (s < 0.0625 ? 16.0 : 0.0);
+      return;
   }
   *rho = s;
   *drho = 1.0;

@@ -24,8 +24,12 @@ namespace poseonly {
 
 // scipy.optimize.least_squares losses rho(s) (poseonly.refine._common.LOSSES), codes as
 // poseonly.refine.ligt._LOSS_CODE. A separate enum from common.h's Loss (PoseLib's family: truncated
-// losses, no soft_l1/arctan).
-enum class RefineLoss : int { Linear = 0, SoftL1 = 1, Huber = 2, Cauchy = 3, Arctan = 4 };
+// losses, no soft_l1/arctan). Two truncated quadratics for the search's LO, which minimise its scores
+// (ransac.h): Truncated rho(s) = min(s, 1) (MSAC at the scale, PoseLib's LO loss) and TruncatedMulti
+// rho(s) = min(s, 1) + 4 min(s, 1/4) + 16 min(s, 1/16) (MultiMsacScorer's sum at s, s/2, s/4); their
+// rho' is a step function (0 beyond the scale: the LM's normal equations are IRLS over the points
+// within it) and the LM takes a step only where the cost decreases.
+enum class RefineLoss : int { Linear = 0, SoftL1 = 1, Huber = 2, Cauchy = 3, Arctan = 4, Truncated = 5, TruncatedMulti = 6 };
 
 constexpr int kRefineMinPoints = 6;          // ligt_refine's minimum (5 parameters + 1)
 constexpr double kRefineMinTol = 2.3e-16;    // tol floor (as ligt_refine)

@@ -71,7 +71,7 @@ from typing import Any
 import numpy as np
 
 from . import _core
-from .geometry import InputError, opencv_points, pair_focal
+from .geometry import InputError, as_real_array, opencv_points, pair_focal
 
 __all__ = ["MODELS", "NEWTON_TOL", "OPENCV_TO_COLMAP_PX", "Camera", "as_camera", "as_colmap_camera", "camera_from_text", "from_opencv", "lift_pair", "read_colmap_cameras"]
 
@@ -443,11 +443,7 @@ def _whole_pixels(v: Any, side: str) -> int:
 
 
 def _check_points(a: Any, d: int, name: str) -> np.ndarray:
-    try:
-        a = np.asarray(a, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError(f"{name} must be a numeric (n, {d}) array") from None
-    a = opencv_points(a)
+    a = opencv_points(as_real_array(a, name))  # complex, string, ... refused as with K (a trial)
     if a.ndim != 2 or a.shape[1] != d:
         raise InputError(f"{name} must have shape (n, {d}), got {a.shape}")
     if not np.all(np.isfinite(a)):
@@ -474,12 +470,11 @@ def from_opencv(K: Any, dist: Any = None, width: int = 0, height: int = 0, *, fi
     ``dist``: ``(k1, k2, p1, p2[, k3[, k4, k5, k6]])`` (``cv2.undistortPoints``' order; 4 -> ``OPENCV``,
     5 or 8 -> ``FULL_OPENCV``; 12 or 14 with zero thin-prism / tilt terms as 8; other lengths refused), or with ``fisheye=True`` ``(k1, k2, k3, k4)`` (``cv2.fisheye``) ->
     ``OPENCV_FISHEYE``. ``None`` or all zeros -> ``PINHOLE``. ``K`` must have zero skew."""
-    try:
-        Kf = np.asarray(K, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError("K must be a numeric 3x3 matrix") from None
+    Kf = as_real_array(K, "K")
     if Kf.shape != (3, 3) or not np.all(np.isfinite(Kf)):
         raise InputError(f"K must be a finite 3x3 matrix, got shape {Kf.shape}")
+    if Kf[2, 2] != 0.0 and np.all(Kf[2, :2] == 0.0):  # a scaled K (s K) is K, as K1= takes it (a trial)
+        Kf = Kf / Kf[2, 2]
     if abs(Kf[0, 1]) > 1e-12 * abs(Kf[0, 0]) or np.any(np.abs(Kf[2] - [0, 0, 1]) > 1e-12) or Kf[1, 0] != 0:
         raise InputError(f"K must be [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] (no skew), got {Kf.tolist()}")
     base = (Kf[0, 0], Kf[1, 1], Kf[0, 2], Kf[1, 2])

@@ -186,7 +186,16 @@ NON_NUMERIC_KINDS = "USmMV"
 
 def as_real_array(a: object, name: str) -> np.ndarray:
     """``a`` as a float array (any shape); complex, string, date / duration, structured or ragged input
-    (and object arrays holding any of those) raises :class:`InputError`."""
+    (and object arrays holding any of those) raises :class:`InputError`. A masked array's masked
+    entries are NaN (missing values, which the callers refuse or treat as their NaN; its mask was
+    dropped silently and the filler values used as data: a trial)."""
+    if np.ma.isMaskedArray(a):
+        m = np.ma.getmaskarray(a)
+        out = as_real_array(np.ma.getdata(a), name)
+        if m.any():
+            out = out.copy()
+            out[m] = np.nan
+        return out
     try:
         raw = np.asarray(a)
     except (TypeError, ValueError) as exc:
@@ -211,8 +220,16 @@ def opencv_points(a: np.ndarray) -> np.ndarray:
     return a[:, 0] if a.ndim == 3 and a.shape[1] == 1 else a
 
 
+def as_coordinates(a: object, name: str) -> np.ndarray:
+    """Image coordinates or bearings as a float array (:func:`as_real_array`, OpenCV's ``(n, 1, k)`` as
+    ``(n, k)``); a boolean array (a mask passed for points) raises :class:`InputError`."""
+    if np.asarray(np.ma.getdata(a) if np.ma.isMaskedArray(a) else a).dtype == np.bool_:
+        raise InputError(f"{name} must hold coordinates, got a boolean array (a mask?)")
+    return opencv_points(as_real_array(a, name))
+
+
 def _check_shape_2d(a: np.ndarray, name: str) -> np.ndarray:
-    a = opencv_points(as_real_array(a, name))
+    a = as_coordinates(a, name)
     if a.ndim != 2 or a.shape[1] not in (2, 3):
         raise InputError(f"{name} must have shape (n, 2) or (n, 3), got {a.shape}")
     return a
@@ -402,6 +419,13 @@ def as_bearings(x: np.ndarray, K: np.ndarray | None = None, name: str = "x", *, 
     if K is not None:
         _check_finite_2d(a, name)  # the NaN error first, as for every shape
         raise InputError(f"{name} has shape (n, 3) (bearing vectors) but a K was given; pass pixels (n, 2) with K")
+    if len(a) and np.all(a[:, 2] == 1.0):  # homogeneous [x, y, 1]: pixels too unless x, y are normalized
+        med = median(np.abs(a[:, :2]))
+        if med > PIXEL_LIKE_NORMALIZED:
+            raise InputError(
+                f"{name}: (n, 3) rows [x, y, 1] have median |x| = {med:.4g}, which is pixel-sized: homogeneous pixels, not "
+                f"bearing vectors (they were taken as rays up to 89 deg off the axis); pass the (n, 2) pixels with K (or a camera)"
+            )
     return _unit_rows(a, name)
 
 
@@ -558,6 +582,11 @@ def rotation_angle_deg(R: np.ndarray) -> np.ndarray:
     return np.degrees(np.arctan2(s, c))
 
 
+# how far from orthonormal a matrix may be and still count as a rotation in rotation_error_deg (a
+# rotation printed with three decimals, or float32 rounding, is well within it)
+ROTATION_ERROR_TOL = 1e-2
+
+
 def rotation_error_deg(R_gt: np.ndarray, R: np.ndarray) -> Any:
     """``arccos((tr(R_gt^T R) - 1) / 2)`` in degrees, computed stably; ``R_gt, R (..., 3, 3)`` (leading
     axes broadcast) -> ``(...)``: a ``numpy.float64`` (a ``float``) for two ``(3, 3)`` rotations, an
@@ -566,16 +595,33 @@ def rotation_error_deg(R_gt: np.ndarray, R: np.ndarray) -> Any:
     for name, M in (("R_gt", A), ("R", B)):
         if M.ndim < 2 or M.shape[-2:] != (3, 3):
             raise InputError(f"{name} must have shape (..., 3, 3), got {M.shape}")
+        with np.errstate(invalid="ignore"):  # NaN matrices (a failed estimate) give NaN errors
+            off = np.abs(np.swapaxes(M, -1, -2) @ M - np.eye(3)).max(axis=(-2, -1))
+            bad = (off > ROTATION_ERROR_TOL) | (np.linalg.det(M) <= 0.0)
+        if np.any(bad & np.isfinite(M).all(axis=(-2, -1))):
+            raise InputError(f"{name} is not a rotation (|R^T R - I| up to {np.nanmax(off):.3g}, or det <= 0); its angle would be meaningless")
     return rotation_angle_deg(np.swapaxes(A, -1, -2) @ B)
 
 
 def translation_error_deg(t_gt: np.ndarray, t: np.ndarray, sign_invariant: bool = False) -> np.ndarray:
     """Angle between translation directions in degrees: ``t_gt, t (..., 3)`` (any length; leading
-    axes broadcast) -> ``(...)`` (``sign_invariant`` ignores the sign)."""
-    a = normalize(t_gt)
-    b = normalize(t)
+    axes broadcast) -> ``(...)`` (``sign_invariant`` ignores the sign). A zero (or non-finite) vector
+    has no direction: its angle is NaN (it was 0, a perfect score: a trial)."""
+    A, B = as_real_array(t_gt, "t_gt"), as_real_array(t, "t")
+    for name, v in (("t_gt", A), ("t", B)):
+        if v.ndim < 1 or v.shape[-1] != 3:
+            raise InputError(f"{name} must have shape (..., 3), got {v.shape}")
+    try:
+        np.broadcast_shapes(A.shape, B.shape)
+    except ValueError:
+        raise InputError(f"t_gt {A.shape} and t {B.shape} do not broadcast") from None
+    with np.errstate(invalid="ignore", divide="ignore"):  # scaled first: a norm of 1e200 would overflow
+        ma, mb = np.max(np.abs(A), axis=-1, keepdims=True), np.max(np.abs(B), axis=-1, keepdims=True)
+        a = normalize(A / np.where(ma > 0, ma, 1.0))
+        b = normalize(B / np.where(mb > 0, mb, 1.0))
+    no_direction = ~((ma[..., 0] > 0) & (mb[..., 0] > 0) & np.isfinite(ma[..., 0]) & np.isfinite(mb[..., 0]))
     c = np.sum(a * b, axis=-1)
     if sign_invariant:
         c = np.abs(c)
     s = np.linalg.norm(np.cross(a, b), axis=-1)
-    return np.degrees(np.arctan2(s, c))
+    return np.where(no_direction, np.nan, np.degrees(np.arctan2(s, c)))[()]

@@ -248,6 +248,10 @@ METHODS: dict[str, MethodFn] = {
     "poseonly-nochal": ours(use_scores=True, use_scales=True, challengers=0),
     # the search scored by plain MSAC at tau instead of the multi-scale sum (tau, tau/2, tau/4)
     "poseonly-msac": ours(use_scores=True, use_scales=True, scoring="msac"),
+    # the search's LO on its own score (the truncated quadratics of msac-multi) / on MSAC's at tau (PoseLib's LO)
+    "poseonly-lomulti": ours(use_scores=True, use_scales=True, lo="sampson-multi"),
+    "poseonly-lotruncated": ours(use_scores=True, use_scales=True, lo="sampson-truncated"),
+    "poseonly-noscale-lomulti": ours(use_scores=True, lo="sampson-multi"),
     "poseonly-cauchy": ours(use_scores=True, use_scales=True, final="cauchy"),
     # the ML stage's EM started from the least-squares refit of the matches within its range, or from both starts
     "poseonly-mlband": ours(use_scores=True, use_scales=True, ml_start="band"),

@@ -31,7 +31,7 @@ __all__ = ["RansacResult", "ransac_relpose", "search_cost", "gnc_ransac", "sampl
 
 SCORINGS = {"msac": 0, "msac-multi": 1, "count": 2}
 _MINIMAL = {"5pt": 0, "lirp": 1}
-_LO = {"lirp": 0, "sampson": 1}
+_LO = {"lirp": 0, "sampson": 1, "sampson-truncated": 2, "sampson-multi": 3}
 # the progressive sampler's stopping rules (src/core/ransac.h): PROSAC's per-top-n rule, or the expected
 # all-inlier draws of the sampler's schedule
 PROGRESSIVE_RULES = ("prosac", "expected")
@@ -121,7 +121,9 @@ def ransac_relpose(
     ``scores (n,)`` (higher is better) switch to PROSAC sampling in that order. Returns a
     :class:`RansacResult` whose inliers are the Sampson inliers of the returned model. ``lo``: the
     local optimisation, ``"lirp"`` (warm-started TLS IRLS on all-candidate LiRP with ``lo_residual``)
-    or ``"sampson"`` (Levenberg-Marquardt on the Sampson error, Cauchy loss at the threshold).
+    or Levenberg-Marquardt on the Sampson error with a loss at the threshold: ``"sampson"`` Cauchy's,
+    ``"sampson-truncated"`` MSAC's truncated quadratic (PoseLib's LO), ``"sampson-multi"`` the
+    truncated quadratics of ``"msac-multi"`` (the search's own score).
     ``rival_distance > 0`` (degrees) also keeps the best-scoring model at least that far from the
     result in rotation or translation direction: ``stats["rival_cost"]`` (``inf`` if none),
     ``stats["rival_R"]``, ``stats["rival_t"]`` (a uniqueness test of the result). ``chiral``: a match
