@@ -241,3 +241,54 @@ def test_seed_out_of_the_cores_range_and_an_ill_conditioned_K_name_the_problem()
     K = np.array([[800.0, 0.0, 1e9], [0.0, 800.0, 1e9], [0.0, 0.0, 1.0]])
     with pytest.raises(InputError, match="numerically singular.*largest entry"):
         poseonly.estimate_relative_pose(sc.u1, sc.u2, K)
+
+
+def test_input_trial_twentieth_session():
+    """A new user's input trial (twentieth session): homogeneous pixels ``[u, v, 1]`` were taken as
+    bearings (``ok`` poses degrees off), complex and string pixels passed the camera path, a masked
+    array's filler values were used as data, boolean arrays were coordinates, a zero translation scored
+    a perfect 0 deg, non-rotations had a rotation error, and a scaled K, 0-d option arrays, float seeds,
+    lowercase model names and fractional widths were treated unlike their other forms."""
+    from poseonly.cameras import Camera, camera_from_text, from_opencv
+    from poseonly.geometry import rotation_error_deg, translation_error_deg
+
+    s = sim.make_scene(200, camera="pinhole", noise_px=0.3, seed=0)
+    h1, h2 = (np.c_[u, np.ones(len(u))] for u in (s.u1, s.u2))
+    with pytest.raises(InputError, match="homogeneous pixels"):
+        poseonly.estimate_relative_pose(h1, h2, focal_px=800.0)
+    f1 = s.f1 / s.f1[:, 2:]  # normalized homogeneous coordinates stay bearings
+    assert poseonly.estimate_relative_pose(f1, s.f2, focal_px=float(s.K[0, 0])).status == "ok"
+    cam = Camera("PINHOLE", 640, 480, (s.K[0, 0], s.K[1, 1], s.K[0, 2], s.K[1, 2]))
+    for bad, msg in ((s.u1 + 50j, "must be real"), (s.u1.astype(str), "numeric array"), (s.u1 > 100, "boolean")):
+        with pytest.raises(InputError, match=msg):
+            poseonly.estimate_relative_pose(bad, s.u2, camera1=cam, camera2=cam)
+        with pytest.raises(InputError, match=msg):
+            poseonly.estimate_relative_pose(bad, s.u2, s.K, s.K)
+    mask = np.zeros_like(s.u1, bool)
+    mask[:40] = True
+    masked = np.ma.masked_array(np.where(mask, 0.0, s.u1), mask)
+    with pytest.raises(InputError, match="NaN"):
+        poseonly.estimate_relative_pose(masked, s.u2, s.K, s.K)
+    r = poseonly.estimate_relative_pose(masked, s.u2, s.K, s.K, unliftable="outlier")
+    ref = poseonly.estimate_relative_pose(s.u1[40:], s.u2[40:], s.K, s.K)
+    assert not r.inliers[:40].any() and np.allclose(r.R, ref.R, atol=1e-9)
+    scores = np.linspace(1.0, 0.0, 200)
+    scores[:40] = np.nan  # the lost rows' scores are not looked at
+    assert poseonly.estimate_relative_pose(masked, s.u2, s.K, s.K, unliftable="outlier", scores=scores).status == "ok"
+    assert np.isnan(translation_error_deg(np.zeros(3), [0, 0, 1])) and np.isnan(translation_error_deg([0, 0, 1], np.zeros(3)))
+    assert translation_error_deg([0, 0, 1e200], [0, 1e-200, 0]) == 90.0
+    with pytest.raises(InputError, match="shape"):
+        translation_error_deg([1, 0], [0, 0, 1])
+    for bad_R in (2 * np.eye(3), -np.eye(3)):
+        with pytest.raises(InputError, match="not a rotation"):
+            rotation_error_deg(np.eye(3), bad_R)
+    assert np.isnan(rotation_error_deg(np.eye(3), np.full((3, 3), np.nan)))
+    assert from_opencv(2 * s.K).params == from_opencv(s.K).params
+    assert Camera("pinhole", 640, 480, (1, 1, 1, 1)).model == "PINHOLE"
+    with pytest.raises(InputError, match="whole number"):
+        camera_from_text("PINHOLE", "800,800,320,240", width=640.7)  # type: ignore[arg-type]
+    a = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, threshold_px=np.array(2.0), seed=3.0)  # type: ignore[arg-type]
+    b = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, threshold_px=2.0, seed=3)
+    assert np.array_equal(a.R, b.R)
+    with pytest.raises(InputError, match="seed"):
+        poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, seed=3.5)  # type: ignore[arg-type]

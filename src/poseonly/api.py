@@ -139,27 +139,33 @@ def _focal(K1, K2, focal_px):
     return pair_focal(fs[0], fs[-1])
 
 
-def _check_scores(scores: Any, n: int) -> np.ndarray | None:
-    """``scores`` as a finite real ``(n,)`` array (or None)."""
+def _check_scores(scores: Any, n: int, dropped: np.ndarray | None = None) -> np.ndarray | None:
+    """``scores`` as a finite real ``(n,)`` array (or None); ``dropped (n,)``: rows left out of the
+    estimate (``unliftable="outlier"``), whose values are not checked (set to 0)."""
     if scores is None:
         return None
-    a = np.asarray(scores)
-    if a.shape != (n,) or a.dtype.kind not in "biuf":
+    a = as_real_array(scores, "scores")  # (object arrays of numbers as the coordinates take them)
+    if a.shape != (n,):
         raise InputError(f"scores must be a real array of shape ({n},), got {a.dtype} {a.shape}")
-    a = a.astype(float)
+    a = np.array(a, dtype=float)
+    if dropped is not None:
+        a[dropped] = 0.0
     if not np.all(np.isfinite(a)):
         raise InputError("scores must be finite")
     return a
 
 
-def _check_noise_scales(noise_scales: Any, n: int) -> np.ndarray | None:
-    """``noise_scales`` as a finite positive real ``(n,)`` array (or None)."""
+def _check_noise_scales(noise_scales: Any, n: int, dropped: np.ndarray | None = None) -> np.ndarray | None:
+    """``noise_scales`` as a finite positive real ``(n,)`` array (or None); ``dropped`` as
+    :func:`_check_scores` (set to 1)."""
     if noise_scales is None:
         return None
-    a = np.asarray(noise_scales)
-    if a.shape != (n,) or a.dtype.kind not in "biuf":
+    a = as_real_array(noise_scales, "noise_scales")
+    if a.shape != (n,):
         raise InputError(f"noise_scales must be a real array of shape ({n},), got {a.dtype} {a.shape}")
-    a = np.ascontiguousarray(a, dtype=float)
+    a = np.array(a, dtype=float)
+    if dropped is not None:
+        a[dropped] = 1.0
     if not np.all(np.isfinite(a) & (a > 0)):
         raise InputError("noise_scales must be finite and > 0")
     return a
@@ -308,8 +314,10 @@ def estimate_relative_pose(
     n = len(f1)
     if n < 6:
         raise InputError(f"at least 6 correspondences are needed, got {n}")
-    scores = _check_scores(scores, n)
-    noise_scales = _check_noise_scales(noise_scales, n)
+    # rows left out (unliftable="outlier": lost tracks, unliftable keypoints) need no valid score
+    dropped = ~(np.isfinite(f1).all(axis=1) & np.isfinite(f2).all(axis=1)) if unliftable == "outlier" else None
+    scores = _check_scores(scores, n, dropped)
+    noise_scales = _check_noise_scales(noise_scales, n, dropped)
     if step is None:  # pixels (validated by the lifting above): the grid they lie on; else none known
         step = grid_step(*(x if lost is None else opencv_points(np.asarray(x, dtype=float))[~lost] for x in (x1, x2))) if K1 is not None or cam_focal is not None else 0.0
     if (cam_focal is not None or K1 is not None) and unliftable == "outlier":

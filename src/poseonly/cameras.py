@@ -71,7 +71,7 @@ from typing import Any
 import numpy as np
 
 from . import _core
-from .geometry import InputError, as_real_array, opencv_points, pair_focal
+from .geometry import InputError, as_coordinates, as_real_array, pair_focal
 
 __all__ = ["MODELS", "NEWTON_TOL", "OPENCV_TO_COLMAP_PX", "Camera", "as_camera", "as_colmap_camera", "camera_from_text", "from_opencv", "lift_pair", "read_colmap_cameras"]
 
@@ -162,6 +162,8 @@ class Camera:
     params: tuple[float, ...]
 
     def __post_init__(self) -> None:
+        if isinstance(self.model, str):  # COLMAP's names in any case, as the dict and text forms take them
+            object.__setattr__(self, "model", self.model.upper())
         if not isinstance(self.model, str) or self.model not in MODELS:
             raise InputError(f"unsupported camera model {self.model!r}; supported: {sorted(MODELS)}")
         names = MODELS[self.model]
@@ -443,7 +445,7 @@ def _whole_pixels(v: Any, side: str) -> int:
 
 
 def _check_points(a: Any, d: int, name: str) -> np.ndarray:
-    a = opencv_points(as_real_array(a, name))  # complex, string, ... refused as with K (a trial)
+    a = as_coordinates(a, name)  # complex, string, boolean ... refused as with K (a trial)
     if a.ndim != 2 or a.shape[1] != d:
         raise InputError(f"{name} must have shape (n, {d}), got {a.shape}")
     if not np.all(np.isfinite(a)):
@@ -577,7 +579,7 @@ def camera_from_text(model: str, params: str, width: int = 0, height: int = 0, n
     except ValueError:
         raise InputError(f"{name}: the parameters must be numbers separated by commas or spaces, got {params!r}") from None
     try:
-        return Camera(model.upper(), int(width), int(height), values)
+        return Camera(model.upper(), width, height, values)  # (Camera checks whole pixels: 640.7 was truncated)
     except InputError as exc:
         raise InputError(f"{name}: {exc}") from None
 

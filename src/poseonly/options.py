@@ -126,6 +126,9 @@ def check_value(name: str, v: Any, s: Spec) -> Any:
     def bad_value() -> InputError:
         return InputError(f"option {name!r} has an invalid value {v!r}: it must be {s.describe()}")
 
+    if isinstance(v, np.ndarray) and v.ndim == 0 and v.dtype.kind in "biuf":  # np.array(2.0) as np.float64(2.0) (a trial)
+        v = v[()]
+
     if s.kind == "bool":
         if not _is_bool(v):
             raise bad_type()
@@ -133,6 +136,8 @@ def check_value(name: str, v: Any, s: Spec) -> Any:
     if s.kind == "seed":
         if isinstance(v, np.random.Generator):
             return v
+        if isinstance(v, (float, np.floating)) and math.isfinite(v) and v == round(v):  # 7.0 (a JSON config), as the batch takes it
+            v = int(v)
         if _is_bool(v) or not isinstance(v, numbers.Integral):
             raise bad_type()
         if not 0 <= int(v) < SEED_LIMIT:  # the core's seeds are 64-bit: a larger one would alias a smaller
