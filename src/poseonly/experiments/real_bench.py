@@ -252,6 +252,7 @@ METHODS: dict[str, MethodFn] = {
     "poseonly-lomulti": ours(use_scores=True, use_scales=True, lo="sampson-multi"),
     "poseonly-lotruncated": ours(use_scores=True, use_scales=True, lo="sampson-truncated"),
     "poseonly-noscale-lomulti": ours(use_scores=True, lo="sampson-multi"),
+    "poseonly-noscale-lotruncated": ours(use_scores=True, lo="sampson-truncated"),
     "poseonly-cauchy": ours(use_scores=True, use_scales=True, final="cauchy"),
     # the ML stage's EM started from the least-squares refit of the matches within its range, or from both starts
     "poseonly-mlband": ours(use_scores=True, use_scales=True, ml_start="band"),
