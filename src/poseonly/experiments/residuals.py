@@ -111,8 +111,8 @@ def compute(trials: int, n: int = 30, outliers=OUTLIERS, noise: float = 1.0, see
                     e = rotation_error_deg(Rt, g.R)
                     et = eh = None
                     if kind == "planar":
-                        et = np.where(np.isnan(Rtw[:, 0, 0]), np.inf, rotation_error_deg(np.nan_to_num(Rtw), g.R))
-                        eh = np.where(np.isnan(Rhtw[:, 0, 0]), np.inf, rotation_error_deg(np.nan_to_num(Rhtw), g.R))
+                        et = np.where(np.isnan(Rtw[:, 0, 0]), np.inf, rotation_error_deg(Rtw, g.R))  # (NaN twins: NaN errors)
+                        eh = np.where(np.isnan(Rhtw[:, 0, 0]), np.inf, rotation_error_deg(Rhtw, g.R))
                     per[m].append(_summary(e, et, eh))
             e = np.empty(trials)
             et = np.full(trials, np.inf)
