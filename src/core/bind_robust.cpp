@@ -90,7 +90,8 @@ RansacOptions ransac_options(int max_iterations, int min_iterations, double conf
 
 // RansacOptions::min_inlier_ratio, checked
 LocalOpt local_opt_of(int lo) {
-  if (lo < 0 || lo > static_cast<int>(LocalOpt::SampsonMulti)) throw std::invalid_argument("lo must be 0 (lirp), 1 (sampson), 2 (sampson-truncated) or 3 (sampson-multi)");
+  if (lo < 0 || lo > static_cast<int>(LocalOpt::SampsonCauchyMulti))
+    throw std::invalid_argument("lo must be 0 (lirp), 1 (sampson), 2 (sampson-truncated), 3 (sampson-multi) or 4 (sampson-cauchy-multi)");
   return static_cast<LocalOpt>(lo);
 }
 

@@ -253,6 +253,8 @@ METHODS: dict[str, MethodFn] = {
     "poseonly-lotruncated": ours(use_scores=True, use_scales=True, lo="sampson-truncated"),
     "poseonly-noscale-lomulti": ours(use_scores=True, lo="sampson-multi"),
     "poseonly-noscale-lotruncated": ours(use_scores=True, lo="sampson-truncated"),
+    "poseonly-locm": ours(use_scores=True, use_scales=True, lo="sampson-cauchy-multi"),
+    "poseonly-noscale-locm": ours(use_scores=True, lo="sampson-cauchy-multi"),
     "poseonly-cauchy": ours(use_scores=True, use_scales=True, final="cauchy"),
     # the ML stage's EM started from the least-squares refit of the matches within its range, or from both starts
     "poseonly-mlband": ours(use_scores=True, use_scales=True, ml_start="band"),
