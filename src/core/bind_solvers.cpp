@@ -327,7 +327,7 @@ POSEONLY_BIND(solvers) {
         nb::arg("max_iterations") = 50, nb::arg("tol") = 1e-12,
         "Levenberg-Marquardt on SO(3) x S^2 of sum_i w_i s^2 rho(r_i^2 / s^2), r_i the Sampson distance (radians). "
         "R (3, 3), t (3,) start; f1, f2 (n, 3) unit bearings, n >= 6; w (n,) or None; loss linear | soft_l1 | huber | "
-        "cauchy | arctan (scipy semantics); loss_scale s (None: 1.4826 median_i sqrt(w_i) |r_i| at the start); "
+        "cauchy | arctan (scipy semantics) | truncated (min(s, 1): MSAC) | truncated_multi (min(s, 1) + 4 min(s, 1/4) + 16 min(s, 1/16): the default search's score); loss_scale s (None: 1.4826 median_i sqrt(w_i) |r_i| at the start); "
         "max_iterations caps cost evaluations. Returns (R, unit t, stats dict); t's sign is the weighted majority of "
         "positive pose-only depths.");
   m.def("refine_ligt", &refine_ligt_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"),
