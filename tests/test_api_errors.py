@@ -264,6 +264,12 @@ def test_input_trial_twentieth_session():
             poseonly.estimate_relative_pose(bad, s.u2, camera1=cam, camera2=cam)
         with pytest.raises(InputError, match=msg):
             poseonly.estimate_relative_pose(bad, s.u2, s.K, s.K)
+    lost = s.u2.copy()
+    lost[0] = np.nan  # (a lost row made float copies of both views before the boolean check: a review)
+    with pytest.raises(InputError, match="boolean"):
+        poseonly.estimate_relative_pose(s.u1 > 100, lost, s.K, s.K, unliftable="outlier")
+    with pytest.raises(InputError, match="numeric array"):
+        poseonly.estimate_relative_pose([[1, 2], [3]] * 4, [[1, 2], [3]] * 4, focal_px=800.0)
     mask = np.zeros_like(s.u1, bool)
     mask[:40] = True
     masked = np.ma.masked_array(np.where(mask, 0.0, s.u1), mask)
@@ -287,6 +293,10 @@ def test_input_trial_twentieth_session():
     assert Camera("pinhole", 640, 480, (1, 1, 1, 1)).model == "PINHOLE"
     with pytest.raises(InputError, match="whole number"):
         camera_from_text("PINHOLE", "800,800,320,240", width=640.7)  # type: ignore[arg-type]
+    assert camera_from_text("PINHOLE", "800,800,320,240", "640", "480").width == 640  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="broadcast"):
+        rotation_error_deg(np.tile(np.eye(3), (2, 1, 1)), np.tile(np.eye(3), (3, 1, 1)))
+    assert np.isnan(rotation_error_deg(np.eye(3), np.full((3, 3), np.inf)))
     a = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, threshold_px=np.array(2.0), seed=3.0)  # type: ignore[arg-type]
     b = poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, threshold_px=2.0, seed=3)
     assert np.array_equal(a.R, b.R)

@@ -323,7 +323,7 @@ def test_truncated_losses_lower_the_score_they_truncate(loss):
     tau = 1.0 / 800
     R0, t0 = rotation_from_rotvec(np.radians([0.2, -0.15, 0.1])) @ sc.R, normalize(sc.t + [0.01, -0.01, 0.0])
     R, t, st = _core.refine_sampson(R0, t0, sc.f1, sc.f2, loss=loss, loss_scale=tau, max_iterations=25)
-    assert st["final_cost"] <= st["initial_cost"]
+    assert st["final_cost"] < 0.9 * st["initial_cost"]
     assert rotation_error_deg(sc.R, R) < 0.5 * rotation_error_deg(sc.R, R0)
     if loss == "truncated_multi":
         assert _multi_msac(R, t, sc.f1, sc.f2, tau) < _multi_msac(R0, t0, sc.f1, sc.f2, tau)

@@ -88,13 +88,20 @@ RansacOptions ransac_options(int max_iterations, int min_iterations, double conf
   return ro;
 }
 
-// RansacOptions::min_inlier_ratio, checked
+// the LO's code, checked (it was cast to the enum unchecked)
 LocalOpt local_opt_of(int lo) {
   if (lo < 0 || lo > static_cast<int>(LocalOpt::SampsonCauchyMulti))
     throw std::invalid_argument("lo must be 0 (lirp), 1 (sampson), 2 (sampson-truncated), 3 (sampson-multi) or 4 (sampson-cauchy-multi)");
   return static_cast<LocalOpt>(lo);
 }
 
+// the LO's residual code, checked
+Residual lo_residual_of(int code) {
+  if (code < 0 || code >= kNumResiduals) throw std::invalid_argument("lo_residual must be a residual code in [0, " + std::to_string(kNumResiduals) + ")");
+  return static_cast<Residual>(code);
+}
+
+// RansacOptions::min_inlier_ratio, checked
 double checked_min_inlier_ratio(double r) {
   if (!(r >= 0.0 && r <= 1.0)) throw std::invalid_argument("min_inlier_ratio must be in [0, 1]");
   return r;
@@ -194,7 +201,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   eo.lo_threshold = threshold;
   eo.lo_mu0 = lo_mu0;
   eo.lo_iterations = lo_iterations;
-  eo.lo_residual = static_cast<Residual>(lo_residual);
+  eo.lo_residual = lo_residual_of(lo_residual);
   eo.lo = local_opt_of(lo);
   eo.lo_max_points = lo_max_points;
   const std::vector<int> ord = order_of(order, P.n);
@@ -296,7 +303,7 @@ nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, c
   eo.lo_threshold = threshold;
   eo.lo_mu0 = lo_mu0;
   eo.lo_iterations = lo_iterations;
-  eo.lo_residual = static_cast<Residual>(lo_residual);
+  eo.lo_residual = lo_residual_of(lo_residual);
   eo.lo = local_opt_of(lo);
   eo.lo_max_points = lo_max_points;
   bool ok;

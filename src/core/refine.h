@@ -22,8 +22,8 @@
 
 namespace poseonly {
 
-// scipy.optimize.least_squares losses rho(s) (poseonly.refine._common.LOSSES), codes as
-// poseonly.refine.ligt._LOSS_CODE. A separate enum from common.h's Loss (PoseLib's family: truncated
+// scipy.optimize.least_squares losses rho(s) (poseonly.refine._common.LOSSES), codes 0-4 as
+// poseonly.refine.ligt._LOSS_CODE (5 and 6 have no scipy twin). A separate enum from common.h's Loss (PoseLib's family: truncated
 // losses, no soft_l1/arctan). Two truncated quadratics for the search's LO, which minimise its scores
 // (ransac.h): Truncated rho(s) = min(s, 1) (MSAC at the scale, PoseLib's LO loss) and TruncatedMulti
 // rho(s) = min(s, 1) + 4 min(s, 1/4) + 16 min(s, 1/16) (MultiMsacScorer's sum at s, s/2, s/4); their

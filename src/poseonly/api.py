@@ -57,7 +57,7 @@ import numpy as np
 from . import _core
 from .analysis import REFINE_SOLVER
 from .estimator import lirp_estimator
-from .geometry import InputError, as_bearings, as_real_array, check_correspondences, check_intrinsics, opencv_points, pair_focal
+from .geometry import InputError, as_bearings, as_coordinates, as_real_array, check_correspondences, check_intrinsics, opencv_points, pair_focal
 from .options import OPTIONS, PoseonlyOptions, Spec, check_angle, check_value, parse_options
 from .quantization import check_coordinate_step, grid_step, rounding_sigma_px
 from .result import RelativePoseResult
@@ -182,7 +182,7 @@ def _lost_rows(x1: Any, x2: Any) -> tuple[Any, Any, np.ndarray | None]:
     """Pixel arrays with their NaN / inf rows (in either view) replaced by a placeholder pixel (the first
     finite one, else 0) and the mask of those rows, or the input unchanged (mask None) where there are
     none or the shapes are not matching ``(n, 2)`` pixels (their errors come from the lifting)."""
-    a1, a2 = opencv_points(as_real_array(x1, "x1")), opencv_points(as_real_array(x2, "x2"))
+    a1, a2 = as_coordinates(x1, "x1"), as_coordinates(x2, "x2")  # (boolean arrays refused here too: a review)
     if a1.ndim != 2 or a1.shape[1:] != (2,) or a2.shape != a1.shape:
         return x1, x2, None
     lost = ~(np.isfinite(a1).all(axis=1) & np.isfinite(a2).all(axis=1))

@@ -562,6 +562,16 @@ def as_colmap_camera(spec: Any, name: str = "camera") -> Camera:
     return Camera(cam.model, cam.width, cam.height, tuple(p))
 
 
+def _text_pixels(v: Any, side: str, name: str) -> Any:
+    """A width / height given as text (``"640"``) as its integer; anything else as given (Camera checks it)."""
+    if isinstance(v, str):
+        try:
+            return int(v.strip())
+        except ValueError:
+            raise InputError(f"{name}: camera {side} must be a whole number of pixels, got {v!r}") from None
+    return v
+
+
 def camera_from_text(model: str, params: str, width: int = 0, height: int = 0, name: str = "camera") -> Camera:
     """A :class:`Camera` from a COLMAP model name (any case) and its parameters as text in COLMAP's
     order, separated by commas and / or spaces (as COLMAP's ``--ImageReader.camera_model /
@@ -579,7 +589,8 @@ def camera_from_text(model: str, params: str, width: int = 0, height: int = 0, n
     except ValueError:
         raise InputError(f"{name}: the parameters must be numbers separated by commas or spaces, got {params!r}") from None
     try:
-        return Camera(model.upper(), width, height, values)  # (Camera checks whole pixels: 640.7 was truncated)
+        w, h = (_text_pixels(v, side, name) for v, side in ((width, "width"), (height, "height")))
+        return Camera(model.upper(), w, h, values)  # (Camera checks whole pixels: 640.7 was truncated)
     except InputError as exc:
         raise InputError(f"{name}: {exc}") from None
 

@@ -223,9 +223,12 @@ def opencv_points(a: np.ndarray) -> np.ndarray:
 def as_coordinates(a: object, name: str) -> np.ndarray:
     """Image coordinates or bearings as a float array (:func:`as_real_array`, OpenCV's ``(n, 1, k)`` as
     ``(n, k)``); a boolean array (a mask passed for points) raises :class:`InputError`."""
-    if np.asarray(np.ma.getdata(a) if np.ma.isMaskedArray(a) else a).dtype == np.bool_:
+    raw = np.ma.getdata(a) if np.ma.isMaskedArray(a) else a
+    is_bool = isinstance(raw, np.ndarray) and (raw.dtype == np.bool_ or (raw.dtype.kind == "O" and raw.size > 0 and all(isinstance(x, (bool, np.bool_)) for x in raw.flat)))
+    out = as_real_array(a, name)  # (its errors first: ragged input, complex, strings)
+    if is_bool or (not isinstance(raw, np.ndarray) and np.asarray(raw, dtype=object).size and all(isinstance(x, (bool, np.bool_)) for x in np.asarray(raw, dtype=object).flat)):
         raise InputError(f"{name} must hold coordinates, got a boolean array (a mask?)")
-    return opencv_points(as_real_array(a, name))
+    return opencv_points(out)
 
 
 def _check_shape_2d(a: np.ndarray, name: str) -> np.ndarray:
@@ -600,7 +603,14 @@ def rotation_error_deg(R_gt: np.ndarray, R: np.ndarray) -> Any:
             bad = (off > ROTATION_ERROR_TOL) | (np.linalg.det(M) <= 0.0)
         if np.any(bad & np.isfinite(M).all(axis=(-2, -1))):
             raise InputError(f"{name} is not a rotation (|R^T R - I| up to {np.nanmax(off):.3g}, or det <= 0); its angle would be meaningless")
-    return rotation_angle_deg(np.swapaxes(A, -1, -2) @ B)
+    try:
+        np.broadcast_shapes(A.shape[:-2], B.shape[:-2])
+    except ValueError:
+        raise InputError(f"R_gt {A.shape} and R {B.shape} do not broadcast") from None
+    # a non-finite matrix (a failed estimate) has no angle: NaN, without numpy's warnings
+    A, B = (np.where(np.isfinite(M).all(axis=(-2, -1))[..., None, None], M, np.nan) for M in (A, B))
+    with np.errstate(invalid="ignore"):
+        return rotation_angle_deg(np.swapaxes(A, -1, -2) @ B)
 
 
 def translation_error_deg(t_gt: np.ndarray, t: np.ndarray, sign_invariant: bool = False) -> np.ndarray:

@@ -136,12 +136,13 @@ def check_value(name: str, v: Any, s: Spec) -> Any:
     if s.kind == "seed":
         if isinstance(v, np.random.Generator):
             return v
+        given = v
         if isinstance(v, (float, np.floating)) and math.isfinite(v) and v == round(v):  # 7.0 (a JSON config), as the batch takes it
             v = int(v)
         if _is_bool(v) or not isinstance(v, numbers.Integral):
             raise bad_type()
         if not 0 <= int(v) < SEED_LIMIT:  # the core's seeds are 64-bit: a larger one would alias a smaller
-            raise bad_value()
+            raise InputError(f"option {name!r} has an invalid value {given!r}: it must be {s.describe()}")
         return int(v)
     if s.kind == "name":
         if not isinstance(v, str):

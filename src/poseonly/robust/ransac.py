@@ -123,7 +123,8 @@ def ransac_relpose(
     local optimisation, ``"lirp"`` (warm-started TLS IRLS on all-candidate LiRP with ``lo_residual``)
     or Levenberg-Marquardt on the Sampson error with a loss at the threshold: ``"sampson"`` Cauchy's,
     ``"sampson-truncated"`` MSAC's truncated quadratic (PoseLib's LO), ``"sampson-multi"`` the
-    truncated quadratics of ``"msac-multi"`` (the search's own score).
+    truncated quadratics of ``"msac-multi"`` (the default search's score, without cheirality),
+    ``"sampson-cauchy-multi"`` Cauchy's, then those from its result.
     ``rival_distance > 0`` (degrees) also keeps the best-scoring model at least that far from the
     result in rotation or translation direction: ``stats["rival_cost"]`` (``inf`` if none),
     ``stats["rival_R"]``, ``stats["rival_t"]`` (a uniqueness test of the result). ``chiral``: a match

@@ -219,6 +219,9 @@ def pose_from_essentials(
             cand_cost=np.zeros((h, 0)),
         )
     else:
+        # a slot whose E is not finite or zero has no pose (it was zeroed and identified as diag(0, 0, 1),
+        # not a rotation: a review)
+        mask = mask & np.isfinite(E).all(axis=(-2, -1)) & (np.abs(np.where(np.isfinite(E), E, 0.0)).max(axis=(-2, -1)) > 0)
         Es = np.where(mask[..., None, None], E, np.eye(3))  # harmless filler for empty slots
         Es = np.where(np.isfinite(Es), Es, 0.0)
         o = identify_and_rank(Es, f1, f2, w)
