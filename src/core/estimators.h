@@ -29,7 +29,8 @@ inline double pose_distance_deg(const Pose& a, const Pose& b) {
 // MultiMsacScorer (refine.h), i.e. the search's own score at the threshold (PoseLib's LO loss).
 // SampsonCauchyMulti: the Cauchy LM, then SampsonMulti's from its result (a wide basin first, then the
 // score itself, as LO+'s shrinking thresholds).
-enum class LocalOpt : int { LiRPGnc = 0, SampsonLM = 1, SampsonTruncated = 2, SampsonMulti = 3, SampsonCauchyMulti = 4 };
+// SampsonCauchyTruncated: the same with SampsonTruncated's loss second.
+enum class LocalOpt : int { LiRPGnc = 0, SampsonLM = 1, SampsonTruncated = 2, SampsonMulti = 3, SampsonCauchyMulti = 4, SampsonCauchyTruncated = 5 };
 
 // The five-point solver (fivept.cpp): poses whose sample points all have positive depths.
 void fivept_poses(const Points& p, std::vector<Pose>* out);
@@ -127,12 +128,14 @@ class RelativePoseEstimator {
       ro.max_iterations = o_.lm_iterations;
       ro.tol = 1e-10;
       Pose p = *m;
-      if (o_.lo == LocalOpt::SampsonCauchyMulti) {  // wide first (Cauchy's basin), then the score's own loss
+      if (o_.lo == LocalOpt::SampsonCauchyMulti || o_.lo == LocalOpt::SampsonCauchyTruncated) {  // wide first (Cauchy's basin), then the score's
         ro.loss = RefineLoss::Cauchy;
         refine_sampson(buf_.view(), nullptr, ro, &p);
         if (!(p.R.allFinite() && p.t.allFinite())) return false;
       }
-      ro.loss = o_.lo == LocalOpt::SampsonLM ? RefineLoss::Cauchy : o_.lo == LocalOpt::SampsonTruncated ? RefineLoss::Truncated : RefineLoss::TruncatedMulti;
+      ro.loss = o_.lo == LocalOpt::SampsonLM ? RefineLoss::Cauchy
+                : o_.lo == LocalOpt::SampsonTruncated || o_.lo == LocalOpt::SampsonCauchyTruncated ? RefineLoss::Truncated
+                : RefineLoss::TruncatedMulti;
       refine_sampson(buf_.view(), nullptr, ro, &p);  // every point in the window; the loss bounds outliers
       if (!(p.R.allFinite() && p.t.allFinite())) return false;
       *m = p;

@@ -148,7 +148,7 @@ def noise_threshold(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray
     return thr
 
 
-LO_CODES = {"lirp": 0, "sampson": 1, "sampson-truncated": 2, "sampson-multi": 3, "sampson-cauchy-multi": 4}
+LO_CODES = {"lirp": 0, "sampson": 1, "sampson-truncated": 2, "sampson-multi": 3, "sampson-cauchy-multi": 4, "sampson-cauchy-truncated": 5}
 
 
 def local_optimization(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, thr: float, o: PoseonlyOptions) -> tuple[np.ndarray, np.ndarray]:
@@ -156,7 +156,8 @@ def local_optimization(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndar
     4 thresholds: warm-started TLS IRLS on all-candidate LiRP (``lo="lirp"``) or Sampson LM with a loss
     at ``thr``: Cauchy's (``"sampson"``), MSAC's truncated quadratic (``"sampson-truncated"``), the
     truncated quadratics of ``scoring="msac-multi"`` (``"sampson-multi"``; without the cheirality of
-    ``chiral_scoring``), or Cauchy's then those (``"sampson-cauchy-multi"``)."""
+    ``chiral_scoring``), or Cauchy's then one of those (``"sampson-cauchy-truncated"``,
+    ``"sampson-cauchy-multi"``)."""
     Rl, tl, ok = _core.relpose_lo(R, t, f1, f2, thr, float(o.lo_mu0), int(o.lo_iterations), get_residual(o.lo_residual).code, LO_CODES[o.lo], int(o.lo_max_points))
     return (Rl, tl) if ok else (R, t)
 

@@ -31,7 +31,7 @@ __all__ = ["RansacResult", "ransac_relpose", "search_cost", "gnc_ransac", "sampl
 
 SCORINGS = {"msac": 0, "msac-multi": 1, "count": 2}
 _MINIMAL = {"5pt": 0, "lirp": 1}
-_LO = {"lirp": 0, "sampson": 1, "sampson-truncated": 2, "sampson-multi": 3, "sampson-cauchy-multi": 4}
+_LO = {"lirp": 0, "sampson": 1, "sampson-truncated": 2, "sampson-multi": 3, "sampson-cauchy-multi": 4, "sampson-cauchy-truncated": 5}
 # the progressive sampler's stopping rules (src/core/ransac.h): PROSAC's per-top-n rule, or the expected
 # all-inlier draws of the sampler's schedule
 PROGRESSIVE_RULES = ("prosac", "expected")
@@ -124,7 +124,8 @@ def ransac_relpose(
     or Levenberg-Marquardt on the Sampson error with a loss at the threshold: ``"sampson"`` Cauchy's,
     ``"sampson-truncated"`` MSAC's truncated quadratic (PoseLib's LO), ``"sampson-multi"`` the
     truncated quadratics of ``"msac-multi"`` (the default search's score, without cheirality),
-    ``"sampson-cauchy-multi"`` Cauchy's, then those from its result.
+    ``"sampson-cauchy-truncated"`` / ``"sampson-cauchy-multi"`` Cauchy's, then MSAC's / those from
+    its result.
     ``rival_distance > 0`` (degrees) also keeps the best-scoring model at least that far from the
     result in rotation or translation direction: ``stats["rival_cost"]`` (``inf`` if none),
     ``stats["rival_R"]``, ``stats["rival_t"]`` (a uniqueness test of the result). ``chiral``: a match
