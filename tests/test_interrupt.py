@@ -26,9 +26,16 @@ except KeyboardInterrupt:
 """
 
 
+def _sigint_default() -> None:
+    """The child's SIGINT at its default before exec, so that Python installs its KeyboardInterrupt
+    handler: a test run started in the background of a shell without job control inherits SIGINT
+    ignored, and the child then never saw the Ctrl-C (the search ran to its end)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 def test_ctrl_c_ends_the_search_at_once():
-    p = subprocess.Popen([sys.executable, "-c", CODE], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p = subprocess.Popen([sys.executable, "-c", CODE], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_sigint_default)
     try:
         assert p.stdout is not None
         assert p.stdout.readline().strip() == "start"
@@ -131,7 +138,7 @@ except KeyboardInterrupt:
 def test_ctrl_c_ends_a_batch_on_threads_at_once():
     """The batch sets its threads' flag when Ctrl-C unwinds it: the two searches running in worker threads
     (tens of seconds each) end with it instead of being waited for (7.7 s in a review's run)."""
-    p = subprocess.Popen([sys.executable, "-c", BATCH_CODE], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p = subprocess.Popen([sys.executable, "-c", BATCH_CODE], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_sigint_default)
     try:
         assert p.stdout is not None
         assert p.stdout.readline().strip() == "start"

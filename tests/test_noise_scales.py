@@ -133,7 +133,7 @@ def test_estimate_relative_pose_uses_and_checks_noise_scales():
     with_c = [rotation_error_deg(sc.R, estimate_relative_pose(u1, u2, sc.K, seed=s, noise_scales=c).R) for s in range(3)]
     without = [rotation_error_deg(sc.R, estimate_relative_pose(u1, u2, sc.K, seed=s).R) for s in range(3)]
     assert np.mean(with_c) < np.mean(without)
-    for bad, msg in ((c[:-1], "shape"), (np.where(np.arange(len(c)) == 3, 0.0, c), "> 0"), (np.where(np.arange(len(c)) == 3, np.inf, c), "> 0"), (c.astype(str), "real")):
+    for bad, msg in ((c[:-1], "shape"), (np.where(np.arange(len(c)) == 3, 0.0, c), "> 0"), (np.where(np.arange(len(c)) == 3, np.inf, c), "> 0"), (c.astype(str), "numeric")):
         with pytest.raises(InputError, match=msg):
             estimate_relative_pose(u1, u2, sc.K, noise_scales=bad)
 

@@ -252,7 +252,9 @@ def test_bearings_near_ninety_degrees_no_linalg_error(scale):
     x2 = rng.standard_normal((25, 2))
     with pytest.raises(InputError, match="pixel-sized"):  # as (n, 2) coordinates they read as pixels
         estimate_relative_pose(x1, x2, focal_px=800.0)
-    b1 = np.column_stack([x1, np.ones(len(x1))])  # the same rays as bearing vectors
+    with pytest.raises(InputError, match="homogeneous pixels"):  # as [x, y, 1] rows too
+        estimate_relative_pose(np.column_stack([x1, np.ones(len(x1))]), x2, focal_px=800.0)
+    b1 = np.column_stack([x1, np.full(len(x1), 0.5)])  # rays as far off-axis as bearing vectors
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
         r = estimate_relative_pose(b1, x2, focal_px=800.0, max_iterations=150)
