@@ -90,8 +90,10 @@ RansacOptions ransac_options(int max_iterations, int min_iterations, double conf
 
 // the LO's code, checked (it was cast to the enum unchecked)
 LocalOpt local_opt_of(int lo) {
-  if (lo < 0 || lo > static_cast<int>(LocalOpt::SampsonCauchyTruncated))
-    throw std::invalid_argument("lo must be 0 (lirp), 1 (sampson), 2 (sampson-truncated), 3 (sampson-multi), 4 (sampson-cauchy-multi) or 5 (sampson-cauchy-truncated)");
+  if (lo < 0 || lo > static_cast<int>(LocalOpt::SampsonCauchyAuto))
+    throw std::invalid_argument(
+        "lo must be 0 (lirp), 1 (sampson), 2 (sampson-truncated), 3 (sampson-multi), 4 (sampson-cauchy-multi), 5 (sampson-cauchy-truncated) or 6 "
+        "(sampson-cauchy-auto)");
   return static_cast<LocalOpt>(lo);
 }
 

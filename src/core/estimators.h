@@ -29,8 +29,13 @@ inline double pose_distance_deg(const Pose& a, const Pose& b) {
 // MultiMsacScorer (refine.h), i.e. the search's own score at the threshold (PoseLib's LO loss).
 // SampsonCauchyMulti: the Cauchy LM, then SampsonMulti's from its result (a wide basin first, then the
 // score itself, as LO+'s shrinking thresholds).
-// SampsonCauchyTruncated: the same with SampsonTruncated's loss second.
-enum class LocalOpt : int { LiRPGnc = 0, SampsonLM = 1, SampsonTruncated = 2, SampsonMulti = 3, SampsonCauchyMulti = 4, SampsonCauchyTruncated = 5 };
+// SampsonCauchyTruncated: the same with SampsonTruncated's loss second. SampsonCauchyAuto: the
+// second stage of SampsonCauchyMulti only where the matches within the threshold at the Cauchy pose
+// have a median error below kLoAutoMedianShare thresholds, i.e. where the threshold is well above the
+// noise (Gaussian noise of sigma < ~0.45 thresholds: a few % of the inliers beyond it) and truncating
+// at it discards almost no inlier; with noise near the threshold the Cauchy pose is kept.
+enum class LocalOpt : int { LiRPGnc = 0, SampsonLM = 1, SampsonTruncated = 2, SampsonMulti = 3, SampsonCauchyMulti = 4, SampsonCauchyTruncated = 5, SampsonCauchyAuto = 6 };
+constexpr double kLoAutoMedianShare = 0.3;
 
 // The five-point solver (fivept.cpp): poses whose sample points all have positive depths.
 void fivept_poses(const Points& p, std::vector<Pose>* out);
@@ -128,10 +133,29 @@ class RelativePoseEstimator {
       ro.max_iterations = o_.lm_iterations;
       ro.tol = 1e-10;
       Pose p = *m;
-      if (o_.lo == LocalOpt::SampsonCauchyMulti || o_.lo == LocalOpt::SampsonCauchyTruncated) {  // wide first (Cauchy's basin), then the score's
-        ro.loss = RefineLoss::Cauchy;
+      if (o_.lo == LocalOpt::SampsonCauchyMulti || o_.lo == LocalOpt::SampsonCauchyTruncated || o_.lo == LocalOpt::SampsonCauchyAuto) {
+        ro.loss = RefineLoss::Cauchy;  // wide first (Cauchy's basin), then the score's
         refine_sampson(buf_.view(), nullptr, ro, &p);
         if (!(p.R.allFinite() && p.t.allFinite())) return false;
+        if (o_.lo == LocalOpt::SampsonCauchyAuto) {
+          const Points V = buf_.view();
+          const PoseTerms Tp(p);
+          within_.clear();
+          for (int i = 0; i < V.n; ++i) {
+            const double r = sampson(Tp.E, V.a(i), V.b(i));
+            if (r < thr) within_.push_back(r);
+          }
+          bool low_noise = static_cast<int>(within_.size()) >= kLirpMinPoints;
+          if (low_noise) {
+            auto mid = within_.begin() + within_.size() / 2;
+            std::nth_element(within_.begin(), mid, within_.end());
+            low_noise = *mid < kLoAutoMedianShare * thr;
+          }
+          if (!low_noise) {
+            *m = p;
+            return true;
+          }
+        }
       }
       ro.loss = o_.lo == LocalOpt::SampsonLM ? RefineLoss::Cauchy
                 : o_.lo == LocalOpt::SampsonTruncated || o_.lo == LocalOpt::SampsonCauchyTruncated ? RefineLoss::Truncated
@@ -160,6 +184,7 @@ class RelativePoseEstimator {
   SoaPoints soa_;
   PointBuffer buf_;
   std::vector<double> w0_;
+  std::vector<double> within_;  // SampsonCauchyAuto: the window's errors within the threshold
   mutable std::vector<double> par_;
   LirpResult lr_;
 };

@@ -396,7 +396,7 @@ class PoseonlyOptions(CommonOptions):
     )
     adaptive_threshold: bool = _opt(True, "bool")
     noise_factor: float = _opt(2.5, "real", lo=0.0, lo_open=True)
-    lo: str = _opt("sampson", "str", choices=("lirp", "sampson", "sampson-truncated", "sampson-multi", "sampson-cauchy-multi", "sampson-cauchy-truncated"))
+    lo: str = _opt("sampson", "str", choices=("lirp", "sampson", "sampson-truncated", "sampson-multi", "sampson-cauchy-multi", "sampson-cauchy-truncated", "sampson-cauchy-auto"))
     final: str = _opt(
         "ml",
         "str",

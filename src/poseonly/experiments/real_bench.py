@@ -257,6 +257,8 @@ METHODS: dict[str, MethodFn] = {
     "poseonly-noscale-locm": ours(use_scores=True, lo="sampson-cauchy-multi"),
     "poseonly-loct": ours(use_scores=True, use_scales=True, lo="sampson-cauchy-truncated"),
     "poseonly-noscale-loct": ours(use_scores=True, lo="sampson-cauchy-truncated"),
+    "poseonly-loauto": ours(use_scores=True, use_scales=True, lo="sampson-cauchy-auto"),
+    "poseonly-noscale-loauto": ours(use_scores=True, lo="sampson-cauchy-auto"),
     "poseonly-cauchy": ours(use_scores=True, use_scales=True, final="cauchy"),
     # the ML stage's EM started from the least-squares refit of the matches within its range, or from both starts
     "poseonly-mlband": ours(use_scores=True, use_scales=True, ml_start="band"),

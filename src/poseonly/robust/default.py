@@ -148,7 +148,7 @@ def noise_threshold(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray
     return thr
 
 
-LO_CODES = {"lirp": 0, "sampson": 1, "sampson-truncated": 2, "sampson-multi": 3, "sampson-cauchy-multi": 4, "sampson-cauchy-truncated": 5}
+LO_CODES = {"lirp": 0, "sampson": 1, "sampson-truncated": 2, "sampson-multi": 3, "sampson-cauchy-multi": 4, "sampson-cauchy-truncated": 5, "sampson-cauchy-auto": 6}
 
 
 def local_optimization(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, thr: float, o: PoseonlyOptions) -> tuple[np.ndarray, np.ndarray]:

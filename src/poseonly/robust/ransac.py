@@ -31,7 +31,7 @@ __all__ = ["RansacResult", "ransac_relpose", "search_cost", "gnc_ransac", "sampl
 
 SCORINGS = {"msac": 0, "msac-multi": 1, "count": 2}
 _MINIMAL = {"5pt": 0, "lirp": 1}
-_LO = {"lirp": 0, "sampson": 1, "sampson-truncated": 2, "sampson-multi": 3, "sampson-cauchy-multi": 4, "sampson-cauchy-truncated": 5}
+_LO = {"lirp": 0, "sampson": 1, "sampson-truncated": 2, "sampson-multi": 3, "sampson-cauchy-multi": 4, "sampson-cauchy-truncated": 5, "sampson-cauchy-auto": 6}
 # the progressive sampler's stopping rules (src/core/ransac.h): PROSAC's per-top-n rule, or the expected
 # all-inlier draws of the sampler's schedule
 PROGRESSIVE_RULES = ("prosac", "expected")
