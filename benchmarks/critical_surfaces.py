@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import json
 
 WRONG_DEG = 2.0  # an ok pose further than this from the truth counts as wrong
 
@@ -23,6 +24,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, default=3, help="estimator seeds per scene (default 3)")
     ap.add_argument("--noise", type=float, nargs="+", default=[0.1, 0.5], help="pixel noise levels (default 0.1 0.5)")
     ap.add_argument("--points", type=int, default=200, help="matches per scene (default 200)")
+    ap.add_argument("--options", type=json.loads, default={}, help='the method\'s options as JSON (default {}: the default method), e.g. \'{"lo": "sampson-cauchy-auto"}\'')
     a = ap.parse_args(argv)
     from poseonly import estimate_relative_pose, rotation_error_deg
     from poseonly.sim_hard import critical_surface
@@ -33,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
         for scene in range(a.scenes):
             c = critical_surface(a.points, noise_px=noise, seed=scene)
             for seed in range(a.seeds):
-                r = estimate_relative_pose(c.u1, c.u2, c.K, c.K, seed=seed)
+                r = estimate_relative_pose(c.u1, c.u2, c.K, c.K, seed=seed, **a.options)
                 st[r.status] += 1
                 wrong += r.status == "ok" and rotation_error_deg(r.R, c.R) > WRONG_DEG
                 own += bool(r.diagnostics.get("rival_search_own"))

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import json
 import sys
 from pathlib import Path
 
@@ -60,6 +61,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--image", type=int, default=4, help="the image of each scene (default 4)")
     ap.add_argument("--width", type=int, default=1024, help="resize to this width (default 1024 px)")
     ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--options", type=json.loads, default={}, help='the method\'s options as JSON (default {}: the default method), e.g. \'{"lo": "sampson-cauchy-auto"}\'')
     ap.add_argument("--no-demo", action="store_true", help="leave out the embedded demo image")
     a = ap.parse_args(argv)
     import cv2
@@ -92,7 +94,7 @@ def main(argv: list[str] | None = None) -> int:
             st: collections.Counter = collections.Counter()
             err_ok = []
             for seed in range(a.seeds):
-                r = estimate_relative_pose(u1, u2, K, K, scores=sc, seed=seed)
+                r = estimate_relative_pose(u1, u2, K, K, scores=sc, seed=seed, **a.options)
                 st[r.status] += 1
                 if r.status == "ok":
                     err_ok.append(rotation_error_deg(R, r.R))
