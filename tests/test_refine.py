@@ -348,3 +348,36 @@ def test_every_lo_of_the_default_estimates_and_a_bad_code_is_refused():
         _core.relpose_lo(sc.R, sc.t, sc.f1, sc.f2, 1e-3, 1e3, 10, 1, len(lo_field.metadata["spec"].choices), 0)
     with pytest.raises(ValueError, match="lo_residual"):
         _core.relpose_lo(sc.R, sc.t, sc.f1, sc.f2, 1e-3, 1e3, 10, 99, 1, 0)
+
+
+def test_the_two_stage_los_offer_both_stages_and_the_auto_gate_follows_the_noise():
+    """``relpose_lo`` gives a two-stage LO's two poses (the Cauchy LM's, then the second stage's), each
+    the same as the one-stage LO of that loss; ``"sampson-cauchy-auto"`` runs the second stage where the
+    noise is well below the threshold (0.1 px at 1 px) and not where it is near it (1 px at 1 px)."""
+    from poseonly import _core
+    from poseonly.robust.ransac import LO_CODES
+
+    sc = make_scene(300, camera="pinhole", noise_px=0.1, outlier_fraction=0.3, seed=7)
+    tau = 1.0 / sc.K[0, 0]
+    R0 = sc.R @ rotation_from_rotvec(np.array([0.002, -0.001, 0.001]))
+
+    def lo(name, f1, f2):
+        return _core.relpose_lo(R0, sc.t, f1, f2, tau, 1e3, 10, 1, LO_CODES[name], 0)
+
+    Rc, tc = lo("sampson", sc.f1, sc.f2)
+    Rm, tm = lo("sampson-cauchy-multi", sc.f1, sc.f2)
+    Ra, ta = lo("sampson-cauchy-auto", sc.f1, sc.f2)
+    assert Rc.shape == (1, 3, 3) and Rm.shape == (2, 3, 3) and ta.shape == (2, 3)
+    np.testing.assert_array_equal(Rm[0], Rc[0])
+    np.testing.assert_array_equal(Ra, Rm)
+    np.testing.assert_array_equal(ta, tm)
+    assert rotation_error_deg(Ra[1], Ra[0]) > 0.0  # the second stage moved the pose
+
+    noisy = make_scene(300, camera="pinhole", noise_px=1.0, outlier_fraction=0.3, seed=7)
+    Rc, tc = _core.relpose_lo(R0, noisy.t, noisy.f1, noisy.f2, tau, 1e3, 10, 1, LO_CODES["sampson"], 0)
+    Ra, ta = _core.relpose_lo(R0, noisy.t, noisy.f1, noisy.f2, tau, 1e3, 10, 1, LO_CODES["sampson-cauchy-auto"], 0)
+    assert Ra.shape == (1, 3, 3)
+    np.testing.assert_array_equal(Ra, Rc)
+    np.testing.assert_array_equal(ta, tc)
+    with pytest.raises(ValueError, match="threshold"):
+        _core.relpose_lo(R0, sc.t, sc.f1, sc.f2, 0.0, 1e3, 10, 1, 1, 0)

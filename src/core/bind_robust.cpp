@@ -298,8 +298,9 @@ nb::tuple keypoint_groups_py(const BearingsIn& f1, const BearingsIn& f2) {
 nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, const BearingsIn& f2, double threshold,
                      double lo_mu0, int lo_iterations, int lo_residual, int lo, int lo_max_points) {
   if (lo_max_points < 0) throw std::invalid_argument("lo_max_points must be >= 0");
+  if (!(threshold > 0.0 && std::isfinite(threshold))) throw std::invalid_argument("threshold must be finite and > 0");
   const Points P = points_of(f1, f2);
-  Pose p = pose_of(R, t);
+  const Pose p = pose_of(R, t);
   RelativePoseEstimator::Options eo;
   eo.solver = MinimalSolver::LiRP6;
   eo.lo_threshold = threshold;
@@ -308,7 +309,8 @@ nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, c
   eo.lo_residual = lo_residual_of(lo_residual);
   eo.lo = local_opt_of(lo);
   eo.lo_max_points = lo_max_points;
-  bool ok;
+  Pose c[RelativePoseEstimator::kLoCandidates];
+  int k;
   {
     nb::gil_scoped_release release;
     RelativePoseEstimator est(P, eo);
@@ -316,10 +318,12 @@ nb::tuple relpose_lo(const ArrayIn& R, const ArrayIn& t, const BearingsIn& f1, c
     const PoseTerms T(p);
     for (int i = 0; i < P.n; ++i)
       if (sampson_chiral(T, P.a(i), P.b(i)) < std::min(threshold, 0.5)) inl.push_back(i);
-    ok = est.local_optimization(&p, inl, threshold);
+    k = est.local_candidates(p, inl, threshold, c);
   }
-  auto [Ro, to] = pose_arrays(p);
-  return nb::make_tuple(Ro, to, ok);
+  std::vector<double> Rs(9 * k), ts(3 * k);
+  for (int i = 0; i < k; ++i) put_pose(c[i], Rs.data() + 9 * i, ts.data() + 3 * i);
+  const size_t n = static_cast<size_t>(k);
+  return nb::make_tuple(to_numpy(std::move(Rs), {n, 3, 3}), to_numpy(std::move(ts), {n, 3}));
 }
 
 // The ML stage's options from the binding's arguments, checked (ml_refine and ml_cross_fit).
@@ -621,7 +625,8 @@ POSEONLY_BIND(robust) {
         "(conflicts.h): (start, members, corr); group g = members[start[g]:start[g + 1]], corr[i] = match i's correspondence id.");
   m.def("relpose_lo", &relpose_lo, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"),
         nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1, nb::arg("lo") = 0, nb::arg("lo_max_points") = 0,
-        "The default method's LO step at `threshold` from the pose's cheirality-consistent inliers: (R, t, ok).");
+        "The default method's LO step at `threshold` from the pose's cheirality-consistent inliers: its candidate poses "
+        "(R (k, 3, 3), t (k, 3)); k = 0 where it failed, 2 for a two-stage LO whose second stage ran (first stage first).");
   m.def("ml_refine", &ml_refine_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("range"),
         nb::arg("rounds") = 6, nb::arg("lm_iterations") = 10, nb::arg("pose_tol") = 0.0, nb::arg("student") = true,
         nb::arg("scales") = nb::none(), nb::arg("band_start") = false, nb::arg("nu") = nb::none(), nb::arg("alpha") = nb::none(),

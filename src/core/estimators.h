@@ -34,8 +34,14 @@ inline double pose_distance_deg(const Pose& a, const Pose& b) {
 // have a median error below kLoAutoMedianShare thresholds, i.e. where the threshold is well above the
 // noise (Gaussian noise of sigma < ~0.45 thresholds: a few % of the inliers beyond it) and truncating
 // at it discards almost no inlier; with noise near the threshold the Cauchy pose is kept.
+// The two-stage LOs offer both stages' poses as candidates (local_candidates): the caller scores each by
+// its own objective and keeps the best, since the second stage's loss lowers its own cost on the LO's
+// window, not necessarily the search's score (cheirality, keypoint_once, a strided window).
 enum class LocalOpt : int { LiRPGnc = 0, SampsonLM = 1, SampsonTruncated = 2, SampsonMulti = 3, SampsonCauchyMulti = 4, SampsonCauchyTruncated = 5, SampsonCauchyAuto = 6 };
 constexpr double kLoAutoMedianShare = 0.3;
+// SampsonCauchyAuto's gate needs this many errors within the threshold: on fewer, the 5-parameter fit
+// shrinks the errors (by ~sqrt((k - 5) / k)) enough to pass noise near the threshold as low
+constexpr int kLoAutoMinErrors = 20;
 
 // The five-point solver (fivept.cpp): poses whose sample points all have positive depths.
 void fivept_poses(const Points& p, std::vector<Pose>* out);
@@ -45,6 +51,7 @@ void fivept_poses(const Points& p, std::vector<Pose>* out);
 // from the model's inliers, on the points within `lo_window` thresholds.
 class RelativePoseEstimator {
  public:
+  static constexpr int kLoCandidates = 2;  // the most poses local_candidates offers
   struct Options {
     MinimalSolver solver = MinimalSolver::FivePoint;
     double lo_threshold = 1e-3;  // the LO's fixed TLS bound (radians)
@@ -100,11 +107,23 @@ class RelativePoseEstimator {
   }
 
   bool refine(Model* m, const std::vector<int>& inliers) { return local_optimization(m, inliers, o_.lo_threshold); }
+  // The LO's candidates at the search's bound (ransac.h scores each; see local_candidates).
+  int refine_candidates(const Model& m, const std::vector<int>& inliers, Model* out) { return local_candidates(m, inliers, o_.lo_threshold, out); }
 
-  // The LO step at an explicit bound `thr` (also the default method's final stage).
+  // The LO step at an explicit bound `thr` (also the default method's final stage): its last candidate.
   bool local_optimization(Model* m, const std::vector<int>& inliers, double thr) {
-    if (static_cast<int>(inliers.size()) < kLirpMinPoints) return false;
-    const PoseTerms T(*m);
+    Model c[kLoCandidates];
+    const int k = local_candidates(*m, inliers, thr, c);
+    if (k == 0) return false;
+    *m = c[k - 1];
+    return true;
+  }
+
+  // The LO of `m` at the bound `thr`: writes 0 (failed), 1 or, for a two-stage LO whose second stage
+  // ran, 2 poses (the first stage's, then the second's) to `out` and returns their number.
+  int local_candidates(const Model& m, const std::vector<int>& inliers, double thr, Model* out) {
+    if (static_cast<int>(inliers.size()) < kLirpMinPoints) return 0;
+    const PoseTerms T(m);
     buf_.clear();
     w0_.clear();
     size_t j = 0;
@@ -115,7 +134,7 @@ class RelativePoseEstimator {
       buf_.push(P_.f1 + 3 * i, P_.f2 + 3 * i);
       w0_.push_back(in ? 1.0 : 0.0);
     }
-    if (buf_.view().n < kLirpMinPoints) return false;
+    if (buf_.view().n < kLirpMinPoints) return 0;
     if (o_.lo_max_points > 0 && buf_.view().n > o_.lo_max_points) {  // an evenly strided subset
       const int nw = buf_.view().n, stride = (nw + o_.lo_max_points - 1) / o_.lo_max_points;
       PointBuffer sub;
@@ -132,11 +151,13 @@ class RelativePoseEstimator {
       ro.loss_scale = thr;
       ro.max_iterations = o_.lm_iterations;
       ro.tol = 1e-10;
-      Pose p = *m;
-      if (o_.lo == LocalOpt::SampsonCauchyMulti || o_.lo == LocalOpt::SampsonCauchyTruncated || o_.lo == LocalOpt::SampsonCauchyAuto) {
+      Pose p = m;
+      const int k = two_stage();  // the second stage's slot
+      if (k) {
         ro.loss = RefineLoss::Cauchy;  // wide first (Cauchy's basin), then the score's
         refine_sampson(buf_.view(), nullptr, ro, &p);
-        if (!(p.R.allFinite() && p.t.allFinite())) return false;
+        if (!(p.R.allFinite() && p.t.allFinite())) return 0;
+        out[0] = p;
         if (o_.lo == LocalOpt::SampsonCauchyAuto) {
           const Points V = buf_.view();
           const PoseTerms Tp(p);
@@ -145,25 +166,22 @@ class RelativePoseEstimator {
             const double r = sampson(Tp.E, V.a(i), V.b(i));
             if (r < thr) within_.push_back(r);
           }
-          bool low_noise = static_cast<int>(within_.size()) >= kLirpMinPoints;
+          bool low_noise = static_cast<int>(within_.size()) >= kLoAutoMinErrors;
           if (low_noise) {
             auto mid = within_.begin() + within_.size() / 2;
             std::nth_element(within_.begin(), mid, within_.end());
             low_noise = *mid < kLoAutoMedianShare * thr;
           }
-          if (!low_noise) {
-            *m = p;
-            return true;
-          }
+          if (!low_noise) return 1;
         }
       }
       ro.loss = o_.lo == LocalOpt::SampsonLM ? RefineLoss::Cauchy
                 : o_.lo == LocalOpt::SampsonTruncated || o_.lo == LocalOpt::SampsonCauchyTruncated ? RefineLoss::Truncated
                 : RefineLoss::TruncatedMulti;
       refine_sampson(buf_.view(), nullptr, ro, &p);  // every point in the window; the loss bounds outliers
-      if (!(p.R.allFinite() && p.t.allFinite())) return false;
-      *m = p;
-      return true;
+      if (!(p.R.allFinite() && p.t.allFinite())) return k;  // the first stage's pose, or none
+      out[k] = p;
+      return k + 1;
     }
     GncOptions g;
     g.noise_bound = thr;
@@ -173,12 +191,14 @@ class RelativePoseEstimator {
     g.all_candidates = true;
     GncResult r;
     gnc_irls(buf_.view(), w0_.data(), g, &r);
-    if (!(r.pose.R.allFinite() && r.pose.t.allFinite())) return false;
-    *m = r.pose;
-    return true;
+    if (!(r.pose.R.allFinite() && r.pose.t.allFinite())) return 0;
+    out[0] = r.pose;
+    return 1;
   }
 
  private:
+  bool two_stage() const { return o_.lo == LocalOpt::SampsonCauchyMulti || o_.lo == LocalOpt::SampsonCauchyTruncated || o_.lo == LocalOpt::SampsonCauchyAuto; }
+
   Points P_;
   Options o_;
   SoaPoints soa_;

@@ -9,6 +9,8 @@
 //   void generate(const std::vector<int>& sample, std::vector<Model>* models);   // the solver
 //   Terms terms(const Model&) const;  double residual(const Terms&, int i) const; // the residual
 //   bool refine(Model* m, const std::vector<int>& inliers);       // local optimisation (LO) step
+//   optional: int refine_candidates(const Model&, const std::vector<int>& inliers, Model* out);
+//     an LO offering up to Est::kLoCandidates poses (a two-stage LO's stages); the loop scores each
 //   double success_probability(double inlier_ratio) const;        // P(a sample is good)
 //   double distance(const Model&, const Model&) const;            // how different two models are
 // Scorer contract: double cost(const Estimator&, const Model&, double bail) const (lower is better;
@@ -326,6 +328,43 @@ struct HasInlierFilter : std::false_type {};
 template <class Scorer>
 struct HasInlierFilter<Scorer, std::void_t<decltype(&Scorer::template filter_inliers<int, int>)>> : std::true_type {};
 
+// an estimator whose LO offers several candidates (RelativePoseEstimator's two-stage LOs)
+template <class Est, class = void>
+struct HasRefineCandidates : std::false_type {};
+template <class Est>
+struct HasRefineCandidates<Est, std::void_t<decltype(std::declval<Est&>().refine_candidates(std::declval<const typename Est::Model&>(),
+                                                                                              std::declval<const std::vector<int>&>(),
+                                                                                              std::declval<typename Est::Model*>()))>>
+    : std::true_type {};
+
+// The LO of `m` on `inl`, judged by the loop's scorer: the candidate of lowest cost (a later one wins
+// ties, i.e. a second stage that scores the same), its cost in *cost (bailing out above `bail`). False
+// where the LO failed. An estimator with one LO result (refine) has one candidate.
+template <class Est, class Scorer>
+bool scored_refine(Est& est, const Scorer& scorer, const typename Est::Model& m, const std::vector<int>& inl, double bail,
+                   typename Est::Model* out, double* cost) {
+  if constexpr (HasRefineCandidates<Est>::value) {
+    typename Est::Model c[Est::kLoCandidates];
+    const int k = est.refine_candidates(m, inl, c);
+    if (k == 0) return false;
+    double best = std::numeric_limits<double>::infinity();
+    for (int i = 0; i < k; ++i) {
+      const double ci = scorer.cost(est, c[i], std::min(bail, best));
+      if (ci <= best) {
+        best = ci;
+        *out = c[i];
+      }
+    }
+    *cost = best;
+    return best < std::numeric_limits<double>::infinity();
+  } else {
+    *out = m;
+    if (!est.refine(out, inl)) return false;
+    *cost = scorer.cost(est, *out, bail);
+    return true;
+  }
+}
+
 // The model's inliers under the scorer's residuals (cheirality-aware for a ChiralScorer, so that the
 // LO starts from and the adaptive stop counts the matches the score counts).
 template <class Est, class Model, class Scorer>
@@ -613,11 +652,11 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
       promote(m, c);
       if (st.num_lo < opt.max_lo) {
         inliers_of(est, *best, scorer, &inl);
-        Model lo = *best;
+        Model lo;
+        double c2;
         ++st.num_lo;
-        if (est.refine(&lo, inl)) {
+        if (scored_refine(est, scorer, *best, inl, st.cost, &lo, &c2)) {
           const double c0 = st.cost;
-          const double c2 = scorer.cost(est, lo, st.cost);
           if (c2 <= st.cost) {
             if (full - c0 > 0.0) gain = std::max(gain, (full - c2) / (full - c0));
             promote(lo, c2);
@@ -655,10 +694,10 @@ RansacStats ransac(Est& est, const Scorer& scorer, Sampler& sampler, const Ransa
     double c = scorer.cost(est, m, std::numeric_limits<double>::infinity());
     for (int k = 0; k < kChallengerSteps; ++k) {
       inliers_of(est, m, scorer, &inl);
-      Model lo = m;
+      Model lo;
+      double c2;
       ++st.num_challenger_lo;
-      if (!est.refine(&lo, inl)) break;
-      const double c2 = scorer.cost(est, lo, c);
+      if (!scored_refine(est, scorer, m, inl, c, &lo, &c2)) break;
       if (!(c2 < c)) break;
       m = lo;
       c = c2;

@@ -90,7 +90,7 @@ def relpose_lo(
     lo_residual: int = 1,
     lo: int = 0,
     lo_max_points: int = 0,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], bool]: ...
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
 def ml_refine(
     R: NDArray[np.float64],
     t: NDArray[np.float64],

@@ -20,7 +20,7 @@ from ..median import median
 from ..options import PoseonlyOptions
 from ..residuals import get_residual, v_sampson, v_sampson_chiral
 from .consistency import consistency_order_scores
-from .ransac import RansacResult, core_seed, ransac_relpose, search_cost
+from .ransac import LO_CODES, RansacResult, core_seed, ransac_relpose, search_cost
 
 __all__ = ["keep_better", "local_optimization", "make_rng", "msac_chiral", "noise_threshold", "refine_ligt", "rival_support_ratio", "run_poseonly", "select_by_support"]
 
@@ -148,18 +148,23 @@ def noise_threshold(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray
     return thr
 
 
-LO_CODES = {"lirp": 0, "sampson": 1, "sampson-truncated": 2, "sampson-multi": 3, "sampson-cauchy-multi": 4, "sampson-cauchy-truncated": 5, "sampson-cauchy-auto": 6}
-
-
 def local_optimization(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, thr: float, o: PoseonlyOptions) -> tuple[np.ndarray, np.ndarray]:
     """The core's LO step at ``thr`` from the pose's cheirality-consistent inliers, on the points within
     4 thresholds: warm-started TLS IRLS on all-candidate LiRP (``lo="lirp"``) or Sampson LM with a loss
     at ``thr``: Cauchy's (``"sampson"``), MSAC's truncated quadratic (``"sampson-truncated"``), the
     truncated quadratics of ``scoring="msac-multi"`` (``"sampson-multi"``; without the cheirality of
     ``chiral_scoring``), or Cauchy's then one of those (``"sampson-cauchy-truncated"``,
-    ``"sampson-cauchy-multi"``)."""
-    Rl, tl, ok = _core.relpose_lo(R, t, f1, f2, thr, float(o.lo_mu0), int(o.lo_iterations), get_residual(o.lo_residual).code, LO_CODES[o.lo], int(o.lo_max_points))
-    return (Rl, tl) if ok else (R, t)
+    ``"sampson-cauchy-multi"``; ``"sampson-cauchy-auto"``: the second stage only where the matches within
+    ``thr`` have a median error below 0.3 ``thr``). Of a two-stage LO's two poses the one of the better
+    cheirality-aware MSAC score at ``thr`` (the later on a tie), as the search keeps the better by its own
+    score. ``(R, t)`` unchanged where the LO fails."""
+    Rs, ts = _core.relpose_lo(R, t, f1, f2, thr, float(o.lo_mu0), int(o.lo_iterations), get_residual(o.lo_residual).code, LO_CODES[o.lo], int(o.lo_max_points))
+    if len(Rs) == 0:
+        return R, t
+    best = len(Rs) - 1
+    for k in range(len(Rs) - 1):
+        best = k if msac_chiral(Rs[k], ts[k], f1, f2, thr) > msac_chiral(Rs[best], ts[best], f1, f2, thr) else best
+    return Rs[best], ts[best]
 
 
 def rival_support_ratio(r: RansacResult, n: int, tau: float, scoring: str) -> float:

@@ -31,7 +31,7 @@ __all__ = ["RansacResult", "ransac_relpose", "search_cost", "gnc_ransac", "sampl
 
 SCORINGS = {"msac": 0, "msac-multi": 1, "count": 2}
 _MINIMAL = {"5pt": 0, "lirp": 1}
-_LO = {"lirp": 0, "sampson": 1, "sampson-truncated": 2, "sampson-multi": 3, "sampson-cauchy-multi": 4, "sampson-cauchy-truncated": 5, "sampson-cauchy-auto": 6}
+LO_CODES = {"lirp": 0, "sampson": 1, "sampson-truncated": 2, "sampson-multi": 3, "sampson-cauchy-multi": 4, "sampson-cauchy-truncated": 5, "sampson-cauchy-auto": 6}
 # the progressive sampler's stopping rules (src/core/ransac.h): PROSAC's per-top-n rule, or the expected
 # all-inlier draws of the sampler's schedule
 PROGRESSIVE_RULES = ("prosac", "expected")
@@ -164,8 +164,8 @@ def ransac_relpose(
     search ends once a model supported by that share would have been drawn at ``confidence`` (a caller
     that refuses models with less support need not search longer for them).
     """
-    if lo not in _LO:
-        raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(_LO)}")
+    if lo not in LO_CODES:
+        raise ValueError(f"unknown local optimisation {lo!r}; choose one of {sorted(LO_CODES)}")
     if solver not in _MINIMAL:
         raise ValueError(f"unknown minimal solver {solver!r}; choose one of {sorted(_MINIMAL)}")
     if scoring not in SCORINGS:
@@ -189,7 +189,7 @@ def ransac_relpose(
         int(lo_iterations),
         get_residual(lo_residual).code,
         order,
-        _LO[lo],
+        LO_CODES[lo],
         float(rival_distance),
         bool(chiral),
         int(min_hits),
