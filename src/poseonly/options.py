@@ -396,7 +396,17 @@ class PoseonlyOptions(CommonOptions):
     )
     adaptive_threshold: bool = _opt(True, "bool")
     noise_factor: float = _opt(2.5, "real", lo=0.0, lo_open=True)
-    lo: str = _opt("sampson", "str", choices=("lirp", "sampson", "sampson-truncated", "sampson-multi", "sampson-cauchy-multi", "sampson-cauchy-truncated", "sampson-cauchy-auto"))
+    lo: str = _opt(
+        "sampson",
+        "str",
+        "the search's local optimisation (src/core/estimators.h): Sampson LM with Cauchy's loss at the threshold ('sampson'), "
+        "MSAC's truncated loss ('sampson-truncated'), msac-multi's truncated losses ('sampson-multi'), Cauchy's then one of "
+        "those ('sampson-cauchy-truncated', 'sampson-cauchy-multi'; 'sampson-cauchy-auto': msac-multi's only where the "
+        "matches within the threshold have a median error below 0.3 thresholds), or TLS IRLS on LiRP ('lirp'). A two-stage "
+        "LO's two poses are scored by the search's scoring and the better kept, so its second stage (msac-multi's loss "
+        "whatever the scoring) never makes the search's result worse by that scoring",
+        choices=("lirp", "sampson", "sampson-truncated", "sampson-multi", "sampson-cauchy-multi", "sampson-cauchy-truncated", "sampson-cauchy-auto"),
+    )
     final: str = _opt(
         "ml",
         "str",
