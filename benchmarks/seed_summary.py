@@ -6,9 +6,12 @@ is left out of the mean), per seed and their average; the wrong ``ok`` poses (ro
 5 deg) per seed against the ``ok`` count; and the share of the pairs where the reference method
 (PoseLib 1 px by default) is within 2 deg that stay ``ok``; on the datasets that are not Strecha
 scenes, the pose AUC@5/10/20 of max(rotation, translation-direction error) averaged over the seeds and
-the seed spread (standard deviation) of AUC@10. The bench's own tables show seed 0 only.
+the seed spread (standard deviation) of AUC@10 (with ``--strecha-auc`` on the Strecha scenes' scored
+pairs too). The bench's own tables show seed 0 only. A ``real_frontends.json`` of
+``benchmarks/real_frontends.py --full-json`` is summarised front-end by front-end.
 
     python benchmarks/seed_summary.py docs/results/real/floor_seeds5/real_bench.json
+    python benchmarks/seed_summary.py OUT/real_frontends.json --strecha-auc
 """
 
 from __future__ import annotations
@@ -39,7 +42,7 @@ def _pose_err(rec: dict) -> float:
     return float("inf") if r is None or t is None else max(float(r), float(t))
 
 
-def summarize(bench: dict, reference: str = "poselib-1px") -> list[str]:
+def summarize(bench: dict, reference: str = "poselib-1px", strecha_auc: bool = False) -> list[str]:
     """Lines of the summary of one ``real_bench.json`` (see the module docstring)."""
     out = []
     pairs = bench["pairs"]
@@ -57,8 +60,8 @@ def summarize(bench: dict, reference: str = "poselib-1px") -> list[str]:
                 means.append(float(np.mean(e[ov & (e < NO_POSE_DEG)])))
                 wrong.append(int(np.count_nonzero(ok & (e > WRONG_DEG))))
                 oks.append(int(ok.sum()))
-                if ds not in STRECHA:
-                    aucs.append(pose_auc(np.array([_pose_err(p["methods"][m][s]) for p in P])))
+                if ds not in STRECHA or strecha_auc:
+                    aucs.append(pose_auc(np.array([_pose_err(p["methods"][m][s]) for p, o in zip(P, ov) if o])))
                 if reference in P[0]["methods"]:
                     good = np.array([_err(p["methods"][reference][s]) < REF_GOOD_DEG for p in P])
                     kept.append(float(np.count_nonzero(ok & good) / max(int(good.sum()), 1)))
@@ -80,8 +83,16 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("json", type=Path, help="real_bench.json of a `poseonly bench real --seeds S` run")
     ap.add_argument("--reference", default="poselib-1px", help="method whose <= 2 deg pairs should stay ok")
+    ap.add_argument("--strecha-auc", action="store_true", help="the pose AUC on the Strecha scenes' scored pairs too")
     a = ap.parse_args(argv)
-    print("\n".join(summarize(json.loads(a.json.read_text(encoding="utf-8")), a.reference)))
+    bench = json.loads(a.json.read_text(encoding="utf-8"))
+    if "front_ends" not in bench:
+        print("\n".join(summarize(bench, a.reference, a.strecha_auc)))
+        return 0
+    for fe, res in bench["front_ends"].items():
+        if "pairs" not in res:
+            raise SystemExit(f"{a.json}: front-end {fe} has no pairs (run real_frontends.py with --full-json)")
+        print("\n".join([f"## {fe}", *summarize(res, a.reference, a.strecha_auc)]))
     return 0
 
 

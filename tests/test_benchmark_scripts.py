@@ -217,6 +217,40 @@ def test_critical_surfaces_runs(capsys):
         import critical_surfaces
     finally:
         sys.path.pop(0)
-    assert critical_surfaces.main(["--scenes", "2", "--seeds", "1", "--noise", "0.5"]) == 0
+    assert critical_surfaces.main(["--scenes", "2", "--seeds", "1", "--noise", "0.5", "--options", '{"lo": "sampson-cauchy-auto"}']) == 0
     out = capsys.readouterr().out
     assert "noise 0.5 px:" in out and "of 2;" in out
+
+
+def test_seed_summary_of_a_front_end_run(tmp_path: Path, capsys):
+    """benchmarks/seed_summary.py on a hand-made ``real_frontends.json``: one block per front-end, the
+    Strecha scenes' AUC on their scored pairs with ``--strecha-auc`` only; a run without the pairs is
+    refused by name."""
+    import json
+
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    try:
+        import seed_summary
+    finally:
+        sys.path.pop(0)
+
+    def rec(e: float, s: str = "ok") -> dict:
+        return {"R_err": e, "t_err": e, "status": s}
+
+    pairs = [
+        {"dataset": "entry-P10", "id": "0-1", "gt_matches": 100, "methods": {"poseonly": [rec(1.0), rec(3.0)], "poselib-1px": [rec(1.0), rec(1.0)]}},
+        {"dataset": "entry-P10", "id": "0-9", "gt_matches": 5, "methods": {"poseonly": [rec(90.0), rec(90.0)], "poselib-1px": [rec(90.0), rec(90.0)]}},
+    ]
+    path = tmp_path / "real_frontends.json"
+    path.write_text(json.dumps({"front_ends": {"fe-a": {"pairs": pairs}, "fe-b": {"pairs": pairs}}}))
+    assert seed_summary.main([str(path), "--strecha-auc"]) == 0
+    out = capsys.readouterr().out
+    assert "## fe-a" in out and "## fe-b" in out and "entry-P10 (2 pairs, 1 scored)" in out
+    # the scored pair only: 1 and 3 deg on the two seeds, AUC@10 95 and 85 (the recall curve rises
+    # linearly from 0 at 0 deg: pose_auc), so 90 with std 5; the 90 deg pair would add a zero
+    assert "median 2.0000 (1.0000 3.0000)" in out and "/90.00/" in out and "(AUC@10 std 5.00)" in out, out
+    assert seed_summary.main([str(path)]) == 0
+    assert "AUC" not in capsys.readouterr().out.split("poseonly")[1].split("\n")[0]
+    path.write_text(json.dumps({"front_ends": {"fe-a": {"summary": {}}}}))
+    with pytest.raises(SystemExit, match="fe-a has no pairs"):
+        seed_summary.main([str(path)])
