@@ -555,10 +555,9 @@ def test_image_files_by_extension_any_case(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir() if is_image_file(p)) == ["a.JPG", "b.tif", "c.TIFF", "d.png", "e.webp"]
 
 
-def test_a_failed_write_leaves_the_previous_outputs_whole(tmp_path, monkeypatch, capsys):
-    """Every output goes into a staging folder and moves into place once all are written: a write that
-    fails (here the COLMAP model's, as on a full disk) leaves the previous run's poses.json, point cloud and
-    model as they were, and no staging folder (a reliability trial: a new points.ply beside the old rest)."""
+def _small_scene_args(tmp_path: Path) -> list[str]:
+    """``poseonly sfm`` arguments (without ``--out``) for four of Herz-Jesus-P8's images at a quarter of
+    their size (skips without the data, OpenCV or pycolmap)."""
     cv2 = pytest.importorskip("cv2")
     pytest.importorskip("pycolmap")
     if not (SCENE / "images" / "K.txt").is_file():
@@ -570,8 +569,41 @@ def test_a_failed_write_leaves_the_previous_outputs_whole(tmp_path, monkeypatch,
     K = np.loadtxt(SCENE / "images" / "K.txt")
     K[:2] *= 0.25
     np.savetxt(tmp_path / "K.txt", K)
+    return ["sfm", str(d), "--K", str(tmp_path / "K.txt"), "--max-features", "1500", "--no-progress"]
+
+
+def test_outputs_no_poseonly_run_wrote_are_not_replaced_without_overwrite(tmp_path, capsys):
+    """A user's trial: ``--out`` holding a COLMAP project (sparse/0, sparse/1) had its sparse/0 replaced and
+    sparse/1 kept beside it, exit 0. Outputs that no earlier run listed in its poses.json are refused
+    before any work, by name; ``--overwrite`` replaces them (other files kept); a rerun over the
+    command's own outputs needs no flag."""
+    args = _small_scene_args(tmp_path)
     out = tmp_path / "o"
-    args = ["sfm", str(d), "--K", str(tmp_path / "K.txt"), "--out", str(out), "--max-features", "1500", "--no-progress"]
+    for foreign in ("sparse/0/cameras.bin", "sparse/1/images.bin", "points.ply", "poses.json"):
+        (out / foreign).parent.mkdir(parents=True, exist_ok=True)
+        (out / foreign).write_bytes(b"not ours")
+    assert main([*args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "no poseonly run wrote there (poses.json, points.ply, sparse/0 and 1 more)" in err and "--overwrite" in err, err
+    assert not (out / "cache").exists()  # refused before the features
+    assert main([*args, "--out", str(out), "--overwrite"]) == 0
+    assert (out / "sparse" / "1" / "images.bin").read_bytes() == b"not ours"  # kept
+    assert (out / "points.ply").read_bytes() != b"not ours" and not (out / "sparse" / "0" / "cameras.bin").read_bytes() == b"not ours"
+    capsys.readouterr()
+    (out / "sparse" / "1" / "images.bin").unlink()
+    (out / "sparse" / "1").rmdir()
+    assert main([*args, "--out", str(out)]) == 0  # its own outputs only: no flag needed
+    (out / "sparse" / "0" / "extra.txt").write_text("a file of the user's in our model folder")
+    assert main([*args, "--out", str(out)]) == 2
+    assert "(sparse/0)" in capsys.readouterr().err
+
+
+def test_a_failed_write_leaves_the_previous_outputs_whole(tmp_path, monkeypatch, capsys):
+    """Every output goes into a staging folder and moves into place once all are written: a write that
+    fails (here the COLMAP model's, as on a full disk) leaves the previous run's poses.json, point cloud and
+    model as they were, and no staging folder (a reliability trial: a new points.ply beside the old rest)."""
+    out = tmp_path / "o"
+    args = [*_small_scene_args(tmp_path), "--out", str(out)]
     assert main(args) == 0
     before = {p.relative_to(out).as_posix(): p.read_bytes() for p in out.rglob("*") if p.is_file() and "cache" not in p.parts}
     assert {"poses.json", "points.ply"} <= set(before)
@@ -587,3 +619,18 @@ def test_a_failed_write_leaves_the_previous_outputs_whole(tmp_path, monkeypatch,
     after = {p.relative_to(out).as_posix(): p.read_bytes() for p in out.rglob("*") if p.is_file() and "cache" not in p.parts}
     assert after == before
     assert not [p.name for p in out.iterdir() if p.name.startswith(".staging.")]
+
+
+def test_pose_records_give_no_translation_for_a_pure_rotation_edge():
+    """poses.json's ``pairs``: an edge kept as ``pure_rotation`` has ``t: null`` (any direction fits it; a
+    user's trial found one written), an ``ok`` edge its unit translation."""
+    from types import SimpleNamespace
+
+    from poseonly.sfm.cli import _pair_records
+    from poseonly.sfm.viewgraph import Edge
+
+    m = np.zeros((0, 2), int)
+    edges = [Edge(0, 1, np.eye(3), np.array([1.0, 0, 0]), m, "ok"), Edge(1, 2, np.eye(3), np.array([0, 1.0, 0]), m, "pure_rotation")]
+    ig = SimpleNamespace(graph=SimpleNamespace(edges=edges, rejected=[]), pair_stats=[(0, 1, 50, 40, "ok"), (1, 2, 60, 55, "pure_rotation")])
+    recs = _pair_records(ig, [Path(f"{k}.jpg") for k in range(3)], set())
+    assert recs[0]["t"] == [1.0, 0.0, 0.0] and recs[1]["edge"] and recs[1]["t"] is None and recs[1]["R"] == np.eye(3).tolist()

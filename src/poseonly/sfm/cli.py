@@ -113,6 +113,16 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         raise InputError(f"--out {out} is the image folder: the outputs (reconstruction.png among them) would become images of the next run; give another folder")
     if args.database and args.K:
         raise InputError("give --K or --database (which holds the cameras), not both")
+    foreign = _foreign_outputs(out)
+    if foreign and not args.overwrite:  # a user's trial: a COLMAP project's sparse/0 was replaced, its sparse/1 kept beside it
+        shown = ", ".join(f.relative_to(out).as_posix() for f in foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
+        raise InputError(
+            f"--out {out} holds outputs no poseonly run wrote there ({shown}), which this run would replace or leave beside its own; give another folder, or --overwrite"
+        )
+    try:  # now, not after the pipeline: a Ctrl-C landing in this import reads as a broken pycolmap
+        import_pycolmap()
+    except ImportError:
+        pass  # reported where the model would be written
     t0 = time.perf_counter()
     opt = PairwiseOptions(
         max_features=args.max_features,
@@ -228,7 +238,8 @@ def _pair_records(ig: Any, images: list[Path], outliers: set[tuple[int, int]]) -
         rec: dict[str, Any] = {"images": [images[a].name, images[b].name], "views": [a, b], "matches": int(putative), "inliers": int(inliers), "status": status}
         e = edges.get((a, b))
         if e is not None:
-            rec.update(edge=True, R=e.R.tolist(), t=e.t.tolist(), outlier_edge=(a, b) in outliers)
+            # a pure rotation's translation is any direction (a user's trial found one written): null
+            rec.update(edge=True, R=e.R.tolist(), t=e.t.tolist() if e.use_translation else None, outlier_edge=(a, b) in outliers)
         else:
             rec.update(edge=False, rejected=why.get((a, b)))
         out.append(rec)
@@ -297,6 +308,34 @@ def _previous_outputs(out: Path) -> set[Path]:
     except (OSError, ValueError, AttributeError):
         return set()
     return _model_outputs(out, models if isinstance(models, list) else [])
+
+
+def _foreign_outputs(out: Path) -> list[Path]:
+    """The paths in ``out`` that a run writes or replaces (``poses.json``, ``points*.ply``,
+    ``reconstruction*.png``, the folders and files under ``sparse/``) that no earlier poseonly run listed in
+    its ``poses.json`` as written: a COLMAP project's models, a point cloud of another tool."""
+    if not out.is_dir():
+        return []
+    ours = _previous_outputs(out)
+    pj = out / "poses.json"
+    found: list[Path] = []
+    if pj.exists():
+        try:
+            own = isinstance(json.loads(pj.read_text(encoding="utf-8")).get("models"), list)
+        except (OSError, ValueError, AttributeError):
+            own = False
+        if not own:
+            found.append(pj)
+    found += [f for pat in ("points*.ply", "reconstruction*.png") for f in sorted(out.glob(pat)) if f not in ours]
+    sparse = out / "sparse"
+    if sparse.is_dir():
+        for d in sorted(sparse.iterdir()):
+            files = [f for f in d.iterdir() if f.is_file()] if d.is_dir() else [d]
+            if any(f not in ours for f in files):
+                found.append(d)
+    elif sparse.exists():
+        found.append(sparse)
+    return found
 
 
 def _remove_stale(out: Path, stale: set[Path]) -> None:
@@ -445,6 +484,11 @@ def add_parsers(sub: Any, esub: Any) -> None:
         help="--database: use the focal length COLMAP guessed for cameras imported without calibration or EXIF focal length (refused otherwise)",
     )
     s.add_argument("--out", required=True, help="output folder")
+    s.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace outputs in --out that no poseonly run wrote (e.g. a COLMAP project's sparse/0; refused without it); other files are kept",
+    )
     s.add_argument("--max-features", type=non_negative_int, default=8000, help="strongest SIFT features per image (default 8000; 0: every feature SIFT finds)")
     s.add_argument("--max-images", type=positive_int, help="use only the first N images (sorted by name)")
     s.add_argument("--threshold-px", type=positive_float, default=None, help="two-view inlier threshold (px; default: the method's, 1 px)")
