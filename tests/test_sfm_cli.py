@@ -113,6 +113,10 @@ def test_sfm_command_bad_input(tmp_path, capsys):
     assert "gives 2 images (--max-images 2 of 4)" in capsys.readouterr().err
     assert main(["sfm", str(img), "--K", str(tmp_path / "K.txt"), "--out", str(tmp_path / "o"), "--trust-guessed-focal"]) == 2
     assert "applies to --database" in capsys.readouterr().err
+    # a skew the written PINHOLE model cannot hold is said (a user's trial: reprojections 0.87 px off, silently)
+    (tmp_path / "Ks.txt").write_text("800 5 320\n0 800 240\n0 0 1\n")
+    assert main(["sfm", str(img), "--K", str(tmp_path / "Ks.txt"), "--out", str(tmp_path / "o")]) == 2  # the empty images
+    assert "skew of 5 px" in capsys.readouterr().out
     # the image folder as --out: its reconstruction.png would be an image of the next run (a user's trial)
     assert main(["sfm", str(img), "--K", str(tmp_path / "K.txt"), "--out", str(img / ".." / "imgs")]) == 2
     assert "is the image folder" in capsys.readouterr().err

@@ -172,6 +172,11 @@ def cmd_sfm(args: argparse.Namespace) -> int:
             used = f" (--max-images {args.max_images} of {held})" if len(images) < held else ""
             raise InputError(f"{d} gives {len(images)} images{used}; global SfM needs at least 3")
         lens = {"camera": camera} if camera is not None else {"K": read_K(args.K, "--K")}
+        if "K" in lens and lens["K"][0, 1] != 0.0:  # a user's trial: the model's reprojections were 0.87 px off, silently
+            print(
+                f"note: --K has a skew of {lens['K'][0, 1]:g} px: the poses use it, but the COLMAP model is written with a PINHOLE "
+                "camera, which has none, so its reprojections are off by up to the skew times half the image height over the focal length"
+            )
         pairs = _pair_list(args, images)
         resident = {} if args.resident_images is None else {"resident_images": args.resident_images}
         ig = image_view_graph(images, options=opt, cache_dir=cache, pairs=pairs, progress=prog, jobs=args.jobs, **lens, **resident)
