@@ -485,12 +485,14 @@ def test_sfm_command_writes_one_model_per_scene(tmp_path, capsys):
     assert "points_1.ply" in written and "reconstruction_1.png" in written and any(f.startswith("sparse/1/") for f in written)
     # a rerun into the same folder with one scene: the other model's files, which no longer match
     # poses.json, are removed (a user's trial); files poseonly did not write stay, and so does a folder
-    # holding one
+    # holding one (a file of the user's in a model folder, which a run replaces whole, needs --overwrite)
     (out / "sparse" / "notes.txt").write_text("mine")
     (out / "sparse" / "1" / "mine.txt").write_text("mine")
     for f in d.glob("b_*"):
         f.unlink()
-    assert main(["sfm", str(d), "--K", str(tmp_path / "K.txt"), "--out", str(out), "--max-features", "1500", "--no-progress"]) == 0
+    assert main(["sfm", str(d), "--K", str(tmp_path / "K.txt"), "--out", str(out), "--max-features", "1500", "--no-progress"]) == 2
+    assert "no poseonly run wrote there (sparse/1)" in capsys.readouterr().err
+    assert main(["sfm", str(d), "--K", str(tmp_path / "K.txt"), "--out", str(out), "--max-features", "1500", "--no-progress", "--overwrite"]) == 0
     assert f"removed {len(written)} files of the previous run" in capsys.readouterr().out
     assert not (out / "points_1.ply").exists() and not (out / "reconstruction_1.png").exists()
     assert sorted(p.name for p in (out / "sparse" / "1").iterdir()) == ["mine.txt"]
@@ -589,9 +591,11 @@ def test_outputs_no_poseonly_run_wrote_are_not_replaced_without_overwrite(tmp_pa
     assert main([*args, "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "no poseonly run wrote there (poses.json, points.ply, sparse/0 and 1 more)" in err and "--overwrite" in err, err
+    (out / "sparse" / "notes.txt").write_text("never touched: not a model folder")
     assert not (out / "cache").exists()  # refused before the features
     assert main([*args, "--out", str(out), "--overwrite"]) == 0
     assert (out / "sparse" / "1" / "images.bin").read_bytes() == b"not ours"  # kept
+    assert (out / "sparse" / "notes.txt").read_text() == "never touched: not a model folder"
     assert (out / "points.ply").read_bytes() != b"not ours" and not (out / "sparse" / "0" / "cameras.bin").read_bytes() == b"not ours"
     capsys.readouterr()
     (out / "sparse" / "1" / "images.bin").unlink()

@@ -170,7 +170,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
             images = images[: args.max_images]
         if len(images) < 3:
             used = f" (--max-images {args.max_images} of {held})" if len(images) < held else ""
-            raise InputError(f"{d} gives {len(images)} images{used}; global SfM needs at least 3")
+            raise InputError(f"{d} gives {len(images)} image{'' if len(images) == 1 else 's'}{used}; global SfM needs at least 3")
         lens = {"camera": camera} if camera is not None else {"K": read_K(args.K, "--K")}
         if "K" in lens and lens["K"][0, 1] != 0.0:  # a user's trial: the model's reprojections were 0.87 px off, silently
             print(
@@ -317,8 +317,10 @@ def _previous_outputs(out: Path) -> set[Path]:
 
 def _foreign_outputs(out: Path) -> list[Path]:
     """The paths in ``out`` that a run writes or replaces (``poses.json``, ``points*.ply``,
-    ``reconstruction*.png``, the folders and files under ``sparse/``) that no earlier poseonly run listed in
-    its ``poses.json`` as written: a COLMAP project's models, a point cloud of another tool."""
+    ``reconstruction*.png``, the model folders ``sparse/<k>``, each replaced whole) holding what no earlier
+    poseonly run listed in its ``poses.json`` as written: a COLMAP project's models, a point cloud of
+    another tool, a file of the user's in a model folder. Other files (``sparse/notes.txt``) are never
+    touched."""
     if not out.is_dir():
         return []
     ours = _previous_outputs(out)
@@ -335,8 +337,7 @@ def _foreign_outputs(out: Path) -> list[Path]:
     sparse = out / "sparse"
     if sparse.is_dir():
         for d in sorted(sparse.iterdir()):
-            files = [f for f in d.iterdir() if f.is_file()] if d.is_dir() else [d]
-            if any(f not in ours for f in files):
+            if d.name.isdigit() and d.is_dir() and any(f not in ours for f in d.rglob("*") if not f.is_dir()):
                 found.append(d)
     elif sparse.exists():
         found.append(sparse)

@@ -494,7 +494,8 @@ def image_view_graph(
         if size != ref:
             raise InputError(
                 f"{images[i]} is {size[0]}x{size[1]} pixels but {images[j]} is {ref[0]}x{ref[1]}: one calibration for every image"
-                " describes one image size; give the images one size, or one calibration per image"
+                " describes one image size; give the images one size, or one calibration per image (image_view_graph's K (N, 3, 3)"
+                " or list of cameras; poseonly sfm: a COLMAP database with a camera per image, --database)"
             )
 
     def lift(i: int) -> np.ndarray:
