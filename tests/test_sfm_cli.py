@@ -642,3 +642,25 @@ def test_pose_records_give_no_translation_for_a_pure_rotation_edge():
     ig = SimpleNamespace(graph=SimpleNamespace(edges=edges, rejected=[]), pair_stats=[(0, 1, 50, 40, "ok"), (1, 2, 60, 55, "pure_rotation")])
     recs = _pair_records(ig, [Path(f"{k}.jpg") for k in range(3)], set())
     assert recs[0]["t"] == [1.0, 0.0, 0.0] and recs[1]["edge"] and recs[1]["t"] is None and recs[1]["R"] == np.eye(3).tolist()
+
+
+def test_outputs_of_an_older_version_and_other_names_are_not_foreign(tmp_path):
+    """``--out`` checks (a review): a poses.json of a version that listed no ``outputs`` vouches for the
+    names a run writes (points.ply, reconstruction_1.png, sparse/<k>'s model files), not for other files
+    in a model folder; names a run never writes (points_clean.ply, sparse/notes.txt) are not checked; a
+    poses.json of another tool is foreign."""
+    import json
+
+    from poseonly.sfm.cli import _foreign_outputs
+
+    out = tmp_path / "o"
+    for f in ("points.ply", "reconstruction_1.png", "points_clean.ply", "sparse/0/cameras.bin", "sparse/0/points3D.txt", "sparse/notes.txt", "cache/x.npz"):
+        (out / f).parent.mkdir(parents=True, exist_ok=True)
+        (out / f).write_bytes(b"x")
+    (out / "poses.json").write_text(json.dumps({"convention": "X_cam = R (X_world - c)", "models": [{"model": 0}], "images": []}))
+    assert _foreign_outputs(out) == []
+    (out / "sparse" / "0" / "mine.txt").write_text("mine")
+    assert _foreign_outputs(out) == [out / "sparse" / "0"]
+    (out / "poses.json").write_text(json.dumps({"cameras": []}))
+    assert _foreign_outputs(out) == [out / "poses.json", out / "points.ply", out / "reconstruction_1.png", out / "sparse" / "0"]
+    assert _foreign_outputs(tmp_path / "none") == []

@@ -626,7 +626,7 @@ POSEONLY_BIND(robust) {
   m.def("relpose_lo", &relpose_lo, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("threshold"),
         nb::arg("lo_mu0") = 1e3, nb::arg("lo_iterations") = 10, nb::arg("lo_residual") = 1, nb::arg("lo") = 0, nb::arg("lo_max_points") = 0,
         "The default method's LO step at `threshold` from the pose's cheirality-consistent inliers: its candidate poses "
-        "(R (k, 3, 3), t (k, 3)); k = 0 where it failed, 2 for a two-stage LO whose second stage ran (first stage first).");
+        "(R (k, 3, 3), t (k, 3)); k = 0 where it failed, 2 for a two-stage LO whose second stage ran and gave a finite pose (first stage first).");
   m.def("ml_refine", &ml_refine_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("range"),
         nb::arg("rounds") = 6, nb::arg("lm_iterations") = 10, nb::arg("pose_tol") = 0.0, nb::arg("student") = true,
         nb::arg("scales") = nb::none(), nb::arg("band_start") = false, nb::arg("nu") = nb::none(), nb::arg("alpha") = nb::none(),

@@ -403,8 +403,8 @@ class PoseonlyOptions(CommonOptions):
         "MSAC's truncated loss ('sampson-truncated'), msac-multi's truncated losses ('sampson-multi'), Cauchy's then one of "
         "those ('sampson-cauchy-truncated', 'sampson-cauchy-multi'; 'sampson-cauchy-auto': msac-multi's only where the "
         "matches within the threshold have a median error below 0.3 thresholds), or TLS IRLS on LiRP ('lirp'). A two-stage "
-        "LO's two poses are scored by the search's scoring and the better kept, so its second stage (msac-multi's loss "
-        "whatever the scoring) never makes the search's result worse by that scoring",
+        "LO's two poses are scored by the search's scoring and the better kept, so its second stage (its loss fixed by "
+        "the choice, whatever the scoring) never makes the search's result worse by that scoring",
         choices=("lirp", "sampson", "sampson-truncated", "sampson-multi", "sampson-cauchy-multi", "sampson-cauchy-truncated", "sampson-cauchy-auto"),
     )
     final: str = _opt(

@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import shutil
 import time
 from collections import Counter
@@ -216,7 +217,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         model_of[np.all(np.isfinite(res.rotations), axis=(1, 2))] = k
     print(f"models: {len(models)} ({', '.join(str(int(np.sum(model_of == k))) for k in range(len(models)))} images)")
     previous = _previous_outputs(out)  # read before this run writes over them
-    poses: dict[str, Any] = {"convention": "X_cam = R (X_world - c)", "status": "", "models": [], "images": []}
+    poses: dict[str, Any] = {"convention": _CONVENTION, "status": "", "models": [], "images": []}
     # every output is written into a staging folder first and moved into place once all are written: a
     # failed write (a full disk) leaves the previous run's set whole (a reliability trial: a new points.ply
     # beside the old poses.json and model)
@@ -315,29 +316,45 @@ def _previous_outputs(out: Path) -> set[Path]:
     return _model_outputs(out, models if isinstance(models, list) else [])
 
 
+# the names of the files a run writes (model k > 0 with the suffix _k) and of a COLMAP model's files
+_TOP_OUTPUT = re.compile(r"(points|reconstruction)(_\d+)?\.(ply|png)")
+_MODEL_FILE = re.compile(r"(cameras|images|points3D|rigs|frames)\.(bin|txt)")
+_CONVENTION = "X_cam = R (X_world - c)"
+
+
 def _foreign_outputs(out: Path) -> list[Path]:
-    """The paths in ``out`` that a run writes or replaces (``poses.json``, ``points*.ply``,
-    ``reconstruction*.png``, the model folders ``sparse/<k>``, each replaced whole) holding what no earlier
-    poseonly run listed in its ``poses.json`` as written: a COLMAP project's models, a point cloud of
-    another tool, a file of the user's in a model folder. Other files (``sparse/notes.txt``) are never
-    touched."""
+    """The paths in ``out`` that a run writes or replaces (``poses.json``, ``points[_k].ply``,
+    ``reconstruction[_k].png``, the model folders ``sparse/<k>``, each replaced whole) holding what no
+    earlier poseonly run wrote: a COLMAP project's models, a point cloud of another tool, a file of the
+    user's in a model folder. A run's files are those its ``poses.json`` lists (``outputs``); a
+    ``poses.json`` of an older version, which lists none, vouches for the names a run writes. Other files
+    (``sparse/notes.txt``, ``points_clean.ply``) are never touched."""
     if not out.is_dir():
         return []
     ours = _previous_outputs(out)
     pj = out / "poses.json"
     found: list[Path] = []
+    legacy = False
     if pj.exists():
         try:
-            own = isinstance(json.loads(pj.read_text(encoding="utf-8")).get("models"), list)
-        except (OSError, ValueError, AttributeError):
+            prev = json.loads(pj.read_text(encoding="utf-8"))
+            own = isinstance(prev, dict) and prev.get("convention") == _CONVENTION
+        except (OSError, ValueError):
             own = False
         if not own:
             found.append(pj)
-    found += [f for pat in ("points*.ply", "reconstruction*.png") for f in sorted(out.glob(pat)) if f not in ours]
+        else:
+            models = prev.get("models")
+            legacy = not (isinstance(models, list) and any(isinstance(m, dict) and "outputs" in m for m in models))
+
+    def theirs(f: Path, named: bool) -> bool:
+        return f not in ours and not (legacy and named)
+
+    found += [f for f in sorted(out.iterdir()) if _TOP_OUTPUT.fullmatch(f.name) and theirs(f, True)]
     sparse = out / "sparse"
     if sparse.is_dir():
         for d in sorted(sparse.iterdir()):
-            if d.name.isdigit() and d.is_dir() and any(f not in ours for f in d.rglob("*") if not f.is_dir()):
+            if d.name.isdigit() and d.is_dir() and any(theirs(f, f.parent == d and bool(_MODEL_FILE.fullmatch(f.name))) for f in d.rglob("*") if not f.is_dir()):
                 found.append(d)
     elif sparse.exists():
         found.append(sparse)
