@@ -300,3 +300,24 @@ def test_colmap_verify_database_path_with_uri_characters(tmp_path, capsys):
     assert "3 written" in capsys.readouterr().out
     assert len(_rows(path)) == 3
     assert sorted(p.name for p in d.iterdir() if not p.name.endswith(("-wal", "-shm", "-journal"))) == before
+
+
+def test_a_reader_that_goes_away_does_not_abort_the_run(tmp_path):
+    """``poseonly ... | head -1``: once the pipe's reader has gone the rest of the output is dropped and the
+    run finishes and writes its files (a user's trial: ``Broken pipe``, exit 2, nothing written), with no
+    error at the interpreter's exit."""
+    import subprocess
+    import sys
+
+    from poseonly.sim import make_scene
+
+    sc = make_scene(200, camera="pinhole", noise_px=0.5, outlier_fraction=0.3, seed=1)
+    np.savez(tmp_path / "m.npz", u1=sc.u1, u2=sc.u2, K=sc.K)
+    cmd = [sys.executable, "-m", "poseonly", "relpose", "--matches", str(tmp_path / "m.npz"), "--save", str(tmp_path / "out.npz")]
+    p = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert p.stdout is not None and p.stderr is not None
+    p.stdout.close()  # the reader goes before the command prints
+    err = p.stderr.read().decode()
+    assert p.wait() == 0, err
+    assert "Broken pipe" not in err and "Exception ignored" not in err, err
+    assert np.load(tmp_path / "out.npz")["R"].shape == (3, 3)

@@ -13,10 +13,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import sys
 import threading
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -410,6 +412,44 @@ def _on_sigterm(signum: int, frame: object) -> None:
     raise Terminated
 
 
+class _ClosedPipeGuard:
+    """``sys.stdout`` while a command runs: once the reader of a pipe has gone (``poseonly sfm ... | head
+    -1``), the rest of the output is dropped instead of raising ``BrokenPipeError``, which aborted the run
+    before it wrote its files (a user's trial: exit 2, nothing written). The stream's descriptor is then
+    pointed at ``os.devnull`` so that the interpreter's last flush does not fail either."""
+
+    def __init__(self, stream: Any) -> None:
+        self._stream = stream
+        self.broken = False
+
+    def _closed(self) -> None:
+        self.broken = True
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, self._stream.fileno())
+            os.close(devnull)
+        except (OSError, ValueError, AttributeError):  # no descriptor (a test's captured stream)
+            pass
+
+    def write(self, text: str) -> int:
+        if not self.broken:
+            try:
+                return int(self._stream.write(text))
+            except BrokenPipeError:
+                self._closed()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self.broken:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._closed()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._stream, name)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -418,6 +458,8 @@ def main(argv: list[str] | None = None) -> int:
     # (only the main thread may set handlers; pycolmap's import keeps this one: poseonly._pycolmap)
     installed = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _on_sigterm) if installed else None
+    stdout = sys.stdout
+    sys.stdout = _ClosedPipeGuard(stdout)
     try:
         rc = int(args.func(args) or 0)
         return rc
@@ -434,6 +476,7 @@ def main(argv: list[str] | None = None) -> int:
         rc = 130
         return rc
     finally:
+        sys.stdout = stdout
         if installed:
             signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
         if rc != 0:

@@ -172,10 +172,11 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         if len(images) < 3:
             used = f" (--max-images {args.max_images} of {held})" if len(images) < held else ""
             raise InputError(f"{d} gives {len(images)} image{'' if len(images) == 1 else 's'}{used}; global SfM needs at least 3")
-        lens = {"camera": camera} if camera is not None else {"K": read_K(args.K, "--K")}
-        if "K" in lens and lens["K"][0, 1] != 0.0:  # a user's trial: the model's reprojections were 0.87 px off, silently
+        K_arg = None if camera is not None else read_K(args.K, "--K")
+        lens = {"camera": camera} if K_arg is None else {"K": K_arg}
+        if K_arg is not None and K_arg[0, 1] != 0.0:  # a user's trial: the model's reprojections were 0.87 px off, silently
             print(
-                f"note: --K has a skew of {lens['K'][0, 1]:g} px: the poses use it, but the COLMAP model is written with a PINHOLE "
+                f"note: --K has a skew of {K_arg[0, 1]:g} px: the poses use it, but the COLMAP model is written with a PINHOLE "
                 "camera, which has none, so its reprojections are off by up to the skew times half the image height over the focal length"
             )
         pairs = _pair_list(args, images)
