@@ -133,7 +133,7 @@ def test_pairs_file_and_errors(tmp_path):
     s = verify_database(path, pairs_file=pf, progress=False)
     assert s.selected == s.written == 1
     pf.write_text("im0.jpg nope.jpg\n")
-    with pytest.raises(ValueError, match="not in the database"):
+    with pytest.raises(ValueError, match=r"pairs.txt line 1: .nope.jpg. is not an image of the database"):
         verify_database(path, pairs_file=pf, progress=False)
     with pytest.raises(ValueError, match="not found"):
         verify_database(tmp_path / "missing.db", progress=False)

@@ -410,7 +410,7 @@ def test_pair_lists_sequential_and_from_a_file(tmp_path):
     (d / "notes.txt").write_text("")
     (d / "sub").mkdir()
     for text, msg in (
-        ("0.jpg 9.jpg\n", "not the name of an image"),
+        ("0.jpg 1.jpg\n0.jpg 9.jpg\n", "line 2: '9.jpg' is not the name of an image"),
         ("0.jpg notes.txt\n", "not the name of an image"),  # not an image
         ("sub/0.jpg 1.jpg\n", "not the name of an image"),  # no directories: the folder's own images
         ("0.jpg 0.jpg\n", "itself"),

@@ -276,10 +276,7 @@ class ColmapDatabase:
         """Pair ids of ``name1 name2`` lines (COLMAP's match-list format; ``#`` comments)."""
         by_name = {n: i for i, n in self.image_names.items()}
         out = set()
-        for a, b in parse_pair_names(lines, source):
-            for nm in (a, b):
-                if nm not in by_name:
-                    raise InputError(f"{source}: image {nm!r} is not in the database")
+        for a, b in parse_pair_names(lines, source, by_name, "an image of the database"):
             out.add(int(self._pc.image_pair_to_pair_id(by_name[a], by_name[b])))
         return out
 

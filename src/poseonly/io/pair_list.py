@@ -4,17 +4,18 @@ comments and blank lines skipped. One parser for ``poseonly colmap verify --pair
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Container, Iterable
 
 from ..geometry import InputError
 
 __all__ = ["parse_pair_names"]
 
 
-def parse_pair_names(lines: Iterable[str], source: str = "pairs file") -> list[tuple[str, str]]:
+def parse_pair_names(lines: Iterable[str], source: str = "pairs file", known: Container[str] | None = None, known_as: str = "a known image") -> list[tuple[str, str]]:
     """``(name1, name2)`` of every line, in order (duplicates kept); a line with other than two names,
-    or an image paired with itself, is an :class:`InputError` naming ``source`` and the line. A
-    byte-order mark at the start of the first line is ignored."""
+    an image paired with itself, or (with ``known``) a name not in ``known`` ("... is not ``known_as``")
+    is an :class:`InputError` naming ``source`` and the line. A byte-order mark at the start of the
+    first line is ignored."""
     out: list[tuple[str, str]] = []
     for k, line in enumerate(lines, 1):
         text = line.lstrip("\ufeff") if k == 1 else line
@@ -25,5 +26,8 @@ def parse_pair_names(lines: Iterable[str], source: str = "pairs file") -> list[t
             raise InputError(f"{source} line {k}: expected 'IMAGE_NAME1 IMAGE_NAME2', got {line.strip()!r}")
         if parts[0] == parts[1]:
             raise InputError(f"{source} line {k}: an image paired with itself ({parts[0]!r})")
+        for nm in parts if known is not None else ():
+            if nm not in known:
+                raise InputError(f"{source} line {k}: {nm!r} is not {known_as}")
         out.append((parts[0], parts[1]))
     return out

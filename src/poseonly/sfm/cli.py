@@ -466,10 +466,8 @@ def _pair_list(args: argparse.Namespace, images: list[Path]) -> list[tuple[int, 
     folder = Path(args.images)
     known = {p.name for p in folder.iterdir() if is_image_file(p)} if folder.is_dir() else set()
     out: set[tuple[int, int]] = set()
-    for a, b in parse_pair_names(path.read_text(encoding="utf-8", errors="replace").splitlines(), str(path)):
-        for nm in (a, b):
-            if nm not in known:  # names of the folder's images, as they are: no directories
-                raise InputError(f"{path}: {nm!r} is not the name of an image in {folder}")
+    # names of the folder's images, as they are: no directories
+    for a, b in parse_pair_names(path.read_text(encoding="utf-8", errors="replace").splitlines(), str(path), known, f"the name of an image in {folder}"):
         if a in index and b in index:  # both used (not cut by --max-images)
             out.add((min(index[a], index[b]), max(index[a], index[b])))
     if not out:
