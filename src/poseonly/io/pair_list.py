@@ -26,8 +26,9 @@ def parse_pair_names(lines: Iterable[str], source: str = "pairs file", known: Co
             raise InputError(f"{source} line {k}: expected 'IMAGE_NAME1 IMAGE_NAME2', got {line.strip()!r}")
         if parts[0] == parts[1]:
             raise InputError(f"{source} line {k}: an image paired with itself ({parts[0]!r})")
-        for nm in parts if known is not None else ():
-            if nm not in known:
-                raise InputError(f"{source} line {k}: {nm!r} is not {known_as}")
+        if known is not None:
+            for nm in parts:
+                if nm not in known:
+                    raise InputError(f"{source} line {k}: {nm!r} is not {known_as}")
         out.append((parts[0], parts[1]))
     return out
