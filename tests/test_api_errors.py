@@ -302,3 +302,26 @@ def test_input_trial_twentieth_session():
     assert np.array_equal(a.R, b.R)
     with pytest.raises(InputError, match="seed"):
         poseonly.estimate_relative_pose(s.u1, s.u2, s.K, s.K, seed=3.5)  # type: ignore[arg-type]
+
+
+def test_nonfinite_rows_are_counted_named_and_the_way_out_said():
+    """A batch trial: ``x1 contains NaN or inf values (3 rows)`` said neither which rows nor what to do. The
+    error (:class:`poseonly.geometry.NonFiniteInputError`, an ``InputError``) names the first row and,
+    from ``estimate_relative_pose``, how to make such matches outliers (with K or a camera) or to drop
+    them (bearings)."""
+    from poseonly import estimate_relative_pose
+    from poseonly.geometry import NonFiniteInputError
+    from poseonly.sim import make_scene
+
+    sc = make_scene(50, camera="pinhole", noise_px=0.5, seed=1)
+    u1 = sc.u1.copy()
+    u1[[3, 7]] = np.nan
+    with pytest.raises(NonFiniteInputError, match=r"x1 contains NaN or inf values \(2 rows, the first 3\): unliftable='outlier' makes them outliers"):
+        estimate_relative_pose(u1, sc.u2, sc.K)
+    with pytest.raises(NonFiniteInputError, match=r"x1: uv contains NaN or inf values \(2 rows, the first 3\): unliftable='outlier'"):
+        estimate_relative_pose(u1, sc.u2, camera1={"K": sc.K, "dist": np.zeros(4)})
+    f2 = sc.f2.copy()
+    f2[5] = np.inf
+    with pytest.raises(NonFiniteInputError, match=r"x2 contains NaN or inf values \(1 rows, the first 5\): drop them"):
+        estimate_relative_pose(sc.f1, f2)
+    assert estimate_relative_pose(u1, sc.u2, sc.K, unliftable="outlier").diagnostics["unliftable"] == 2

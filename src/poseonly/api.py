@@ -57,7 +57,7 @@ import numpy as np
 from . import _core
 from .analysis import REFINE_SOLVER
 from .estimator import lirp_estimator
-from .geometry import InputError, as_bearings, as_coordinates, as_real_array, check_correspondences, check_intrinsics, opencv_points, pair_focal
+from .geometry import InputError, NonFiniteInputError, as_bearings, as_coordinates, as_real_array, check_correspondences, check_intrinsics, opencv_points, pair_focal
 from .options import OPTIONS, PoseonlyOptions, Spec, check_angle, check_value, parse_options
 from .quantization import check_coordinate_step, grid_step, rounding_sigma_px
 from .result import RelativePoseResult
@@ -298,15 +298,20 @@ def estimate_relative_pose(
     lost = None  # unliftable="outlier": the pixel rows of NaN / inf, lifted as a placeholder and dropped below
     if unliftable == "outlier" and (K1 is not None or camera1 is not None):
         x1, x2, lost = _lost_rows(x1, x2)
-    if camera1 is not None or camera2 is not None:
-        from .cameras import lift_pair
+    try:
+        if camera1 is not None or camera2 is not None:
+            from .cameras import lift_pair
 
-        if camera1 is None or K1 is not None:
-            raise InputError("camera2 given without camera1" if camera1 is None else "give K1/K2 or camera1/camera2, not both")
-        f1, f2, cam_focal = lift_pair(x1, x2, camera1, camera2, "nan" if unliftable == "outlier" else "raise")
-    else:
-        f1 = as_bearings(x1, K1, "x1", K_checked=True)  # K1, K2 checked above
-        f2 = as_bearings(x2, K2, "x2", K_checked=True)
+            if camera1 is None or K1 is not None:
+                raise InputError("camera2 given without camera1" if camera1 is None else "give K1/K2 or camera1/camera2, not both")
+            f1, f2, cam_focal = lift_pair(x1, x2, camera1, camera2, "nan" if unliftable == "outlier" else "raise")
+        else:
+            f1 = as_bearings(x1, K1, "x1", K_checked=True)  # K1, K2 checked above
+            f2 = as_bearings(x2, K2, "x2", K_checked=True)
+    except NonFiniteInputError as exc:  # say what to do (a batch trial: the message named neither)
+        lifted = K1 is not None or camera1 is not None
+        how = "unliftable='outlier' makes them outliers" if lifted else "drop them, or pass pixels with K1 or a camera and unliftable='outlier'"
+        raise NonFiniteInputError(f"{exc}: {how}") from None
     if f1.shape != f2.shape:
         raise InputError(f"x1 and x2 differ in length: {len(f1)} vs {len(f2)}")
     if lost is not None:

@@ -348,7 +348,7 @@ def estimate_relative_poses(
     input order: sort by ``index`` or use ``key``).
 
     ``pairs``: an iterable of :class:`Pair` or dicts with its fields (``x1, x2`` ``(n, 2)`` or
-    ``(n, 3)``, ``camera1/camera2`` or ``K1/K2``, ``key``, ``options``). ``n_jobs``: local workers
+    ``(n, 3)``, ``camera1/camera2`` or ``K1/K2``, ``key``, ``options``, ``scores``, ``noise_scales``). ``n_jobs``: local workers
     (1 = in this process, -1 = all cores), ``backend`` ``"auto"`` (threads for a sized batch below
     :data:`AUTO_THREADS_MAX_PAIRS` pairs, else processes), ``"processes"`` or ``"threads"`` for
     ``n_jobs > 1`` (the same results either way; not used with ``n_jobs = 1`` or a ``client``); ``client``: a ``dask.distributed.Client`` or a scheduler
@@ -463,8 +463,9 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
 
     ex: Executor
     # threads: set when the batch stops (Ctrl-C, an error, the caller stopped iterating), so that the
-    # searches running then end within 64 draws instead of running to their end (workers of a process
-    # pool stop at once when it shuts down)
+    # searches running then end within 64 draws instead of running to their end (a process pool's
+    # shutdown waits for its workers' searches in flight, 1-2 s on 1500-5000 matches (a batch trial);
+    # Ctrl-C reaches the workers too, as the whole process group gets it)
     flag: CancelFlag | None = None
     if backend == "threads":
         ex = ThreadPoolExecutor(max_workers=n_jobs, thread_name_prefix="poseonly")

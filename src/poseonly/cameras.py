@@ -71,7 +71,7 @@ from typing import Any
 import numpy as np
 
 from . import _core
-from .geometry import InputError, as_coordinates, as_real_array, pair_focal
+from .geometry import InputError, as_coordinates, as_real_array, nonfinite_rows_error, pair_focal
 
 __all__ = ["MODELS", "NEWTON_TOL", "OPENCV_TO_COLMAP_PX", "Camera", "as_camera", "as_colmap_camera", "camera_from_text", "from_opencv", "lift_pair", "read_colmap_cameras"]
 
@@ -449,8 +449,7 @@ def _check_points(a: Any, d: int, name: str) -> np.ndarray:
     if a.ndim != 2 or a.shape[1] != d:
         raise InputError(f"{name} must have shape (n, {d}), got {a.shape}")
     if not np.all(np.isfinite(a)):
-        bad = np.flatnonzero(~np.isfinite(a).all(axis=1))
-        raise InputError(f"{name} contains NaN or inf values ({len(bad)} rows, the first {bad[0]})")
+        raise nonfinite_rows_error(a, name)
     return a
 
 
@@ -651,5 +650,5 @@ def lift_pair(x1: Any, x2: Any, camera1: Any, camera2: Any = None, invalid: str 
         try:
             out.append(cam.unproject(x, invalid))
         except InputError as exc:  # which view (a batch trial: "uv contains NaN" named neither)
-            raise InputError(f"{nm}: {exc}") from None
+            raise type(exc)(f"{nm}: {exc}") from None
     return out[0], out[1], pair_focal(c1.focal_px, c2.focal_px)

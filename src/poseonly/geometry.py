@@ -22,6 +22,7 @@ from .median import median
 
 __all__ = [
     "InputError",
+    "NonFiniteInputError",
     "as_bearings",
     "as_real_array",
     "bearings_from_normalized",
@@ -48,6 +49,17 @@ class InputError(ValueError):
 
     Subclass of :class:`ValueError`, so ``except ValueError`` catches it.
     """
+
+
+class NonFiniteInputError(InputError):
+    """Coordinates with NaN or inf rows (an :class:`InputError`); the message counts them and names the
+    first. :func:`poseonly.estimate_relative_pose` adds how to make such matches outliers."""
+
+
+def nonfinite_rows_error(a: np.ndarray, name: str) -> NonFiniteInputError:
+    """The error for the NaN / inf rows of the 2-D array ``a``: their count and the first row."""
+    bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
+    return NonFiniteInputError(f"{name} contains NaN or inf values ({len(bad)} rows, the first {int(bad[0]) if len(bad) else '?'})")
 
 
 # --------------------------------------------------------------------------------------------
@@ -244,8 +256,7 @@ def _check_finite_2d(a: np.ndarray, name: str) -> np.ndarray:
     if not (type(a) is np.ndarray and a.dtype == np.float64 and a.ndim == 2 and a.shape[1] in (2, 3)):
         a = _check_shape_2d(a, name)
     if not np.isfinite(a).all():
-        bad = int(np.count_nonzero(~np.all(np.isfinite(a), axis=1)))
-        raise InputError(f"{name} contains NaN or inf values ({bad} rows)")
+        raise nonfinite_rows_error(a, name)
     return a
 
 
@@ -321,7 +332,7 @@ def _unit_rows(a: np.ndarray, name: str) -> np.ndarray:
     """
     out, zeros, nonfinite = _core.unit_rows(np.ascontiguousarray(a, dtype=np.float64), ZERO_BEARING)
     if nonfinite:
-        raise InputError(f"{name} contains NaN or inf values ({nonfinite} rows)")
+        raise nonfinite_rows_error(np.asarray(a, dtype=np.float64), name)
     if zeros:
         raise InputError(f"{name} contains {zeros} zero-length bearing vectors")
     return out
@@ -392,7 +403,7 @@ def as_bearings(x: np.ndarray, K: np.ndarray | None = None, name: str = "x", *, 
         if r is not None:
             out, bad, bad_rays, zeros = r
             if bad:
-                raise InputError(f"{name} contains NaN or inf values ({bad} rows)")
+                raise nonfinite_rows_error(np.asarray(a, dtype=np.float64), name)
             if bad_rays:  # pragma: no cover - a checked K maps pixels below 1e150 to finite rays
                 raise InputError(f"{name}: K^-1 [u, v, 1] is not finite for {bad_rays} rows")
             if zeros:  # pragma: no cover - the third component of a ray is 1 / K[2, 2] = 1

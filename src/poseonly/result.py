@@ -140,7 +140,8 @@ class RelativePoseResult(ValueEquality):
     ``status`` is one of
 
     * ``"ok"`` -- a confident calibrated pose: enough inliers (``min_inliers``; a match given twice,
-      the same coordinates in both views, counts once: ``diagnostics["distinct_inliers"]``), far more than
+      within ``poseonly.status.NEAR_DUPLICATE_PX`` (0.5 px) in both views, counts once:
+      ``diagnostics["distinct_inliers"]``), far more than
       chance allows (a-contrario test, ``diagnostics["log10_nfa"] < -3``), no pure rotation, no
       planar twin;
     * ``"planar_ambiguous"`` -- the inliers are (near) planar and the homography twin (``R_twin``,
@@ -256,7 +257,8 @@ class RelativePoseResult(ValueEquality):
         ``exact=True`` is the record :meth:`from_dict` turns back into an equal result (``==``): it adds
         ``weights`` and ``residuals_px`` (per match) and writes non-finite numbers as the strings
         ``"nan"``, ``"inf"``, ``"-inf"`` (``rotation_std_deg`` is inf where it is not known, NaN where it
-        is undefined; ``None`` would not tell them apart)."""
+        is undefined; ``None`` would not tell them apart). Every record holds ``time_s``, the one field
+        that differs between two runs of the same pair (drop it to compare logs byte for byte)."""
         num = _exact_float if exact else _json_float
         arr = _exact_array if exact else _json_array
         d: dict[str, Any] = {
