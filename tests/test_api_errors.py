@@ -325,3 +325,6 @@ def test_nonfinite_rows_are_counted_named_and_the_way_out_said():
     with pytest.raises(NonFiniteInputError, match=r"x2 contains NaN or inf values \(1 rows, the first 5\): drop them"):
         estimate_relative_pose(sc.f1, f2)
     assert estimate_relative_pose(u1, sc.u2, sc.K, unliftable="outlier").diagnostics["unliftable"] == 2
+    # unliftable='outlier' already given, but bearings (or unequal lengths) it cannot handle (a review)
+    with pytest.raises(NonFiniteInputError, match=r"needs pixel arrays \(n, 2\) of equal length with K1 or a camera; got \(50, 3\)"):
+        estimate_relative_pose(sc.f1, f2, unliftable="outlier")

@@ -310,7 +310,12 @@ def estimate_relative_pose(
             f2 = as_bearings(x2, K2, "x2", K_checked=True)
     except NonFiniteInputError as exc:  # say what to do (a batch trial: the message named neither)
         lifted = K1 is not None or camera1 is not None
-        how = "unliftable='outlier' makes them outliers" if lifted else "drop them, or pass pixels with K1 or a camera and unliftable='outlier'"
+        if unliftable == "outlier":  # given, but _lost_rows handles (n, 2) pixels of equal length only (a review)
+            how = f"unliftable='outlier' needs pixel arrays (n, 2) of equal length with K1 or a camera; got {np.shape(x1)} and {np.shape(x2)}"
+        elif lifted:
+            how = "unliftable='outlier' makes them outliers"
+        else:
+            how = "drop them, or pass pixels with K1 or a camera and unliftable='outlier'"
         raise NonFiniteInputError(f"{exc}: {how}") from None
     if f1.shape != f2.shape:
         raise InputError(f"x1 and x2 differ in length: {len(f1)} vs {len(f2)}")

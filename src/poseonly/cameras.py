@@ -71,7 +71,7 @@ from typing import Any
 import numpy as np
 
 from . import _core
-from .geometry import InputError, as_coordinates, as_real_array, nonfinite_rows_error, pair_focal
+from .geometry import InputError, NonFiniteInputError, as_coordinates, as_real_array, nonfinite_rows_error, pair_focal
 
 __all__ = ["MODELS", "NEWTON_TOL", "OPENCV_TO_COLMAP_PX", "Camera", "as_camera", "as_colmap_camera", "camera_from_text", "from_opencv", "lift_pair", "read_colmap_cameras"]
 
@@ -650,5 +650,5 @@ def lift_pair(x1: Any, x2: Any, camera1: Any, camera2: Any = None, invalid: str 
         try:
             out.append(cam.unproject(x, invalid))
         except InputError as exc:  # which view (a batch trial: "uv contains NaN" named neither)
-            raise type(exc)(f"{nm}: {exc}") from None
+            raise (NonFiniteInputError if isinstance(exc, NonFiniteInputError) else InputError)(f"{nm}: {exc}") from None
     return out[0], out[1], pair_focal(c1.focal_px, c2.focal_px)

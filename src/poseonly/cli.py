@@ -434,7 +434,8 @@ class _ClosedPipeGuard:
     def write(self, text: str) -> int:
         if not self.broken:
             try:
-                return int(self._stream.write(text))
+                n = self._stream.write(text)
+                return len(text) if n is None else int(n)  # (a host stream's write may return None)
             except BrokenPipeError:
                 self._closed()
         return len(text)
@@ -451,6 +452,22 @@ class _ClosedPipeGuard:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The command line (``poseonly ...``): the command's exit code; stdout guarded by
+    :class:`_ClosedPipeGuard` from the help text on, and flushed through it at the end (a block-buffered
+    pipe's last flush failed after the guard was gone: a review)."""
+    stdout = sys.stdout
+    guard = None if stdout is None else _ClosedPipeGuard(stdout)
+    if guard is not None:
+        sys.stdout = guard
+    try:
+        return _main(argv)
+    finally:
+        if guard is not None:
+            guard.flush()
+            sys.stdout = stdout
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     args.argv = list(argv) if argv is not None else sys.argv[1:]
@@ -458,8 +475,6 @@ def main(argv: list[str] | None = None) -> int:
     # (only the main thread may set handlers; pycolmap's import keeps this one: poseonly._pycolmap)
     installed = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _on_sigterm) if installed else None
-    stdout = sys.stdout
-    sys.stdout = _ClosedPipeGuard(stdout)
     try:
         rc = int(args.func(args) or 0)
         return rc
@@ -476,7 +491,6 @@ def main(argv: list[str] | None = None) -> int:
         rc = 130
         return rc
     finally:
-        sys.stdout = stdout
         if installed:
             signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
         if rc != 0:
