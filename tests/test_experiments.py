@@ -173,3 +173,15 @@ def test_code_version_only_for_poseonly_checkouts(tmp_path, monkeypatch):
     monkeypatch.undo()
     if (Path(report.__file__).resolve().parents[3] / ".git").exists():  # this checkout (not a wheel)
         assert report.code_version() is not None
+
+
+def test_table2_columns_of_a_method_without_d_min_say_so():
+    """A researcher's trial: the N-point column printed "(err, nan)" under a d_min header in every row."""
+    from poseonly.experiments.table2 import to_markdown
+
+    def cell(err, d):
+        return {"mean_err": err, "mean_d_min": d, "mean_err_oracle": err}
+
+    res = {"methods": ["LiRP (m)", "Npt (m)"], "rows": [{"scene": "normal", "noise_px": 0.1, "LiRP (m)": cell(0.0128, 0.236), "Npt (m)": cell(0.0117, None)}]}
+    md = to_markdown(res)
+    assert "Npt (m): mean err (deg) (no d_min)" in md and "| 0.0117 |" in md and "(0.0128, 0.236)" in md and "nan" not in md

@@ -39,6 +39,7 @@ def test_global_experiment_on_four_views(tmp_path: Path, capsys) -> None:
     assert ours["num_estimated"] == 4 and ours["rot_mean_deg_rotalign"] < 0.2 and ours["pos_mean_frac"] < 0.01
     md = (out / "global_sfm.md").read_text()
     assert "poseonly (RA + LiGT, no BA)" in md
+    assert res["command"].startswith("poseonly experiment global ") and f"Command: `{res['command']}`" in md  # as every experiment's
     anchors = {"pycolmap": "rotation averaging + global positioning", "pytheia": "robust rotation averaging + LiGT"}
     for lib, row in anchors.items():
         try:

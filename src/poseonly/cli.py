@@ -309,6 +309,8 @@ METHOD_HELP = "poseonly: the default (5-point MSAC search, local optimisation, M
 
 
 # one line per experiment for ``poseonly experiment --help`` (the modules' docstrings say more)
+# experiments on real images: no Monte Carlo trials
+REAL_DATA_EXPERIMENTS = ("strecha",)
 EXPERIMENT_HELP = {
     "table2": "the paper's Table 2: LiRP's rotation error and d_min, n = 30",
     "noise": "Section 7.1: rotation error against image noise, normal and planar scenes",
@@ -385,8 +387,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     for name in experiments.EXPERIMENTS:
         ep = esub.add_parser(name, help=EXPERIMENT_HELP.get(name))
-        ep.add_argument("--trials", type=positive_int, default=None, help="Monte Carlo trials (default: the paper's)")
-        ep.add_argument("--quick", action="store_true", help="a few trials (smoke test)")
+        if name not in REAL_DATA_EXPERIMENTS:  # (a researcher's trial: strecha took --trials and ignored it)
+            ep.add_argument("--trials", type=positive_int, default=None, help="Monte Carlo trials (default: the paper's)")
+        ep.add_argument("--quick", action="store_true", help="a few trials (smoke test)" if name not in REAL_DATA_EXPERIMENTS else "a few pairs (smoke test)")
         ep.add_argument("--out", default=None, help=f"output folder for tables and figures (default: a new folder poseonly-{name}-<date>-<time> under the working directory)")
         ep.add_argument("--seed", type=seed_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
         try:

@@ -100,11 +100,15 @@ def compute(trials: int, n: int = 30, camera: str = "wide", seed: int = 0, use_n
 
 def to_markdown(res: dict) -> str:
     ms = res["methods"]
-    header = ["scene", "noise (px)"] + [f"{m}: mean err (deg), d_min" for m in ms] + [f"{m}: oracle mean err" for m in ms]
+    # a method without an action matrix (the N-point SDP returns one pose) has no d_min: its column says
+    # so instead of printing nan (a researcher's trial)
+    has_d = {m: any(r[m]["mean_d_min"] is not None and np.isfinite(r[m]["mean_d_min"]) for r in res["rows"]) for m in ms}
+    header = ["scene", "noise (px)"] + [f"{m}: mean err (deg), d_min" if has_d[m] else f"{m}: mean err (deg) (no d_min)" for m in ms]
+    header += [f"{m}: oracle mean err" for m in ms]
     rows = []
     for r in res["rows"]:
         cells = [r["scene"], r["noise_px"]]
-        cells += [f"({r[m]['mean_err']:.3g}, {r[m]['mean_d_min']:.3g})" for m in ms]
+        cells += [f"({r[m]['mean_err']:.3g}, {r[m]['mean_d_min']:.3g})" if has_d[m] else f"{r[m]['mean_err']:.3g}" for m in ms]
         cells += [f"{r[m]['mean_err_oracle']:.3g}" for m in ms]
         rows.append(cells)
     return markdown_table(header, rows)

@@ -476,12 +476,21 @@ def _pair_list(args: argparse.Namespace, images: list[Path]) -> list[tuple[int, 
 
 
 def _cmd_global(args: argparse.Namespace) -> int:
+    import shlex
+    import sys
+
+    from .. import experiments
     from .._fileutil import new_results_dir
     from ..experiments import global_sfm
 
     if args.out is None:
         args.out = str(new_results_dir("global"))
-    return int(global_sfm.run(args) or 0)
+    # the reports record the command, as every other experiment's (a researcher's trial: global_sfm.md had none)
+    experiments.set_command_line("poseonly " + shlex.join(getattr(args, "argv", None) or sys.argv[1:]))
+    try:
+        return int(global_sfm.run(args) or 0)
+    finally:
+        experiments.clear_command_line()
 
 
 def add_parsers(sub: Any, esub: Any) -> None:
