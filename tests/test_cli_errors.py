@@ -284,6 +284,10 @@ def test_read_K_names_what_is_wrong(tmp_path):
         read_K(tmp_path / "K.txt")
     (tmp_path / "K.txt").write_text("800 0 320\n0 800 240\n0 0 1\n")
     assert read_K(tmp_path / "K.txt")[0, 0] == 800
+    # a file's last row other than 0 0 1 is a typo, not a scaled K (an SfM user's trial: every focal halved)
+    (tmp_path / "K.txt").write_text("800 0 320\n0 800 240\n0 0 2\n")
+    with pytest.raises(ValueError, match="the last row must be 0 0 1, got 0 0 2"):
+        read_K(tmp_path / "K.txt")
 
 
 def test_colmap_verify_database_path_with_uri_characters(tmp_path, capsys):

@@ -15,7 +15,8 @@ __all__ = ["read_K"]
 def read_K(path: str | Path, name: str = "--K") -> np.ndarray:
     """The checked 3x3 calibration matrix in the text file ``path`` (whitespace-separated rows, as
     ``numpy.loadtxt`` reads them); :class:`InputError` naming the file and ``name`` otherwise (missing,
-    unreadable, empty, not 3x3, not a calibration matrix: :func:`poseonly.geometry.check_intrinsics`)."""
+    unreadable, empty, not 3x3, a last row other than ``0 0 1``, not a calibration matrix:
+    :func:`poseonly.geometry.check_intrinsics`)."""
     p = Path(path)
     if p.is_dir():
         raise InputError(f"{name}: {path} is a folder; give the calibration's text file")
@@ -29,4 +30,8 @@ def read_K(path: str | Path, name: str = "--K") -> np.ndarray:
         raise InputError(f"{name}: could not read a 3x3 matrix from {path}: {exc}") from None
     if K.shape != (3, 3):
         raise InputError(f"{name}: {path} must contain a 3x3 matrix, found {'no numbers' if K.size == 0 else f'shape {K.shape}'}")
+    if K[2, 2] != 1.0 and np.all(np.isfinite(K)):
+        # the library divides a scaled K by K[2, 2], but in a file (COLMAP's, OpenCV's, a dataset's) a last
+        # row other than 0 0 1 is a typo: an SfM user's trial wrote "0 0 2" and got every focal halved
+        raise InputError(f"{name}: {path}: the last row must be 0 0 1, got {' '.join(f'{v:g}' for v in K[2])}")
     return check_intrinsics(K, f"{name} ({path})")
