@@ -129,8 +129,60 @@ def test_fewer_than_six_positive_weights_are_degenerate():
     ],
 )
 def test_bad_input(f1, f2, w, msg):
-    with pytest.raises(ValueError, match=msg):
-        lirp(f1, f2, w)
+    from poseonly.solvers.lirp import lirp as solver_lirp
+
+    for fn in (lirp, solver_lirp):  # the public function and the solver's: both check before the fast path
+        with pytest.raises(ValueError, match=msg):
+            fn(f1, f2, w)
+
+
+@pytest.mark.parametrize("w", [np.array([np.nan] + [1.0] * 7), np.array([np.inf] + [1.0] * 7)])
+def test_non_finite_weights_are_refused(w):
+    sc = make_scene(8, seed=0)
+    with pytest.raises(ValueError, match="weights contain NaN or inf"):
+        lirp(sc.f1, sc.f2, w)
+
+
+def test_fast_path_equals_checked_path():
+    """``lirp_plain`` (one core call on plain float64 rows) returns the checked path's result bit for bit,
+    and declines every input the checked path has something to say about."""
+    import importlib
+
+    from poseonly.geometry import check_correspondences
+
+    L = importlib.import_module("poseonly.solvers.lirp")
+    rng = np.random.default_rng(0)
+    for s in range(20):
+        sc = make_scene(30, "planar" if s % 4 == 0 else "normal", "wide" if s % 2 else "pinhole", noise_px=0.5 * (s % 3), seed=s)
+        scale = 10.0 ** rng.uniform(-3, 3, (30, 1))  # rows of any length: the same unit bearings
+        for w in (None, rng.uniform(0.0, 7.0, 30), np.where(rng.uniform(size=30) < 0.3, 0.0, 1.0)):
+            fast = L.lirp_plain(sc.f1 * scale, sc.f2, w, L.RANK_TOL)
+            assert fast is not None
+            b1, b2, wc = check_correspondences(sc.f1 * scale, sc.f2, w, min_positive=0)
+            slow = L.lirp_checked(b1, b2, wc, L.RANK_TOL)
+            assert fast == slow, s  # ValueEquality: every field, NaN equal to NaN
+    sc = make_scene(30, seed=1)
+    nan_row = sc.f1.copy()
+    nan_row[3] = np.nan
+    zero_row = sc.f1.copy()
+    zero_row[3] = 0.0
+    negative = np.ones(30)
+    negative[2] = -1.0
+    declined = [
+        (sc.f1 / sc.f1[:, 2:], sc.f2, None, 1e-9),  # rows [x, y, 1]: the homogeneous-pixel check decides
+        (sc.f1[:5], sc.f2[:5], None, 1e-9),
+        (nan_row, sc.f2, None, 1e-9),
+        (zero_row, sc.f2, None, 1e-9),
+        (sc.f1, sc.f2, negative, 1e-9),
+        (sc.f1, sc.f2, np.ones(29), 1e-9),
+        (sc.f1[:, :2].copy(), sc.f2[:, :2].copy(), None, 1e-9),
+        (sc.f1.astype(np.float32), sc.f2, None, 1e-9),
+        (sc.f1, sc.f2, None, 1),  # an int rank_tol: the checked path takes it
+        (sc.f1, sc.f2, None, 1.5),
+    ]
+    for args in declined:
+        assert L.lirp_plain(*args) is None
+    assert lirp(sc.f1 / sc.f1[:, 2:], sc.f2).status == "ok"  # normalized [x, y, 1] rows are bearings
 
 
 def test_degenerate_identical_points():

@@ -4,6 +4,7 @@
 #include <nanobind/stl/string.h>
 
 #include "arrays.h"
+#include "bearings.h"
 #include "gnc.h"
 #include "lirp.h"
 #include "register.h"
@@ -77,16 +78,17 @@ nb::dict lirp_batch(const ArrayIn& f1, const ArrayIn& f2, const std::optional<Ar
 }
 
 // One problem for the public solver: (cand_E (18, 3, 3), cand_R (18, 3, 3), cand_t (18, 3), cand_valid
-// (18,) bool, cand_cost (18,), singular_values (9,), best, d_min, d_min_C2, rank). The float arrays are
-// views of one buffer with one owner (a call allocates once), the rank counts singular values above
-// rank_tol * max(sigma_1, 1e-300) as poseonly.solvers.lirp documents.
-nb::tuple lirp_one(const BearingsIn& f1, const BearingsIn& f2, const std::optional<VectorIn>& w, bool all_costs, double rank_tol) {
-  const Points P = points_of(f1, f2);
-  const double* wp = weights_of(w, P.n);
-  constexpr size_t K = kLirpCandidates, oE = 0, oR = 9 * K, oT = 18 * K, oC = 21 * K, oS = 22 * K, total = 22 * K + 9;
+// (18,) bool, cand_cost (18,), singular_values (9,), best, d_min, d_min_C2, rank, R (3, 3), t (3,),
+// E (3, 3)), R, t the best candidate's pose and E = [t]x R. The float arrays are views of one buffer
+// with one owner (a call allocates once), the rank counts singular values above rank_tol *
+// max(sigma_1, 1e-300) as poseonly.solvers.lirp documents.
+nb::tuple lirp_tuple(const Points& P, const double* wp, bool all_costs, double rank_tol) {
+  constexpr size_t K = kLirpCandidates, oE = 0, oR = 9 * K, oT = 18 * K, oC = 21 * K, oS = 22 * K, oBR = 22 * K + 9, oBT = oBR + 9,
+                   oBE = oBT + 3, total = oBE + 9;
   auto* buf = new std::vector<double>(total);
   nb::capsule owner(buf, [](void* p) noexcept { delete static_cast<std::vector<double>*>(p); });
-  std::vector<bool> valid(K);
+  auto* vb = new std::vector<uint8_t>(K);
+  nb::capsule vowner(vb, [](void* p) noexcept { delete static_cast<std::vector<uint8_t>*>(p); });
   LirpResult r;
   int rank = 0;
   {
@@ -98,7 +100,7 @@ nb::tuple lirp_one(const BearingsIn& f1, const BearingsIn& f2, const std::option
         for (int b = 0; b < 3; ++b) d[oE + 9 * k + 3 * a + b] = r.cand.E[k](a, b);
       put_pose(r.id[k].pose, d + oR + 9 * k, d + oT + 3 * k);
       d[oC + k] = r.id[k].cost;
-      valid[k] = r.id[k].valid;
+      (*vb)[k] = r.id[k].valid;
     }
     const Vec9& s = r.cand.singular_values;
     const double cut = rank_tol * std::max(s(0), 1e-300);
@@ -106,15 +108,68 @@ nb::tuple lirp_one(const BearingsIn& f1, const BearingsIn& f2, const std::option
       d[oS + a] = s(a);
       rank += s(a) > cut;
     }
+    const Pose& best = r.id[r.best].pose;
+    put_pose(best, d + oBR, d + oBT);
+    const Mat3 E = essential(best);
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) d[oBE + 3 * a + b] = E(a, b);
   }
   double* d = buf->data();
-  const size_t sh_m[3] = {K, 3, 3}, sh_t[2] = {K, 3}, sh_k[1] = {K}, sh_s[1] = {9};
-  auto* vb = new std::vector<uint8_t>(K);
-  for (size_t k = 0; k < K; ++k) (*vb)[k] = valid[k];
-  nb::capsule vowner(vb, [](void* p) noexcept { delete static_cast<std::vector<uint8_t>*>(p); });
+  const size_t sh_m[3] = {K, 3, 3}, sh_t[2] = {K, 3}, sh_k[1] = {K}, sh_s[1] = {9}, sh_3x3[2] = {3, 3}, sh_3[1] = {3};
   return nb::make_tuple(NpArray(d + oE, 3, sh_m, owner), NpArray(d + oR, 3, sh_m, owner), NpArray(d + oT, 2, sh_t, owner),
                         NpBool(reinterpret_cast<bool*>(vb->data()), 1, sh_k, vowner), NpArray(d + oC, 1, sh_k, owner),
-                        NpArray(d + oS, 1, sh_s, owner), r.best, r.cand.d_min, r.cand.d_min_C2, rank);
+                        NpArray(d + oS, 1, sh_s, owner), r.best, r.cand.d_min, r.cand.d_min_C2, rank,
+                        NpArray(d + oBR, 2, sh_3x3, owner), NpArray(d + oBT, 1, sh_3, owner), NpArray(d + oBE, 2, sh_3x3, owner));
+}
+
+nb::tuple lirp_one(const BearingsIn& f1, const BearingsIn& f2, const std::optional<VectorIn>& w, bool all_costs, double rank_tol) {
+  const Points P = points_of(f1, f2);
+  return lirp_tuple(P, weights_of(w, P.n), all_costs, rank_tol);
+}
+
+// The public poseonly.lirp in one call, for the common input: f1, f2 (n, 3) rows of any finite length
+// (scaled to unit bearings by unit_rows_into, as poseonly.geometry._unit_rows), w (n,) or None, every
+// candidate's cost. Returns None wherever the checked Python path has something to say, so that its
+// messages stay the only ones: a NaN / inf or zero row, rows that all end in exactly 1 (the
+// homogeneous-pixel check), a negative or non-finite weight, fewer than min_points rows. Weights are
+// divided by their largest as poseonly.solvers.lirp.lirp_checked does. Else lirp_one's tuple.
+nb::object lirp_bearings(const BearingsIn& f1, const BearingsIn& f2, const std::optional<VectorIn>& w, double rank_tol, double zero,
+                         int min_points) {
+  if (f1.shape(1) != 3 || f2.shape(1) != 3 || f1.shape(0) != f2.shape(0)) return nb::none();
+  const size_t n = f1.shape(0);
+  if (n < static_cast<size_t>(std::max(min_points, 1))) return nb::none();
+  if (w && w->shape(0) != n) return nb::none();
+  std::vector<double> b(6 * n), wn;
+  bool ok = true;
+  {
+    nb::gil_scoped_release release;
+    int64_t zeros1 = 0, bad1 = 0, zeros2 = 0, bad2 = 0;
+    unit_rows_into(f1.data(), n, zero, b.data(), &zeros1, &bad1);
+    unit_rows_into(f2.data(), n, zero, b.data() + 3 * n, &zeros2, &bad2);
+    ok = !(zeros1 || bad1 || zeros2 || bad2);
+    bool hom1 = true, hom2 = true;
+    for (size_t i = 0; i < n; ++i) {
+      hom1 = hom1 && f1.data()[3 * i + 2] == 1.0;
+      hom2 = hom2 && f2.data()[3 * i + 2] == 1.0;
+    }
+    ok = ok && !hom1 && !hom2;
+    if (ok && w) {
+      const double* wd = w->data();
+      double wmax = 0.0;
+      for (size_t i = 0; i < n && ok; ++i) {
+        ok = std::isfinite(wd[i]) && wd[i] >= 0.0;
+        wmax = std::max(wmax, wd[i]);
+      }
+      if (ok) {
+        wn.assign(wd, wd + n);
+        if (wmax > 0.0 && wmax != 1.0)
+          for (double& x : wn) x = x / wmax;
+      }
+    }
+  }
+  if (!ok) return nb::none();
+  const Points P{b.data(), b.data() + 3 * n, static_cast<int>(n)};
+  return lirp_tuple(P, w ? wn.data() : nullptr, true, rank_tol);
 }
 
 nb::dict identify_batch(const ArrayIn& E, const BearingsIn& f1, const BearingsIn& f2, const std::optional<VectorIn>& w, bool with_cost) {
@@ -232,7 +287,12 @@ POSEONLY_BIND(lirp) {
   m.def("lirp_one", &lirp_one, nb::arg("f1"), nb::arg("f2"), nb::arg("w") = nb::none(), nb::arg("all_costs") = true,
         nb::arg("rank_tol") = 1e-9,
         "LiRP (Alg. 1) on one problem, bearings f1, f2 (n, 3), weights (n,) or None: (cand_E, cand_R, cand_t, "
-        "cand_valid, cand_cost, singular_values, best, d_min, d_min_C2, rank).");
+        "cand_valid, cand_cost, singular_values, best, d_min, d_min_C2, rank, R, t, E): R, t the best candidate's pose, E = [t]x R.");
+  m.def("lirp_bearings", &lirp_bearings, nb::arg("f1"), nb::arg("f2"), nb::arg("w").none(), nb::arg("rank_tol"), nb::arg("zero"),
+        nb::arg("min_points"),
+        "The public LiRP in one call on rows f1, f2 (n, 3) of any finite length (scaled to unit bearings) and weights (n,) or None: "
+        "lirp_one's tuple with every cost, or None where the checked path must decide (a NaN / inf or zero row, rows all ending in 1, "
+        "a negative or non-finite weight, fewer than min_points rows).");
   m.def("identify", &identify_batch, nb::arg("E"), nb::arg("f1"), nb::arg("f2"), nb::arg("w") = nb::none(),
         nb::arg("with_cost") = true,
         "Pose-only identification of k essential matrices E (k, 3, 3) on bearings (n, 3): R, t, valid, M1, cost.");

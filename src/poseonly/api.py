@@ -66,7 +66,7 @@ from .robust.gnc import GNCOptions, GNCResult, gnc_irls_batch
 from .robust.methods import RUNNERS
 from .robust.ransac import RansacResult
 from .robust.ransac import gnc_ransac as _gnc_ransac_loop
-from .solvers.lirp import LiRPResult, lirp_checked
+from .solvers.lirp import LiRPResult, lirp_checked, lirp_plain
 from .status import degenerate_result, finish
 
 __all__ = [
@@ -463,6 +463,9 @@ def lirp(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, r
     ``weights (n,)`` non-negative, ``0 < rank_tol < 1``). Raises :class:`InputError` for bad input;
     degenerate-but-valid input returns ``status == "degenerate"`` (so do fewer than 6 positive weights,
     as an IRLS loop can give: a researcher's trial found them refused; ``E = [t]x R``)."""
+    fast = lirp_plain(f1, f2, weights, rank_tol)  # plain float64 input valid as it is: one core call
+    if fast is not None:
+        return fast
     f1, f2, w = check_correspondences(f1, f2, weights, min_positive=0)  # fewer than 6 positive weights: degenerate
     rank_tol = check_value("rank_tol", rank_tol, _SPEC_RANK_TOL)
     return lirp_checked(f1, f2, w, float(rank_tol))

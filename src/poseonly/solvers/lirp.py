@@ -38,13 +38,14 @@ import numpy as np
 from .. import _core
 from .._equality import ValueEquality
 from .._json import json_array, json_float
-from ..geometry import check_correspondences, essential_from_pose
+from ..geometry import ZERO_BEARING, check_correspondences
 
-__all__ = ["lirp", "lirp_batch", "lirp_checked", "LiRPResult", "lirp_candidates", "NUM_CANDIDATES", "RANK_TOL"]
+__all__ = ["lirp", "lirp_batch", "lirp_checked", "lirp_plain", "LiRPResult", "lirp_candidates", "NUM_CANDIDATES", "RANK_TOL"]
 
 NUM_CANDIDATES = int(_core.LIRP_CANDIDATES)
 # numerical rank of A: singular values above RANK_TOL * sigma_1 count (8 general, 6 planar / rotation)
 RANK_TOL = 1e-9
+MIN_RANK = 6  # a rank below it leaves a null space larger than 3-D: the pose is not determined
 
 
 def lirp_batch(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None, *, all_costs: bool = True) -> dict[str, np.ndarray]:
@@ -124,6 +125,9 @@ class LiRPResult(ValueEquality):
         return d
 
 
+MIN_POINTS = 6  # Alg. 1 needs a 3-D null space of the n x 9 matrix A: n >= 6 (fewer positive weights: degenerate)
+
+
 def lirp(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, rank_tol: float = RANK_TOL) -> LiRPResult:
     """Weighted LiRP (Alg. 1) on ``n >= 6`` correspondences.
 
@@ -133,32 +137,57 @@ def lirp(f1: np.ndarray, f2: np.ndarray, weights: np.ndarray | None = None, *, r
     :class:`ValueError` on bad input; degenerate-but-valid input (e.g. all points identical)
     returns ``status == "degenerate"``.
     """
+    fast = lirp_plain(f1, f2, weights, rank_tol)
+    if fast is not None:
+        return fast
     if isinstance(rank_tol, bool) or not isinstance(rank_tol, (int, float, np.integer, np.floating)) or not 0 < rank_tol < 1:
         raise ValueError(f"rank_tol must be a number in (0, 1), got {rank_tol!r}")
-    f1, f2, w = check_correspondences(f1, f2, weights, min_points=6, min_positive=0)  # fewer positive weights: degenerate
+    f1, f2, w = check_correspondences(f1, f2, weights, min_points=MIN_POINTS, min_positive=0)  # fewer positive weights: degenerate
     return lirp_checked(f1, f2, w, float(rank_tol))
+
+
+def _plain_rows(a: object) -> bool:
+    return type(a) is np.ndarray and a.dtype == np.float64 and a.ndim == 2 and a.shape[1] == 3
+
+
+def lirp_plain(f1: object, f2: object, weights: object, rank_tol: object) -> LiRPResult | None:
+    """The public :func:`lirp` in one core call (``_core.lirp_bearings``) for its common input: ``f1, f2``
+    float64 ndarrays ``(n, 3)``, ``weights`` a float64 ndarray ``(n,)`` or None, ``rank_tol`` a float
+    in ``(0, 1)``. None where the checked path decides (any other input, and what the core declines:
+    a NaN / inf or zero row, rows that all end in 1, a negative or non-finite weight, ``n < 6``), so
+    that the checks and their messages live in one place. The result is the checked path's bit for bit
+    (the rows scaled by the same core routine; ``tests/test_lirp.py``). Why: the checks cost more than
+    the solver at n = 30 (issue 11's ``poseonly bench speed`` row)."""
+    if not (type(rank_tol) is float and 0.0 < rank_tol < 1.0 and _plain_rows(f1) and _plain_rows(f2)):
+        return None
+    if weights is not None and not (type(weights) is np.ndarray and weights.dtype == np.float64 and weights.ndim == 1):
+        return None
+    out = _core.lirp_bearings(f1, f2, weights, rank_tol, ZERO_BEARING, MIN_POINTS)  # type: ignore[arg-type]
+    return None if out is None else _result(out)
 
 
 def lirp_checked(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None, rank_tol: float) -> LiRPResult:
     """:func:`lirp` on input already validated (unit bearings ``(n, 3)`` float64 C-contiguous, ``n >= 6``,
     weights ``(n,)`` finite and non-negative or ``None``; ``0 < rank_tol < 1``): the public
-    :func:`poseonly.lirp` validates once and calls this. One core call (``_core.lirp_one``); ``R, t``
-    are copies of the best candidate's rows of ``candidates_R/t``, ``E = [t]x R`` (NaN for a degenerate
-    ``A``, whose ``best`` still names the least-cost candidate)."""
+    :func:`poseonly.lirp` validates once and calls this. One core call (``_core.lirp_one``)."""
     if w is not None:  # relative weights at most 1: the singular values and weight sums stay finite
         wmax = float(w.max())  # (uniform 1e308 overflowed them, 5e-324 the reciprocal: a wrong pose)
         if wmax > 0.0 and wmax != 1.0:
             w = np.ascontiguousarray(w / wmax)
-    cE, cR, ct, valid, cost, s, best, d_min, d_min_c2, rank = _core.lirp_one(f1, f2, w, True, rank_tol)
-    status = "ok" if rank >= 6 else "degenerate"
-    notes = []
-    if status == "degenerate":
-        notes.append(f"epipolar matrix A has rank {rank} < 6: the correspondences do not determine the pose")
-    if status == "degenerate":  # no pose: NaN, not a candidate that looks like one (identity R)
+    return _result(_core.lirp_one(f1, f2, w, True, rank_tol))
+
+
+def _result(out: tuple) -> LiRPResult:
+    """The result of one core LiRP call: ``R, t`` the best candidate's pose (its own arrays), ``E = [t]x
+    R``; all three NaN for a degenerate ``A`` (rank < 6), whose ``best`` still names the least-cost
+    candidate."""
+    cE, cR, ct, valid, cost, s, best, d_min, d_min_c2, rank, R, t, E = out
+    if rank >= MIN_RANK:
+        status, notes = "ok", []
+    else:  # no pose: NaN, not a candidate that looks like one (identity R)
+        status = "degenerate"
+        notes = [f"epipolar matrix A has rank {rank} < {MIN_RANK}: the correspondences do not determine the pose"]
         R, t, E = np.full((3, 3), np.nan), np.full(3, np.nan), np.full((3, 3), np.nan)
-    else:
-        R, t = cR[best].copy(), ct[best].copy()
-        E = essential_from_pose(R, t)
     return LiRPResult(
         R=R,
         t=t,
