@@ -192,3 +192,66 @@ def test_a_batch_on_threads_that_its_caller_leaves_cancels_its_running_searches(
     it.close()
     assert first.key == "quick"
     assert sorted(outcomes, key=str) == sorted([("quick", "finished"), (0, "cancelled"), (1, "cancelled")], key=str), outcomes
+
+
+def test_a_cancel_flag_ends_gnc_ransac():
+    """The paper's GNC-RANSAC runs on the same loop: a set flag ends it within 64 samples (100000 samples
+    of 30 points would take minutes), and a flag never set changes no result."""
+    import threading
+
+    import numpy as np
+
+    from poseonly import _core
+    from poseonly.robust.cancel import CancelFlag, SearchCancelled
+
+    f1, f2 = _random_bearings(300, seed=2)
+    a = _core.gnc_ransac(f1, f2, 1e-3, 5, 30, 20, False, 0.99, {})
+    b = _core.gnc_ransac(f1, f2, 1e-3, 5, 30, 20, False, 0.99, {}, False, CancelFlag())
+    assert all(np.array_equal(x, y) for x, y in zip(a[:3], b[:3]))
+    flag, out = CancelFlag(), []
+
+    def run():
+        try:
+            _core.gnc_ransac(f1, f2, 1e-3, 5, 30, 100000, False, 0.99, {}, False, flag)
+            out.append("finished")
+        except SearchCancelled:
+            out.append("cancelled")
+
+    th = threading.Thread(target=run)
+    th.start()
+    time.sleep(0.5)
+    flag.set()
+    th.join(timeout=60)
+    assert out == ["cancelled"]
+
+
+GNC_CODE = """
+import time, numpy as np, poseonly
+rng = np.random.default_rng(0)
+f1, f2 = rng.standard_normal((2000, 3)), rng.standard_normal((2000, 3))
+f1[:, 2], f2[:, 2] = np.abs(f1[:, 2]) + 1.0, np.abs(f2[:, 2]) + 1.0
+print("start", flush=True)
+t0 = time.perf_counter()
+try:
+    poseonly.gnc_ransac(f1, f2, theta=1e-3, max_iterations=1000000)
+    print("finished", time.perf_counter() - t0, flush=True)
+except KeyboardInterrupt:
+    print("interrupted", time.perf_counter() - t0, flush=True)
+"""
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_ctrl_c_ends_gnc_ransac_at_once():
+    p = subprocess.Popen([sys.executable, "-c", GNC_CODE], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_sigint_default)
+    try:
+        assert p.stdout is not None
+        assert p.stdout.readline().strip() == "start"
+        time.sleep(1.5)
+        sent = time.perf_counter()
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=60)
+        waited = time.perf_counter() - sent
+    finally:
+        p.kill()
+    assert out.startswith("interrupted"), (out, err[-2000:])
+    assert waited < 5.0, waited

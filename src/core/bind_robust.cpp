@@ -169,6 +169,25 @@ struct SearchCancelled : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// A loop's interrupt hook (RansacOptions::interrupted): `cancel` read in any thread, Python's signal
+// handlers run only with check_signals, in Python's main thread, where they run: elsewhere taking the GIL
+// every 64 draws slowed a search beside busy Python 10x and aborted the process at interpreter exit (a
+// review). Neither set: no hook, and no result depends on it.
+void watch_interrupts(RansacOptions* ro, PythonSignals* signals, bool check_signals, const CancelFlag* cancel) {
+  if (check_signals || cancel) {
+    ro->interrupted = [signals, check_signals, cancel]() {
+      return (cancel && cancel->value.load(std::memory_order_relaxed)) || (check_signals && (*signals)());
+    };
+  }
+}
+
+// With the GIL held, after an interruptible loop: a signal handler's exception (Ctrl-C, SIGTERM) raised,
+// else SearchCancelled if the flag ended the loop.
+void end_if_interrupted(PythonSignals* signals, const RansacStats& st, const CancelFlag* cancel) {
+  signals->rethrow();
+  if (st.interrupted && cancel) throw SearchCancelled("the search was cancelled (its CancelFlag was set)");
+}
+
 nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double threshold, uint64_t seed, int solver, int scoring,
                          int max_iterations, int min_iterations, double confidence, int max_lo, double lo_mu0, int lo_iterations,
                          int lo_residual, const std::optional<nb::ndarray<const int64_t, nb::ndim<1>, nb::c_contig>>& order,
@@ -212,13 +231,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
   RansacStats st;
   int d_groups = 0;
   PythonSignals signals;
-  // only in Python's main thread, where its handlers run: elsewhere taking the GIL every 64 draws slowed a
-  // search beside busy Python 10x and aborted the process at interpreter exit (a review)
-  if (check_signals || cancel) {
-    ro.interrupted = [&signals, check_signals, cancel]() {
-      return (cancel && cancel->value.load(std::memory_order_relaxed)) || (check_signals && signals());
-    };
-  }
+  watch_interrupts(&ro, &signals, check_signals, cancel);
   {
     nb::gil_scoped_release release;
     RelativePoseEstimator est(P, eo);
@@ -227,8 +240,7 @@ nb::tuple ransac_relpose(const BearingsIn& f1, const BearingsIn& f2, double thre
     st = run_sampled(est, static_cast<Scoring>(scoring), threshold, ord, seed, ro, &best, &rival, chiral, &K, &others);
     d_groups = K.num_groups();
   }
-  signals.rethrow();  // Ctrl-C / SIGTERM during the search
-  if (st.interrupted && cancel) throw SearchCancelled("the search was cancelled (its CancelFlag was set)");
+  end_if_interrupted(&signals, st, cancel);
   std::vector<double> R(9), t(3), Rr(9), tr(3);
   put_pose(best, R.data(), t.data());
   put_pose(rival, Rr.data(), tr.data());
@@ -427,7 +439,8 @@ nb::tuple ml_cross_fit_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn& 
 }
 
 nb::tuple gnc_ransac(const BearingsIn& f1, const BearingsIn& f2, double theta, uint64_t seed, int sample_size,
-                     int max_iterations, bool adaptive, double confidence, const nb::dict& gnc) {
+                     int max_iterations, bool adaptive, double confidence, const nb::dict& gnc, bool check_signals,
+                     const CancelFlag* cancel) {
   const Points P = points_of(f1, f2);
   if (!(theta > 0.0 && std::isfinite(theta))) throw std::invalid_argument("theta must be finite and > 0");
   if (sample_size < kLirpMinPoints || sample_size > P.n) throw std::invalid_argument("sample_size must be in [6, n]");
@@ -436,18 +449,22 @@ nb::tuple gnc_ransac(const BearingsIn& f1, const BearingsIn& f2, double theta, u
   Pose best;
   RansacStats st;
   std::vector<double> weights(P.n, 0.0);
+  PythonSignals signals;
+  watch_interrupts(&ro, &signals, check_signals, cancel);
   {
     nb::gil_scoped_release release;
     GncRansacEstimator est(P, sample_size, g);
     UniformSampler s(P.n, sample_size, seed);
     const CountScorer sc{theta};
     st = ransac(est, sc, s, ro, &best);
-    // Algorithm 3, last step: the best model's inlier set refit by GNC-IRLS
+    // Algorithm 3, last step: the best model's inlier set refit by GNC-IRLS (not after an interruption,
+    // whose result the caller never sees)
     std::vector<int> inl;
-    inliers_of(est, best, sc, &inl);
+    if (!st.interrupted) inliers_of(est, best, sc, &inl);
     if (static_cast<int>(inl.size()) >= kLirpMinPoints && est.refine(&best, inl))
       for (size_t j = 0; j < inl.size(); ++j) weights[inl[j]] = est.last().weights[j];
   }
+  end_if_interrupted(&signals, st, cancel);
   std::vector<double> R(9), t(3);
   put_pose(best, R.data(), t.data());
   return nb::make_tuple(to_numpy(std::move(R), {3, 3}), to_numpy(std::move(t), {3}), to_numpy(std::move(weights), {static_cast<size_t>(P.n)}),
@@ -646,7 +663,8 @@ POSEONLY_BIND(robust) {
         "inliers of both; with no veto the input pose.");
   m.def("gnc_ransac", &gnc_ransac, nb::arg("f1"), nb::arg("f2"), nb::arg("theta"), nb::arg("seed"), nb::arg("sample_size") = 30,
         nb::arg("max_iterations") = 50, nb::arg("adaptive") = false, nb::arg("confidence") = 0.99, nb::arg("gnc") = nb::dict(),
-        "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats).");
+        nb::arg("check_signals") = false, nb::arg("cancel").none() = nb::none(),
+        "The paper's GNC-RANSAC (Alg. 3): (R, t, weights (n,), stats); check_signals and cancel as ransac_relpose's (every 64 samples).");
   m.def("robust_rotation", &robust_rotation, nb::arg("f1"), nb::arg("f2"), nb::arg("chord"), nb::arg("seed"),
         nb::arg("max_iterations") = 10000, nb::arg("confidence") = 0.999, nb::arg("max_score_points") = 0,
         nb::arg("min_inlier_ratio") = 0.0,

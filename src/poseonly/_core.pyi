@@ -145,6 +145,8 @@ def gnc_ransac(
     adaptive: bool = False,
     confidence: float = 0.99,
     gnc: dict[str, Any] = ...,
+    check_signals: bool = False,
+    cancel: CancelFlag | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], dict[str, Any]]: ...
 def ransac_python(
     estimator: Any,

@@ -262,7 +262,17 @@ def gnc_ransac(
     opts = gnc_options or GNCOptions()
     f1, f2 = _c(f1), _c(f2)
     R, t, w, st = _core.gnc_ransac(
-        f1, f2, float(theta), core_seed(seed), int(min(sample_size, len(f1))), int(max_iterations), bool(adaptive), float(confidence), opts.core_options(est)
+        f1,
+        f2,
+        float(theta),
+        core_seed(seed),
+        int(min(sample_size, len(f1))),
+        int(max_iterations),
+        bool(adaptive),
+        float(confidence),
+        opts.core_options(est),
+        threading.current_thread() is threading.main_thread(),  # Ctrl-C within 64 samples (main thread only)
+        cancel.current(),  # a batch's worker threads: the batch's flag
     )
     v = est.residual.unchecked(R, t, f1, f2)
     return RansacResult(R=R, t=t, inliers=v < theta, residuals=v, score=float(len(f1) - st["cost"]), num_iterations=int(st["iterations"]), weights=w, stats=dict(st))
