@@ -33,21 +33,28 @@ def _sigint_default() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
-def test_ctrl_c_ends_the_search_at_once():
-    p = subprocess.Popen([sys.executable, "-c", CODE], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_sigint_default)
+def _assert_ctrl_c_ends_it_at_once(code: str, timeout: float) -> None:
+    """Run ``code`` (which prints "start", then "interrupted" on KeyboardInterrupt) in a new interpreter,
+    send SIGINT 1.5 s after "start" (inside its long loop) and check that it ended within 5 s: the
+    handler ran inside the loop, not after it."""
+    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_sigint_default)
     try:
         assert p.stdout is not None
         assert p.stdout.readline().strip() == "start"
-        time.sleep(1.5)  # into the search (100000 draws on 60000 random matches: tens of seconds)
+        time.sleep(1.5)
         sent = time.perf_counter()
         p.send_signal(signal.SIGINT)
-        out, err = p.communicate(timeout=60)
+        out, err = p.communicate(timeout=timeout)
         waited = time.perf_counter() - sent
     finally:
         p.kill()
     assert out.startswith("interrupted"), (out, err[-2000:])
-    assert waited < 5.0, waited  # the handler ran inside the loop, not after it
+    assert waited < 5.0, waited
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+def test_ctrl_c_ends_the_search_at_once():
+    _assert_ctrl_c_ends_it_at_once(CODE, timeout=60)
 
 
 THREAD_CODE = """
@@ -138,19 +145,7 @@ except KeyboardInterrupt:
 def test_ctrl_c_ends_a_batch_on_threads_at_once():
     """The batch sets its threads' flag when Ctrl-C unwinds it: the two searches running in worker threads
     (tens of seconds each) end with it instead of being waited for (7.7 s in a review's run)."""
-    p = subprocess.Popen([sys.executable, "-c", BATCH_CODE], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_sigint_default)
-    try:
-        assert p.stdout is not None
-        assert p.stdout.readline().strip() == "start"
-        time.sleep(1.5)
-        sent = time.perf_counter()
-        p.send_signal(signal.SIGINT)
-        out, err = p.communicate(timeout=120)
-        waited = time.perf_counter() - sent
-    finally:
-        p.kill()
-    assert out.startswith("interrupted"), (out, err[-2000:])
-    assert waited < 5.0, waited
+    _assert_ctrl_c_ends_it_at_once(BATCH_CODE, timeout=120)
 
 
 def test_a_batch_on_threads_that_its_caller_leaves_cancels_its_running_searches(monkeypatch):
@@ -242,16 +237,4 @@ except KeyboardInterrupt:
 
 @pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
 def test_ctrl_c_ends_gnc_ransac_at_once():
-    p = subprocess.Popen([sys.executable, "-c", GNC_CODE], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=_sigint_default)
-    try:
-        assert p.stdout is not None
-        assert p.stdout.readline().strip() == "start"
-        time.sleep(1.5)
-        sent = time.perf_counter()
-        p.send_signal(signal.SIGINT)
-        out, err = p.communicate(timeout=60)
-        waited = time.perf_counter() - sent
-    finally:
-        p.kill()
-    assert out.startswith("interrupted"), (out, err[-2000:])
-    assert waited < 5.0, waited
+    _assert_ctrl_c_ends_it_at_once(GNC_CODE, timeout=60)
