@@ -254,3 +254,15 @@ def test_seed_summary_of_a_front_end_run(tmp_path: Path, capsys):
     path.write_text(json.dumps({"front_ends": {"fe-a": {"summary": {}}}}))
     with pytest.raises(SystemExit, match="fe-a has no pairs"):
         seed_summary.main([str(path)])
+
+
+def test_lirp_public_path_benchmark_runs(capsys):
+    """benchmarks/lirp_public_path.py on one scene, one round of two calls."""
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    try:
+        import lirp_public_path
+    finally:
+        sys.path.pop(0)
+    assert lirp_public_path.main(["--points", "30", "--scenes", "1", "--rounds", "1", "--calls", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "public / core" in out and "checked" in out
