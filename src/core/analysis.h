@@ -49,7 +49,10 @@ int support_count(const Pose& pose, const Points& P, double thr);
 struct SupportComparison {
   int64_t a = 0, b = 0, only_a = 0, only_b = 0;
 };
-SupportComparison compare_support(const Pose& a, const Pose& b, const Points& P, double thr);
+// far_neutral: a match whose rays R f1 and f2 are parallel to within thr under a pose (|R f1 x f2| < thr,
+// the sine of its parallax: consistent with a point at infinity) counts for that pose by its Sampson error
+// alone, since the signs of its depths are then the noise's (the rival test; the twin keeps plain cheirality)
+SupportComparison compare_support(const Pose& a, const Pose& b, const Points& P, double thr, bool far_neutral = false);
 
 // The status analysis's planar twin (poseonly.analysis.planar_twin documents the decision, made in
 // Python from these counts): the homography twin of `pose` from the matches with mask[i] != 0 (its

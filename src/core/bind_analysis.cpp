@@ -140,13 +140,13 @@ static const uint8_t* mask_of(const MaskIn& mask, int n) {
 static nb::tuple counts_of(const SupportComparison& s) { return nb::make_tuple(s.a, s.b, s.only_a, s.only_b); }
 
 static nb::tuple compare_support_py(const ArrayIn& Ra, const ArrayIn& ta, const ArrayIn& Rb, const ArrayIn& tb, const BearingsIn& f1,
-                                    const BearingsIn& f2, double thr) {
+                                    const BearingsIn& f2, double thr, bool far_neutral) {
   const Points P = points_of(f1, f2);
   const Pose a = pose_of(Ra, ta), b = pose_of(Rb, tb);
   SupportComparison s;
   {
     nb::gil_scoped_release release;
-    s = compare_support(a, b, P, thr);
+    s = compare_support(a, b, P, thr, far_neutral);
   }
   return counts_of(s);
 }
@@ -205,8 +205,9 @@ POSEONLY_BIND(analysis) {
       },
       nb::arg("k"), nb::arg("n"), nb::arg("p"), "log P(Bin(n, p) >= k) (log-sum-exp of the terms; no underflow; NaN for a NaN p).");
   m.def("compare_support", &compare_support_py, nb::arg("R_a"), nb::arg("t_a"), nb::arg("R_b"), nb::arg("t_b"), nb::arg("f1"),
-        nb::arg("f2"), nb::arg("thr"),
-        "Cheirality-consistent supports of two poses (sampson_chiral < thr): (under a, under b, a only, b only).");
+        nb::arg("f2"), nb::arg("thr"), nb::arg("far_neutral") = false,
+        "Cheirality-consistent supports of two poses (sampson_chiral < thr): (under a, under b, a only, b only); far_neutral: a "
+        "match whose rays are parallel to within thr under a pose (|R f1 x f2| < thr) counts for it by its Sampson error alone.");
   m.def("analyse_twin", &analyse_twin_py, nb::arg("R"), nb::arg("t"), nb::arg("f1"), nb::arg("f2"), nb::arg("mask"), nb::arg("tau"),
         "The status analysis's planar twin of (R, t) from the matches in mask (its inliers): None without a twin "
         "decomposition, (planarity, None) when the twin fails the support screen, else (planarity, (R_twin, "

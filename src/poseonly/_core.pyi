@@ -252,7 +252,14 @@ def homography_twin_dlt(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None: ...
 def log_binom_sf(k: int, n: int, p: float) -> float: ...
 def compare_support(
-    R_a: NDArray[np.float64], t_a: NDArray[np.float64], R_b: NDArray[np.float64], t_b: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], thr: float
+    R_a: NDArray[np.float64],
+    t_a: NDArray[np.float64],
+    R_b: NDArray[np.float64],
+    t_b: NDArray[np.float64],
+    f1: NDArray[np.float64],
+    f2: NDArray[np.float64],
+    thr: float,
+    far_neutral: bool = False,
 ) -> tuple[int, int, int, int]: ...
 def analyse_twin(
     R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64], mask: NDArray[np.bool_], tau: float

@@ -224,9 +224,16 @@ def rival_test(R: np.ndarray, t: np.ndarray, R_rival: np.ndarray, t_rival: np.nd
     ``min_separation_deg`` away in rotation after refinement and the sign test (:func:`sign_test`)
     does not prefer the pose at :data:`AMBIGUITY_LEVEL` (on temple's small narrow-view pairs two
     poses 45-150 deg apart share 13-16 of 18-22 inliers; refined rivals of sound poses mostly fall
-    back into the pose's basin). Returns ``rival_support``, ``rival_only``, ``pose_only``,
-    ``rival_separation_deg``, ``rival_log10_p`` and ``ambiguous`` (bool)."""
-    _, rival_support, only_pose, only_rival = _core.compare_support(_c(R), _c(t), _c(R_rival), _c(t_rival), _c(f1), _c(f2), min(float(tau), MAX_SUPPORT_THRESHOLD))
+    back into the pose's basin). A match whose rays are parallel to within the threshold under a pose
+    (``|R f1 x f2|`` below it: a point at infinity within the noise) counts for that pose by its Sampson
+    error alone: the signs of its depths are the noise's, and a forward-moving camera's far points
+    triangulate behind the true pose about half the time while a rival of another rotation keeps its
+    own (``far_neutral``; a SLAM trial's KITTI ORB pairs, 0.02 deg off, were called ambiguous).
+    Returns ``rival_support``, ``rival_only``, ``pose_only``, ``rival_separation_deg``,
+    ``rival_log10_p`` and ``ambiguous`` (bool)."""
+    _, rival_support, only_pose, only_rival = _core.compare_support(
+        _c(R), _c(t), _c(R_rival), _c(t_rival), _c(f1), _c(f2), min(float(tau), MAX_SUPPORT_THRESHOLD), far_neutral=True
+    )
     sep = rotation_error_deg(R, R_rival)
     lp = sign_test(only_pose, only_rival)
     return {

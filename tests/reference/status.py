@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from poseonly import _core
-from poseonly.analysis import AMBIGUITY_LEVEL, TWIN_MIN_SEPARATION_DEG, TWIN_SUPPORT_RATIO, sign_test, support, twin_cost_excess
+from poseonly.analysis import AMBIGUITY_LEVEL, MAX_SUPPORT_THRESHOLD, TWIN_MIN_SEPARATION_DEG, TWIN_SUPPORT_RATIO, sign_test, support, twin_cost_excess
 from poseonly.geometry import rotation_error_deg
 from poseonly.median import median
 from poseonly.residuals import v_sampson
@@ -78,8 +78,13 @@ def planar_twin(R, t, f1, f2, tau, inl) -> tuple[tuple[np.ndarray, np.ndarray, i
 
 
 def rival_test(R, t, R_rival, t_rival, f1, f2, tau, min_separation_deg) -> dict[str, Any]:
-    """The uniqueness test's counts and decision as :func:`poseonly.analysis.rival_test` documents them."""
-    S = support(np.stack([R, R_rival]), np.stack([t, t_rival]), f1, f2, tau)
+    """The uniqueness test's counts and decision as :func:`poseonly.analysis.rival_test` documents them:
+    cheirality-consistent inliers, and the Sampson inliers whose rays are parallel to within the
+    threshold under the pose (far points: their depths' signs are the noise's)."""
+    thr = min(tau, MAX_SUPPORT_THRESHOLD)
+    Rs, ts = np.stack([R, R_rival]), np.stack([t, t_rival])
+    far = np.stack([np.linalg.norm(np.cross(f1 @ Rk.T, f2), axis=1) < thr for Rk in Rs])
+    S = support(Rs, ts, f1, f2, tau) | (far & (v_sampson.unchecked(Rs, ts, f1, f2) < thr))
     only_pose, only_rival = int(np.count_nonzero(S[0] & ~S[1])), int(np.count_nonzero(S[1] & ~S[0]))
     sep = rotation_error_deg(R, R_rival)
     lp = sign_test(only_pose, only_rival)
