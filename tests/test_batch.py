@@ -134,11 +134,20 @@ def test_blas_limit_shared_by_concurrent_estimates(monkeypatch):
         def restore_original_limits(self):
             calls.append("restore")
 
+    class Lib:
+        num_threads = 1  # what the limit set, unchanged by the caller
+
     class Controller:
+        lib_controllers = [Lib()]
+
         def limit(self, limits, user_api):
             assert (limits, user_api) == (1, "blas")
             calls.append("limit")
             return Limiter()
+
+        def select(self, user_api):
+            assert user_api == "blas"
+            return self
 
     monkeypatch.setitem(api._BLAS_STATE, "controller", Controller())
     inside, leave_first = threading.Event(), threading.Event()
@@ -160,6 +169,30 @@ def test_blas_limit_shared_by_concurrent_estimates(monkeypatch):
     with pytest.raises(RuntimeError), api._blas_single_thread():
         raise RuntimeError
     assert calls == ["limit", "restore", "limit", "restore"] and api._BLAS_STATE["users"] == 0
+
+
+def test_a_blas_limit_the_application_sets_during_an_estimate_is_kept():
+    """The estimate restores the limits of before only if BLAS is still at its one thread: an application
+    that set its own meanwhile (threadpool_limits from another thread) keeps it (a SLAM user's trial:
+    it was overwritten when the estimate ended)."""
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    from poseonly import api
+
+    blas = threadpoolctl.ThreadpoolController().select(user_api="blas").lib_controllers
+    if not blas:
+        pytest.skip("no BLAS that threadpoolctl controls")
+    before = [lib.num_threads for lib in blas]
+    try:
+        with api._blas_single_thread():
+            assert all(lib.num_threads == 1 for lib in blas)
+            threadpoolctl.threadpool_limits(limits=3, user_api="blas")  # the application's own setting
+        assert all(lib.num_threads == 3 for lib in blas)
+        with api._blas_single_thread():
+            pass
+        assert all(lib.num_threads == 3 for lib in blas)  # untouched: restored to what it was before
+    finally:
+        for lib, n in zip(blas, before):
+            lib.set_num_threads(n)
 
 
 def test_pair_scores_and_noise_scales_reach_the_estimator():

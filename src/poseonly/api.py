@@ -128,8 +128,16 @@ def _blas_single_thread() -> Iterator[None]:
         with _BLAS_LOCK:
             st["users"] -= 1
             if st["users"] == 0 and st["limiter"] is not None:
-                st["limiter"].restore_original_limits()
+                if _blas_still_single(st["controller"]):
+                    st["limiter"].restore_original_limits()
                 st["limiter"] = None
+
+
+def _blas_still_single(controller: Any) -> bool:
+    """Every BLAS is still at the one thread :func:`_blas_single_thread` set: nobody changed the limit while
+    the estimates ran. An application that set its own meanwhile (``threadpool_limits`` in another thread)
+    keeps it: restoring the limits of before overwrote it (a SLAM user's trial)."""
+    return all(lib.num_threads == 1 for lib in controller.select(user_api="blas").lib_controllers)
 
 
 def _focal(K1, K2, focal_px):
