@@ -3,9 +3,10 @@
 Reads go through ``pycolmap.Database`` except the schema check and the list of matched pairs: one
 read-only SQL query on the ``matches`` table before pycolmap opens the file (pycolmap only reads
 all matches at once). Writes are
-``pycolmap.Database.write_two_view_geometry`` inside one ``pycolmap.DatabaseTransaction`` per batch
-of pairs: SQLite's journal makes every batch all-or-nothing, so a process killed at any moment
-leaves each pair either fully written or absent.
+``pycolmap.Database.write_two_view_geometry`` (``update_two_view_geometry`` for a pair that has a row)
+inside one ``pycolmap.DatabaseTransaction`` per batch of pairs, with Ctrl-C and SIGTERM held until it
+has committed: SQLite's journal makes every batch all-or-nothing, so a process killed at any moment
+leaves each pair its old row or its new one.
 
 Pair convention (COLMAP's): ``pair_id = image_pair_to_pair_id(id1, id2)`` with ``id1 < id2``; match
 columns are keypoint indices of ``id1`` and ``id2``; ``cam2_from_cam1`` maps camera-1 coordinates
@@ -14,12 +15,15 @@ to camera 2 (our ``X2 = R X1 + t``).
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
+import signal
 import sqlite3
+import threading
 import time
 from collections import OrderedDict
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from contextlib import closing
 from dataclasses import dataclass
 from pathlib import Path
@@ -195,6 +199,33 @@ def check_writable(path: str | Path) -> None:
         raise database_unavailable(path, exc, "before writing") from None
 
 
+DEFERRED_SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM") if hasattr(signal, n))
+
+
+@contextlib.contextmanager
+def signals_deferred() -> Iterator[None]:
+    """Hold Ctrl-C and SIGTERM during the block and act on them after it (in Python's main thread, where
+    their handlers run; elsewhere a no-op: no KeyboardInterrupt is raised in other threads). A signal that
+    came is then handed to the handler that was installed (``SIG_DFL``: sent again, ending the process as
+    it would have; ``SIG_IGN``: dropped)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    came: list[int] = []
+    previous = {sig: signal.signal(sig, lambda signum, frame: came.append(signum)) for sig in DEFERRED_SIGNALS}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        for sig in dict.fromkeys(came):
+            handler = previous[sig]
+            if callable(handler):
+                handler(sig, None)
+            elif handler == signal.SIG_DFL:
+                os.kill(os.getpid(), sig)
+
+
 class ColmapDatabase:
     """An existing COLMAP database file (never created here: a wrong path is an error)."""
 
@@ -328,16 +359,27 @@ class ColmapDatabase:
             raise database_unavailable(self.path, exc, "writing two-view geometries; the batches written before are kept and a rerun resumes") from None
 
     def _write(self, rows: Iterable[GeometryRow]) -> int:
+        """The batch in one transaction. pycolmap's ``DatabaseTransaction`` commits when its block ends,
+        an exception included (a COLMAP user's trial: a Ctrl-C inside a batch committed half of it and,
+        between a row's delete and its insert, left a pair with no row), so: the rows are built before
+        the transaction; an existing row is replaced by one ``update_two_view_geometry`` (never absent);
+        and Ctrl-C / SIGTERM during the transaction are held until it has committed
+        (:func:`signals_deferred`). A SIGKILL or a crash leaves SQLite's journal to roll it back."""
         pc = self._pc
         rows = list(rows)
         self._check_free_space(rows)
+        built = [(r, pc.TwoViewGeometry(**pycolmap_geometry_kwargs(TwoViewFields(r.config, r.inlier_matches, E=r.E, F=r.F, H=r.H, R=r.R, t=r.t), pc))) for r in rows]
         k = 0
-        with pc.DatabaseTransaction(self.db):
-            for r in rows:
-                kw = pycolmap_geometry_kwargs(TwoViewFields(r.config, r.inlier_matches, E=r.E, F=r.F, H=r.H, R=r.R, t=r.t), pc)
+        with signals_deferred(), pc.DatabaseTransaction(self.db):
+            for r, g in built:
                 if self.db.exists_two_view_geometry(r.image_id1, r.image_id2):
-                    self.db.delete_two_view_geometry(r.image_id1, r.image_id2)
-                self.db.write_two_view_geometry(r.image_id1, r.image_id2, pc.TwoViewGeometry(**kw))
+                    if hasattr(self.db, "update_two_view_geometry"):
+                        self.db.update_two_view_geometry(r.image_id1, r.image_id2, g)
+                    else:  # pragma: no cover - pycolmap before update_two_view_geometry (signals held here too)
+                        self.db.delete_two_view_geometry(r.image_id1, r.image_id2)
+                        self.db.write_two_view_geometry(r.image_id1, r.image_id2, g)
+                else:
+                    self.db.write_two_view_geometry(r.image_id1, r.image_id2, g)
                 k += 1
         return k
 
