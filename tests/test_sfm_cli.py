@@ -125,6 +125,9 @@ def test_sfm_command_bad_input(tmp_path, capsys):
     assert "with --database" in capsys.readouterr().err
     assert main(["sfm", str(img), "--database", str(tmp_path / "x.db"), "--out", str(tmp_path / "o"), "--resident-images", "8"]) == 2
     assert "with --database" in capsys.readouterr().err
+    for opt in (["--max-images", "3"], ["--max-features", "2000"]):  # ignored silently before (a COLMAP user's trial)
+        assert main(["sfm", str(img), "--database", str(tmp_path / "x.db"), "--out", str(tmp_path / "o"), *opt]) == 2
+        assert "used as they are" in capsys.readouterr().err
     # a pair's two images must fit (before any image is read: these are empty files)
     assert main(["sfm", str(img), "--K", str(tmp_path / "K.txt"), "--out", str(tmp_path / "o"), "--resident-images", "1"]) == 2
     assert "resident_images must be an int >= 2" in capsys.readouterr().err

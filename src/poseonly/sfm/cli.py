@@ -101,7 +101,7 @@ def _camera_arg(args: argparse.Namespace) -> dict[str, Any] | None:
 def cmd_sfm(args: argparse.Namespace) -> int:
     from .._fileutil import staging_dir
     from ..io.calibration import read_K
-    from .pairwise import PairwiseOptions, image_view_graph, parse_estimator_options
+    from .pairwise import DEFAULT_MAX_FEATURES, PairwiseOptions, image_view_graph, parse_estimator_options
     from .pipeline import MIN_MODEL_VIEWS, GlobalOptions, num_stages, run_global_models
 
     d = Path(args.images)
@@ -126,7 +126,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         pass  # reported where the model would be written
     t0 = time.perf_counter()
     opt = PairwiseOptions(
-        max_features=args.max_features,
+        max_features=DEFAULT_MAX_FEATURES if args.max_features is None else args.max_features,
         threshold_px=args.threshold_px,
         seed=args.seed,
         use_noise_scales=not args.no_noise_scales,
@@ -142,6 +142,9 @@ def cmd_sfm(args: argparse.Namespace) -> int:
             raise InputError("--pairs and --sequential choose the pairs to match; with --database the database's matches decide")
         if args.resident_images is not None:
             raise InputError("--resident-images bounds the memory of our features; with --database no descriptors are read")
+        if args.max_images is not None or args.max_features is not None:
+            # (they were ignored silently: a COLMAP user's trial)
+            raise InputError("--max-images and --max-features choose our images and features; with --database its images, keypoints and matches are used as they are")
 
         def images_exist(names: list[str]) -> None:  # before any pair is estimated
             missing = [str(d / nm) for nm in names if not (d / nm).is_file()]
@@ -520,7 +523,7 @@ def add_parsers(sub: Any, esub: Any) -> None:
         action="store_true",
         help="replace outputs in --out that no poseonly run wrote (e.g. a COLMAP project's sparse/0; refused without it); other files are kept",
     )
-    s.add_argument("--max-features", type=non_negative_int, default=8000, help="strongest SIFT features per image (default 8000; 0: every feature SIFT finds)")
+    s.add_argument("--max-features", type=non_negative_int, default=None, help="strongest SIFT features per image (default 8000; 0: every feature SIFT finds)")
     s.add_argument("--max-images", type=positive_int, help="use only the first N images (sorted by name)")
     s.add_argument("--threshold-px", type=positive_float, default=None, help="two-view inlier threshold (px; default: the method's, 1 px)")
     s.add_argument("--cache", help="feature / match cache (default OUT/cache)")

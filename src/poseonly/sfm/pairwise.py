@@ -36,6 +36,8 @@ from .inputs import checked_pairs
 from .tracks import Tracks
 from .viewgraph import ViewGraph
 
+DEFAULT_MAX_FEATURES = 8000  # strongest SIFT features per image
+
 __all__ = [
     "PAIRWISE_MAX_ITERATIONS",
     "ImageGraph",
@@ -95,7 +97,7 @@ class PairwiseOptions:
     default method runs with ``max_iterations`` :data:`PAIRWISE_MAX_ITERATIONS` (10000, COLMAP's
     two-view cap) unless ``estimator_options`` sets it."""
 
-    max_features: int | None = 8000
+    max_features: int | None = DEFAULT_MAX_FEATURES
     ratio: float = 0.8
     mutual: bool = True
     min_matches: int = MIN_PUTATIVE
