@@ -464,6 +464,39 @@ def test_ctrl_c_inside_a_write_batch_waits_for_its_commit(tmp_path, monkeypatch)
     _check_consistent(path)
 
 
+def test_sfm_reads_a_database_without_changing_it_while_another_connection_writes(tmp_path):
+    """pycolmap opens a database read-write: ``sfm --database`` stopped on a database another process was
+    writing and changed the file's header although no table changed (a COLMAP user's trial). It reads a
+    copy now (``reading_snapshot``): the file keeps its bytes and time, the copy is removed, and the
+    descriptors' rows are not copied."""
+    from poseonly.io.colmap_db import reading_snapshot
+    from poseonly.sfm.colmap_db import database_view_graph
+
+    path = tmp_path / "db.db"
+    make_db(path, n_images=4, n_points=60)
+    with closing(sqlite3.connect(path)) as con:
+        cols = [r[1] for r in con.execute("PRAGMA table_info(descriptors)")]  # (the schema differs between COLMAP versions)
+        values = ", ".join({"image_id": "image_id", "data": "zeroblob(128)"}.get(c, "1") for c in cols)
+        con.execute(f"INSERT INTO descriptors ({', '.join(cols)}) SELECT {values} FROM images LIMIT 1")
+        con.commit()
+    before = (path.read_bytes(), path.stat().st_mtime_ns)
+    cache = tmp_path / "cache"
+    with closing(sqlite3.connect(path, timeout=0.0)) as other:
+        other.execute("BEGIN IMMEDIATE")  # another process's write transaction, held while we read
+        ig, names = database_view_graph(path, cache_dir=cache)
+        other.rollback()
+    assert len(names) == 4 and len(ig.graph) > 0
+    assert (path.read_bytes(), path.stat().st_mtime_ns) == before
+    assert list(cache.glob(".db.db.*")) == []  # the copy and its journals are gone
+    with reading_snapshot(path, tmp_path) as snap, closing(sqlite3.connect(snap)) as c:
+        assert c.execute("SELECT COUNT(*) FROM descriptors").fetchone()[0] == 0
+        assert c.execute("SELECT COUNT(*) FROM matches").fetchone()[0] == 6
+        assert {r[0] for r in c.execute("SELECT name FROM sqlite_master WHERE type = 'index'")} >= {
+            r[0] for r in sqlite3.connect(path).execute("SELECT name FROM sqlite_master WHERE type = 'index' AND sql IS NOT NULL")
+        }
+    assert not snap.exists()
+
+
 def test_a_pair_id_colmap_does_not_write_is_refused(tmp_path):
     """A pair stored under (larger, smaller) image ids: pycolmap reads and writes it as its canonical twin
     (a reliability trial: its row overwrote the twin's, or its matches were never read)."""

@@ -20,6 +20,7 @@ import errno
 import os
 import signal
 import sqlite3
+import tempfile
 import threading
 import time
 from collections import OrderedDict
@@ -31,6 +32,7 @@ from typing import Any, Self
 
 import numpy as np
 
+from .._fileutil import HOST, TMP_SUFFIX
 from .._pycolmap import import_pycolmap
 from ..cameras import Camera, as_camera
 from ..geometry import InputError
@@ -42,6 +44,7 @@ __all__ = [
     "ColmapDatabase",
     "DatabaseUnavailableError",
     "GeometryRow",
+    "reading_snapshot",
     "check_writable",
     "guessed_focal",
     "keypoint_scales",
@@ -178,6 +181,50 @@ def matched_pair_ids(path: str | Path) -> list[int]:
         raise database_unavailable(path, exc, "reading its matched pairs") from None
     except sqlite3.DatabaseError as exc:
         raise InputError(f"{path} is not an SQLite database: {exc}") from None
+
+
+# tables whose rows a reading snapshot leaves out (what the readers never use: the descriptors are most of
+# a database's size)
+SNAPSHOT_SKIPPED_ROWS = ("descriptors",)
+
+
+@contextlib.contextmanager
+def reading_snapshot(path: str | os.PathLike, directory: str | os.PathLike | None = None) -> Iterator[Path]:
+    """A copy of the COLMAP database ``path`` to open with pycolmap for reading, removed when the block
+    ends. pycolmap opens a database read-write (it creates its tables if they are missing): a read-only
+    file or directory, or another process's write transaction, stopped the reading, and SQLite updated
+    the file's header although no table changed (a COLMAP user's trial). The copy is made through one
+    read-only SQL connection, closed before pycolmap opens the copy (never both on one file:
+    :func:`matched_pair_ids`): every table and index as its schema has it, the rows of every table but
+    :data:`SNAPSHOT_SKIPPED_ROWS`. It is written in ``directory`` (default: the system's temporary
+    folder) under an atomic writer's temporary name, so a killed run's copy is swept by the next
+    (:mod:`poseonly._fileutil`). The source is never written."""
+    p = Path(path)
+    d = Path(directory) if directory is not None else Path(tempfile.gettempdir())
+    d.mkdir(parents=True, exist_ok=True)
+    fd, name = tempfile.mkstemp(prefix=f".{p.name}.{HOST}-{os.getpid()}.", suffix=TMP_SUFFIX, dir=d)
+    os.close(fd)
+    snap = Path(name)
+    try:
+        try:
+            with closing(sqlite3.connect(snap)) as dst:
+                dst.execute("ATTACH DATABASE ? AS src", (_sqlite_uri(p, "ro"),))
+                schema = dst.execute("SELECT type, name, sql FROM src.sqlite_master WHERE sql IS NOT NULL ORDER BY type = 'index', rowid").fetchall()
+                for kind, table, sql in schema:
+                    if table.startswith("sqlite_"):
+                        continue
+                    dst.execute(sql)
+                    if kind == "table" and table not in SNAPSHOT_SKIPPED_ROWS:
+                        dst.execute(f'INSERT INTO main."{table}" SELECT * FROM src."{table}"')
+                dst.commit()
+                dst.execute("DETACH DATABASE src")
+        except sqlite3.DatabaseError as exc:
+            raise database_unavailable(p, exc, "reading it (a copy to open with pycolmap)") from None
+        yield snap
+    finally:
+        for f in (snap, *(snap.with_name(snap.name + x) for x in ("-wal", "-shm", "-journal"))):
+            with contextlib.suppress(FileNotFoundError):
+                f.unlink()
 
 
 def check_writable(path: str | Path) -> None:

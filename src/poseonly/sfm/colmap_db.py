@@ -23,7 +23,7 @@ from .._pycolmap import import_pycolmap
 from ..cameras import as_camera
 from ..features import Features, match_noise_scales
 from ..geometry import InputError, pair_focal
-from ..io.colmap_db import database_unavailable, guessed_focal, keypoint_scales, matched_pair_ids, refuse_guessed_focal
+from ..io.colmap_db import database_unavailable, guessed_focal, keypoint_scales, matched_pair_ids, reading_snapshot, refuse_guessed_focal
 from ..quantization import image_grid_step, pair_grid_step
 from .pairwise import ImageGraph, PairwiseOptions, TwoView, map_ordered, pair_seed, two_view
 from .viewgraph import ViewGraph
@@ -43,15 +43,16 @@ def database_view_graph(
     camera: Any = None,
 ) -> tuple[ImageGraph, list[str]]:
     """``(ImageGraph, image names)`` from the COLMAP database ``db_path``; the pairs are estimated on
-    ``jobs`` threads (:func:`poseonly.sfm.pairwise.map_ordered`: the same graph for any number).
-    ``check_names(names)``, if given, runs on the image names before any pair is estimated (e.g. that
-    the images exist). A pair whose matches index keypoints its images do not have is rejected, as
-    ``poseonly colmap verify`` marks it; the file is checked to be a COLMAP database and never changed.
-    A database with a camera whose focal length COLMAP guessed (no prior focal length) is refused
-    (:func:`poseonly.io.colmap_db.refuse_guessed_focal`) unless ``trust_guessed_focal``. ``camera``
-    (anything :func:`poseonly.cameras.as_camera` takes, in COLMAP's pixel convention) replaces every
-    image's database camera, as ``poseonly colmap verify --camera-model`` does (the exported model holds
-    it, with each image's size from the database)."""
+        ``jobs`` threads (:func:`poseonly.sfm.pairwise.map_ordered`: the same graph for any number).
+        ``check_names(names)``, if given, runs on the image names before any pair is estimated (e.g. that
+        the images exist). A pair whose matches index keypoints its images do not have is rejected, as
+        ``poseonly colmap verify`` marks it; the file is checked to be a COLMAP database and never changed
+    (pycolmap reads a copy without the descriptors' rows, in ``cache_dir``: :func:`poseonly.io.colmap_db.reading_snapshot`).
+        A database with a camera whose focal length COLMAP guessed (no prior focal length) is refused
+        (:func:`poseonly.io.colmap_db.refuse_guessed_focal`) unless ``trust_guessed_focal``. ``camera``
+        (anything :func:`poseonly.cameras.as_camera` takes, in COLMAP's pixel convention) replaces every
+        image's database camera, as ``poseonly colmap verify --camera-model`` does (the exported model holds
+        it, with each image's size from the database)."""
     pycolmap = import_pycolmap()
 
     p = Path(db_path)
@@ -59,45 +60,46 @@ def database_view_graph(
     opt = options or PairwiseOptions()
     wrap = progress or (lambda it, **_: it)
     t0 = time.perf_counter()
-    try:
-        opened = pycolmap.Database.open(str(p))
-    except RuntimeError as exc:  # pycolmap: "No registered database factory succeeded" (a read-only file ...)
-        raise database_unavailable(p, exc, "opening it with pycolmap to read") from None
-    with opened as db:
-        images = sorted(db.read_all_images(), key=lambda im: im.name)
-        if len(images) < 2:
-            raise InputError(f"{p} holds {len(images)} images; need at least two")
-        if check_names is not None:
-            check_names([im.name for im in images])
-        cams = {c.camera_id: c for c in db.read_all_cameras()}
-        given = None if camera is None else as_camera(camera, "camera")
-        if not trust_guessed_focal and given is None:
-            used = {im.camera_id for im in images}
-            refuse_guessed_focal(
-                p,
-                (g for c in cams.values() if c.camera_id in used and (g := guessed_focal(c)) is not None),
-                "Import the images with their calibration (COLMAP: ImageReader.camera_params), or use the guess (--trust-guessed-focal; trust_guessed_focal=True in Python).",
-            )
-        index = {im.image_id: k for k, im in enumerate(images)}
-        feats, normalized, Ks, focal, cameras = [], [], [], [], []
-        for im in images:
-            cam = cams.get(im.camera_id)
-            if cam is None:
-                raise InputError(f"{p}: image {im.name!r} (id {im.image_id}) refers to camera {im.camera_id}, which is not in the database")
-            native = as_camera(cam, f"{p}: camera {im.camera_id}") if given is None else given
-            cameras.append({"model": native.model, "width": int(cam.width), "height": int(cam.height), "params": list(native.params)})
-            raw = np.asarray(db.read_keypoints(im.image_id), dtype=np.float64)
-            raw = raw.reshape(len(raw), -1) if raw.size else np.zeros((0, 2))
-            kp = raw[:, :2]
-            feats.append(Features(kp, np.zeros((len(kp), 0), np.float32), (int(cam.width), int(cam.height)), keypoint_scales(raw)))
-            lifted = np.full((len(kp), 3), np.nan)
-            finite = np.isfinite(kp).all(axis=1)  # a NaN keypoint leaves only its own matches out
-            if finite.any():
-                lifted[finite] = native.unproject(kp[finite], invalid="nan")
-            normalized.append(lifted)
-            Ks.append(native.K)
-            focal.append(native.focal_px)
-        pair_ids, matches = db.read_all_matches()
+    with reading_snapshot(p, cache_dir) as snap:  # pycolmap opens read-write: it reads a copy, the file stays as it is
+        try:
+            opened = pycolmap.Database.open(str(snap))
+        except RuntimeError as exc:  # pycolmap: "No registered database factory succeeded"
+            raise database_unavailable(p, exc, "opening a copy of it with pycolmap to read") from None
+        with opened as db:
+            images = sorted(db.read_all_images(), key=lambda im: im.name)
+            if len(images) < 2:
+                raise InputError(f"{p} holds {len(images)} images; need at least two")
+            if check_names is not None:
+                check_names([im.name for im in images])
+            cams = {c.camera_id: c for c in db.read_all_cameras()}
+            given = None if camera is None else as_camera(camera, "camera")
+            if not trust_guessed_focal and given is None:
+                used = {im.camera_id for im in images}
+                refuse_guessed_focal(
+                    p,
+                    (g for c in cams.values() if c.camera_id in used and (g := guessed_focal(c)) is not None),
+                    "Import the images with their calibration (COLMAP: ImageReader.camera_params), or use the guess (--trust-guessed-focal; trust_guessed_focal=True in Python).",
+                )
+            index = {im.image_id: k for k, im in enumerate(images)}
+            feats, normalized, Ks, focal, cameras = [], [], [], [], []
+            for im in images:
+                cam = cams.get(im.camera_id)
+                if cam is None:
+                    raise InputError(f"{p}: image {im.name!r} (id {im.image_id}) refers to camera {im.camera_id}, which is not in the database")
+                native = as_camera(cam, f"{p}: camera {im.camera_id}") if given is None else given
+                cameras.append({"model": native.model, "width": int(cam.width), "height": int(cam.height), "params": list(native.params)})
+                raw = np.asarray(db.read_keypoints(im.image_id), dtype=np.float64)
+                raw = raw.reshape(len(raw), -1) if raw.size else np.zeros((0, 2))
+                kp = raw[:, :2]
+                feats.append(Features(kp, np.zeros((len(kp), 0), np.float32), (int(cam.width), int(cam.height)), keypoint_scales(raw)))
+                lifted = np.full((len(kp), 3), np.nan)
+                finite = np.isfinite(kp).all(axis=1)  # a NaN keypoint leaves only its own matches out
+                if finite.any():
+                    lifted[finite] = native.unproject(kp[finite], invalid="nan")
+                normalized.append(lifted)
+                Ks.append(native.K)
+                focal.append(native.focal_px)
+            pair_ids, matches = db.read_all_matches()
     times = {"features": time.perf_counter() - t0, "matching": 0.0}
     pairs = []
     for pid, m in zip(pair_ids, matches):
