@@ -614,3 +614,23 @@ def test_uncertain_written_calibrated_or_dropped(tmp_path, monkeypatch):
     assert main(["colmap", "verify", str(path), "--overwrite", "--drop-uncertain", "--no-progress"]) == 0
     assert [row[4] for row in _rows(path)] == [int(pycolmap.TwoViewGeometryConfiguration.DEGENERATE)] * 3
     assert all(row[1] == 0 for row in _rows(path))  # no inliers
+
+
+def test_a_killed_runs_database_copy_is_swept(tmp_path):
+    """The copy ``reading_snapshot`` makes (and pycolmap's journals beside it) carry an atomic writer's
+    temporary name: a killed run's are removed by the next copy in that folder."""
+    import subprocess
+
+    from poseonly._fileutil import HOST
+    from poseonly.io.colmap_db import reading_snapshot
+
+    path = tmp_path / "db.db"
+    make_db(path, n_images=3, n_points=40)
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    left = [tmp_path / "c" / f".db.db.{HOST}-{dead.pid}.abc123.poseonly-tmp{j}" for j in ("", "-wal", "-shm")]
+    left[0].parent.mkdir()
+    for f in left:
+        f.write_bytes(b"x")
+    with reading_snapshot(path, tmp_path / "c") as snap:
+        assert snap.exists() and not any(f.exists() for f in left)

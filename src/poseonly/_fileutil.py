@@ -43,6 +43,8 @@ __all__ = [
 ]
 
 TMP_SUFFIX = ".poseonly-tmp"
+# the files SQLite keeps beside a database: a temporary database's are temporary too
+SQLITE_JOURNALS = ("-wal", "-shm", "-journal")
 # what reading a missing, truncated, garbage or inconsistent ``.npz`` cache entry raises (``np.load``
 # with ``allow_pickle=False``, a missing key, a field of the wrong type; zipfile on a corrupt header byte:
 # NotImplementedError for an unknown version or compression, RuntimeError for the "encrypted" flag, a
@@ -93,6 +95,9 @@ def _stale(f: Path, now: float) -> bool:
     name = f.name
     if not name.startswith("."):
         return False
+    for journal in SQLITE_JOURNALS:  # an SQLite copy's journal beside it (io.colmap_db.reading_snapshot)
+        if name.endswith(TMP_SUFFIX + journal):
+            name = name[: -len(journal)]
     if name.endswith(TMP_SUFFIX):
         parts = name.rsplit(".", 3)  # [".NAME", HOST-PID, RANDOM, "poseonly-tmp"] (mkstemp's RANDOM has no dot)
         if len(parts) != 4:

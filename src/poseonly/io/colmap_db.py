@@ -32,7 +32,7 @@ from typing import Any, Self
 
 import numpy as np
 
-from .._fileutil import HOST, TMP_SUFFIX
+from .._fileutil import HOST, SQLITE_JOURNALS, TMP_SUFFIX, sweep_stale_temps
 from .._pycolmap import import_pycolmap
 from ..cameras import Camera, as_camera
 from ..geometry import InputError
@@ -202,6 +202,7 @@ def reading_snapshot(path: str | os.PathLike, directory: str | os.PathLike | Non
     p = Path(path)
     d = Path(directory) if directory is not None else Path(tempfile.gettempdir())
     d.mkdir(parents=True, exist_ok=True)
+    sweep_stale_temps(d)  # a killed run's copy
     fd, name = tempfile.mkstemp(prefix=f".{p.name}.{HOST}-{os.getpid()}.", suffix=TMP_SUFFIX, dir=d)
     os.close(fd)
     snap = Path(name)
@@ -222,7 +223,7 @@ def reading_snapshot(path: str | os.PathLike, directory: str | os.PathLike | Non
             raise database_unavailable(p, exc, "reading it (a copy to open with pycolmap)") from None
         yield snap
     finally:
-        for f in (snap, *(snap.with_name(snap.name + x) for x in ("-wal", "-shm", "-journal"))):
+        for f in (snap, *(snap.with_name(snap.name + x) for x in SQLITE_JOURNALS)):
             with contextlib.suppress(FileNotFoundError):
                 f.unlink()
 
