@@ -634,3 +634,31 @@ def test_a_killed_runs_database_copy_is_swept(tmp_path):
         f.write_bytes(b"x")
     with reading_snapshot(path, tmp_path / "c") as snap:
         assert snap.exists() and not any(f.exists() for f in left)
+
+
+def test_a_write_waits_for_another_process_lock(tmp_path):
+    """A batch that finds the database locked by another process is written again until the lock goes
+    (a 20 ms lock ended a run: a COLMAP user's trial); the row is then there."""
+    import subprocess
+
+    from poseonly.io.colmap_db import ColmapDatabase, GeometryRow
+
+    path = tmp_path / "db.db"
+    make_db(path, n_images=3, n_points=40)
+    hold = (
+        "import sqlite3, sys, time\n"
+        f"con = sqlite3.connect({str(path)!r}, isolation_level=None)\n"
+        "con.execute('BEGIN IMMEDIATE'); print('held', flush=True); time.sleep(0.6); con.rollback()\n"
+    )
+    with ColmapDatabase(path, writable=True) as db:
+        _, i1, i2 = db._pairs[0]
+        row = GeometryRow(i1, i2, "DEGENERATE", np.zeros((0, 2), np.uint32))
+        p = subprocess.Popen([sys.executable, "-c", hold], stdout=subprocess.PIPE, text=True)
+        try:
+            assert p.stdout is not None and p.stdout.readline().strip() == "held"
+            t0 = time.perf_counter()
+            assert db.write_geometries([row]) == 1
+            assert time.perf_counter() - t0 > 0.2  # it waited for the lock
+        finally:
+            p.wait(30)
+        assert db.read_geometry(i1, i2)["config"] == "DEGENERATE"

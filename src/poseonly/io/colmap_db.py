@@ -58,6 +58,9 @@ KEYPOINT_CACHE_IMAGES = 512  # images whose keypoints (and bearings) are kept in
 # pycolmap's Database.open is retried this long (pausing between tries) before a failure is final
 OPEN_RETRY_S = 2.0
 OPEN_RETRY_PAUSE_S = 0.05
+# a batch that finds the database locked by another process is written again for up to this long (seconds)
+WRITE_RETRY_S = 10.0
+WRITE_RETRY_PAUSE_S = 0.05
 
 
 class DatabaseUnavailableError(OSError):
@@ -399,12 +402,21 @@ class ColmapDatabase:
     # -- writing --------------------------------------------------------------------------------------
 
     def write_geometries(self, rows: Iterable[GeometryRow]) -> int:
-        """Write (replacing) the rows in one transaction; returns how many. :class:`DatabaseUnavailableError`
-        where SQLite refuses (e.g. another process took the lock): the transaction is rolled back."""
-        try:
-            return self._write(rows)
-        except RuntimeError as exc:
-            raise database_unavailable(self.path, exc, "writing two-view geometries; the batches written before are kept and a rerun resumes") from None
+        """Write (replacing) the rows in one transaction; returns how many. A lock another process holds
+        is waited for up to :data:`WRITE_RETRY_S` (the batch written again: a row is replaced, so rows
+        of a batch that got in before the lock are written twice, the same; a 20 ms lock ended a run:
+        a COLMAP user's trial); then, or where SQLite refuses otherwise, :class:`DatabaseUnavailableError`."""
+        rows = list(rows)
+        deadline = time.monotonic() + WRITE_RETRY_S
+        while True:
+            try:
+                return self._write(rows)
+            except RuntimeError as exc:
+                low = str(exc).lower()
+                if ("locked" in low or "busy" in low) and time.monotonic() < deadline:
+                    time.sleep(WRITE_RETRY_PAUSE_S)
+                    continue
+                raise database_unavailable(self.path, exc, "writing two-view geometries; the batches written before are kept and a rerun resumes") from None
 
     def _write(self, rows: Iterable[GeometryRow]) -> int:
         """The batch in one transaction. pycolmap's ``DatabaseTransaction`` commits when its block ends,
