@@ -460,7 +460,11 @@ def _decision_inside_noise(m: dict[str, Any], r: np.ndarray, f1: np.ndarray, f2:
     if np.count_nonzero(band) < COLLAPSE_BAND_MIN:
         return False
     c = np.ascontiguousarray
-    scale = _core.pose_covariance(c(m["R"], dtype=float), c(m["t"], dtype=float), c(f1, dtype=float), c(f2, dtype=float), band.astype(float), threshold=float(COLLAPSE_BAND * T))[2]
+    try:
+        R, t = c(m["R"], dtype=float), c(m["t"], dtype=float)
+        scale = _core.pose_covariance(R, t, c(f1, dtype=float), c(f2, dtype=float), band.astype(float), threshold=float(COLLAPSE_BAND * T))[2]
+    except ValueError:  # a pose the core does not take as one (R not a rotation to its tolerance, t zero): no scale
+        return False
     return bool(np.isfinite(scale) and m["decision_gauss"] < scale)
 
 
