@@ -243,7 +243,10 @@ def check_writable(path: str | Path) -> None:
         if not os.access(q, os.W_OK):
             raise DatabaseUnavailableError(f"cannot use the COLMAP database {path}: its {what} {q} is not writable (poseonly writes two_view_geometries rows)")
     try:
-        with closing(sqlite3.connect(_sqlite_uri(p, "rw"), uri=True, timeout=0.0)) as con:
+        # a lock held for a moment (another connection's WAL recovery or checkpoint; a killed run's
+        # database reopened at once: a CI run of test_kill_and_resume saw it once) is waited for as the
+        # opening's is (OPEN_RETRY_S); a run holding the database longer still stops this one here
+        with closing(sqlite3.connect(_sqlite_uri(p, "rw"), uri=True, timeout=OPEN_RETRY_S)) as con:
             con.execute("BEGIN IMMEDIATE")
             con.rollback()
     except sqlite3.DatabaseError as exc:
