@@ -316,13 +316,13 @@ def test_nonfinite_rows_are_counted_named_and_the_way_out_said():
     sc = make_scene(50, camera="pinhole", noise_px=0.5, seed=1)
     u1 = sc.u1.copy()
     u1[[3, 7]] = np.nan
-    with pytest.raises(NonFiniteInputError, match=r"x1 contains NaN or inf values \(2 rows, the first 3\): unliftable='outlier' makes them outliers"):
+    with pytest.raises(NonFiniteInputError, match=r"x1 contains NaN or inf values \(2 rows, the first is row 3\): unliftable='outlier' makes them outliers"):
         estimate_relative_pose(u1, sc.u2, sc.K)
-    with pytest.raises(NonFiniteInputError, match=r"x1: uv contains NaN or inf values \(2 rows, the first 3\): unliftable='outlier'"):
+    with pytest.raises(NonFiniteInputError, match=r"x1: uv contains NaN or inf values \(2 rows, the first is row 3\): unliftable='outlier'"):
         estimate_relative_pose(u1, sc.u2, camera1={"K": sc.K, "dist": np.zeros(4)})
     f2 = sc.f2.copy()
     f2[5] = np.inf
-    with pytest.raises(NonFiniteInputError, match=r"x2 contains NaN or inf values \(1 rows, the first 5\): drop them"):
+    with pytest.raises(NonFiniteInputError, match=r"x2 contains NaN or inf values \(1 rows, the first is row 5\): drop them"):
         estimate_relative_pose(sc.f1, f2)
     assert estimate_relative_pose(u1, sc.u2, sc.K, unliftable="outlier").diagnostics["unliftable"] == 2
     # unliftable='outlier' already given, but bearings (or unequal lengths) it cannot handle (a review)

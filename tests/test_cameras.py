@@ -560,7 +560,7 @@ def test_unliftable_matches_as_outliers():
     d1, d2 = cam.project(sc.f1), cam.project(sc.f2)
     keep = np.isfinite(d1).all(axis=1) & np.isfinite(d2).all(axis=1)
     d1, d2 = d1[keep][:100], d2[keep][:100]
-    far = np.array([[320.0 + 300.0 * 1.2, 240.0]])  # past the fold
+    far = np.array([[320.0 + 300.0 * 0.9, 240.0]])  # past the fold (distorted radius <= 0.703), inside the image
     x1, x2 = np.vstack([d1, far]), np.vstack([d2, d2[:1]])
     with pytest.raises(ValueError, match="did not converge for 1 of 101 points"):
         estimate_relative_pose(x1, x2, camera1=cam)
@@ -592,3 +592,56 @@ def test_opencv_12_and_14_coefficients_with_zero_extra_terms_are_full_opencv():
     d8 = [0.1, -0.05, 0.001, 0.002, 0.01, 0.0, 0.0, 0.0]
     assert from_opencv(K, d8 + [0.0] * 4) == from_opencv(K, d8) == from_opencv(K, d8 + [0.0] * 6)
     assert from_opencv(K, np.zeros(14)).model == "PINHOLE"
+
+
+def test_principal_point_outside_the_declared_image_is_refused():
+    """A camera trial: a principal point in normalised units (0.5, 0.5) ... (-3000, 5000) under a declared
+    1280x960 image was taken and gave `ok` / `uncertain` poses tens of degrees off. Outside the
+    declared image it is refused; an unknown size (0 x 0) is not checked (a crop's principal point)."""
+    with pytest.raises(InputError, match=r"principal point \(-3000, 5000\) lies outside its declared 1280x960 image"):
+        Camera("OPENCV", 1280, 960, (900.0, 900.0, -3000.0, 5000.0, 0.0, 0.0, 0.0, 0.0))
+    with pytest.raises(InputError, match=r"principal point \(480, 1000\) lies outside"):
+        from_opencv(np.array([[900.0, 0, 480], [0, 900.0, 1000], [0, 0, 1]]), None, 1280, 960)
+    assert Camera("PINHOLE", 0, 0, (900.0, 900.0, -3000.0, 5000.0)).principal_point == (-3000.0, 5000.0)
+    assert Camera("PINHOLE", 1280, 960, (900.0, 900.0, 1280.0, 0.0)).principal_point == (1280.0, 0.0)  # the border is inside
+
+
+def test_pixels_outside_the_declared_image_are_refused():
+    """Pixels far outside the camera's declared image (keypoints of another resolution, or the other
+    view's camera) are refused naming the view and the first row; within the margin (1 % of the larger
+    side, at least 2 px) and with an unknown size they are taken."""
+    sc = make_scene(60, camera="pinhole", noise_px=0.3, seed=4)
+    K = default_K()
+    w, h = int(2 * K[0, 2]), int(2 * K[1, 2])
+    cam = from_opencv(K, None, w, h)
+    inside = (sc.u1[:, 0] >= 0) & (sc.u1[:, 0] <= w) & (sc.u1[:, 1] >= 0) & (sc.u1[:, 1] <= h)
+    inside &= (sc.u2[:, 0] >= 0) & (sc.u2[:, 0] <= w) & (sc.u2[:, 1] >= 0) & (sc.u2[:, 1] <= h)
+    u1, u2 = sc.u1[inside], sc.u2[inside]
+    assert len(u1) >= 20
+    estimate_relative_pose(u1, u2, camera1=cam)
+    far = u2.copy()
+    far[4] = (w + 0.02 * w, 10.0)
+    with pytest.raises(InputError, match=rf"x2: 1 of {len(u1)} pixels lie outside the camera's declared {w}x{h} image \(the first is row 4"):
+        estimate_relative_pose(u1, far, camera1=cam)
+    near = u2.copy()
+    near[4] = (w + 0.005 * w, 10.0)  # within the margin
+    estimate_relative_pose(u1, near, camera1=cam)
+    estimate_relative_pose(u1, far, camera1=from_opencv(K))  # size unknown: not checked
+
+
+def test_camera_errors_name_the_camera_and_refuse_non_numbers():
+    """A camera trial: on a two-camera rig `distortion coefficients contain NaN` did not say which camera;
+    a NaN in K was reported as a bad shape; params None read as "got 1" parameter; True and "900" were
+    taken as numbers."""
+    rng = np.random.default_rng(0)
+    u1 = rng.uniform(0, 1000, (50, 2))
+    K = default_K()
+    with pytest.raises(InputError, match="^camera2: distortion coefficients contain NaN"):
+        estimate_relative_pose(u1, u1 + 3, camera1=(K, np.zeros(4)), camera2=(K, [np.nan, 0, 0, 0]))
+    with pytest.raises(InputError, match="^camera2: K contains NaN or inf values"):
+        estimate_relative_pose(u1, u1 + 3, camera1=(K, np.zeros(4)), camera2=(K * np.nan, np.zeros(4)))
+    with pytest.raises(InputError, match=r"^camera1: camera parameters must be real numbers, got None"):
+        as_camera({"model": "PINHOLE", "params": None}, "camera1")
+    for bad in [(True, True, 640, 480), ["900", "900", "640", "480"]]:
+        with pytest.raises(InputError, match="camera parameters must be real numbers"):
+            Camera("PINHOLE", 0, 0, bad)

@@ -49,7 +49,7 @@ def test_non_contiguous_and_integer_input():
 @pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
 def test_non_finite_rows_are_counted_before_zero_rows(bad):
     a = np.array([[1.0, 0.5, 0.25], [bad, 0.0, 1.0], [0.0, 0.0, 0.0], [0.0, bad, bad]])
-    with pytest.raises(InputError, match=r"f1 contains NaN or inf values \(2 rows, the first 1\)"):
+    with pytest.raises(InputError, match=r"f1 contains NaN or inf values \(2 rows, the first is row 1\)"):
         _unit_rows(a, "f1")
 
 
@@ -90,5 +90,5 @@ def test_pixel_bearings_in_the_core_equal_the_numpy_path(scale):
     bad = u.copy()
     bad[[3, 7]] = np.nan
     for checked in (True, False):
-        with pytest.raises(InputError, match=r"x1 contains NaN or inf values \(2 rows, the first 3\)"):
+        with pytest.raises(InputError, match=r"x1 contains NaN or inf values \(2 rows, the first is row 3\)"):
             as_bearings(bad, K, "x1", K_checked=checked)

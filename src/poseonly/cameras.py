@@ -107,6 +107,10 @@ NEWTON_MAX_ITER = 100
 _FISHEYE_EPS = 1e-12  # below this normalized radius a fisheye point is on the axis (no distortion)
 # a projected pixel must lift back onto its direction within this distance of unit vectors (radians)
 PROJECT_ROUND_TRIP_TOL = 1e-8
+# lift_pair refuses pixels this far outside a camera's declared image (a fraction of its larger side, at least
+# IMAGE_MARGIN_MIN_PX): a detector's keypoints are inside, up to the pixel convention and sub-pixel refinement
+IMAGE_MARGIN_FRACTION = 0.01
+IMAGE_MARGIN_MIN_PX = 2.0
 
 
 def _brown_params(model: str, p: np.ndarray) -> tuple[float, ...]:
@@ -168,7 +172,10 @@ class Camera:
             raise InputError(f"unsupported camera model {self.model!r}; supported: {sorted(MODELS)}")
         names = MODELS[self.model]
         try:
-            if np.iscomplexobj(self.params) or isinstance(self.params, (str, bytes)):
+            if self.params is None or np.iscomplexobj(self.params) or isinstance(self.params, (str, bytes)):
+                raise TypeError
+            raw = np.asarray(self.params, dtype=object).ravel()
+            if any(isinstance(v, (str, bytes, bool, np.bool_)) for v in raw):  # "900" or True is not a number (a trial)
                 raise TypeError
             params = tuple(float(v) for v in np.asarray(self.params, dtype=float).ravel())
         except (TypeError, ValueError):
@@ -185,6 +192,12 @@ class Camera:
             raise InputError(f"camera focal length must be > 0, got {self.focal_xy}")
         if self.width < 0 or self.height < 0:
             raise InputError(f"camera width/height must be >= 0, got {self.width}x{self.height}")
+        (cx, cy), (w, h) = self.principal_point, (self.width, self.height)
+        if w > 0 and h > 0 and not (0.0 <= cx <= w and 0.0 <= cy <= h):  # normalised units or a swap (a trial)
+            raise InputError(
+                f"camera principal point ({cx:g}, {cy:g}) lies outside its declared {w}x{h} image: are the parameters in"
+                " pixels and in the model's order? (declare width and height 0 for a crop whose principal point is outside)"
+            )
         if self.model == "FOV" and not abs(self.params[4]) < np.pi:
             raise InputError(f"FOV camera needs |omega| < pi (the field of view), got omega {self.params[4]}")
         if self.model == "EUCM" and not (0.0 <= self.params[4] <= 1.0 and self.params[5] > 0.0):
@@ -472,8 +485,10 @@ def from_opencv(K: Any, dist: Any = None, width: int = 0, height: int = 0, *, fi
     5 or 8 -> ``FULL_OPENCV``; 12 or 14 with zero thin-prism / tilt terms as 8; other lengths refused), or with ``fisheye=True`` ``(k1, k2, k3, k4)`` (``cv2.fisheye``) ->
     ``OPENCV_FISHEYE``. ``None`` or all zeros -> ``PINHOLE``. ``K`` must have zero skew."""
     Kf = as_real_array(K, "K")
-    if Kf.shape != (3, 3) or not np.all(np.isfinite(Kf)):
-        raise InputError(f"K must be a finite 3x3 matrix, got shape {Kf.shape}")
+    if Kf.shape != (3, 3):
+        raise InputError(f"K must be a 3x3 matrix, got shape {Kf.shape}")
+    if not np.all(np.isfinite(Kf)):
+        raise InputError(f"K contains NaN or inf values: {Kf.tolist()}")
     if Kf[2, 2] != 0.0 and np.all(Kf[2, :2] == 0.0):  # a scaled K (s K) is K, as K1= takes it (a trial)
         Kf = Kf / Kf[2, 2]
     if abs(Kf[0, 1]) > 1e-12 * abs(Kf[0, 0]) or np.any(np.abs(Kf[2] - [0, 0, 1]) > 1e-12) or Kf[1, 0] != 0:
@@ -504,7 +519,16 @@ def from_opencv(K: Any, dist: Any = None, width: int = 0, height: int = 0, *, fi
 
 
 def as_camera(spec: Any, name: str = "camera") -> Camera:
-    """A :class:`Camera` from any accepted camera description (see the module docstring)."""
+    """A :class:`Camera` from any accepted camera description (see the module docstring); an error in
+    it names the camera (``name: ...``: which of a rig's calibrations is wrong)."""
+    try:
+        return _as_camera(spec, name)
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if msg.startswith(f"{name}") else f"{name}: {msg}") from None
+
+
+def _as_camera(spec: Any, name: str) -> Camera:
     if isinstance(spec, Camera):
         return spec
     if hasattr(spec, "model_name") and hasattr(spec, "params") and hasattr(spec, "width"):  # pycolmap.Camera
@@ -530,11 +554,7 @@ def as_camera(spec: Any, name: str = "camera") -> Camera:
         model = spec["model"]
         if not isinstance(model, str):
             raise InputError(f"{name}: camera model must be a string, got {type(model).__name__}")
-        try:
-            params = tuple(float(v) for v in np.asarray(spec["params"], dtype=float).ravel())
-        except (TypeError, ValueError):
-            raise InputError(f"{name}: camera params must be numeric") from None
-        return Camera(model.upper(), spec.get("width", 0), spec.get("height", 0), params)
+        return Camera(model.upper(), spec.get("width", 0), spec.get("height", 0), spec["params"])  # Camera checks params
     if isinstance(spec, tuple) and len(spec) in (2, 3):
         fisheye = spec[2] if len(spec) == 3 else False
         if not isinstance(fisheye, (bool, np.bool_)):
@@ -634,6 +654,25 @@ def read_colmap_cameras(source: str | os.PathLike | Iterable[str], *, skip_unsup
     return out
 
 
+def _check_inside_image(cam: Camera, uv: np.ndarray, name: str) -> None:
+    """Refuse pixels ``(n, 2)`` outside ``cam``'s declared image by more than :data:`IMAGE_MARGIN_FRACTION`
+    of its larger side (a detector's keypoints are inside): the matches and the camera disagree
+    (keypoints of another resolution, or of the other view). Unknown sizes (0) are not checked."""
+    w, h = cam.width, cam.height
+    if w <= 0 or h <= 0:
+        return
+    m = max(IMAGE_MARGIN_MIN_PX, IMAGE_MARGIN_FRACTION * max(w, h))
+    with np.errstate(invalid="ignore"):
+        out = (uv[:, 0] < -m) | (uv[:, 0] > w + m) | (uv[:, 1] < -m) | (uv[:, 1] > h + m)
+    if out.any():
+        i = int(np.flatnonzero(out)[0])
+        raise InputError(
+            f"{name}: {int(out.sum())} of {len(uv)} pixels lie outside the camera's declared {w}x{h} image (the first is row {i},"
+            f" pixel {uv[i].tolist()}): the matches and the camera disagree (keypoints of another resolution, or of the other"
+            " view?); declare width and height 0 to skip this check"
+        )
+
+
 def lift_pair(x1: Any, x2: Any, camera1: Any, camera2: Any = None, invalid: str = "raise") -> tuple[np.ndarray, np.ndarray, float]:
     """Pixels ``(n, 2)`` of two views -> bearings ``(n, 3), (n, 3)`` and the focal length (pixels) for
     the threshold conversion (:func:`poseonly.geometry.pair_focal` of the two cameras'). ``camera2``
@@ -651,4 +690,5 @@ def lift_pair(x1: Any, x2: Any, camera1: Any, camera2: Any = None, invalid: str 
             out.append(cam.unproject(x, invalid))
         except InputError as exc:  # which view (a batch trial: "uv contains NaN" named neither)
             raise (NonFiniteInputError if isinstance(exc, NonFiniteInputError) else InputError)(f"{nm}: {exc}") from None
+        _check_inside_image(cam, as_coordinates(x, nm), nm)  # (n, 2): unproject took it
     return out[0], out[1], pair_focal(c1.focal_px, c2.focal_px)

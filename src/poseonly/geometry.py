@@ -59,7 +59,7 @@ class NonFiniteInputError(InputError):
 def nonfinite_rows_error(a: np.ndarray, name: str) -> NonFiniteInputError:
     """The error for the NaN / inf rows of the 2-D array ``a``: their count and the first row."""
     bad = np.flatnonzero(~np.all(np.isfinite(a), axis=1))
-    return NonFiniteInputError(f"{name} contains NaN or inf values ({len(bad)} rows, the first {int(bad[0]) if len(bad) else '?'})")
+    return NonFiniteInputError(f"{name} contains NaN or inf values ({len(bad)} rows, the first is row {int(bad[0]) if len(bad) else '?'})")
 
 
 # --------------------------------------------------------------------------------------------
