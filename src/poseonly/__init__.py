@@ -5,6 +5,7 @@ Convention: ``X2 = R X1 + t`` (camera 1 -> camera 2), ``E = [t]x R``, ``f2^T E f
 
 from typing import TYPE_CHECKING, Any
 
+from . import _build  # noqa: F401  (first: a checkout's core must be built from its sources, _build.py)
 from .api import DEFAULT_METHOD, METHODS, RelativePoseResult, estimate_relative_pose, gnc_irls, gnc_ransac, lirp
 from .batch import Pair, PairResult, estimate_relative_poses
 from .geometry import InputError, rotation_error_deg, translation_error_deg
