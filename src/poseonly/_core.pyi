@@ -7,6 +7,7 @@ from numpy.typing import NDArray
 
 RESIDUAL_KINDS: tuple[str, ...]
 LIRP_CANDIDATES: int
+SOURCE_HASH: str  # SHA-256 of the src/core sources it was built from (CMakeLists.txt; poseonly._build)
 
 def residual_matrix(kind: int, R: NDArray[np.float64], t: NDArray[np.float64], f1: NDArray[np.float64], f2: NDArray[np.float64]) -> NDArray[np.float64]: ...
 def pixel_bearings(a: NDArray[np.float64], K: NDArray[np.float64], zero: float) -> tuple[NDArray[np.float64], int, int, int] | None: ...
