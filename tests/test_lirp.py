@@ -37,6 +37,8 @@ def test_planar_exact_or_twin(camera):
         r = lirp(sc.f1, sc.f2)
         errs = rotation_error_deg(sc.R, r.candidates_R)
         assert errs.min() < 1e-6, s  # one candidate is always exact
+        # rank 6: the result says the twin may be the pick (a researcher's trial found it unflagged)
+        assert r.rank == 6 and r.status == "ok" and any("homography twin" in n for n in r.notes), s
         if _twin_applies(r, sc):
             twins += 1
         else:
@@ -54,6 +56,7 @@ def test_pure_rotation(camera):
         sc = make_scene(30, "rotation", camera, seed=s)
         r = lirp(sc.f1, sc.f2)
         assert rotation_error_deg(sc.R, r.R) < 1e-6
+        assert r.rank == 6 and any("pure rotation" in n for n in r.notes)
 
 
 def test_normalized_coordinates_input():

@@ -29,6 +29,18 @@ def positive_int(text: str) -> int:
     return _int_in(text, lambda v: v >= 1, "an integer >= 1")
 
 
+def points_int(minimum: int, why: str) -> Callable[[str], int]:
+    """An argparse type: a point count >= ``minimum`` (``why``: the solver that needs them), so that an
+    experiment refuses a count its solvers cannot use before it writes anything (a researcher's trial:
+    ``table2 --n 5`` printed a LiRP row)."""
+
+    def parse(text: str) -> int:
+        return _int_in(text, lambda v: v >= minimum, f"an integer >= {minimum} ({why})")
+
+    parse.__name__ = f"points_int_{minimum}"
+    return parse
+
+
 def non_negative_int(text: str) -> int:
     """An integer >= 0 (seeds, counts where 0 means "all")."""
     return _int_in(text, lambda v: v >= 0, "an integer >= 0")

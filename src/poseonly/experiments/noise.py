@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from ..argtypes import points_int
 from ..geometry import rotation_error_deg
 from ..sim import make_scene
 from ..solvers.common import pose_from_essentials
@@ -53,7 +54,7 @@ INITIAL = {
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--n", type=int, default=30, help="points per scene (paper: 30)")
+    p.add_argument("--n", type=points_int(8, "the 8-point solver needs 8"), default=30, help="points per scene (paper: 30)")
     p.add_argument("--levels", type=float, nargs="+", default=None, help="noise levels in px (default 0..10 step 1)")
     p.add_argument(
         "--noise-model",

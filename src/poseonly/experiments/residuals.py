@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from ..argtypes import points_int
 from ..estimator import lirp_estimator
 from ..geometry import rotation_error_deg
 from ..robust.gnc import GNCOptions, gnc_irls_batch
@@ -47,7 +48,7 @@ REF = "RANSAC+5pt (OpenGV)"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--n", type=int, default=30, help="points per scene (paper: 30)")
+    p.add_argument("--n", type=points_int(8, "RANSAC + 5pt with OpenGV's defaults needs 8"), default=30, help="points per scene (paper: 30)")
     p.add_argument("--noise", type=float, default=1.0, help="noise in px (paper: 1)")
     p.add_argument("--bound-px", type=float, default=2.0, help="pixel noise bound of the improved variant (px at f = 800)")
 

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from ..argtypes import points_int
 from ..geometry import rotation_error_deg
 from ..sim import make_scene
 from ..solvers.lirp import lirp_batch
@@ -24,7 +25,7 @@ from ._common import figure_writer, finish_run, markdown_table, progress, stamp
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--n", type=int, default=30, help="points per scene (paper: 30)")
+    p.add_argument("--n", type=points_int(6, "LiRP needs 6 points"), default=30, help="points per scene (paper: 30)")
     p.add_argument("--camera", default="wide", choices=["wide", "pinhole"], help="wide: the paper's wide-angle bearings; pinhole: 640x480, f = 800 (default wide)")
     p.add_argument("--npt", action="store_true", help="add the N-point SDP column (needs cvxpy)")
 

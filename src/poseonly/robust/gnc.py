@@ -122,7 +122,8 @@ class GNCBatchResult:
 class GNCResult(ValueEquality):
     """GNC-IRLS output for one problem (:func:`poseonly.gnc_irls`): the pose ``R (3, 3)``, ``t (3,)``
     (``X2 = R X1 + t``, unit), the final ``weights (n,)`` and ``residuals (n,)`` of that pose, the
-    final noise bound ``c`` (radians), ``num_iterations`` and whether the loop ``converged``."""
+    final noise bound ``c`` (in the residual's units: radians for the Sampson error; ``v_LiGT`` is not an
+    angle, see :func:`poseonly.gnc_ransac`), ``num_iterations`` and whether the loop ``converged``."""
 
     R: np.ndarray
     t: np.ndarray

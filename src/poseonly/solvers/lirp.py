@@ -46,6 +46,7 @@ NUM_CANDIDATES = int(_core.LIRP_CANDIDATES)
 # numerical rank of A: singular values above RANK_TOL * sigma_1 count (8 general, 6 planar / rotation)
 RANK_TOL = 1e-9
 MIN_RANK = 6  # a rank below it leaves a null space larger than 3-D: the pose is not determined
+GENERAL_RANK = 8  # a general scene's A; 6: a planar scene or a pure rotation (module docstring)
 
 
 def lirp_batch(f1: np.ndarray, f2: np.ndarray, w: np.ndarray | None = None, *, all_costs: bool = True) -> dict[str, np.ndarray]:
@@ -182,8 +183,15 @@ def _result(out: tuple) -> LiRPResult:
     R``; all three NaN for a degenerate ``A`` (rank < 6), whose ``best`` still names the least-cost
     candidate."""
     cE, cR, ct, valid, cost, s, best, d_min, d_min_c2, rank, R, t, E = out
-    if rank >= MIN_RANK:
+    if rank >= GENERAL_RANK:
         status, notes = "ok", []
+    elif rank >= MIN_RANK:  # a researcher's trial: a planar scene's twin came back 1-9 deg off, unflagged
+        status = "ok"
+        notes = [
+            f"epipolar matrix A has rank {rank} < {GENERAL_RANK}: a planar scene or a pure rotation; in a planar scene the"
+            " homography twin fits the matches exactly too and the candidates' costs cannot tell them apart"
+            " (estimate_relative_pose's status analysis can)"
+        ]
     else:  # no pose: NaN, not a candidate that looks like one (identity R)
         status = "degenerate"
         notes = [f"epipolar matrix A has rank {rank} < {MIN_RANK}: the correspondences do not determine the pose"]
