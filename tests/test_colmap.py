@@ -652,7 +652,7 @@ def test_a_write_waits_for_another_process_lock(tmp_path):
     )
     with ColmapDatabase(path, writable=True) as db:
         _, i1, i2 = db._pairs[0]
-        row = GeometryRow(i1, i2, "DEGENERATE", np.zeros((0, 2), np.uint32))
+        row = GeometryRow.empty(i1, i2, "DEGENERATE")
         p = subprocess.Popen([sys.executable, "-c", hold], stdout=subprocess.PIPE, text=True)
         try:
             assert p.stdout is not None and p.stdout.readline().strip() == "held"

@@ -123,30 +123,30 @@ class _Source:
         for pid, i1, i2 in self.todo:
             missing = [i for i in (i1, i2) if i not in self.db.cameras and i not in self.db.unsupported]
             if missing:  # matches of an image id the images table does not have
-                self.direct.append(GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2))))
+                self.direct.append(GeometryRow.empty(i1, i2, ERROR_CONFIG))
                 self.errors[pid] = f"{self._names(i1, i2)}: image id {missing[0]} has matches but is not in the database's images table"
                 continue
             if i1 in self.db.unsupported or i2 in self.db.unsupported:
                 msg = self.db.unsupported.get(i1) or self.db.unsupported[i2]
-                self.direct.append(GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2))))
+                self.direct.append(GeometryRow.empty(i1, i2, ERROR_CONFIG))
                 self.errors[pid] = msg
                 continue
             try:
                 m = self.db.matches(i1, i2)
                 b1, b2 = self.bearings(i1), self.bearings(i2)
             except (RuntimeError, ValueError) as exc:  # pycolmap on a malformed blob ("Check failed: matrix.size() ..."): this pair's
-                self.direct.append(GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2))))
+                self.direct.append(GeometryRow.empty(i1, i2, ERROR_CONFIG))
                 what = f"images {self.db.image_names.get(i1, i1)!r}, {self.db.image_names.get(i2, i2)!r}"
                 self.errors[pid] = f"pycolmap cannot read the keypoints or matches of {what}: {(str(exc).strip().splitlines() or [type(exc).__name__])[-1]}"
                 continue
             if len(m) and (m[:, 0].max() >= len(b1) or m[:, 1].max() >= len(b2) or m.min() < 0):
-                self.direct.append(GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2))))
+                self.direct.append(GeometryRow.empty(i1, i2, ERROR_CONFIG))
                 self.errors[pid] = f"{self._names(i1, i2)}: matches index keypoints that do not exist"
                 continue
             valid = np.isfinite(b1[m[:, 0], 0]) & np.isfinite(b2[m[:, 1], 0])
             m = m[valid]
             if len(m) < MIN_MATCHES:
-                self.direct.append(GeometryRow(i1, i2, "DEGENERATE", np.zeros((0, 2))))
+                self.direct.append(GeometryRow.empty(i1, i2, "DEGENERATE"))
                 continue
             self.pending[pid] = (i1, i2, m)
             c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
@@ -165,13 +165,13 @@ class _Source:
         r = pr.result
         if r is None:
             self.errors[pid] = f"{self._names(i1, i2)}: {pr.error}"
-            return GeometryRow(i1, i2, ERROR_CONFIG, np.zeros((0, 2)))
+            return GeometryRow.empty(i1, i2, ERROR_CONFIG)
         c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
         pinhole = c1.is_undistorted and c2.is_undistorted  # a distorted camera has no F
         with_h = (r.status != "uncertain" or self.keep_uncertain) and STATUS_CONFIG.get(r.status, ERROR_CONFIG) in ("PLANAR_OR_PANORAMIC", "PANORAMIC")  # keypoints read only for H
         kp1, kp2 = (self.db.keypoints(i1), self.db.keypoints(i2)) if with_h else (None, None)
         f = two_view_fields(r, m, c1.K if pinhole else None, c2.K if pinhole else None, keypoints1=kp1, keypoints2=kp2, keep_uncertain=self.keep_uncertain)
-        return GeometryRow(i1, i2, f.config, f.inlier_matches, E=f.E, F=f.F, H=f.H, R=f.R, t=f.t)
+        return GeometryRow(i1, i2, f)
 
 
 def verify_database(
@@ -271,7 +271,7 @@ def verify_database(
             rows = buf + src.direct
             if rows:
                 summary.written += db.write_geometries(rows)
-                summary.configs.update(r.config for r in rows)
+                summary.configs.update(r.geometry.config for r in rows)
             buf.clear()
             src.direct.clear()
 

@@ -104,19 +104,17 @@ FREE_SPACE_MARGIN = 4 << 20
 
 @dataclass
 class GeometryRow:
-    """One ``two_view_geometries`` row: ``config`` (a ``pycolmap.TwoViewGeometryConfiguration``
-    name), ``inlier_matches (k, 2)`` keypoint indices, ``E, F, H (3, 3)`` or ``None``, ``R (3, 3)``,
-    ``t (3,)`` or ``None`` (cam2_from_cam1)."""
+    """One ``two_view_geometries`` row: the pair's image ids and its ``geometry``
+    (:class:`poseonly.io.colmap_geometry.TwoViewFields`: configuration, inlier matches, E, F, H, R, t)."""
 
     image_id1: int
     image_id2: int
-    config: str
-    inlier_matches: np.ndarray
-    E: np.ndarray | None = None
-    F: np.ndarray | None = None
-    H: np.ndarray | None = None
-    R: np.ndarray | None = None
-    t: np.ndarray | None = None
+    geometry: TwoViewFields
+
+    @classmethod
+    def empty(cls, image_id1: int, image_id2: int, config: str) -> GeometryRow:
+        """A row without inlier matches or matrices (an error, a degenerate pair)."""
+        return cls(image_id1, image_id2, TwoViewFields(config, np.zeros((0, 2), dtype=np.int64)))
 
 
 def _pycolmap():
@@ -431,7 +429,7 @@ class ColmapDatabase:
         pc = self._pc
         rows = list(rows)
         self._check_free_space(rows)
-        built = [(r, pc.TwoViewGeometry(**pycolmap_geometry_kwargs(TwoViewFields(r.config, r.inlier_matches, E=r.E, F=r.F, H=r.H, R=r.R, t=r.t), pc))) for r in rows]
+        built = [(r, pc.TwoViewGeometry(**pycolmap_geometry_kwargs(r.geometry, pc))) for r in rows]
         k = 0
         with signals_deferred(), pc.DatabaseTransaction(self.db):
             for r, g in built:
@@ -453,7 +451,7 @@ class ColmapDatabase:
         ``FREE_SPACE_FACTOR`` times (the write-ahead log, then its checkpoint into the file) plus
         ``FREE_SPACE_MARGIN`` bytes, must fit. A limit the file system does not report (``ulimit -f``, a
         quota) is not seen."""
-        need = FREE_SPACE_FACTOR * sum(ROW_BYTES + 8 * len(r.inlier_matches) for r in rows) + FREE_SPACE_MARGIN
+        need = FREE_SPACE_FACTOR * sum(ROW_BYTES + 8 * len(r.geometry.inlier_matches) for r in rows) + FREE_SPACE_MARGIN
         try:
             st = os.statvfs(self.path.resolve().parent)
         except OSError:  # pragma: no cover - a file system without statvfs: nothing to check
