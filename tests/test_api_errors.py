@@ -328,3 +328,15 @@ def test_nonfinite_rows_are_counted_named_and_the_way_out_said():
     # unliftable='outlier' already given, but bearings (or unequal lengths) it cannot handle (a review)
     with pytest.raises(NonFiniteInputError, match=r"needs pixel arrays \(n, 2\) of equal length with K1 or a camera; got \(50, 3\)"):
         estimate_relative_pose(sc.f1, f2, unliftable="outlier")
+
+
+def test_other_libraries_option_names_point_to_ours():
+    """A migrating user's trial: OpenCV's / PoseLib's option names and a typo got the list of all options."""
+    from poseonly.sim import make_scene
+
+    sc = make_scene(30, seed=1)
+    for name, ours in (("prob", "confidence"), ("max_epipolar_error", "threshold_px"), ("maxIters", "max_iterations")):
+        with pytest.raises(InputError, match=rf"unknown option '{name}' for method 'poseonly' \(poseonly's name for it: '{ours}'\)"):
+            poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, **{name: 1})
+    with pytest.raises(InputError, match=r"unknown option 'treshold_px' .*\(did you mean 'threshold_px'\?\)"):
+        poseonly.estimate_relative_pose(sc.u1, sc.u2, sc.K, treshold_px=1.0)

@@ -374,3 +374,79 @@ def test_pair_results_as_json_lines():
     back = [json.loads(x) for x in lines]
     assert back[0]["key"] == "img0-img1" and back[0]["result"]["R"] == out[0].result.R.tolist() and back[0]["error"] is None
     assert back[2]["key"] == ["img", 9] and back[2]["result"] is None and "at least 6" in back[2]["error"]
+
+
+def test_a_process_workers_flag_follows_the_batchs_stop_event(monkeypatch):
+    """A stopped process batch ends its workers' searches in flight (a concurrency trial: breaking out of
+    one waited 18.6 s for three 50k-match pairs, 0.01 s on threads): each worker's watcher turns the
+    pool's shared event into its own CancelFlag, which _run_chunk uses (here in this process)."""
+    import multiprocessing as mp
+    import time
+
+    from poseonly import batch
+    from poseonly.robust.cancel import SearchCancelled
+
+    monkeypatch.setattr(batch, "_WORKER_FLAG", None)
+    stop = mp.get_context("spawn").Event()
+    batch._worker_init(stop)
+    flag = batch._WORKER_FLAG
+    assert flag is not None and not flag.is_set()
+    sc = make_scene(60, seed=1)
+    chunk = [(0, Pair(sc.u1, sc.u2, K1=sc.K, key=0))]
+    assert batch._run_chunk(chunk, {})[0].result.status == "ok"
+    stop.set()
+    for _ in range(1000):  # the watcher thread sets it
+        if flag.is_set():
+            break
+        time.sleep(0.01)
+    assert flag.is_set()
+    with pytest.raises(SearchCancelled):
+        batch._run_chunk(chunk, {})
+
+
+def test_the_fork_servers_preload_list_is_added_to():
+    """The fork server's preload list is process-wide: a process batch replaced an application's own."""
+    import multiprocessing as mp
+
+    if "forkserver" not in mp.get_all_start_methods():
+        pytest.skip("no fork server on this platform")
+    from multiprocessing import forkserver
+
+    from poseonly import batch
+
+    fs = mp.get_context("forkserver")
+    before = getattr(getattr(forkserver, "_forkserver", None), "_preload_modules", None)
+    try:
+        fs.set_forkserver_preload(["json"])
+        assert batch._process_context() is not None
+        after = forkserver._forkserver._preload_modules  # type: ignore[attr-defined]
+        assert after[:1] == ["json"] and "poseonly.batch" in after
+    finally:
+        fs.set_forkserver_preload(list(before) if isinstance(before, list) else [])
+
+
+def _child_batch(q):
+    s = make_scene(120, camera="pinhole", noise_px=0.5, outlier_fraction=0.3, seed=0)
+    try:
+        out = [p.result.status for p in poseonly.estimate_relative_poses([Pair(s.u1, s.u2, K1=s.K, key=i) for i in range(2)], n_jobs=2, backend="processes")]
+        q.put(out)
+    except Exception as exc:  # reported to the parent
+        q.put(repr(exc))
+
+
+def test_a_forked_child_of_a_batch_runs_a_process_batch():
+    """A DataLoader-style worker forked after a process batch inherited the parent's fork server and
+    failed with ChildProcessError; it now falls back to spawn."""
+    import multiprocessing as mp
+
+    if "fork" not in mp.get_all_start_methods() or "forkserver" not in mp.get_all_start_methods():
+        pytest.skip("needs fork and a fork server")
+    s = make_scene(120, camera="pinhole", noise_px=0.5, outlier_fraction=0.3, seed=0)
+    list(poseonly.estimate_relative_poses([Pair(s.u1, s.u2, K1=s.K, key=i) for i in range(2)], n_jobs=2, backend="processes"))
+    ctx = mp.get_context("fork")
+    q = ctx.Queue()
+    p = ctx.Process(target=_child_batch, args=(q,))
+    p.start()
+    got = q.get(timeout=120)
+    p.join(60)
+    assert got == ["ok", "ok"], got

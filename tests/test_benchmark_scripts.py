@@ -266,3 +266,15 @@ def test_lirp_public_path_benchmark_runs(capsys):
     assert lirp_public_path.main(["--points", "30", "--scenes", "1", "--rounds", "1", "--calls", "2"]) == 0
     out = capsys.readouterr().out
     assert "public / core" in out and "checked" in out
+
+
+def test_parallax_statuses_runs(capsys):
+    """benchmarks/parallax_statuses.py end to end on two scenes of one cell per depth field."""
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    try:
+        import parallax_statuses
+    finally:
+        sys.path.pop(0)
+    assert parallax_statuses.main(["--seeds", "2", "--matches", "40", "--outliers", "0.3"]) == 0
+    out = capsys.readouterr().out
+    assert "random depths,  40 matches, 30% outliers" in out and "smooth depths" in out

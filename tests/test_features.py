@@ -203,6 +203,11 @@ def test_matches_npz_roundtrip(tmp_path: Path) -> None:
     _expect("both 'K' and a different 'K2'", load_matches_npz, tmp_path / "m4.npz")
     np.savez(tmp_path / "m5.npz", u1=u1, u2=u2, K=K, K1=K, K2=K)  # the same calibration: fine
     np.testing.assert_array_equal(load_matches_npz(tmp_path / "m5.npz").K2, K)
+    # OpenCV's (k, 1, 2) float32 arrays, as the Python API takes them (a migrating user's trial: refused)
+    np.savez(tmp_path / "m6.npz", u1=u1.astype(np.float32).reshape(-1, 1, 2), u2=u2.astype(np.float32).reshape(-1, 1, 2), K=K)
+    d = load_matches_npz(tmp_path / "m6.npz")
+    np.testing.assert_array_equal(d.u1, u1.astype(np.float32).astype(float))
+    assert d.u2.shape == (50, 2)
 
 
 # --------------------------------------------------------------------------------------------

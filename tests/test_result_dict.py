@@ -159,3 +159,17 @@ def test_options_built_as_a_dataclass_pass_as_keywords():
 def test_gnc_irls_results_compare_by_value():
     sc = make_scene(60, camera="pinhole", noise_px=0.5, seed=7)
     assert poseonly.gnc_irls(sc.f1, sc.f2) == poseonly.gnc_irls(sc.f1, sc.f2)
+
+
+def test_ransac_result_compares_by_value():
+    """A concurrency trial: ``poseonly.gnc_ransac``'s result raised on ``==`` (a plain dataclass of arrays)."""
+    import poseonly
+    from poseonly.sim import make_scene
+
+    sc = make_scene(80, seed=2)
+    a = poseonly.gnc_ransac(sc.f1, sc.f2, theta=2 / 800, seed=3)
+    assert a == poseonly.gnc_ransac(sc.f1, sc.f2, theta=2 / 800, seed=3)
+    b = poseonly.gnc_ransac(sc.f1, sc.f2, theta=2 / 800, seed=3)
+    b.R = b.R.copy()
+    b.R[0, 0] += 1e-9
+    assert a != b

@@ -545,6 +545,7 @@ def pure_rotation_test(
     v_pose: np.ndarray | None = None,
     noise_floor: float = 0.0,
     in_front: np.ndarray | Callable[[], np.ndarray] | None = None,
+    tau_precision: float | None = None,
 ) -> dict[str, Any]:
     """Does a rotation without translation explain the data as well as the pose?
 
@@ -572,7 +573,10 @@ def pure_rotation_test(
     matches are no translation)),
     ``log10_nfa_rotation``, ``log10_nfa_translation``, ``parallax_ratio``, ``parallax_noise`` and
     ``pure_rotation`` (bool). ``noise_floor`` (radians): the least noise scale of :func:`far_angle` and
-    :func:`parallax_ratio` (the coordinates' rounding).
+    :func:`parallax_ratio` (the coordinates' rounding). ``tau_precision``: the threshold of
+    :func:`parallax_ratio`'s band and noise scale where it differs from the rotation's ``tau`` (the
+    status judges the rotation at a threshold capped by the noise, :func:`poseonly.status.alternatives_cap`,
+    and keeps the precision test's band at the pose's own).
     """
     n = len(f1)
     Rr, rin, tests = robust_rotation(f1, f2, tau, min(1.0, ROTATION_MIN_SHARE * int(np.count_nonzero(inl)) / n))
@@ -587,7 +591,8 @@ def pure_rotation_test(
     extra = int(np.count_nonzero(ext))
     nfa_tr = log10_nfa(extra, int(far.sum()), p_pose, num_pose_tests, 0)
     frac = float(np.count_nonzero(inl & rin) / max(int(inl.sum()), 1))
-    ratio, noise, R_fit = parallax_ratio(Rr, f1, f2, v_pose, tau, noise_floor) if v_pose is not None else (float("nan"), float("nan"), None)
+    tp = tau if tau_precision is None else tau_precision
+    ratio, noise, R_fit = parallax_ratio(Rr, f1, f2, v_pose, tp, noise_floor) if v_pose is not None else (float("nan"), float("nan"), None)
     precise = bool(ratio > PRECISION_RATIO and noise <= PRECISION_NOISE)  # NaN (too few matches): False
     if nfa_rot < np.log10(NFA_MAX) and nfa_tr < np.log10(NFA_MAX) and not precise:
         # only where it decides the status (it can only lower the support): the extra inliers in front

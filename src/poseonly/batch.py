@@ -248,9 +248,34 @@ def _run_one(index: int, pair: Pair, options: dict[str, Any]) -> PairResult:
     return PairResult(index, pair.key, seed, r)
 
 
+# a process-pool worker's flag, set when the batch sets the pool's shared stop event (_worker_init)
+_WORKER_FLAG: CancelFlag | None = None
+
+
+def _worker_init(stop: Any) -> None:
+    """A process-pool worker's start: a local :class:`CancelFlag` that a daemon thread sets once the
+    batch sets ``stop`` (a ``multiprocessing`` Event), so that a stopped batch's searches in flight end
+    within 64 draws, as on threads (a concurrency trial: breaking out of a process batch waited 18.6 s
+    for three 50k-match pairs, 0.01 s on threads)."""
+    import threading
+
+    global _WORKER_FLAG
+    flag = CancelFlag()
+    _WORKER_FLAG = flag
+
+    def watch() -> None:
+        stop.wait()
+        flag.set()
+
+    threading.Thread(target=watch, name="poseonly-stop", daemon=True).start()
+
+
 def _run_chunk(chunk: list[tuple[int, Pair]], options: dict[str, Any], flag: CancelFlag | None = None) -> list[PairResult]:
-    """Worker task: the pairs of one chunk, in order; with ``flag`` (a worker thread), its searches end
-    with :class:`~poseonly.robust.cancel.SearchCancelled` once the batch sets it."""
+    """Worker task: the pairs of one chunk, in order; with ``flag`` (a worker thread) or in a process
+    pool's worker (its flag from :func:`_worker_init`), its searches end with
+    :class:`~poseonly.robust.cancel.SearchCancelled` once the batch sets it."""
+    if flag is None:
+        flag = _WORKER_FLAG
     if flag is None:
         return [_run_one(i, p, options) for i, p in chunk]
     out = []
@@ -455,34 +480,49 @@ class _Feed:
             raise self._error
 
 
-def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processes") -> Generator[list[PairResult], None, None]:
+def _process_context() -> Any:
+    """The process pool's start method. Workers never fork the caller (no inherited threads or locks):
+    a fork server started from a clean interpreter that has imported poseonly once forks them where
+    available (POSIX), else spawn (forkserver's workers are the fork server's children, so their CPU time
+    is not this process's RUSAGE_CHILDREN until it exits; a batch trial). ``poseonly.batch`` is added
+    to the fork server's preload list, not put in its place (the list is process-wide: an application's
+    own was lost; a concurrency trial); a process forked from one whose fork server it inherited cannot
+    use that server (``ChildProcessError``, a DataLoader-style worker in a trial) and gets spawn."""
     import multiprocessing as mp
+
+    if "forkserver" not in mp.get_all_start_methods():  # pragma: no cover - Windows
+        return mp.get_context("spawn")
+    from multiprocessing import forkserver
+
+    fs = mp.get_context("forkserver")
+    preload = getattr(getattr(forkserver, "_forkserver", None), "_preload_modules", None)
+    current = list(preload) if isinstance(preload, list) else []
+    if "poseonly.batch" not in current:
+        fs.set_forkserver_preload([*current, "poseonly.batch"])
+    try:
+        forkserver.ensure_running()
+    except (ChildProcessError, OSError):
+        return mp.get_context("spawn")
+    return fs
+
+
+def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processes") -> Generator[list[PairResult], None, None]:
     from concurrent.futures import FIRST_COMPLETED, Executor, ProcessPoolExecutor, ThreadPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
-    from multiprocessing.context import BaseContext
 
     ex: Executor
-    # threads: set when the batch stops (Ctrl-C, an error, the caller stopped iterating), so that the
-    # searches running then end within 64 draws instead of running to their end (a process pool's
-    # shutdown waits for its workers' searches in flight, 1-2 s on 1500-5000 matches (a batch trial);
-    # Ctrl-C reaches the workers too, as the whole process group gets it)
+    # set when the batch stops (Ctrl-C, an error, the caller stopped iterating), so that the searches
+    # running then end within 64 draws instead of running to their end: the threads' CancelFlag, or
+    # the processes' shared event that each worker's watcher turns into its own flag (_worker_init)
     flag: CancelFlag | None = None
+    stop: Any = None
     if backend == "threads":
         ex = ThreadPoolExecutor(max_workers=n_jobs, thread_name_prefix="poseonly")
         flag = CancelFlag()
     else:
-        # workers never fork the caller (no inherited threads or locks): a fork server started from a
-        # clean interpreter that has imported poseonly once forks them where available (POSIX), else
-        # spawn (forkserver's workers are the fork server's children, so their CPU time is not this process's
-        # RUSAGE_CHILDREN until it exits; a batch trial)
-        ctx: BaseContext
-        if "forkserver" in mp.get_all_start_methods():
-            fs = mp.get_context("forkserver")
-            fs.set_forkserver_preload(["poseonly.batch"])
-            ctx = fs
-        else:  # pragma: no cover - Windows
-            ctx = mp.get_context("spawn")
-        ex = ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx)
+        ctx = _process_context()
+        stop = ctx.Event()
+        ex = ProcessPoolExecutor(max_workers=n_jobs, mp_context=ctx, initializer=_worker_init, initargs=(stop,))
     chunks = _Feed(_chunks(pairs, chunk_size))
     limit = IN_FLIGHT_PER_WORKER * n_jobs
     try:
@@ -509,6 +549,8 @@ def _pool(pairs, n_jobs: int, chunk_size: int, options, backend: str = "processe
     finally:  # also when the caller stops iterating early: queued chunks are dropped, not run
         if flag is not None:
             flag.set()
+        if stop is not None:
+            stop.set()
         ex.shutdown(wait=True, cancel_futures=True)
 
 

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from ._fileutil import CACHE_READ_ERRORS, atomic_savez, cache_savez, sweep_stale_temps
-from .geometry import InputError, as_real_array, check_intrinsics, essential_from_pose
+from .geometry import InputError, as_real_array, check_intrinsics, essential_from_pose, opencv_points
 
 __all__ = [
     "Features",
@@ -437,6 +437,7 @@ def _check_pixels(a: Any, name: str, src: str) -> np.ndarray:
         a = as_real_array(a, name)
     except InputError as exc:
         raise InputError(f"{src}: '{name}' must be a real numeric (k, 2) array of pixel coordinates ({exc})") from None
+    a = opencv_points(a)  # OpenCV's (k, 1, 2), as the Python API takes it (a migrating user's trial)
     if a.ndim != 2 or a.shape[1] != 2:
         raise InputError(f"{src}: '{name}' must have shape (k, 2) (pixel coordinates), got {a.shape}")
     if not np.all(np.isfinite(a)):

@@ -532,6 +532,32 @@ def check_camera_threshold(camera: Any, method: str, threshold_px: float | None,
     check_angle(f"{name}: the angular threshold threshold_px / focal", thr / f, f" (threshold {thr:g} px, focal {f:g} px)")
 
 
+# other libraries' names for options that poseonly has under another name (OpenCV's findEssentialMat,
+# PoseLib's RansacOptions, pycolmap's RANSACOptions): an unknown option says which one it means (a
+# migrating user's trial got the list of all 45)
+FOREIGN_OPTION_NAMES = {
+    "prob": "confidence",
+    "success_prob": "confidence",
+    "threshold": "threshold_px",
+    "max_epipolar_error": "threshold_px",
+    "max_error": "threshold_px",
+    "maxIters": "max_iterations",
+    "max_num_trials": "max_iterations",
+    "min_num_trials": "min_iterations",
+    "random_seed": "seed",
+}
+
+
+def _unknown_option_hint(k: str, names: list[str]) -> str:
+    """`` (did you mean ...?)`` for an unknown option ``k``: another library's name for it, or a close spelling."""
+    import difflib
+
+    if k in FOREIGN_OPTION_NAMES and FOREIGN_OPTION_NAMES[k] in names:
+        return f" (poseonly's name for it: {FOREIGN_OPTION_NAMES[k]!r})"
+    close = difflib.get_close_matches(k, names, n=3, cutoff=0.7)
+    return f" (did you mean {' or '.join(repr(c) for c in close)}?)" if close else ""
+
+
 def parse_options(method: Any, options: dict[str, Any]) -> CommonOptions:
     """The checked options dataclass of ``method`` from keyword ``options`` (``None`` = default)."""
     if not isinstance(method, str):
@@ -543,7 +569,7 @@ def parse_options(method: Any, options: dict[str, Any]) -> CommonOptions:
     kw: dict[str, Any] = {}
     for k, v in options.items():
         if k not in specs:
-            raise InputError(f"unknown option {k!r} for method {method!r}; valid options: {sorted(specs)}")
+            raise InputError(f"unknown option {k!r} for method {method!r}{_unknown_option_hint(str(k), sorted(specs))}; valid options: {sorted(specs)}")
         if v is not None:
             kw[k] = check_value(k, v, specs[k])
     return cls(**kw)

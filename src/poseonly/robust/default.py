@@ -859,6 +859,7 @@ def run_poseonly(
                     tau_effective=float(m["decision_gauss"]),
                     ml_decision=float(m["decision"]),
                     sigma=float(m["sigma"]),
+                    sigma_gauss=float(m["sigma_gauss"]),
                     ml_nu=float(m["nu"]),
                     ml_alpha=float(m["alpha"]),
                     ml_rounds=int(m["rounds"]),

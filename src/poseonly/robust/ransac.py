@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from .. import _core
+from .._equality import ValueEquality
 from ..estimator import Estimator, lirp_estimator
 from ..residuals import Residual, get_residual
 from . import cancel
@@ -38,11 +39,12 @@ PROGRESSIVE_RULES = ("prosac", "expected")
 _SEED_MASK = (1 << 64) - 1
 
 
-@dataclass
-class RansacResult:
+@dataclass(eq=False)
+class RansacResult(ValueEquality):
     """``R (3, 3)``, unit ``t (3,)``, ``inliers (n,)`` and ``residuals (n,)`` against the returned
     model, the loop's ``score`` (its cost: lower is better; GNC-RANSAC: the best sample's inlier
-    count), iteration counts and, for GNC-RANSAC, the final GNC ``weights (n,)``."""
+    count), iteration counts and, for GNC-RANSAC, the final GNC ``weights (n,)``. Compared by value
+    (``==``), as the other result types (a trial: the dataclass ``==`` raised on its arrays)."""
 
     R: np.ndarray
     t: np.ndarray
