@@ -9,6 +9,7 @@
 #include "ransac.h"
 #include "register.h"
 #include "sampling.h"
+#include "signals.h"
 
 #include <algorithm>
 #include <atomic>
@@ -123,40 +124,6 @@ nb::dict stats_dict(const RansacStats& st) {
   d["classical_needed"] = st.classical_needed;
   return d;
 }
-
-// Python's signal handlers from a loop that runs with the GIL released (RansacOptions::interrupted): takes
-// the GIL, runs them (in the main thread; elsewhere Python runs none), and keeps the exception a handler
-// raised (KeyboardInterrupt, a SIGTERM handler's SystemExit) to raise it once the loop has returned
-class PythonSignals {
- public:
-  PythonSignals() = default;
-  PythonSignals(const PythonSignals&) = delete;
-  PythonSignals& operator=(const PythonSignals&) = delete;
-  ~PythonSignals() {
-    if (type_) {
-      nb::gil_scoped_acquire acq;
-      Py_XDECREF(type_), Py_XDECREF(value_), Py_XDECREF(tb_);
-    }
-  }
-  bool operator()() {
-    nb::gil_scoped_acquire acq;
-    if (PyErr_CheckSignals() == 0) return false;
-    PyErr_Fetch(&type_, &value_, &tb_);
-    return true;
-  }
-  // with the GIL held, after the loop: raises the kept exception, if any
-  void rethrow() {
-    if (!type_) return;
-    PyErr_Restore(type_, value_, tb_);
-    type_ = value_ = tb_ = nullptr;
-    throw nb::python_error();
-  }
-
- private:
-  PyObject* type_ = nullptr;
-  PyObject* value_ = nullptr;
-  PyObject* tb_ = nullptr;
-};
 
 // A cancellation flag that a search in any thread reads every kInterruptEvery draws without the GIL (a
 // batch on threads sets it when Ctrl-C comes or its caller stops iterating: the searches running then

@@ -124,7 +124,12 @@ void gnc_irls(const Points& P, const double* w0, const GncOptions& o, GncResult*
   double mu = 0.0, eps_prev = kInf;
   LirpResult lr;
   out->converged = false;
+  out->interrupted = false;
   for (int k = 0; k < o.max_iterations; ++k) {
+    if (k > 0 && o.interrupted && o.interrupted()) {
+      out->interrupted = true;
+      break;
+    }
     const Pose pose = solve(P, w.data(), o, &lr);
     const PoseTerms pt(pose);
     for (int i = 0; i < n; ++i) {

@@ -2,6 +2,8 @@
 // weighted LiRP. numpy reference: tests/reference/gnc.py (the loop as written, no cycle exit).
 #pragma once
 
+#include <functional>
+
 #include "common.h"
 #include "residuals.h"
 
@@ -28,6 +30,9 @@ struct GncOptions {
   bool all_candidates = false;  // choose among LiRP's valid candidates by sum w v (else PPO's best)
   int min_sample = 6;           // weights leaving fewer non-zero points stop the problem
   int cycle_period = 8;         // 0: no limit-cycle exit
+  // called before every iteration after the first: true ends the problem with the last iteration's
+  // outputs (GncResult::interrupted; Ctrl-C from Python's main thread, bind_lirp.cpp)
+  std::function<bool()> interrupted;
 };
 
 struct GncResult {
@@ -37,6 +42,7 @@ struct GncResult {
   double c = 0.0;                 // the final noise bound
   int iterations = 0;
   bool converged = false;
+  bool interrupted = false;  // GncOptions::interrupted ended it
 };
 
 // TLS weight of one residual for bound c and control parameter mu.

@@ -27,6 +27,7 @@ numpy reference loop in ``tests/reference/gnc.py``).
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -156,5 +157,6 @@ def gnc_irls_batch(
         np.ascontiguousarray(f2, dtype=float),
         None if w0 is None else np.ascontiguousarray(w0, dtype=float),
         opts.core_options(est, detect_cycles),
+        check_signals=threading.current_thread() is threading.main_thread(),  # Ctrl-C between iterations
     )
     return GNCBatchResult(R=o["R"], t=o["t"], weights=o["weights"], residuals=o["residuals"], c=o["c"], num_iterations=o["num_iterations"], converged=o["converged"].astype(bool))
