@@ -450,3 +450,32 @@ def test_a_forked_child_of_a_batch_runs_a_process_batch():
     got = q.get(timeout=120)
     p.join(60)
     assert got == ["ok", "ok"], got
+
+
+def test_a_child_forked_during_an_estimate_gets_the_blas_limits_of_before():
+    """A concurrency trial: a process forked while an estimate held BLAS at one thread kept one thread for
+    good (its estimates then took one as the limit to restore)."""
+    import os
+
+    threadpoolctl = pytest.importorskip("threadpoolctl")
+    if not hasattr(os, "fork"):
+        pytest.skip("POSIX fork")
+    from poseonly import api
+
+    blas = threadpoolctl.ThreadpoolController().select(user_api="blas").lib_controllers
+    if not blas or all(lib.num_threads == 1 for lib in blas):
+        pytest.skip("no multi-threaded BLAS that threadpoolctl controls")
+    before = [lib.num_threads for lib in blas]
+    r, w = os.pipe()
+    with api._blas_single_thread():
+        pid = os.fork()
+        if pid == 0:  # the child: report its BLAS threads, leave at once
+            os.close(r)
+            got = [lib.num_threads for lib in threadpoolctl.ThreadpoolController().select(user_api="blas").lib_controllers]
+            os.write(w, repr(got).encode())
+            os._exit(0)
+    os.close(w)
+    with os.fdopen(r) as fh:
+        child = fh.read()
+    os.waitpid(pid, 0)
+    assert child == repr(before), (child, before)

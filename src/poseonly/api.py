@@ -92,7 +92,14 @@ _BLAS_STATE: dict[str, Any] = {"controller": None, "limiter": None, "users": 0}
 
 def _reset_blas_state_in_child() -> None:
     """A child forked while estimates ran in other threads starts with none running (its copy of the
-    count would otherwise never return to 0, and its estimates would never set the limit)."""
+    count would otherwise never return to 0, and its estimates would never set the limit), and with the
+    BLAS limits of before those estimates where they had set theirs (a concurrency trial: the child kept
+    one thread for good, and its own estimates then took one as the limit to restore)."""
+    limiter = _BLAS_STATE.get("limiter")
+    if limiter is not None and _BLAS_STATE.get("users", 0) > 0:
+        with contextlib.suppress(Exception):  # the child's libraries are the parent's: best effort
+            if _blas_still_single(_BLAS_STATE["controller"]):
+                limiter.restore_original_limits()
     _BLAS_STATE.update(limiter=None, users=0)
     global _BLAS_LOCK
     _BLAS_LOCK = threading.Lock()
