@@ -180,8 +180,11 @@ class RelativePoseResult(ValueEquality):
 
     ``inliers``, ``num_inliers`` and ``threshold_px`` are the final classification's, which need not be
     the option ``threshold_px`` (the search's threshold): the default method's ML stage decides by the
-    noise it estimates on the matches, and ``threshold_px`` is then that decision threshold, often below
-    the option's (the search's is ``diagnostics["search_threshold_px"]``). The matches within another
+    noise it estimates on the matches, and ``threshold_px`` is then that decision threshold: below the
+    option's where the matches are more precise than it assumes and outliers lie close, above it (up to
+    ``ml_range`` times it) where few outliers lie near the epipolar lines (the search's threshold is
+    ``diagnostics["search_threshold_px"]``; a migrating user's trial at 0.5 px noise and 0.5-1 px: 1.15-2.6
+    px). Inlier counts therefore differ from OpenCV's and PoseLib's at the same threshold. The matches within another
     distance ``d`` of the pose are ``residuals_px < d``: the Sampson error on the unit sphere (radians)
     times the focal length (``focal_px``), the pixel Sampson error near the image centre and 0.8-0.96x it
     toward a pinhole image's borders (a trial's real pairs), where the same angle is more pixels.

@@ -222,7 +222,7 @@ def finish(
     rivals = diag.pop("rivals", None)
     if rivals is None:
         rivals = [] if diag.get("rival_R") is None else [(diag["rival_R"], diag["rival_t"])]
-    if "tau_effective" in diag:  # the default method's noise-matched threshold (<= the user's)
+    if "tau_effective" in diag:  # the default method's noise-matched threshold (the ML stage's decision)
         tau = diag["tau_effective"]
         thr_px = tau * focal
     n = len(f1)
