@@ -74,8 +74,10 @@ RESIDENT_IMAGES = 256
 # uniqueness test against every basin the search kept, a duplicated match counted once in the status, the
 # planar twin's spread in the covariance and its DLT fallback, pair_focal for two focal lengths; 33: the
 # rounding noise of quantised keypoints as the noise floor, inliers on a great circle degenerate, a
-# refined rival that beats the search's pose replaces it)
-TWO_VIEW_CACHE_TAG = 33
+# refined rival that beats the search's pose replaces it; 34: the rival test's far points counted by their
+# Sampson error, the ML stage's rerun from the band where its decision fell inside the noise, the
+# rotation-only alternative judged at a threshold capped by the noise)
+TWO_VIEW_CACHE_TAG = 34
 # the default method's sample cap in the pairwise stage (``max_iterations``; an ``estimator_options``
 # entry overrides it): COLMAP's two-view cap, as ``poseonly colmap verify`` (options.MANY_PAIRS_MAX_ITERATIONS)
 PAIRWISE_MAX_ITERATIONS = MANY_PAIRS_MAX_ITERATIONS
