@@ -535,7 +535,11 @@ def test_malformed_blobs_are_per_pair_errors_and_bad_camera_rows_name_the_databa
         pid, data = con.execute("SELECT pair_id, data FROM matches ORDER BY pair_id LIMIT 1").fetchone()
         con.execute("UPDATE matches SET data = ? WHERE pair_id = ?", (data[: len(data) // 2], pid))
         con.commit()
-    s = verify_database(path, progress=False)
+    from poseonly.cli import main
+
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 1  # finished, with an UNDEFINED row (it exited 0)
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 0  # a rerun keeps every row: nothing invalid read
+    s = verify_database(path, progress=False, overwrite=True)
     assert s.written == 3 and list(s.errors) == [pid]
     assert "pycolmap cannot read the keypoints or matches of images 'im0.jpg', 'im1.jpg'" in s.errors[pid]
     with closing(sqlite3.connect(path)) as con:

@@ -35,6 +35,10 @@ cannot lift to bearings is refused before anything is written (:class:`poseonly.
 a database another process has locked, or that cannot be written, too
 (:class:`poseonly.io.colmap_db.DatabaseUnavailableError`, an ``OSError``; a lock taken mid-run ends the
 run with it, the batches written before kept).
+
+``poseonly colmap verify`` exits 0 when every selected pair was verified or kept, :data:`EXIT_SOME_INVALID`
+(1) when the run finished but some pairs had invalid input and were written ``UNDEFINED`` (it exited 0
+until a user's review: a script could not tell), and 2 on an error that stopped it.
 """
 
 from __future__ import annotations
@@ -62,6 +66,7 @@ __all__ = ["MIN_MATCHES", "STATUS_CONFIG", "VerifySummary", "add_arguments", "ru
 
 MIN_MATCHES = 6  # fewer valid matches cannot determine a pose: DEGENERATE without estimating
 WRITE_EVERY = 256  # pairs per write transaction
+EXIT_SOME_INVALID = 1  # `poseonly colmap verify`: the run finished, and some pairs had invalid input (UNDEFINED rows)
 
 
 @dataclass
@@ -380,9 +385,10 @@ def run_cli(args: argparse.Namespace) -> int:
         print(f"  {cfg}: {k}")
     if s.errors:
         print(f"  {len(s.errors)} pairs with invalid input (UNDEFINED), e.g. {next(iter(s.errors.values()))} (pair id {next(iter(s.errors))})")
+        print("  exit status 1: those pairs' rows say UNDEFINED; a rerun keeps them, so after fixing the input rerun with --overwrite")
     if camera is not None and s.written:  # a user's trial: COLMAP's mapper then started from the guessed focal
         print(
             "  note: --camera-model / --camera-params calibrated the estimation only; the database's cameras table is unchanged,"
             " and COLMAP's mappers read their calibration from it (update it too, e.g. pycolmap.Database.update_camera)"
         )
-    return 0
+    return EXIT_SOME_INVALID if s.errors else 0
