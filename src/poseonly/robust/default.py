@@ -393,7 +393,7 @@ def _better_rival(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, 
         s = support[k]
         if not (np.isfinite(best) and s > best):
             continue
-        _, _, only_pose, only_rival = _core.compare_support(c(R), c(t), c(Rv), c(tv), c(f1), c(f2), min(float(tau), MAX_SUPPORT_THRESHOLD))
+        _, _, only_pose, only_rival = _core.compare_support(c(R), c(t), c(Rv), c(tv), c(f1), c(f2), min(float(tau), MAX_SUPPORT_THRESHOLD), far_neutral=True)
         if sign_test(only_rival, only_pose) < np.log10(AMBIGUITY_LEVEL):
             rivals[k], (R, t), support[k], best, swapped = (R, t), (Rv, tv), best, s, True
     if swapped:
