@@ -8,6 +8,7 @@ import sqlite3
 import subprocess
 import sys
 import time
+from collections import Counter
 from contextlib import closing
 from pathlib import Path
 
@@ -547,6 +548,55 @@ def test_malformed_blobs_are_per_pair_errors_and_bad_camera_rows_name_the_databa
         con.commit()
     with pytest.raises(ValueError, match="db.db: pycolmap cannot read its images or cameras"):
         verify_database(path, progress=False, overwrite=True)
+
+
+def test_the_report_has_a_line_per_written_pair_with_its_status(tmp_path, capsys):
+    """A user's trial: ``CALIBRATED`` holds ``ok`` and ``uncertain`` poses and the summary only counts
+    rows, so bad rows could not be audited. ``report=`` / ``--report`` writes poseonly's status of every
+    pair of the run (invalid input included), published when the run ends; the summary counts statuses."""
+    import csv
+
+    from poseonly.cli import main
+    from poseonly.colmap_verify import REPORT_COLUMNS
+
+    path = tmp_path / "db.db"
+    _, ids = make_db(path, n_images=4, n_points=80)
+    db = pycolmap.Database.open(str(path))
+    db.write_matches(ids[0], 50, np.array([[k, k] for k in range(30)], np.uint32))  # image 50 does not exist
+    db.close()
+    s = verify_database(path, progress=False, report=tmp_path / "r.csv")
+    with open(tmp_path / "r.csv", newline="") as fh:
+        lines = list(csv.reader(fh))
+    assert tuple(lines[0]) == REPORT_COLUMNS and len(lines) == 1 + s.written == 1 + 7
+    by_pid = {int(row[0]): dict(zip(REPORT_COLUMNS, row, strict=True)) for row in lines[1:]}
+    assert sorted(by_pid) == sorted(p for p, *_ in _rows(path))
+    missing = int(pycolmap.image_pair_to_pair_id(ids[0], 50))
+    assert by_pid[missing]["status"] == "invalid input" and by_pid[missing]["config"] == "UNDEFINED" and "image id 50" in by_pid[missing]["message"]
+    estimated = [r for p, r in by_pid.items() if p != missing]
+    assert Counter(r["status"] for r in estimated) == s.statuses and sum(s.statuses.values()) == 6
+    assert Counter(r["config"] for r in by_pid.values()) == s.configs
+    assert all(r["image1"] and r["image2"] and int(r["matches"]) > 0 for r in estimated)
+    assert main(["colmap", "verify", str(path), "--no-progress", "--overwrite", "--report", str(tmp_path / "r2.csv")]) == 1
+    out = capsys.readouterr().out
+    assert "poseonly statuses: " in out and "per-pair report" in out
+    assert (tmp_path / "r2.csv").read_text() == (tmp_path / "r.csv").read_text()  # the pairs' seeds derive from their ids
+
+
+def test_an_image_with_matches_but_no_keypoints_is_named(tmp_path):
+    """A user's trial: an image whose keypoints row was deleted gave "matches index keypoints that do
+    not exist"; the message now says which image has no keypoints (the pair UNDEFINED, exit 1)."""
+    from poseonly.cli import main
+
+    path = tmp_path / "db.db"
+    _, ids = make_db(path, n_images=3, n_points=40)
+    with closing(sqlite3.connect(path)) as con:
+        con.execute("DELETE FROM keypoints WHERE image_id = ?", (ids[2],))
+        con.commit()
+    s = verify_database(path, progress=False)
+    assert len(s.errors) == 2 and s.configs["UNDEFINED"] == 2
+    assert all("image 'im2.jpg' has matches but no keypoints in the database" in e for e in s.errors.values())
+    assert main(["colmap", "verify", str(path), "--no-progress", "--overwrite"]) == 1
+    _check_consistent(path)
 
 
 def test_database_fisheye_rays_beyond_90_degrees_are_lifted_natively(tmp_path):

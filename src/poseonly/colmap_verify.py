@@ -44,6 +44,8 @@ until a user's review: a script could not tell), and 2 on an error that stopped 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import csv
 import time
 from collections import Counter
 from collections.abc import Iterator
@@ -53,6 +55,7 @@ from typing import Any
 
 import numpy as np
 
+from ._fileutil import atomic_open
 from .api import DEFAULT_METHOD, METHODS
 from .argtypes import jobs_int, positive_float, positive_int, seed_int
 from .batch import AUTO_THREADS_MAX_PAIRS, Backend, Pair, PairResult, estimate_relative_poses
@@ -66,13 +69,17 @@ __all__ = ["MIN_MATCHES", "STATUS_CONFIG", "VerifySummary", "add_arguments", "ru
 
 MIN_MATCHES = 6  # fewer valid matches cannot determine a pose: DEGENERATE without estimating
 WRITE_EVERY = 256  # pairs per write transaction
+# the columns of the per-pair report (``report=`` / ``--report``): status is poseonly's, or "invalid input" /
+# "too few matches" for the pairs decided without estimating; the deviations are 1 sigma, first order
+REPORT_COLUMNS = ("pair_id", "image1", "image2", "matches", "config", "status", "inliers", "rotation_std_deg", "translation_std_deg", "threshold_px", "message")
 EXIT_SOME_INVALID = 1  # `poseonly colmap verify`: the run finished, and some pairs had invalid input (UNDEFINED rows)
 
 
 @dataclass
 class VerifySummary:
     """Counts of a run: ``selected`` pairs, ``skipped`` (already verified), ``written`` rows,
-    ``configs`` (rows per configuration), ``errors`` (pair id -> message), ``unmatched`` (pairs of the
+    ``configs`` (rows per configuration), ``statuses`` (estimated pairs per poseonly status: ``ok`` and
+    ``uncertain`` are both ``CALIBRATED``), ``errors`` (pair id -> message), ``unmatched`` (pairs of the
     pairs file without matches in the database: nothing to verify), ``time_s``."""
 
     selected: int = 0
@@ -80,6 +87,7 @@ class VerifySummary:
     unmatched: int = 0
     written: int = 0
     configs: Counter = field(default_factory=Counter)
+    statuses: Counter = field(default_factory=Counter)
     errors: dict[int, str] = field(default_factory=dict)
     time_s: float = 0.0
 
@@ -93,14 +101,16 @@ class _Source:
         db: ColmapDatabase,
         todo: list[tuple[int, int, int]],
         errors: dict[int, str],
+        statuses: Counter,
         noise_scales: bool = True,
         keep_uncertain: bool = True,
         coordinate_step: float | None = None,
     ) -> None:
-        self.db, self.todo, self.errors = db, todo, errors
+        self.db, self.todo, self.errors, self.statuses = db, todo, errors, statuses
         self.noise_scales, self.keep_uncertain, self.coordinate_step = noise_scales, keep_uncertain, coordinate_step
         self.pending: dict[int, tuple[int, int, np.ndarray]] = {}
         self.direct: list[GeometryRow] = []  # rows decided without estimating
+        self.records: list[list[Any]] = []  # the report's lines of the rows not yet written (REPORT_COLUMNS)
         self._bear: dict[int, np.ndarray] = {}
         self._step: dict[int, float] = {}  # each image's keypoint grid (poseonly.quantization)
 
@@ -124,34 +134,62 @@ class _Source:
         a, b = (repr(self.db.image_names[i]) if i in self.db.image_names else f"id {i}" for i in (i1, i2))
         return f"images {a}, {b}"
 
+    def _refuse(self, pid: int, i1: int, i2: int, msg: str) -> None:
+        """The pair's input is invalid: an ``UNDEFINED`` row without estimating, and its message."""
+        self.direct.append(GeometryRow.empty(i1, i2, ERROR_CONFIG))
+        self.errors[pid] = msg
+        self.records.append(self._record(pid, i1, i2, 0, ERROR_CONFIG, "invalid input", None, msg))
+
+    def _record(self, pid: int, i1: int, i2: int, n: int, config: str, status: str, r: Any, message: str) -> list[Any]:
+        """One line of the report (:data:`REPORT_COLUMNS`); ``r`` the pair's result or None."""
+        names = [self.db.image_names.get(i, "") for i in (i1, i2)]
+        if r is None:
+            return [pid, *names, n, config, status, 0, "", "", "", message]
+        return [
+            pid,
+            *names,
+            n,
+            config,
+            r.status,
+            r.num_inliers,
+            f"{r.rotation_std_deg:.6g}",
+            f"{r.diagnostics.get('translation_std_deg', float('nan')):.6g}",
+            f"{r.threshold_px:.6g}",
+            r.message,
+        ]
+
     def __iter__(self) -> Iterator[Pair]:
         for pid, i1, i2 in self.todo:
             missing = [i for i in (i1, i2) if i not in self.db.cameras and i not in self.db.unsupported]
             if missing:  # matches of an image id the images table does not have
-                self.direct.append(GeometryRow.empty(i1, i2, ERROR_CONFIG))
-                self.errors[pid] = f"{self._names(i1, i2)}: image id {missing[0]} has matches but is not in the database's images table"
+                self._refuse(pid, i1, i2, f"{self._names(i1, i2)}: image id {missing[0]} has matches but is not in the database's images table")
                 continue
             if i1 in self.db.unsupported or i2 in self.db.unsupported:
-                msg = self.db.unsupported.get(i1) or self.db.unsupported[i2]
-                self.direct.append(GeometryRow.empty(i1, i2, ERROR_CONFIG))
-                self.errors[pid] = msg
+                self._refuse(pid, i1, i2, self.db.unsupported.get(i1) or self.db.unsupported[i2])
                 continue
             try:
                 m = self.db.matches(i1, i2)
                 b1, b2 = self.bearings(i1), self.bearings(i2)
             except (RuntimeError, ValueError) as exc:  # pycolmap on a malformed blob ("Check failed: matrix.size() ..."): this pair's
-                self.direct.append(GeometryRow.empty(i1, i2, ERROR_CONFIG))
                 what = f"images {self.db.image_names.get(i1, i1)!r}, {self.db.image_names.get(i2, i2)!r}"
-                self.errors[pid] = f"pycolmap cannot read the keypoints or matches of {what}: {(str(exc).strip().splitlines() or [type(exc).__name__])[-1]}"
+                self._refuse(pid, i1, i2, f"pycolmap cannot read the keypoints or matches of {what}: {(str(exc).strip().splitlines() or [type(exc).__name__])[-1]}")
                 continue
             if len(m) and (m[:, 0].max() >= len(b1) or m[:, 1].max() >= len(b2) or m.min() < 0):
-                self.direct.append(GeometryRow.empty(i1, i2, ERROR_CONFIG))
-                self.errors[pid] = f"{self._names(i1, i2)}: matches index keypoints that do not exist"
+                empty = [i for i, b in ((i1, b1), (i2, b2)) if len(b) == 0]
+                self._refuse(
+                    pid,
+                    i1,
+                    i2,
+                    f"{self._names(i1, i2)}: image {self.db.image_names.get(empty[0], empty[0])!r} has matches but no keypoints in the database"
+                    if empty  # a user's trial: "matches index keypoints that do not exist" for an image without keypoints
+                    else f"{self._names(i1, i2)}: matches index keypoints that do not exist",
+                )
                 continue
             valid = np.isfinite(b1[m[:, 0], 0]) & np.isfinite(b2[m[:, 1], 0])
             m = m[valid]
             if len(m) < MIN_MATCHES:
                 self.direct.append(GeometryRow.empty(i1, i2, "DEGENERATE"))
+                self.records.append(self._record(pid, i1, i2, len(m), "DEGENERATE", "too few matches", None, f"{len(m)} valid matches, fewer than {MIN_MATCHES}"))
                 continue
             self.pending[pid] = (i1, i2, m)
             c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
@@ -170,12 +208,15 @@ class _Source:
         r = pr.result
         if r is None:
             self.errors[pid] = f"{self._names(i1, i2)}: {pr.error}"
+            self.records.append(self._record(pid, i1, i2, len(m), ERROR_CONFIG, "invalid input", None, self.errors[pid]))
             return GeometryRow.empty(i1, i2, ERROR_CONFIG)
         c1, c2 = self.db.cameras[i1], self.db.cameras[i2]
         pinhole = c1.is_undistorted and c2.is_undistorted  # a distorted camera has no F
         with_h = (r.status != "uncertain" or self.keep_uncertain) and STATUS_CONFIG.get(r.status, ERROR_CONFIG) in ("PLANAR_OR_PANORAMIC", "PANORAMIC")  # keypoints read only for H
         kp1, kp2 = (self.db.keypoints(i1), self.db.keypoints(i2)) if with_h else (None, None)
         f = two_view_fields(r, m, c1.K if pinhole else None, c2.K if pinhole else None, keypoints1=kp1, keypoints2=kp2, keep_uncertain=self.keep_uncertain)
+        self.statuses[r.status] += 1
+        self.records.append(self._record(pid, i1, i2, len(m), f.config, r.status, r, r.message))
         return GeometryRow(i1, i2, f)
 
 
@@ -195,6 +236,7 @@ def verify_database(
     trust_guessed_focal: bool = False,
     keep_uncertain: bool = True,
     coordinate_step: float | None = None,
+    report: str | Path | None = None,
     **options: Any,
 ) -> VerifySummary:
     """Verify the matched pairs of the COLMAP database ``path`` and write their two-view geometries
@@ -213,7 +255,10 @@ def verify_database(
     bundle adjustment re-estimates every pose) or, with ``False``, ``DEGENERATE`` without inliers, as
     ``too_few_inliers``; ``coordinate_step``: the grid (pixels) every keypoint was rounded to, whose
     rounding noise is the estimates' noise floor (None: detected per image from its keypoints,
-    :func:`poseonly.quantization.image_grid_step`; 0: none); ``n_jobs``,
+    :func:`poseonly.quantization.image_grid_step`; 0: none); ``report``: a CSV file of one line per pair
+    written in this run (:data:`REPORT_COLUMNS`: poseonly's status, inliers, the pose's deviations, the
+    message), published when the run ends (atomically: an interrupted run leaves none; a user's trial:
+    ``CALIBRATED`` holds ``ok`` and ``uncertain`` poses, and the rows alone could not be audited); ``n_jobs``,
     ``backend`` (``"auto"``: threads for fewer than :data:`poseonly.batch.AUTO_THREADS_MAX_PAIRS` pairs to
     verify, else processes; ``"processes"`` or ``"threads"``) and ``client`` as :func:`poseonly.estimate_relative_poses`
     takes them (the database is read and written in this thread only). Returns a :class:`VerifySummary`."""
@@ -269,22 +314,30 @@ def verify_database(
         summary.skipped = len(pairs) - len(todo)
         if backend == "auto":  # the pairs stream from the database (no len): decided on the pairs to verify
             backend = "threads" if len(todo) < AUTO_THREADS_MAX_PAIRS else "processes"
-        src = _Source(db, todo, summary.errors, noise_scales, bool(keep_uncertain), coordinate_step)
+        src = _Source(db, todo, summary.errors, summary.statuses, noise_scales, bool(keep_uncertain), coordinate_step)
         buf: list[GeometryRow] = []
+        with contextlib.ExitStack() as stack:
+            writer = None
+            if report is not None:
+                writer = csv.writer(stack.enter_context(atomic_open(report, newline="")))
+                writer.writerow(REPORT_COLUMNS)
 
-        def flush() -> None:
-            rows = buf + src.direct
-            if rows:
-                summary.written += db.write_geometries(rows)
-                summary.configs.update(r.geometry.config for r in rows)
-            buf.clear()
-            src.direct.clear()
+            def flush() -> None:
+                rows = buf + src.direct
+                if rows:
+                    summary.written += db.write_geometries(rows)
+                    summary.configs.update(r.geometry.config for r in rows)
+                if writer is not None:  # after the rows: a line for every row written
+                    writer.writerows(src.records)
+                buf.clear()
+                src.direct.clear()
+                src.records.clear()
 
-        for pr in estimate_relative_poses(src, n_jobs=n_jobs, backend=backend, client=client, chunk_size=chunk_size, progress=progress, **options):
-            buf.append(src.row(pr))
-            if len(buf) + len(src.direct) >= write_every:
-                flush()
-        flush()
+            for pr in estimate_relative_poses(src, n_jobs=n_jobs, backend=backend, client=client, chunk_size=chunk_size, progress=progress, **options):
+                buf.append(src.row(pr))
+                if len(buf) + len(src.direct) >= write_every:
+                    flush()
+            flush()
     summary.time_s = time.perf_counter() - t0
     return summary
 
@@ -325,6 +378,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--chunk", type=positive_int, default=None, help="pairs per task (default 16 local, 256 on Dask)")
     p.add_argument("--write-every", type=positive_int, default=WRITE_EVERY, help=f"pairs per database transaction (default {WRITE_EVERY})")
     p.add_argument("--no-progress", action="store_true", help="no progress bar (there is one only where stderr is a terminal)")
+    p.add_argument(
+        "--report",
+        metavar="FILE.csv",
+        help="write one CSV line per pair verified in this run: poseonly's status (ok and uncertain are both CALIBRATED), inliers,"
+        " the pose's deviations, the message (written when the run ends)",
+    )
     p.add_argument("--no-noise-scales", action="store_true", help="do not pass the keypoints' scales to the estimator as noise scales")
     p.add_argument("--camera-model", help="one camera for every image instead of the database's: a COLMAP model name (with --camera-params)")
     p.add_argument("--camera-params", help="its parameters in COLMAP's order and pixel convention, separated by commas or spaces")
@@ -371,6 +430,7 @@ def run_cli(args: argparse.Namespace) -> int:
         trust_guessed_focal=args.trust_guessed_focal,
         keep_uncertain=not args.drop_uncertain,
         coordinate_step=args.coordinate_step,
+        report=args.report,
         method=args.method,
         seed=args.seed,
         **({} if args.threshold is None else {"threshold_px": args.threshold}),
@@ -383,6 +443,10 @@ def run_cli(args: argparse.Namespace) -> int:
         print("  every selected pair already had a two-view geometry: pass --overwrite to replace them with poseonly's")
     for cfg, k in sorted(s.configs.items()):
         print(f"  {cfg}: {k}")
+    if s.statuses:
+        print("  poseonly statuses: " + ", ".join(f"{st} {k}" for st, k in sorted(s.statuses.items())))
+    if args.report is not None and s.written:
+        print(f"  per-pair report: {args.report}")
     if s.errors:
         print(f"  {len(s.errors)} pairs with invalid input (UNDEFINED), e.g. {next(iter(s.errors.values()))} (pair id {next(iter(s.errors))})")
         print("  exit status 1: those pairs' rows say UNDEFINED; a rerun keeps them, so after fixing the input rerun with --overwrite")
