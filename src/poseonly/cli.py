@@ -321,7 +321,10 @@ EXPERIMENT_HELP = {
 }
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The command line's parser. ``argv``: the arguments it will parse (``None``: every experiment's
+    options are added); with them, only the experiment they name is imported for its options (every
+    command imported every experiment module: ``colmap verify``'s start-up ran through table2.py)."""
     p = argparse.ArgumentParser(prog="poseonly", description="Robust two-view relative pose founded on pose-only imaging geometry")
     p.add_argument("--version", action="version", version=f"poseonly {__version__}")
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -392,11 +395,13 @@ def build_parser() -> argparse.ArgumentParser:
         ep.add_argument("--quick", action="store_true", help="a few trials (smoke test)" if name not in REAL_DATA_EXPERIMENTS else "a few pairs (smoke test)")
         ep.add_argument("--out", default=None, help=f"output folder for tables and figures (default: a new folder poseonly-{name}-<date>-<time> under the working directory)")
         ep.add_argument("--seed", type=seed_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
+        ep.set_defaults(func=cmd_experiment)
+        if argv is not None and not ("experiment" in argv and name in argv):
+            continue  # another command, or another experiment: its module's options are not needed
         try:
             experiments.load(name).add_arguments(ep)
         except ImportError:
             pass
-        ep.set_defaults(func=cmd_experiment)
 
     # --- sfm hook (issue 15): `poseonly sfm` and `poseonly experiment global`; logic in poseonly.sfm.cli ---
     from .sfm.cli import add_parsers as add_sfm_parsers
@@ -471,8 +476,12 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv: list[str] | None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    words = list(sys.argv[1:] if argv is None else argv)
+    try:
+        args = build_parser(words).parse_args(words)
+    except KeyboardInterrupt:  # Ctrl-C during start-up: no traceback (a user's trial)
+        print("poseonly: interrupted", file=sys.stderr)
+        return 130
     args.argv = list(argv) if argv is not None else sys.argv[1:]
     rc = 1
     # (only the main thread may set handlers; pycolmap's import keeps this one: poseonly._pycolmap)
