@@ -728,3 +728,26 @@ def test_a_write_waits_for_another_process_lock(tmp_path):
         finally:
             p.wait(30)
         assert db.read_geometry(i1, i2)["config"] == "DEGENERATE"
+
+
+def test_verify_interrupted_and_unmatched_databases_say_what_to_do(tmp_path, monkeypatch, capsys):
+    """A user's trial: Ctrl-C printed "interrupted" without saying what the database holds, and a database
+    without matches printed "0 pairs selected" and nothing else."""
+    import poseonly.colmap_verify as cv
+    from poseonly.cli import main
+
+    path = tmp_path / "db.db"
+    make_db(path, n_images=2)
+    with closing(sqlite3.connect(path)) as con:
+        con.execute("DELETE FROM matches")
+        con.commit()
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 0
+    assert "the database has no matched pairs: match its images first" in capsys.readouterr().out
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cv, "verify_database", interrupted)
+    assert main(["colmap", "verify", str(path), "--no-progress"]) == 130
+    err = capsys.readouterr().err
+    assert "the batches written before are in the database, and a rerun verifies the rest" in err and "poseonly: interrupted" in err

@@ -46,6 +46,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import csv
+import sys
 import time
 from collections import Counter
 from collections.abc import Iterator
@@ -261,7 +262,9 @@ def verify_database(
     ``CALIBRATED`` holds ``ok`` and ``uncertain`` poses, and the rows alone could not be audited); ``n_jobs``,
     ``backend`` (``"auto"``: threads for fewer than :data:`poseonly.batch.AUTO_THREADS_MAX_PAIRS` pairs to
     verify, else processes; ``"processes"`` or ``"threads"``) and ``client`` as :func:`poseonly.estimate_relative_poses`
-    takes them (the database is read and written in this thread only). Returns a :class:`VerifySummary`."""
+    takes them (the database is read and written in this thread only). Close your own ``pycolmap.Database``
+    handles on ``path`` first and reopen them after: one held across the run fails with "disk I/O error"
+    on every later call (a user's trial; the file stays intact). Returns a :class:`VerifySummary`."""
     t0 = time.perf_counter()
     coordinate_step = check_coordinate_step(coordinate_step)
     if not isinstance(keep_uncertain, (bool, np.bool_)):
@@ -406,16 +409,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
-def run_cli(args: argparse.Namespace) -> int:
-    """Run ``poseonly colmap verify`` from parsed arguments; prints a summary, returns the exit code."""
-    camera = None
-    if args.camera_model is not None or args.camera_params is not None:
-        if args.camera_model is None or args.camera_params is None:
-            raise InputError("--camera-model and --camera-params go together")
-        from .cameras import camera_from_text
-
-        camera = camera_from_text(args.camera_model, args.camera_params, name="--camera-model / --camera-params")
-    s = verify_database(
+def _verify_from_args(args: argparse.Namespace, camera: Any) -> VerifySummary:
+    return verify_database(
         args.database,
         pairs_file=args.pairs,
         overwrite=args.overwrite,
@@ -436,7 +431,29 @@ def run_cli(args: argparse.Namespace) -> int:
         **({} if args.threshold is None else {"threshold_px": args.threshold}),
         **({} if args.max_iterations is None else {"max_iterations": args.max_iterations}),
     )
+
+
+def run_cli(args: argparse.Namespace) -> int:
+    """Run ``poseonly colmap verify`` from parsed arguments; prints a summary, returns the exit code."""
+    camera = None
+    if args.camera_model is not None or args.camera_params is not None:
+        if args.camera_model is None or args.camera_params is None:
+            raise InputError("--camera-model and --camera-params go together")
+        from .cameras import camera_from_text
+
+        camera = camera_from_text(args.camera_model, args.camera_params, name="--camera-model / --camera-params")
+    try:
+        s = _verify_from_args(args, camera)
+    except KeyboardInterrupt:  # (a user's trial: "interrupted" alone did not say what the database holds)
+        print(
+            "poseonly colmap verify: interrupted; the batches written before are in the database, and a rerun verifies the rest"
+            " (after an interrupted --overwrite run, rerun with --overwrite)",
+            file=sys.stderr,
+        )
+        raise
     print(f"{s.selected} pairs selected, {s.skipped} already verified (kept), {s.written} written in {s.time_s:.1f} s")
+    if not s.selected and args.pairs is None:
+        print("  the database has no matched pairs: match its images first (COLMAP's matchers, e.g. pycolmap.match_exhaustive)")
     if s.unmatched:
         print(f"  {s.unmatched} pairs of {args.pairs} have no matches in the database: nothing to verify there")
     if s.skipped and not s.written:

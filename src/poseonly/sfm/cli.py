@@ -22,6 +22,7 @@ import json
 import os
 import re
 import shutil
+import sys
 import time
 from collections import Counter
 from pathlib import Path
@@ -133,7 +134,9 @@ def cmd_sfm(args: argparse.Namespace) -> int:
         estimator_options=parse_estimator_options(args.two_view_option),
     )
     cache = args.cache if args.cache else out / "cache"
-    prog = None if args.no_progress else _progress
+    # bars only where stderr is a terminal, as colmap verify's (a user's trial: `2> log` filled the log with them)
+    bars = not args.no_progress and sys.stderr.isatty()
+    prog = _progress if bars else None
     camera = _camera_arg(args)
     if args.database:
         from .colmap_db import database_view_graph
@@ -204,7 +207,7 @@ def cmd_sfm(args: argparse.Namespace) -> int:
     def on_model(k: int, views: int) -> Any:
         if bar[0] is not None:
             bar[0].close()
-        bar[0] = None if args.no_progress else _stage_bar(num_stages(gopt))
+        bar[0] = _stage_bar(num_stages(gopt)) if bars else None
         return None if bar[0] is None else bar[0].stage
 
     try:
@@ -528,7 +531,7 @@ def add_parsers(sub: Any, esub: Any) -> None:
     s.add_argument("--threshold-px", type=positive_float, default=None, help="two-view inlier threshold (px; default: the method's, 1 px)")
     s.add_argument("--cache", help="feature / match cache (default OUT/cache)")
     s.add_argument("--text", action="store_true", help="write the COLMAP model as text")
-    s.add_argument("--no-progress", action="store_true", help="no progress bars")
+    s.add_argument("--no-progress", action="store_true", help="no progress bars (there are bars only where stderr is a terminal)")
     s.add_argument("--seed", type=seed_int, default=0, help="seed of every random choice (default 0); the same seed gives the same result")
     s.add_argument(
         "--jobs",

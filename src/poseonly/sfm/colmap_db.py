@@ -78,7 +78,8 @@ def database_view_graph(
                 refuse_guessed_focal(
                     p,
                     (g for c in cams.values() if c.camera_id in used and (g := guessed_focal(c)) is not None),
-                    "Import the images with their calibration (COLMAP: ImageReader.camera_params), or use the guess (--trust-guessed-focal; trust_guessed_focal=True in Python).",
+                    "Import the images with their calibration (COLMAP: ImageReader.camera_params), give it (--camera-model / --camera-params;"
+                    " camera= in Python), or use the guess (--trust-guessed-focal; trust_guessed_focal=True in Python).",
                 )
             index = {im.image_id: k for k, im in enumerate(images)}
             feats, normalized, Ks, focal, cameras = [], [], [], [], []
