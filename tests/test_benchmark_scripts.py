@@ -278,3 +278,20 @@ def test_parallax_statuses_runs(capsys):
     assert parallax_statuses.main(["--seeds", "2", "--matches", "40", "--outliers", "0.3"]) == 0
     out = capsys.readouterr().out
     assert "random depths,  40 matches, 30% outliers" in out and "smooth depths" in out
+
+
+def test_short_baseline_kitti_runs(capsys):
+    """benchmarks/short_baseline_kitti.py end to end on one KITTI pair at one scale."""
+    pytest.importorskip("cv2")
+    pytest.importorskip("poselib")
+    kitti = SCRIPTS[0].parents[2] / "shared" / "data" / "realpairs" / "kitti_seq1"
+    if not (kitti / "pairs.txt").is_file():
+        pytest.skip("../shared/data/realpairs/kitti_seq1 is not here")
+    sys.path.insert(0, str(SCRIPTS[0].parent))
+    try:
+        import short_baseline_kitti
+    finally:
+        sys.path.pop(0)
+    assert short_baseline_kitti.main([str(kitti), "--pairs", "1", "--scales", "0.1"]) == 0
+    out = capsys.readouterr().out
+    assert "s = 0.1:" in out and "PoseLib 1 px t err median" in out
