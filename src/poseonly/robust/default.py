@@ -85,18 +85,8 @@ def make_rng(seed: int | np.random.Generator) -> np.random.Generator:
 
 def msac_chiral(R: np.ndarray, t: np.ndarray, f1: np.ndarray, f2: np.ndarray, tau: float) -> float:
     """Cheirality-aware MSAC score (larger is better) of a pose on validated bearings ``f1, f2 (n, 3)``
-    (NaN for a non-finite pose). A match whose rays are parallel to within ``tau`` under the pose
-    (``|R f1 x f2| < tau``: a point at infinity within the noise) is scored by its Sampson error alone,
-    as the uniqueness test counts it (``far_neutral``, :func:`poseonly.analysis.rival_test`): the signs
-    of its depths are the noise's. Why: on a short baseline most matches are such points; about half of
-    them triangulate behind the true pose, while a pose that trades a few tenths of a degree of rotation
-    for a translation tens of degrees off gives them parallax of consistent sign (a VO trial: KITTI
-    flow scaled to a 12 cm baseline, such poses scored better and were `ok` 25-60 deg off)."""
+    (NaN for a non-finite pose)."""
     v = v_sampson_chiral.unchecked(R, t, f1, f2)
-    c = np.cross(f1 @ np.asarray(R).T, f2)
-    far = np.einsum("ij,ij->i", c, c) < tau * tau
-    if np.any(far):
-        v = np.where(far, v_sampson.unchecked(R, t, f1, f2), v)
     return float(np.sum(tau * tau - np.minimum(v * v, tau * tau)))
 
 

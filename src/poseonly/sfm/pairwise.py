@@ -77,7 +77,7 @@ RESIDENT_IMAGES = 256
 # refined rival that beats the search's pose replaces it; 34: the rival test's far points counted by their
 # Sampson error, the ML stage's rerun from the band where its decision fell inside the noise, the
 # rotation-only alternative judged at a threshold capped by the noise; 35: far points counted by their Sampson
-# error in the rival swap and the cheirality-aware MSAC score)
+# error in the rival swap)
 TWO_VIEW_CACHE_TAG = 35
 # the default method's sample cap in the pairwise stage (``max_iterations``; an ``estimator_options``
 # entry overrides it): COLMAP's two-view cap, as ``poseonly colmap verify`` (options.MANY_PAIRS_MAX_ITERATIONS)
