@@ -22,6 +22,23 @@ using NpArray = nb::ndarray<nb::numpy, double>;
 using NpBool = nb::ndarray<nb::numpy, bool>;
 using NpInt = nb::ndarray<nb::numpy, int64_t>;
 
+// The GIL is released only for a call of at least this much work (matches times passes over them, about
+// 20-50 ns each: ~0.5-1 ms). Why: where another Python thread runs, taking the GIL back waits up to the
+// interpreter's switch interval (5 ms), and an estimate makes ~40 short calls (a VO trial: 20 -> 212 ms a
+// pair beside a busy thread); a call that short gains nothing from running beside other threads.
+constexpr double kReleaseGilMinWork = 20000.0;
+
+// `GilRelease release(work);` releases the GIL for the scope where `work` >= kReleaseGilMinWork.
+class GilRelease {
+ public:
+  explicit GilRelease(double work) {
+    if (work >= kReleaseGilMinWork) r_.emplace();
+  }
+
+ private:
+  std::optional<nb::gil_scoped_release> r_;
+};
+
 inline Points points_of(const BearingsIn& f1, const BearingsIn& f2) {
   if (f1.shape(1) != 3 || f2.shape(1) != 3) throw std::invalid_argument("bearings must have shape (n, 3)");
   if (f1.shape(0) != f2.shape(0)) throw std::invalid_argument("f1 and f2 must have the same number of rows");

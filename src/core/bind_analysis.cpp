@@ -22,7 +22,7 @@ static int64_t chance_count_py(const ArrayIn& R, const ArrayIn& t, const Bearing
   const Points P = points_of(f1, f2);
   const Pose pose = pose_of(R, t);
   const int reps = check_perm(perm, P.n);
-  nb::gil_scoped_release release;
+  GilRelease release(static_cast<double>(reps) * P.n);
   return chance_count_sampson(pose, P, perm.data(), reps, tau);
 }
 
@@ -33,7 +33,7 @@ static int64_t rotation_chance_count_py(const ArrayIn& R, const BearingsIn& f1, 
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) M(i, j) = R.data()[3 * i + j];
   const int reps = check_perm(perm, P.n);
-  nb::gil_scoped_release release;
+  GilRelease release(static_cast<double>(reps) * P.n);
   return chance_count_rotation(M, P, perm.data(), reps, chord2);
 }
 
@@ -119,7 +119,7 @@ static nb::tuple parallax_ratio_py(const ArrayIn& R, const BearingsIn& f1, const
   o.noise_floor = noise_floor;
   ParallaxResult r;
   {
-    nb::gil_scoped_release release;
+    GilRelease release(static_cast<double>(irls_rounds + 2) * P.n);
     r = parallax_ratio(M, P, v.data(), tau, o);
   }
   if (!r.refit) return nb::make_tuple(r.ratio, r.noise, nb::none());
@@ -145,7 +145,7 @@ static nb::tuple compare_support_py(const ArrayIn& Ra, const ArrayIn& ta, const 
   const Pose a = pose_of(Ra, ta), b = pose_of(Rb, tb);
   SupportComparison s;
   {
-    nb::gil_scoped_release release;
+    GilRelease release(2.0 * P.n);
     s = compare_support(a, b, P, thr, far_neutral);
   }
   return counts_of(s);
@@ -177,7 +177,7 @@ static double median_rotation_angle_py(const ArrayIn& R, const BearingsIn& f1, c
   Mat3 M;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) M(i, j) = R.data()[3 * i + j];
-  nb::gil_scoped_release release;
+  GilRelease release(static_cast<double>(P.n));
   return median_rotation_angle(M, P, m);
 }
 
@@ -200,7 +200,7 @@ POSEONLY_BIND(analysis) {
       "log_binom_sf",
       [](int64_t k, int64_t n, double p) {
         if (std::isnan(p)) return std::numeric_limits<double>::quiet_NaN();
-        nb::gil_scoped_release release;
+        GilRelease release(static_cast<double>(n - k));  // the terms summed
         return log_binom_sf(k, n, p);
       },
       nb::arg("k"), nb::arg("n"), nb::arg("p"), "log P(Bin(n, p) >= k) (log-sum-exp of the terms; no underflow; NaN for a NaN p).");

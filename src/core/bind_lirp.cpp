@@ -279,7 +279,7 @@ POSEONLY_BIND(lirp) {
         const Points P = points_of(f1, f2);
         Vec9 s;
         {
-          nb::gil_scoped_release release;
+          GilRelease release(static_cast<double>(P.n));
           s = epipolar_singular_values(P);
         }
         std::vector<double> out(s.data(), s.data() + 9);

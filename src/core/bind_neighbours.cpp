@@ -56,7 +56,7 @@ static nb::object distinct_matches_py(const BearingsIn& f1, const BearingsIn& f2
   check_finite(P.f2, static_cast<size_t>(P.n));
   std::vector<int64_t> kept;
   {
-    nb::gil_scoped_release release;
+    GilRelease release(10.0 * P.n);  // ~0.3 ms at n = 1000
     kept = distinct_matches(P.f1, P.f2, P.n, tol);
   }
   if (kept.size() == static_cast<size_t>(P.n)) return nb::none();

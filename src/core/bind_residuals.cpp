@@ -19,7 +19,7 @@ static NpArray residual_matrix(int kind, const ArrayIn& R, const ArrayIn& t, con
   const size_t k = R.size() / 9;
   std::vector<double> out(k * static_cast<size_t>(P.n));
   {
-    nb::gil_scoped_release release;
+    GilRelease release(static_cast<double>(k) * P.n);
     for (size_t h = 0; h < k; ++h) {
       Pose p;
       for (int i = 0; i < 3; ++i) {
@@ -42,7 +42,7 @@ static nb::tuple unit_rows(const BearingsIn& a, double zero) {
   std::vector<double> out(3 * n);
   int64_t zeros = 0, nonfinite = 0;
   {
-    nb::gil_scoped_release release;
+    GilRelease release(static_cast<double>(n));
     unit_rows_into(a.data(), n, zero, out.data(), &zeros, &nonfinite);
   }
   return nb::make_tuple(to_numpy(std::move(out), {n, static_cast<size_t>(3)}), zeros, nonfinite);
@@ -63,7 +63,7 @@ static nb::object pixel_bearings(const BearingsIn& a, const ArrayIn& K, double z
   int64_t bad_pixels = 0, bad_rays = 0, zeros = 0, nonfinite = 0;
   bool huge = false;
   {
-    nb::gil_scoped_release release;
+    GilRelease release(static_cast<double>(n));
     const double* x = a.data();
     for (size_t i = 0; i < n; ++i) {
       const double u = x[2 * i], v = x[2 * i + 1];

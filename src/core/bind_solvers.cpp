@@ -244,7 +244,7 @@ nb::tuple pose_covariance_py(const ArrayIn& R, const std::optional<ArrayIn>& t, 
   }
   PoseCovariance c;
   {
-    nb::gil_scoped_release release;
+    GilRelease release(static_cast<double>(P.n));
     c = pose_covariance(P, wp, pose, t.has_value(), threshold, noise_floor);
   }
   std::vector<double> Cr(9), Ct(9);
@@ -267,7 +267,7 @@ nb::tuple leverage_veto_py(const ArrayIn& R, const ArrayIn& t, const BearingsIn&
   const auto* inl = reinterpret_cast<const uint8_t*>(inliers.data());
   LeverageVeto v;
   {
-    nb::gil_scoped_release release;
+    GilRelease release(static_cast<double>(P.n));
     v = leverage_veto(P, inl, pose, decision, max_leverage);
   }
   const size_t n = static_cast<size_t>(P.n);
