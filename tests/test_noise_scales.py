@@ -6,6 +6,8 @@ and the SIFT front-end, match files and the benchmark carry them."""
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 import pytest
 
@@ -191,7 +193,7 @@ def test_colmap_database_keypoint_scales_reach_the_pairs(tmp_path):
     db.close()
     with ColmapDatabase(path) as cdb:
         np.testing.assert_allclose(cdb.keypoint_scales(ids[0]), sizes[0], rtol=1e-6)
-        pairs = list(_Source(cdb, cdb.matched_pairs(), {}))
-        plain = list(_Source(cdb, cdb.matched_pairs(), {}, noise_scales=False))  # colmap verify --no-noise-scales
+        pairs = list(_Source(cdb, cdb.matched_pairs(), {}, Counter()))
+        plain = list(_Source(cdb, cdb.matched_pairs(), {}, Counter(), noise_scales=False))  # colmap verify --no-noise-scales
     assert len(pairs) == 1 and "noise_scales" not in plain[0].options
     np.testing.assert_allclose(pairs[0].options["noise_scales"], np.sqrt(sizes[0] * sizes[1]), rtol=1e-6)
